@@ -1,0 +1,94 @@
+"""Fourier control basis (paper eq. 30), its exact Gram matrix, and time scaling.
+
+Per active input `k`: `u_k(t) = λ0 + Σ_{i=1..H} λi sin(ω_i t) + λ_{i+H} cos(ω_i t)`, with
+`ω_i = 2πi/P`. The coefficient layout (λ0, sines, cosines) is the one of `result.json`.
+Energy `∫ u_k² dt = λᵀ M λ` with the exact Gram matrix `M` of the basis on [0, T].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property, lru_cache
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FourierBasis:
+    """Basis functions `1, sin(ω_i t), cos(ω_i t)` (i = 1..H) with `ω_i = 2πi/period`."""
+
+    harmonics: int = 3
+    period: float = 2.17
+
+    @property
+    def size(self) -> int:
+        return 2 * self.harmonics + 1
+
+    @cached_property
+    def omega(self) -> np.ndarray:
+        return 2.0 * np.pi * np.arange(1, self.harmonics + 1) / self.period
+
+    def values(self, t: np.ndarray | float) -> np.ndarray:
+        """φ(t), shape (..., size)."""
+        wt = np.multiply.outer(np.asarray(t, dtype=float), self.omega)
+        one = np.ones((*wt.shape[:-1], 1))
+        return np.concatenate([one, np.sin(wt), np.cos(wt)], axis=-1)
+
+    def derivatives(self, t: np.ndarray | float) -> np.ndarray:
+        """φ'(t), shape (..., size)."""
+        wt = np.multiply.outer(np.asarray(t, dtype=float), self.omega)
+        zero = np.zeros((*wt.shape[:-1], 1))
+        return np.concatenate([zero, self.omega * np.cos(wt), -self.omega * np.sin(wt)], axis=-1)
+
+    def integrals(self, t: np.ndarray | float) -> np.ndarray:
+        """∫_0^t φ(s) ds, shape (..., size): closed form, so joints need no integration."""
+        t = np.asarray(t, dtype=float)
+        wt = np.multiply.outer(t, self.omega)
+        return np.concatenate(
+            [t[..., None], (1.0 - np.cos(wt)) / self.omega, np.sin(wt) / self.omega], axis=-1
+        )
+
+    def gram(self, duration: float) -> np.ndarray:
+        """Exact `M_ab = ∫_0^T φ_a φ_b dt` (closed form, product-to-sum)."""
+        return _gram(self.harmonics, self.period, float(duration)).copy()
+
+
+def _int_cos(c: np.ndarray, T: float) -> np.ndarray:
+    """∫_0^T cos(c t) dt, elementwise, exact at c = 0."""
+    c = np.asarray(c, dtype=float)
+    safe = np.where(c == 0.0, 1.0, c)
+    return np.where(c == 0.0, T, np.sin(c * T) / safe)
+
+
+def _int_sin(c: np.ndarray, T: float) -> np.ndarray:
+    """∫_0^T sin(c t) dt, elementwise, exact at c = 0."""
+    c = np.asarray(c, dtype=float)
+    safe = np.where(c == 0.0, 1.0, c)
+    return np.where(c == 0.0, 0.0, (1.0 - np.cos(c * T)) / safe)
+
+
+@lru_cache(maxsize=64)
+def _gram(harmonics: int, period: float, T: float) -> np.ndarray:
+    # Every basis function is cos(w t) or sin(w t); products follow from product-to-sum.
+    w = np.concatenate([[0.0], 2.0 * np.pi * np.arange(1, harmonics + 1) / period])
+    w = np.concatenate([w, w[1:]])
+    is_sin = np.zeros(w.size, dtype=bool)
+    is_sin[1 : harmonics + 1] = True
+    a, b = np.meshgrid(w, w, indexing="ij")
+    sa, sb = np.meshgrid(is_sin, is_sin, indexing="ij")
+    plus, minus = a + b, a - b
+    cc = 0.5 * (_int_cos(minus, T) + _int_cos(plus, T))  # cos a cos b
+    ss = 0.5 * (_int_cos(minus, T) - _int_cos(plus, T))  # sin a sin b
+    sc = 0.5 * (_int_sin(plus, T) + _int_sin(minus, T))  # sin a cos b
+    cs = 0.5 * (_int_sin(plus, T) - _int_sin(minus, T))  # cos a sin b
+    M = np.where(sa & sb, ss, np.where(sa, sc, np.where(sb, cs, cc)))
+    M = 0.5 * (M + M.T)
+    M.setflags(write=False)
+    return M
+
+
+def energy(basis: FourierBasis, duration: float, coefficients: np.ndarray) -> float:
+    """∫ Σ_k u_k² dt for coefficients of shape (m_active, size), exactly."""
+    M = basis.gram(duration)
+    lam = np.atleast_2d(coefficients)
+    return float(np.einsum("ka,ab,kb->", lam, M, lam))

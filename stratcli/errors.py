@@ -1,0 +1,46 @@
+"""Exception hierarchy: each maps to one exit code of the command line."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem in an input file: where it is and what is wrong."""
+
+    path: str
+    message: str
+
+    def render(self, source: str | None = None) -> str:
+        where = f"{source}: " if source else ""
+        return f"{where}{self.path}: {self.message}" if self.path else f"{where}{self.message}"
+
+
+class StratplanError(Exception):
+    """Base class of all errors stratplan reports to users."""
+
+
+class InputError(StratplanError, ValueError):
+    """Bad input (scenario file, model definition, command-line value); exit code 2."""
+
+    def __init__(self, problems: list[Problem] | str, source: str | None = None):
+        if isinstance(problems, str):
+            problems = [Problem("", problems)]
+        self.problems = list(problems)
+        self.source = source
+        super().__init__("\n".join(p.render(source) for p in self.problems))
+
+    def with_source(self, source: str) -> InputError:
+        return InputError(self.problems, source)
+
+    def prefixed(self, prefix: str) -> InputError:
+        """The same problems, with `prefix` put in front of every field path."""
+        return InputError(
+            [Problem(f"{prefix}.{p.path}" if p.path else prefix, p.message) for p in self.problems],
+            self.source,
+        )
+
+
+class ModelError(InputError):
+    """A model definition that cannot be used (bad expression, inconsistent stratum)."""

@@ -1,0 +1,207 @@
+"""Driftless control-affine systems `q' = G(q) u` and their strata (paper eq. 1, 14).
+
+A `System` holds the vector fields symbolically (sympy). For each stratum, fast vectorised
+numpy functions for `G(q)` and `∂G/∂q` are generated once (`CompiledStratum`), together with the
+structure the quadrature evaluator exploits (DESIGN §1): *explicit* coordinates, whose rows of
+`G` are constant so that `q_E(t) = q_E(0) + C_E ∫u`, and *quadrature* coordinates, whose rows
+depend on explicit coordinates only, so that their end value is a plain integral.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+import sympy as sp
+
+from ..errors import ModelError, Problem
+
+
+@dataclass(frozen=True)
+class Stratum:
+    """A named subsystem: locked coordinates (zero velocity) and the inputs active on it.
+
+    `parameters` overrides model parameters on this stratum (e.g. the biped's contact flags).
+    """
+
+    name: str
+    locked: tuple[int, ...]
+    active: tuple[int, ...]
+    parameters: tuple[tuple[str, float], ...] = ()
+
+    def free(self, n: int) -> tuple[int, ...]:
+        """Indices of the unlocked coordinates (the stratum's state, paper eq. 7-9)."""
+        return tuple(i for i in range(n) if i not in self.locked)
+
+
+def _vectorised(exprs: list[sp.Expr], symbols: list[sp.Symbol]) -> Callable:
+    """Compile `exprs` to one numpy function of the columns of q (shape (..., n))."""
+    if not exprs:
+        return lambda q: []
+    func = sp.lambdify(symbols, exprs, modules="numpy", cse=True)
+
+    def evaluate(q: np.ndarray) -> list:
+        return func(*np.moveaxis(q, -1, 0))
+
+    return evaluate
+
+
+class _ArrayFunction:
+    """Evaluate a sympy array of shape `shape` at many points, filling only nonzero entries."""
+
+    def __init__(self, array: sp.NDimArray | sp.Matrix, symbols: list[sp.Symbol]):
+        self.shape = tuple(array.shape)
+        flat = [array[idx] for idx in np.ndindex(*self.shape)]
+        self.index = [i for i, e in enumerate(flat) if sp.sympify(e).is_zero is not True]
+        self._func = _vectorised([flat[i] for i in self.index], symbols)
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        lead = q.shape[:-1]
+        out = np.zeros((*lead, int(np.prod(self.shape))))
+        for i, value in zip(self.index, self._func(q), strict=True):
+            out[..., i] = value
+        return out.reshape(*lead, *self.shape)
+
+
+@dataclass
+class CompiledStratum:
+    """Numeric functions of one stratum; inputs are the stratum's active inputs only."""
+
+    system: System
+    stratum: Stratum
+    G_sym: sp.Matrix  # n x m_active, parameters substituted
+    G: _ArrayFunction = field(init=False)  # (..., n) -> (..., n, m_active)
+    dG: _ArrayFunction = field(init=False)  # (..., n) -> (..., n, m_active, n)
+    explicit: tuple[int, ...] = field(init=False)
+    quadrature: tuple[int, ...] = field(init=False)
+    C_explicit: np.ndarray = field(init=False)  # |E| x m_active constant rows
+    quadrature_rows: _ArrayFunction | None = field(init=False)  # None: no quadrature path
+    quadrature_rows_d: _ArrayFunction | None = field(init=False)
+
+    def __post_init__(self) -> None:
+        q = list(self.system.symbols)
+        G = self.G_sym
+        n, m = G.shape
+        self.G = _ArrayFunction(G, q)
+        dG = sp.MutableDenseNDimArray.zeros(n, m, n)
+        for i in range(n):
+            for j in range(m):
+                for k in range(n):
+                    dG[i, j, k] = sp.diff(G[i, j], q[k])
+        self.dG = _ArrayFunction(dG, q)
+
+        state_syms = set(q)
+        depends = [G.row(i).free_symbols & state_syms for i in range(n)]
+        explicit = tuple(i for i in range(n) if not depends[i])
+        explicit_syms = {q[i] for i in explicit}
+        quad = tuple(i for i in range(n) if depends[i])
+        self.explicit = explicit
+        self.quadrature = quad
+        self.C_explicit = np.array(
+            [[float(G[i, j]) for j in range(m)] for i in explicit], dtype=float
+        ).reshape(len(explicit), m)
+        self.quadrature_rows = self.quadrature_rows_d = None
+        if all(depends[i] <= explicit_syms for i in quad):
+            rows = G.extract(list(quad), list(range(m)))
+            d_rows = sp.MutableDenseNDimArray.zeros(len(quad), m, len(explicit))
+            for a, i in enumerate(quad):
+                for j in range(m):
+                    for b, k in enumerate(explicit):
+                        d_rows[a, j, b] = dG[i, j, k]
+            self.quadrature_rows = _ArrayFunction(rows, q)
+            self.quadrature_rows_d = _ArrayFunction(d_rows, q)
+
+    @property
+    def supports_quadrature(self) -> bool:
+        """True when every non-constant row depends only on constant-row coordinates."""
+        return self.quadrature_rows is not None
+
+
+@dataclass
+class System:
+    """A driftless control-affine system with named coordinates, inputs and strata."""
+
+    name: str
+    states: tuple[str, ...]
+    inputs: tuple[str, ...]
+    fields: sp.Matrix  # n x m, in the state symbols and parameter symbols
+    strata: dict[str, Stratum]
+    parameters: dict[str, float] = field(default_factory=dict)
+    description: str = ""
+    _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False)
+
+    @cached_property
+    def symbols(self) -> tuple[sp.Symbol, ...]:
+        return tuple(sp.Symbol(s, real=True) for s in self.states)
+
+    @property
+    def n(self) -> int:
+        return len(self.states)
+
+    @property
+    def m(self) -> int:
+        return len(self.inputs)
+
+    def stratum(self, name: str) -> Stratum:
+        try:
+            return self.strata[name]
+        except KeyError:
+            known = ", ".join(self.strata)
+            raise ModelError(f"unknown stratum {name!r} (this model has: {known})") from None
+
+    def fields_on(self, stratum: Stratum) -> sp.Matrix:
+        """Vector fields of the stratum's active inputs (columns), parameters substituted."""
+        values = dict(self.parameters)
+        values.update(dict(stratum.parameters))
+        subs = {sp.Symbol(k, real=True): sp.Rational(repr(float(v))) for k, v in values.items()}
+        G = self.fields.extract(list(range(self.n)), list(stratum.active))
+        return G.subs(subs) if subs else G
+
+    def compiled(self, stratum: Stratum | str) -> CompiledStratum:
+        """Numeric functions of a stratum, generated on first use and cached."""
+        s = self.stratum(stratum) if isinstance(stratum, str) else stratum
+        if s.name not in self._compiled:
+            self._compiled[s.name] = CompiledStratum(self, s, self.fields_on(s))
+        return self._compiled[s.name]
+
+    def check(self) -> None:
+        """Validate strata against the fields: a locked coordinate must not move."""
+        problems = []
+        for s in self.strata.values():
+            G = self.fields_on(s)
+            for i in s.locked:
+                moving = [
+                    self.inputs[s.active[j]]
+                    for j in range(G.shape[1])
+                    if G[i, j].is_zero is not True
+                ]
+                if moving:
+                    problems.append(
+                        Problem(
+                            f"strata.{s.name}",
+                            f"coordinate {self.states[i]!r} is locked but moved by active "
+                            f"input(s) {', '.join(moving)}",
+                        )
+                    )
+            if not s.active:
+                problems.append(Problem(f"strata.{s.name}", "no active inputs"))
+        if problems:
+            raise ModelError(problems)
+
+
+def make_strata(
+    states: tuple[str, ...],
+    inputs: tuple[str, ...],
+    spec: Mapping[str, tuple[tuple[str, ...], tuple[str, ...]]],
+) -> dict[str, Stratum]:
+    """Build strata from {name: (locked state names, active input names)}."""
+    return {
+        name: Stratum(
+            name,
+            tuple(states.index(s) for s in locked),
+            tuple(inputs.index(u) for u in active),
+        )
+        for name, (locked, active) in spec.items()
+    }
