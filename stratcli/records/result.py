@@ -1,0 +1,98 @@
+"""The `result.json` document (schema "stratplan.result/1"): the planned controls, per leg.
+
+A contract: with it alone anyone can rebuild every control
+`u_k(t) = λ0 + Σ_i λi sin(2iπt/P) + λ_{i+H} cos(2iπt/P)` (leg-local time `t ∈ [0, duration]`)
+and re-integrate the model from `start`. Coordinates not prescribed by a goal are `null`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..stratified import PlanResult
+
+SCHEMA = "stratplan.result/1"
+
+
+def _vec(x: np.ndarray) -> list[float | None]:
+    return [None if math.isnan(v) else float(v) for v in np.asarray(x, dtype=float)]
+
+
+def result_document(
+    plan: PlanResult, scenario: str, model: str, reference_energy: float | None = None
+) -> dict[str, Any]:
+    """The JSON-ready result of a planned (or failed) sequence."""
+    system, settings, basis = plan.system, plan.settings, plan.settings.basis
+    legs = []
+    for leg in plan.legs:
+        legs.append(
+            {
+                "stratum": leg.stratum,
+                "method": leg.method,
+                "evaluator": leg.evaluator,
+                "active_inputs": [system.inputs[k] for k in leg.active],
+                "locked": [system.states[k] for k in leg.locked],
+                "t0": leg.t0,
+                "duration": leg.duration,
+                "start": _vec(leg.start),
+                "goal": _vec(leg.goal),
+                "end": _vec(leg.end),
+                "error": leg.error,
+                "converged": leg.converged,
+                "iterations": leg.iterations,
+                "attempts": leg.attempts,
+                "free_coefficients": leg.free_coefficients,
+                "energy": leg.energy,
+                "pieces": [
+                    {
+                        "t0": 0.0,
+                        "duration": leg.duration,
+                        "basis": {
+                            "kind": "fourier",
+                            "harmonics": basis.harmonics,
+                            "period": basis.period,
+                        },
+                        "coefficients": {
+                            system.inputs[k]: leg.coefficients[a].tolist()
+                            for a, k in enumerate(leg.active)
+                        },
+                    }
+                ],
+            }
+        )
+    switches = [
+        {
+            "time": sw.time,
+            "after_leg": sw.after_leg,
+            "jump": {u: float(sw.jump[k]) for k, u in enumerate(system.inputs)},
+            "jump_derivative": {
+                u: float(sw.jump_derivative[k]) for k, u in enumerate(system.inputs)
+            },
+        }
+        for sw in plan.switches
+    ]
+    return {
+        "schema": SCHEMA,
+        "scenario": scenario,
+        "status": "ok" if plan.ok else "failed",
+        "message": plan.message,
+        "model": model,
+        "coordinates": list(system.states),
+        "inputs": list(system.inputs),
+        "start": _vec(plan.start),
+        "goal": _vec(plan.goal),
+        "end": _vec(plan.legs[-1].end) if plan.legs else None,
+        "total_energy": plan.total_energy,
+        "reference_energy": reference_energy,
+        "duration": plan.duration,
+        "continuity": settings.continuity,
+        "soft_start": settings.soft_start,
+        "full_stop": settings.full_stop,
+        "tolerance": settings.tolerance,
+        "seed": settings.seed,
+        "legs": legs,
+        "switches": switches,
+    }

@@ -1,0 +1,376 @@
+"""Scenario files: TOML validated with pydantic, resolved into a planning task (DESIGN §8).
+
+Every problem is reported as one line `file: field.path: message (got value)`; nothing is
+evaluated as code (angles such as "pi/3" or "60deg" go through the safe expression parser).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import sympy as sp
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+
+from .continuity import MODES
+from .controls import FourierBasis
+from .errors import InputError, Problem
+from .models.expressions import ExpressionError, parse_expression, parse_number
+from .models.presets import PRESETS, preset
+from .models.system import Stratum, System
+from .stratified import LegSpec, PlannerSettings, check_legs
+
+Number = Annotated[float, BeforeValidator(parse_number)]
+
+
+def _parse_target(value: Any) -> float:
+    """A goal entry: a number, or "*" for a coordinate whose end value is not prescribed."""
+    return float("nan") if isinstance(value, str) and value.strip() == "*" else parse_number(value)
+
+
+Target = Annotated[float, BeforeValidator(_parse_target)]
+Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class PresetModel(_Strict):
+    """One of the paper's models, exactly as printed."""
+
+    kind: Literal["preset"]
+    name: Literal["one-arm", "two-arm"]
+
+
+class CustomStratum(_Strict):
+    name: Name
+    active: list[Name] = Field(min_length=1)
+    locked: list[Name] = []
+    parameters: dict[str, Number] = {}
+
+
+class CustomModel(_Strict):
+    """A driftless system from expressions: one vector field per input (DESIGN §7)."""
+
+    kind: Literal["custom"]
+    states: list[Name] = Field(min_length=1)
+    inputs: list[Name] = Field(min_length=1)
+    parameters: dict[Name, Number] = {}
+    fields: dict[str, list[str | float]]
+    strata: list[CustomStratum] = Field(min_length=1)
+
+
+ModelSpec = Annotated[PresetModel | CustomModel, Field(discriminator="kind")]
+
+
+class BasisSpec(_Strict):
+    harmonics: int = Field(3, ge=1, le=40)
+    period: float = Field(2.17, gt=0)
+
+
+class PlannerSpec(_Strict):
+    continuity: Literal[MODES] = "lr-C1"  # type: ignore[valid-type]
+    soft_start: bool = False
+    full_stop: bool = False
+    tolerance: float = Field(1e-3, gt=0)
+    leg_duration: float = Field(1.0, gt=0)
+    basis: BasisSpec = BasisSpec()
+    max_iterations: int = Field(100, ge=1)
+    restarts: int = Field(11, ge=0)
+    seed: int = Field(0, ge=0)
+    evaluator: Literal["auto", "quadrature", "ode"] = "auto"
+
+
+class TaskSpec(_Strict):
+    start: list[Number]
+    goal: list[Target]
+
+
+class LegEntry(_Strict):
+    stratum: str
+    method: Literal["newton"] = "newton"
+    goal: list[Target] | None = None
+    duration: float | None = Field(None, gt=0)
+
+
+class ReferenceSpec(_Strict):
+    energy: float | None = None
+    source: str = ""
+
+
+class Scenario(_Strict):
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")]
+    description: str = ""
+    model: ModelSpec
+    task: TaskSpec
+    planner: PlannerSpec = PlannerSpec()
+    legs: list[LegEntry] = Field(min_length=1)
+    reference: ReferenceSpec | None = None
+
+
+@dataclass
+class Task:
+    """A validated scenario, ready to plan."""
+
+    scenario: Scenario
+    system: System
+    start: np.ndarray
+    goal: np.ndarray
+    legs: list[LegSpec]
+    settings: PlannerSettings
+    source: str
+    text: str
+
+    @property
+    def model_name(self) -> str:
+        return self.scenario.model.name if self.scenario.model.kind == "preset" else "custom"
+
+
+def _path(loc: tuple) -> str:
+    parts: list[str] = []
+    for i, item in enumerate(loc):
+        if isinstance(item, int):
+            parts[-1] = f"{parts[-1]}[{item}]" if parts else f"[{item}]"
+        elif i > 0 and loc[i - 1] == "model" and item in ("preset", "custom"):
+            continue  # pydantic's tag of the discriminated union, not a key of the file
+        else:
+            parts.append(str(item))
+    return ".".join(parts)
+
+
+def _allowed_keys(loc: tuple) -> list[str]:
+    """Keys allowed at the table that holds `loc[-1]`, by walking the schema."""
+    cls: Any = Scenario
+    for item in loc[:-1]:
+        if isinstance(item, int):
+            continue
+        if item in ("preset", "custom") and cls is None:
+            cls = PresetModel if item == "preset" else CustomModel
+            continue
+        if not (isinstance(cls, type) and issubclass(cls, BaseModel)):
+            return []
+        field = cls.model_fields.get(item)
+        if field is None:
+            return []
+        ann = field.annotation
+        cls = None if item == "model" else _unwrap(ann)
+    if isinstance(cls, type) and issubclass(cls, BaseModel):
+        return list(cls.model_fields)
+    return []
+
+
+def _unwrap(ann: Any) -> Any:
+    args = getattr(ann, "__args__", None)
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        return ann
+    for a in args or ():
+        found = _unwrap(a)
+        if found is not None:
+            return found
+    return None
+
+
+def _problems(exc: ValidationError) -> list[Problem]:
+    out = []
+    for err in exc.errors():
+        loc = tuple(err["loc"])
+        kind = err["type"]
+        if kind == "extra_forbidden":
+            allowed = _allowed_keys(loc)
+            hint = f" (allowed: {', '.join(allowed)})" if allowed else ""
+            out.append(Problem(_path(loc), f"unknown key{hint}"))
+            continue
+        msg = err["msg"].removeprefix("Value error, ")
+        if kind == "missing":
+            msg = "required field is missing"
+        shown = "" if kind == "missing" else f" (got {err['input']!r})"
+        out.append(Problem(_path(loc), f"{msg}{shown}"))
+    return out
+
+
+def load_scenario(path: str | Path) -> Task:
+    """Read, validate and resolve a scenario file; raises InputError naming every problem."""
+    path = Path(path)
+    source = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot read scenario file: {exc.strerror}", source) from None
+    return parse_scenario(text, source)
+
+
+def parse_scenario(text: str, source: str = "<scenario>") -> Task:
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML: {exc}", source) from None
+    try:
+        scenario = Scenario.model_validate(raw)
+    except ValidationError as exc:
+        raise InputError(_problems(exc), source) from None
+    try:
+        return _resolve(scenario, source, text)
+    except InputError as exc:
+        raise exc.with_source(source) from None
+
+
+def build_system(spec: PresetModel | CustomModel) -> System:
+    """The model named or described by the scenario's [model] table."""
+    if spec.kind == "preset":
+        return preset(spec.name)
+    return _custom_system(spec)
+
+
+def _custom_system(spec: CustomModel) -> System:
+    problems: list[Problem] = []
+    states, inputs = tuple(spec.states), tuple(spec.inputs)
+    for what, names in (("states", states), ("inputs", inputs)):
+        dup = sorted({x for x in names if names.count(x) > 1})
+        if dup:
+            problems.append(Problem(f"model.{what}", f"duplicate names: {', '.join(dup)}"))
+    clash = set(states) & (set(inputs) | set(spec.parameters))
+    if clash:
+        problems.append(Problem("model", f"names used twice: {', '.join(sorted(clash))}"))
+    symbols = {s: sp.Symbol(s, real=True) for s in (*states, *spec.parameters)}
+    G = sp.zeros(len(states), len(inputs))
+    for name in spec.fields:
+        if name not in inputs:
+            problems.append(
+                Problem(f"model.fields.{name}", f"not an input (inputs: {', '.join(inputs)})")
+            )
+    for j, u in enumerate(inputs):
+        column = spec.fields.get(u)
+        if column is None:
+            problems.append(Problem(f"model.fields.{u}", "vector field of this input is missing"))
+            continue
+        if len(column) != len(states):
+            problems.append(
+                Problem(
+                    f"model.fields.{u}",
+                    f"needs {len(states)} entries (one per state), got {len(column)}",
+                )
+            )
+            continue
+        for i, entry in enumerate(column):
+            try:
+                G[i, j] = parse_expression(str(entry), symbols)
+            except ExpressionError as exc:
+                problems.append(Problem(f"model.fields.{u}[{i}]", str(exc)))
+    strata: dict[str, Stratum] = {}
+    for k, s in enumerate(spec.strata):
+        where = f"model.strata[{k}]"
+        bad = [x for x in s.active if x not in inputs]
+        bad += [x for x in s.locked if x not in states]
+        bad += [x for x in s.parameters if x not in spec.parameters]
+        if bad:
+            problems.append(Problem(where, f"unknown names: {', '.join(bad)}"))
+            continue
+        if s.name in strata:
+            problems.append(Problem(f"{where}.name", f"duplicate stratum {s.name!r}"))
+        strata[s.name] = Stratum(
+            s.name,
+            tuple(states.index(x) for x in s.locked),
+            tuple(inputs.index(x) for x in s.active),
+            tuple(sorted(s.parameters.items())),
+        )
+    if problems:
+        raise InputError(problems)
+    system = System("custom", states, inputs, G, strata, dict(spec.parameters))
+    try:
+        system.check()
+    except InputError as exc:
+        raise exc.prefixed("model") from None
+    return system
+
+
+def _resolve(scenario: Scenario, source: str, text: str) -> Task:
+    system = build_system(scenario.model)
+    n = system.n
+    problems: list[Problem] = []
+    names = ", ".join(system.states)
+
+    def vector(values: list[float] | None, where: str) -> np.ndarray | None:
+        if values is not None and len(values) != n:
+            problems.append(Problem(where, f"needs {n} values ({names}), got {len(values)}"))
+            return None
+        return None if values is None else np.array(values, dtype=float)
+
+    start = vector(scenario.task.start, "task.start")
+    goal = vector(scenario.task.goal, "task.goal")
+    p = scenario.planner
+    legs: list[LegSpec] = []
+    for i, entry in enumerate(scenario.legs):
+        where = f"legs[{i}]"
+        if entry.stratum not in system.strata:
+            problems.append(
+                Problem(
+                    f"{where}.stratum",
+                    f"unknown stratum {entry.stratum!r} (this model has: "
+                    f"{', '.join(system.strata)})",
+                )
+            )
+        last = i == len(scenario.legs) - 1
+        leg_goal = vector(entry.goal, f"{where}.goal")
+        if leg_goal is None and entry.goal is None:
+            if not last:
+                problems.append(
+                    Problem(
+                        f"{where}.goal",
+                        "a via configuration is required (only the last "
+                        "leg may omit its goal, which is then task.goal)",
+                    )
+                )
+            leg_goal = goal
+        elif last and goal is not None and leg_goal is not None:
+            if not np.allclose(leg_goal, goal, rtol=0.0, atol=1e-12, equal_nan=True):
+                problems.append(
+                    Problem(
+                        f"{where}.goal",
+                        "the last leg's goal differs from task.goal; omit it or make them equal",
+                    )
+                )
+        if leg_goal is not None:
+            legs.append(
+                LegSpec(
+                    stratum=entry.stratum,
+                    goal=leg_goal,
+                    method=entry.method,
+                    duration=entry.duration or p.leg_duration,
+                )
+            )
+    if problems:
+        raise InputError(problems)
+    settings = PlannerSettings(
+        continuity=p.continuity,
+        soft_start=p.soft_start,
+        full_stop=p.full_stop,
+        tolerance=p.tolerance,
+        basis=FourierBasis(p.basis.harmonics, p.basis.period),
+        max_iterations=p.max_iterations,
+        restarts=p.restarts,
+        seed=p.seed,
+        evaluator=p.evaluator,
+    )
+    if p.evaluator == "quadrature":
+        for leg in legs:
+            if not system.compiled(leg.stratum).supports_quadrature:
+                problems.append(
+                    Problem(
+                        "planner.evaluator",
+                        f"stratum {leg.stratum} does not allow the "
+                        "quadrature path (a non-constant row depends on a non-explicit "
+                        "coordinate); use 'auto' or 'ode'",
+                    )
+                )
+    if problems:
+        raise InputError(problems)
+
+    check_legs(system, start, legs, settings)
+    return Task(scenario, system, start, goal, legs, settings, source, text)
+
+
+__all__ = ["PRESETS", "Scenario", "Task", "build_system", "load_scenario", "parse_scenario"]
