@@ -34,7 +34,9 @@ err_console = Console(stderr=True)
 
 def _fail_input(exc: InputError) -> None:
     for problem in exc.problems:
-        err_console.print(f"[bold red]error:[/] {problem.render(exc.source)}", highlight=False)
+        err_console.print(
+            f"[bold red]error:[/] {problem.render(exc.source)}", highlight=False, soft_wrap=True
+        )
     raise typer.Exit(2)
 
 
@@ -98,7 +100,9 @@ def plan(
     elif not quiet:
         _print_plan(task, doc, planning_time, compile_time, run_dir)
     if code:
-        err_console.print(f"[bold red]planning failed:[/] {result.message}", highlight=False)
+        err_console.print(
+            f"[bold red]planning failed:[/] {result.message}", highlight=False, soft_wrap=True
+        )
     raise typer.Exit(code)
 
 

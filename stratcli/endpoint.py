@@ -102,14 +102,16 @@ class QuadratureEndpoint(_Endpoint):
         if self.Q.size == 0:
             return (end, self._explicit_jacobian()) if jacobian else (end, None)
         GQ = self.cs.quadrature_rows(q)  # (K, nQ, m)
-        end[self.Q] += w @ np.einsum("kia,ka->ki", GQ, u)
+        end[self.Q] += w @ (GQ @ u[:, :, None])[..., 0]
         if not jacobian:
             return end, None
         J = self._explicit_jacobian()
         dGQ = self.cs.quadrature_rows_d(q)  # (K, nQ, m, nE)
-        D = np.einsum("kiae,ka->kie", dGQ, u) @ self.C  # (K, nQ, m): ∂(G u)/∂λ through q_E
-        JQ = np.einsum("kia,kb->iab", GQ * w[:, None, None], Phi)
-        JQ += np.einsum("kia,kb->iab", D * w[:, None, None], Psi)
+        # ∂(G u)/∂λ: directly through u (basis values Φ) and through q_E (basis integrals Ψ)
+        D = np.matmul((dGQ * u[:, None, :, None]).sum(axis=2), self.C)  # (K, nQ, m)
+        K = t.size
+        weighted = np.concatenate([GQ, D]).reshape(2 * K, -1) * np.concatenate([w, w])[:, None]
+        JQ = weighted.T @ np.concatenate([Phi, Psi])  # (nQ * m, size)
         J[self.Q] = JQ.reshape(self.Q.size, -1)
         return end, J
 

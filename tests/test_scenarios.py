@@ -85,7 +85,7 @@ def test_lr_mode_ends_unused_inputs_at_zero_and_l_mode_lets_them_jump(scenarios_
 
 
 def test_soft_start_and_full_stop_hold(scenarios_dir):
-    task, doc = _plan(scenarios_dir / "sim2_soft.toml")
+    _, doc = _plan(scenarios_dir / "sim2_soft.toml")
     from reintegrate import controls
 
     first, last = doc["legs"][0]["pieces"][0], doc["legs"][-1]["pieces"][-1]

@@ -113,9 +113,9 @@ def _newton(endpoint, goal, targets, elimination, z, settings, mu) -> LegSolutio
             mu = max(mu * 100.0, 1e-8)
             continue
         gamma, accepted = 1.0, False
-        while gamma > 1e-6:
+        while gamma > 1e-6:  # backtracking: accept only a step that lowers the error
             z_new = z + gamma * step
-            lam_new, end_new, J_new, e_new = evaluate(z_new, gamma == 1.0)
+            lam_new, end_new, _, e_new = evaluate(z_new, False)
             err_new = float(np.linalg.norm(e_new))
             if np.isfinite(err_new) and err_new < err:
                 accepted = True
@@ -126,9 +126,9 @@ def _newton(endpoint, goal, targets, elimination, z, settings, mu) -> LegSolutio
             if mu > 1e8:
                 break  # stalled: no damping makes progress
             continue
-        if J_new is None:
-            _, _, J_new, _ = evaluate(z_new, True)
-        z, lam, end, J, e, err = z_new, lam_new, end_new, J_new, e_new, err_new
+        z, lam, end, e, err = z_new, lam_new, end_new, e_new, err_new
+        if err > settings.tolerance:
+            J = endpoint(lam, True)[1]
         mu = max(mu / 10.0, 1e-12) if gamma == 1.0 else min(mu * 2.0, 1.0)
         history.append(err)
     L = lam.reshape(endpoint.m, endpoint.size)
