@@ -1,0 +1,603 @@
+"""Planar free-floating space manipulators described by physical parameters.
+
+A robot is a rigid base (body 0) carrying serial arms of revolute joints. With zero total
+momentum the system CM is fixed, and conservation of angular momentum gives the nonholonomic
+constraint of the paper (sec. 3, eq. 5 and 10)::
+
+    f_θ(q) θ' − Σ_j f_j(q) q_j' = 0,   i.e.   θ' = Σ_j A_j(q) q_j',   A_j = f_j / f_θ.
+
+Everything is expressed in the base frame (origin at the base CM, rotated by θ). Joints are
+numbered arm by arm: arm 1's joints first (q1, q2, ...), then arm 2's, and so on. Joint j is the
+proximal joint of link j. The physics and sign conventions are given in MODELS.md §1-2.
+
+Two implementations are provided:
+
+* `derive_symbolic` is an exact sympy derivation from the definitions of MODELS.md §1. It uses
+  positions, `sympy.diff` and cross products, and returns trigonometric polynomials in the
+  paper's form Σ c·cos(q_i + ... ) + const.
+* `connection` is a vectorised numpy evaluation of A and ∂A/∂q from the closed forms in
+  MODELS.md §3. It does not need sympy.
+
+`paper_one_arm` and `paper_two_arm` reproduce eq. 6 and eq. 11 exactly, up to the paper's
+print scale 12·M.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from functools import lru_cache
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:  # sympy is imported lazily: the numeric path must not pay for it
+    import sympy as sp
+
+__all__ = [
+    "Arm",
+    "Base",
+    "Link",
+    "PlanarManipulator",
+    "connection",
+    "connection_A",
+    "connection_symbolic",
+    "derive_symbolic",
+    "f_theta_and_f",
+    "link_geometry",
+    "paper_one_arm",
+    "paper_two_arm",
+    "trig_canonical",
+]
+
+
+def _real(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
+    x = float(value)
+    if not math.isfinite(x):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if positive and not x > 0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    if nonneg and not x >= 0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+    return x
+
+
+# --------------------------------------------------------------------------------------------
+# Robot description
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Link:
+    """A rigid link, the body distal to its (proximal) revolute joint.
+
+    `com` is the distance of the link CM from the proximal joint, measured along the link. It
+    defaults to `length / 2`. `inertia` is the moment of inertia about the link's own CM. It
+    defaults to a uniform rod, `mass * length**2 / 12`. The paper's models use 1/3, which is not
+    the rod value (MODELS.md §5). Defaults are resolved at construction, so after construction
+    both fields are always floats.
+    """
+
+    mass: float
+    length: float
+    com: float | None = None
+    inertia: float | None = None
+
+    def __post_init__(self) -> None:
+        m = _real("Link.mass", self.mass, nonneg=True)
+        length = _real("Link.length", self.length, nonneg=True)
+        com = length / 2 if self.com is None else _real("Link.com", self.com)
+        inertia = (
+            m * length**2 / 12
+            if self.inertia is None
+            else _real("Link.inertia", self.inertia, nonneg=True)
+        )
+        object.__setattr__(self, "mass", m)
+        object.__setattr__(self, "length", length)
+        object.__setattr__(self, "com", com)
+        object.__setattr__(self, "inertia", inertia)
+
+
+@dataclass(frozen=True)
+class Arm:
+    """A serial arm attached to the base.
+
+    * `mount` is the position of the arm's first joint in the base frame.
+    * `zero_angle` (rad, base frame) is the direction of the first link when all of this arm's
+      joints are zero.
+    * `sense` (+1 or −1) is the direction in which the joints count. +1 is counter-clockwise.
+      −1 gives the mirrored arm 2 of the paper's model 2.
+
+    The orientation of link h relative to the base is
+    `β_h = zero_angle + sense·(q_1 + … + q_h)`, where the q are this arm's joints (MODELS.md §3).
+    """
+
+    mount: tuple[float, float]
+    zero_angle: float
+    sense: int
+    links: tuple[Link, ...]
+
+    def __post_init__(self) -> None:
+        mount = tuple(_real("Arm.mount", x) for x in self.mount)
+        if len(mount) != 2:
+            raise ValueError(f"Arm.mount must have 2 coordinates, got {self.mount!r}")
+        if self.sense not in (1, -1):
+            raise ValueError(f"Arm.sense must be +1 or -1, got {self.sense!r}")
+        links = tuple(self.links)
+        if not links or not all(isinstance(link, Link) for link in links):
+            raise ValueError("Arm.links must be a non-empty sequence of Link")
+        object.__setattr__(self, "mount", mount)
+        object.__setattr__(self, "zero_angle", _real("Arm.zero_angle", self.zero_angle))
+        object.__setattr__(self, "sense", int(self.sense))
+        object.__setattr__(self, "links", links)
+
+
+@dataclass(frozen=True)
+class Base:
+    """The free-floating base (body 0).
+
+    `inertia` is taken about the base CM, which is the origin of the base frame. `a` and `b` are
+    the width and height of a rectangular base. They are optional and used only for drawing.
+    """
+
+    mass: float
+    inertia: float
+    a: float | None = None
+    b: float | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mass", _real("Base.mass", self.mass, positive=True))
+        object.__setattr__(self, "inertia", _real("Base.inertia", self.inertia, nonneg=True))
+        for name in ("a", "b"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _real(f"Base.{name}", value, nonneg=True))
+
+    @classmethod
+    def rectangle(cls, mass: float, a: float, b: float) -> Base:
+        """Uniform a×b rectangle: I0 = m(a² + b²)/12 (MODELS.md §2)."""
+        return cls(mass, mass * (a * a + b * b) / 12, a, b)
+
+
+@dataclass(frozen=True)
+class PlanarManipulator:
+    """A base with one or more arms. Joints are numbered arm by arm, in the order of `arms`."""
+
+    base: Base
+    arms: tuple[Arm, ...]
+
+    def __post_init__(self) -> None:
+        arms = tuple(self.arms)
+        if not arms or not all(isinstance(arm, Arm) for arm in arms):
+            raise ValueError("PlanarManipulator.arms must be a non-empty sequence of Arm")
+        object.__setattr__(self, "arms", arms)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints, which is also the number of links."""
+        return sum(len(arm.links) for arm in self.arms)
+
+    @property
+    def links(self) -> tuple[Link, ...]:
+        """All links in joint order."""
+        return tuple(link for arm in self.arms for link in arm.links)
+
+    @property
+    def joint_arm(self) -> tuple[int, ...]:
+        """Index (0-based) of the arm of each joint."""
+        return tuple(a for a, arm in enumerate(self.arms) for _ in arm.links)
+
+    @property
+    def arm_joints(self) -> tuple[tuple[int, ...], ...]:
+        """Joint indices (0-based) of each arm, from proximal to distal."""
+        out, start = [], 0
+        for arm in self.arms:
+            out.append(tuple(range(start, start + len(arm.links))))
+            start += len(arm.links)
+        return tuple(out)
+
+    @property
+    def total_mass(self) -> float:
+        """M = m0 + Σ m_i."""
+        return self.base.mass + sum(link.mass for link in self.links)
+
+
+# --------------------------------------------------------------------------------------------
+# The paper's robots (MODELS.md §2)
+# --------------------------------------------------------------------------------------------
+
+
+def _paper_link() -> Link:
+    # Unit mass and length with CM at mid-length. The link inertia 1/3 is what the printed
+    # coefficients require (MODELS.md §4-5).
+    return Link(mass=1.0, length=1.0, com=0.5, inertia=1.0 / 3.0)
+
+
+def paper_one_arm() -> PlanarManipulator:
+    """Model 1 (paper eq. 5-6): m0 = 10, a = 1, b = 0.6, three unit links.
+
+    The first joint sits at b/2 = 0.3 on the base axis, the zero direction points outward and
+    the joints count counter-clockwise. I0 = 17/15.
+    """
+    base = Base.rectangle(10.0, 1.0, 0.6)
+    arm = Arm(mount=(0.3, 0.0), zero_angle=0.0, sense=1, links=(_paper_link(),) * 3)
+    return PlanarManipulator(base, (arm,))
+
+
+def paper_two_arm() -> PlanarManipulator:
+    """Model 2 (paper eq. 10-11): m0 = 15, a = b = 1, two arms of two unit links.
+
+    Arm 1 (q1, q2) is mounted at (+0.5, 0) with zero direction 0 and sense +1. Arm 2 (q3, q4)
+    is its mirror image: mounted at (−0.5, 0) with zero direction π and sense −1. I0 = 5/2.
+    """
+    base = Base.rectangle(15.0, 1.0, 1.0)
+    arm1 = Arm(mount=(0.5, 0.0), zero_angle=0.0, sense=1, links=(_paper_link(),) * 2)
+    arm2 = Arm(mount=(-0.5, 0.0), zero_angle=math.pi, sense=-1, links=(_paper_link(),) * 2)
+    return PlanarManipulator(base, (arm1, arm2))
+
+
+# --------------------------------------------------------------------------------------------
+# Numeric evaluation (MODELS.md §3), vectorised over leading axes of q
+# --------------------------------------------------------------------------------------------
+# Internally every per-link quantity is stored with shape (n, K), or (n, n, K) for pairs, with
+# the K evaluation points last. This makes numpy's inner loops long and contiguous; with the
+# points first, broadcasting over (K, n, n) is about 10x slower. Vectors are split into x and y
+# arrays.
+
+
+@dataclass(frozen=True)
+class _Structure:
+    """Per-link parameter arrays and distal masks, shaped for broadcasting against (n, K)."""
+
+    m: np.ndarray  # (n,) link masses
+    m_col: np.ndarray  # (n, 1)
+    length: np.ndarray  # (n, 1)
+    com: np.ndarray  # (n, 1) CM offset from the proximal joint
+    s: np.ndarray  # (n, 1) sense of the joint's arm
+    alpha: np.ndarray  # (n, 1) zero angle of the joint's arm
+    mount_x: np.ndarray  # (n, 1) mount point of the joint's arm
+    mount_y: np.ndarray  # (n, 1)
+    D: np.ndarray  # (n, n) D[k, i] = 1 if link i is at or after joint k on the same arm
+    DsT: np.ndarray  # (n, n) strictly distal mask, transposed: DsT[j, k] = [k proximal to j]
+    DI: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} I_i
+    mu: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} m_i
+    E: np.ndarray  # (n*n, n) E[(j, k), i] = D[j, i] D[k, i] m_i
+    mu2: np.ndarray  # (n, n, 1) Σ_i D[j, i] D[k, i] m_i
+    ss: np.ndarray  # (n, n, 1) s_j s_k
+    DsT3: np.ndarray  # (n, n, 1)
+    m0: float
+    M: float
+    sum_inertia: float  # I0 + Σ I_i
+
+
+@lru_cache(maxsize=64)
+def _structure(robot: PlanarManipulator) -> _Structure:
+    links = robot.links
+    n = len(links)
+    arm_of = robot.joint_arm
+    D = np.zeros((n, n))
+    for joints in robot.arm_joints:
+        for a, k in enumerate(joints):
+            D[k, joints[a:]] = 1.0
+    m = np.array([link.mass for link in links])
+    inertia = np.array([link.inertia for link in links])
+    s = np.array([float(robot.arms[a].sense) for a in arm_of])
+    E = D[:, None, :] * D[None, :, :] * m
+    DsT = (D - np.eye(n)).T
+
+    def col(x: Any) -> np.ndarray:
+        return np.asarray(x, dtype=float).reshape(n, 1)
+
+    arrays = {
+        "m": m,
+        "m_col": col(m),
+        "length": col([link.length for link in links]),
+        "com": col([link.com for link in links]),
+        "s": col(s),
+        "alpha": col([robot.arms[a].zero_angle for a in arm_of]),
+        "mount_x": col([robot.arms[a].mount[0] for a in arm_of]),
+        "mount_y": col([robot.arms[a].mount[1] for a in arm_of]),
+        "D": D,
+        "DsT": DsT,
+        "DI": col(D @ inertia),
+        "mu": col(D @ m),
+        "E": E.reshape(n * n, n),
+        "mu2": E.sum(axis=-1)[:, :, None],
+        "ss": np.outer(s, s)[:, :, None],
+        "DsT3": DsT[:, :, None],
+    }
+    for value in arrays.values():
+        value.setflags(write=False)
+    return _Structure(
+        **arrays,
+        m0=robot.base.mass,
+        M=robot.total_mass,
+        sum_inertia=robot.base.inertia + float(inertia.sum()),
+    )
+
+
+def _points_last(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, tuple[int, ...]]:
+    """q of shape (..., n) -> array (n, K) and the leading shape."""
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 0 or q.shape[-1] != robot.n_joints:
+        raise ValueError(f"q must have shape (..., {robot.n_joints}), got {q.shape}")
+    return np.ascontiguousarray(q.reshape(-1, q.shape[-1]).T), q.shape[:-1]
+
+
+def _points_first(x: np.ndarray, lead: tuple[int, ...]) -> np.ndarray:
+    """Inverse of `_points_last` for arrays (..., K) -> (lead..., ...), made contiguous."""
+    return np.ascontiguousarray(np.moveaxis(x, -1, 0)).reshape(*lead, *x.shape[:-1])
+
+
+def _kinematics(st: _Structure, q: np.ndarray):
+    """Base-frame kinematics for q of shape (n, K): β, u(β), joints o and CMs p, each (n, K).
+
+    β_i = α + s Σ_{k ≤ i} q_k,  o_i = P + Σ_{g < i} l_g u(β_g),  p_i = o_i + c_i u(β_i).
+    """
+    beta = st.alpha + st.s * (st.D.T @ q)
+    ux, uy = np.cos(beta), np.sin(beta)
+    ox = st.mount_x + st.DsT @ (st.length * ux)
+    oy = st.mount_y + st.DsT @ (st.length * uy)
+    return beta, (ux, uy), (ox, oy), (ox + st.com * ux, oy + st.com * uy)
+
+
+def _f_parts(st: _Structure, o, p):
+    """p_c (each (K,)), S_j = Σ_{i∈D(j)} m_i (p_i − p_c), f_θ (K,) and f (n, K) (MODELS.md §3)."""
+    (ox, oy), (px, py) = o, p
+    pcx, pcy = (st.m @ px) / st.M, (st.m @ py) / st.M
+    mPx, mPy = st.m_col * (px - pcx), st.m_col * (py - pcy)
+    f_theta = (
+        st.sum_inertia + st.m0 * (pcx**2 + pcy**2) + (mPx * (px - pcx) + mPy * (py - pcy)).sum(0)
+    )
+    Sx, Sy = st.D @ mPx, st.D @ mPy
+    # −f_j = s_j Σ_{i∈D(j)} [I_i + m_i (p_i − p_c)·(p_i − o_j)]
+    neg_f = st.s * (st.DI + st.D @ (mPx * px + mPy * py) - ox * Sx - oy * Sy)
+    return (pcx, pcy), (Sx, Sy), f_theta, -neg_f
+
+
+def f_theta_and_f(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Physical f_θ(q) with shape (...) and f_j(q) with shape (..., n) (MODELS.md §3).
+
+    The paper prints 12·M times these values.
+    """
+    st = _structure(robot)
+    qT, lead = _points_last(robot, q)
+    _, _, o, p = _kinematics(st, qT)
+    _, _, f_theta, f = _f_parts(st, o, p)
+    return f_theta.reshape(lead), _points_first(f, lead)
+
+
+def connection_A(robot: PlanarManipulator, q: Any) -> np.ndarray:
+    """A(q) = f/f_θ with shape (..., n), so that θ' = A(q)·q' (paper eq. 5, 10)."""
+    f_theta, f = f_theta_and_f(robot, q)
+    return f / f_theta[..., None]
+
+
+def _connection_block(st: _Structure, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A (n, K) and dA (n, n, K) for q of shape (n, K)."""
+    _, _, o, p = _kinematics(st, q)
+    (pcx, pcy), (Sx, Sy), f_theta, f = _f_parts(st, o, p)
+    (ox, oy), (px, py) = o, p
+    M, n, K = st.M, q.shape[0], q.shape[1]
+    # ∂p_i/∂q_k = s_k rot90(p_i − o_k) for i ∈ D(k), and rot90(a)·b = a × b. Summing the
+    # MODELS.md §3 derivatives over the distal sets gives
+    #   c_k = Σ_{i∈D(k)} m_i (p_i − o_k) / M              so that ∂p_c/∂q_k = s_k rot90(c_k)
+    #   ∂f_θ/∂q_k    = 2 s_k M c_k × (o_k − p_c)
+    #   ∂(−f_j)/∂q_k = s_j s_k [W_jk × (2 o_k − o_j − p_c) + μ_jk o_k × (o_j + p_c)
+    #                           − M c_k × c_j − [k strictly proximal to j] (o_j − o_k) × S_j]
+    # with E_jki = D_ji D_ki m_i, W_jk = Σ_i E_jki p_i, μ_jk = Σ_i E_jki, S_j = Σ_{i∈D(j)} m_i P_i.
+    cx = (st.D @ (st.m_col * px) - st.mu * ox) / M
+    cy = (st.D @ (st.m_col * py) - st.mu * oy) / M
+    d_f_theta = 2.0 * M * st.s * (cx * (oy - pcy) - cy * (ox - pcx))  # [k, K]
+
+    Wx = (st.E @ px).reshape(n, n, K)
+    Wy = (st.E @ py).reshape(n, n, K)
+    ojx, ojy, okx, oky = ox[:, None], oy[:, None], ox[None], oy[None]  # rows j, columns k
+    gx, gy = ojx + pcx, ojy + pcy  # o_j + p_c
+    term = Wx * (2.0 * oky - gy) - Wy * (2.0 * okx - gx)
+    term += st.mu2 * (okx * gy - oky * gx)
+    term -= M * (cx[None] * cy[:, None] - cy[None] * cx[:, None])
+    term -= st.DsT3 * ((ojx - okx) * Sy[:, None] - (ojy - oky) * Sx[:, None])
+    df = -st.ss * term  # [j, k, K]
+
+    A = f / f_theta
+    dA = (df - A[:, None] * d_f_theta[None]) / f_theta
+    return A, dA
+
+
+def connection(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:
+    """A(q) (shape (..., n)) and dA (shape (..., n, n)), with dA[..., j, k] = ∂A_j/∂q_k.
+
+    The closed forms of MODELS.md §3, vectorised over the leading axes of q, with no sympy.
+    Points are processed in blocks of about 2.5e4 / n² columns. This keeps the (n, n, block)
+    temporaries cache-sized, which is about 2x faster for K = 1000, n = 10.
+    """
+    st = _structure(robot)
+    qT, lead = _points_last(robot, q)
+    n, K = qT.shape
+    block = max(64, 25_000 // (n * n))
+    if K <= block:
+        A, dA = _connection_block(st, qT)
+        return _points_first(A, lead), _points_first(dA, lead)
+    A, dA = np.empty((K, n)), np.empty((K, n, n))
+    for k0 in range(0, K, block):
+        a, d = _connection_block(st, qT[:, k0 : k0 + block])
+        A[k0 : k0 + block] = a.T
+        dA[k0 : k0 + block] = np.moveaxis(d, -1, 0)
+    return A.reshape(*lead, n), dA.reshape(*lead, n, n)
+
+
+def link_geometry(robot: PlanarManipulator, q: Any) -> dict[str, Any]:
+    """Base-frame geometry for drawing and checks. q has shape (..., n).
+
+    Keys:
+
+    * `base_size`: `(a, b)` or `None`.
+    * `mount`: `(n_arms, 2)`.
+    * `arm_of_link`: `(n,)` int.
+    * `proximal`, `distal`, `com`: joint and CM positions, `(..., n, 2)`.
+    * `angle`: link orientation β relative to the base, `(..., n)`.
+    * `system_com`: p_c, `(..., 2)`.
+
+    The base CM is the origin. World coordinates (inertial frame at the fixed system CM) are
+    `R(θ) (x − p_c)`.
+    """
+    st = _structure(robot)
+    qT, lead = _points_last(robot, q)
+    beta, (ux, uy), (ox, oy), (px, py) = _kinematics(st, qT)
+    base = robot.base
+
+    def vec(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return _points_first(np.stack((x, y), axis=-2), lead)
+
+    return {
+        "base_size": None if base.a is None or base.b is None else (base.a, base.b),
+        "mount": np.array([arm.mount for arm in robot.arms], dtype=float),
+        "arm_of_link": np.array(robot.joint_arm, dtype=int),
+        "proximal": vec(ox, oy),
+        "distal": vec(ox + st.length * ux, oy + st.length * uy),
+        "com": vec(px, py),
+        "angle": _points_first(beta, lead),
+        "system_com": vec(st.m @ px, st.m @ py) / st.M,
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# Exact symbolic derivation (MODELS.md §1)
+# --------------------------------------------------------------------------------------------
+
+
+def _exact(x: float, max_denominator: int = 10_000) -> sp.Expr:
+    """Exact sympy number for a float parameter.
+
+    Returns a small-denominator rational if one lies within 1e-13 (relative) of x, and
+    otherwise the exact binary value of x.
+    """
+    import sympy as sp
+
+    frac = Fraction(x).limit_denominator(max_denominator)
+    if abs(float(frac) - x) <= 1e-13 * max(1.0, abs(x)):
+        return sp.Rational(frac.numerator, frac.denominator)
+    return sp.Rational(x)
+
+
+def _exact_angle(x: float) -> sp.Expr:
+    """Exact angle: a rational multiple of π when x is one (denominator <= 360)."""
+    import sympy as sp
+
+    frac = Fraction(x / math.pi).limit_denominator(360)
+    if abs(float(frac) * math.pi - x) <= 1e-13 * max(1.0, abs(x)):
+        return sp.Rational(frac.numerator, frac.denominator) * sp.pi
+    return _exact(x)
+
+
+def _cross_sym(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+def trig_canonical(expr: sp.Expr, q_symbols: Sequence[sp.Symbol]) -> sp.Expr:
+    """Rewrite a trigonometric polynomial in q as Σ a_k cos(k·q) + b_k sin(k·q) + c, exactly.
+
+    Every sin/cos argument must be affine in q with integer coefficients. The method substitutes
+    e^{i k·q} = Π z_j^{k_j} and expands the result as a Laurent polynomial, which is a canonical
+    form, so equal functions give identical output. Each frequency k is written with its first
+    nonzero entry positive. This gives the paper's form, e.g. cos(q1 + q2 + q3).
+    """
+    import sympy as sp
+
+    q = list(q_symbols)
+    z = [sp.Dummy(f"z{j}") for j in range(len(q))]
+    rep = {}
+    for atom in sp.sympify(expr).atoms(sp.cos, sp.sin):
+        arg = atom.args[0]
+        if not arg.has(*q):
+            continue
+        k = [arg.diff(qj) for qj in q]
+        if not all(kj.is_Integer for kj in k):
+            raise ValueError(f"argument {arg} is not affine in q with integer coefficients")
+        c0 = sp.expand(arg - sum(kj * qj for kj, qj in zip(k, q, strict=True)))
+        if c0.has(*q):
+            raise ValueError(f"argument {arg} is not affine in q")
+        e = sp.exp(sp.I * c0) * sp.Mul(*(zj ** int(kj) for zj, kj in zip(z, k, strict=True)))
+        rep[atom] = (e + 1 / e) / 2 if atom.func == sp.cos else (e - 1 / e) / (2 * sp.I)
+    laurent = sp.expand(sp.sympify(expr).xreplace(rep))
+
+    coeffs: dict[tuple[int, ...], sp.Expr] = {}
+    for term in sp.Add.make_args(laurent):
+        c, rest = term.as_independent(*z, as_Add=False)
+        powers = rest.as_powers_dict()
+        k = tuple(int(powers.get(zj, 0)) for zj in z)
+        coeffs[k] = coeffs.get(k, sp.S.Zero) + c
+
+    def real(x: sp.Expr) -> sp.Expr:
+        return x if x.is_Rational else sp.expand(sp.expand_complex(x))
+
+    zero = (0,) * len(q)
+    out = real(coeffs.pop(zero, sp.S.Zero))
+
+    def neg(k: tuple[int, ...]) -> tuple[int, ...]:
+        return tuple(-kj for kj in k)
+
+    canonical = {k if next(kj for kj in k if kj != 0) > 0 else neg(k) for k in coeffs}
+    for k in sorted(canonical):
+        ck, cm = coeffs.get(k, sp.S.Zero), coeffs.get(neg(k), sp.S.Zero)
+        arg = sum(kj * qj for kj, qj in zip(k, q, strict=True))
+        out += real(ck + cm) * sp.cos(arg) + real(sp.I * (ck - cm)) * sp.sin(arg)
+    return out
+
+
+def derive_symbolic(
+    robot: PlanarManipulator, q_symbols: Sequence[sp.Symbol]
+) -> tuple[sp.Expr, list[sp.Expr]]:
+    """Exact physical f_θ(q) and [f_1(q), ..., f_n(q)] from angular momentum (MODELS.md §1).
+
+    The derivation uses only the definitions::
+
+        f_θ = Σ_k I_k + m_k |p_k − p_c|²
+        f_j = −Σ_k I_k ∂β_k/∂q_j + m_k (p_k − p_c) × ∂p_k/∂q_j
+
+    where k runs over all bodies, base included. Float parameters are converted to exact numbers
+    first (small-denominator rationals, and multiples of π for angles). For the paper's robots
+    the result is a polynomial in cosines with rational coefficients, 1/(12·M) times eq. 6 and
+    eq. 11. The output is in `trig_canonical` form, and A_j = f_j / f_θ.
+    """
+    import sympy as sp
+
+    q = list(q_symbols)
+    if len(q) != robot.n_joints:
+        raise ValueError(f"need {robot.n_joints} symbols, got {len(q)}")
+    bodies = []  # (m, I, p, β) of the links; the base has p = 0, β = 0
+    j = 0
+    for arm in robot.arms:
+        o = sp.Matrix([_exact(arm.mount[0]), _exact(arm.mount[1])])
+        beta = _exact_angle(arm.zero_angle)
+        for link in arm.links:
+            beta = beta + arm.sense * q[j]
+            u = sp.Matrix([sp.cos(beta), sp.sin(beta)])
+            p = o + _exact(link.com) * u
+            bodies.append((_exact(link.mass), _exact(link.inertia), p, beta))
+            o = o + _exact(link.length) * u
+            j += 1
+    m0, I0 = _exact(robot.base.mass), _exact(robot.base.inertia)
+    M = m0 + sum(b[0] for b in bodies)
+    pc = sum((m * p for m, _, p, _ in bodies), sp.zeros(2, 1)) / M
+
+    f_theta = I0 + m0 * pc.dot(pc)
+    for m, inertia, p, _ in bodies:
+        r = p - pc
+        f_theta += inertia + m * r.dot(r)
+    f = []
+    for qj in q:
+        fj = sp.S.Zero  # base: ∂β_0 = 0 and ∂p_0 = 0
+        for m, inertia, p, beta in bodies:
+            fj -= inertia * sp.diff(beta, qj) + m * _cross_sym(p - pc, sp.diff(p, qj))
+        f.append(trig_canonical(fj, q))
+    return trig_canonical(f_theta, q), f
+
+
+def connection_symbolic(robot: PlanarManipulator, q_symbols: Sequence[sp.Symbol]) -> list:
+    """[A_1, ..., A_n] with A_j = f_j / f_θ as exact sympy expressions (paper eq. 5, 10)."""
+    f_theta, f = derive_symbolic(robot, q_symbols)
+    return [fj / f_theta for fj in f]
