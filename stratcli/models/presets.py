@@ -11,6 +11,7 @@ from itertools import combinations
 
 import sympy as sp
 
+from .planar import paper_one_arm, paper_two_arm
 from .system import System, make_strata
 
 
@@ -62,6 +63,7 @@ def one_arm() -> System:
 
     system = _manipulator("one-arm", 3, [f1, f2, f3], f_theta, strata)
     system.description = "one-arm space manipulator, 3 joints (Duleba & Opalka eq. 5-9)"
+    system.robot = paper_one_arm()
     return system
 
 
@@ -118,6 +120,7 @@ def two_arm() -> System:
 
     system = _manipulator("two-arm", 4, [f1, f2, f3, f4], f_theta, strata)
     system.description = "two-arm space manipulator, 2 x 2 joints (Duleba & Opalka eq. 10-13)"
+    system.robot = paper_two_arm()
     return system
 
 

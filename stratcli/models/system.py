@@ -17,6 +17,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError, Problem
+from .planar import PlanarManipulator
 
 
 @dataclass(frozen=True)
@@ -130,6 +131,7 @@ class System:
     strata: dict[str, Stratum]
     parameters: dict[str, float] = field(default_factory=dict)
     description: str = ""
+    robot: PlanarManipulator | None = None  # physical robot, when the model is a manipulator
     _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False)
 
     @cached_property
