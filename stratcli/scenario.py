@@ -19,6 +19,8 @@ from .continuity import MODES
 from .controls import FourierBasis
 from .errors import InputError, Problem
 from .models.expressions import ExpressionError, parse_expression, parse_number
+from .models.manipulator import ManipulatorSystem
+from .models.planar import Arm, Base, Link, PlanarManipulator
 from .models.presets import PRESETS, preset
 from .models.system import Stratum, System
 from .stratified import LegSpec, PlannerSettings, check_legs
@@ -64,7 +66,40 @@ class CustomModel(_Strict):
     strata: list[CustomStratum] = Field(min_length=1)
 
 
-ModelSpec = Annotated[PresetModel | CustomModel, Field(discriminator="kind")]
+class LinkSpec(_Strict):
+    mass: float = Field(gt=0)
+    length: float = Field(gt=0)
+    com: float | None = Field(None, ge=0, description="CM offset from the proximal joint")
+    inertia: float | None = Field(None, ge=0, description="about the link's CM; rod if omitted")
+
+
+class ArmSpec(_Strict):
+    mount: tuple[Number, Number]
+    zero_angle: Number = 0.0
+    sense: Literal[1, -1] = 1
+    links: list[LinkSpec] = Field(min_length=1)
+
+
+class BaseSpec(_Strict):
+    mass: float = Field(gt=0)
+    inertia: float | None = Field(None, gt=0)
+    a: float | None = Field(None, gt=0, description="rectangle width (inertia m(a²+b²)/12)")
+    b: float | None = Field(None, gt=0, description="rectangle height")
+
+
+class PlanarModel(_Strict):
+    """A planar free-floating manipulator from physical parameters (MODELS.md)."""
+
+    kind: Literal["planar-manipulator"]
+    base: BaseSpec
+    arms: list[ArmSpec] = Field(min_length=1)
+    strata: list[list[int]] | None = Field(
+        None, description="lock sets as joint numbers; default all single locks (+ pairs)"
+    )
+
+
+ModelSpec = Annotated[PresetModel | CustomModel | PlanarModel, Field(discriminator="kind")]
+KINDS = ("preset", "custom", "planar-manipulator")
 
 
 class BasisSpec(_Strict):
@@ -127,7 +162,9 @@ class Task:
 
     @property
     def model_name(self) -> str:
-        return self.scenario.model.name if self.scenario.model.kind == "preset" else "custom"
+        """Preset name, "planar-manipulator" or "custom" (the result.json `model` key)."""
+        model = self.scenario.model
+        return model.name if model.kind == "preset" else model.kind
 
 
 def _path(loc: tuple) -> str:
@@ -135,7 +172,7 @@ def _path(loc: tuple) -> str:
     for i, item in enumerate(loc):
         if isinstance(item, int):
             parts[-1] = f"{parts[-1]}[{item}]" if parts else f"[{item}]"
-        elif i > 0 and loc[i - 1] == "model" and item in ("preset", "custom"):
+        elif i > 0 and loc[i - 1] == "model" and item in KINDS:
             continue  # pydantic's tag of the discriminated union, not a key of the file
         else:
             parts.append(str(item))
@@ -148,8 +185,8 @@ def _allowed_keys(loc: tuple) -> list[str]:
     for item in loc[:-1]:
         if isinstance(item, int):
             continue
-        if item in ("preset", "custom") and cls is None:
-            cls = PresetModel if item == "preset" else CustomModel
+        if item in KINDS and cls is None:
+            cls = {"preset": PresetModel, "custom": CustomModel}.get(item, PlanarModel)
             continue
         if not (isinstance(cls, type) and issubclass(cls, BaseModel)):
             return []
@@ -218,11 +255,53 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Task:
         raise exc.with_source(source) from None
 
 
-def build_system(spec: PresetModel | CustomModel) -> System:
+def build_system(spec: PresetModel | CustomModel | PlanarModel) -> System:
     """The model named or described by the scenario's [model] table."""
     if spec.kind == "preset":
         return preset(spec.name)
+    if spec.kind == "planar-manipulator":
+        return _planar_system(spec)
     return _custom_system(spec)
+
+
+def _planar_system(spec: PlanarModel) -> System:
+    b = spec.base
+    problems = []
+    if b.inertia is None and (b.a is None or b.b is None):
+        problems.append(Problem("model.base", "give either inertia or the rectangle a and b"))
+    arms = [
+        Arm(
+            (a.mount[0], a.mount[1]),
+            a.zero_angle,
+            a.sense,
+            tuple(Link(x.mass, x.length, x.com, x.inertia) for x in a.links),
+        )
+        for a in spec.arms
+    ]
+    k = sum(len(a.links) for a in arms)
+    lock_sets = None
+    if spec.strata is not None:
+        lock_sets = []
+        for i, locks in enumerate(spec.strata):
+            bad = [j for j in locks if not 1 <= j <= k]
+            if bad or not locks or len(set(locks)) == k:
+                problems.append(
+                    Problem(
+                        f"model.strata[{i}]",
+                        f"lock set {locks} must name 1..{k - 1} distinct joints out of 1..{k}",
+                    )
+                )
+            lock_sets.append(tuple(sorted({j - 1 for j in locks})))
+    if problems:
+        raise InputError(problems)
+    base = (
+        Base(b.mass, b.inertia, b.a, b.b)
+        if b.inertia is not None
+        else Base.rectangle(b.mass, b.a, b.b)
+    )
+    robot = PlanarManipulator(base, tuple(arms))
+    return ManipulatorSystem(robot, lock_sets=lock_sets, description=f"planar manipulator, {k} "
+                             f"joints on {len(arms)} arm(s)")
 
 
 def _custom_system(spec: CustomModel) -> System:

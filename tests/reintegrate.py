@@ -75,6 +75,15 @@ def custom_rhs_factory(model: dict):
     return out
 
 
+def symbolic_manipulator_rhs(robot):
+    """θ' = A(q)·u from the exact symbolic derivation (MODELS.md §1), not the numpy closed forms."""
+    from stratcli.models.planar import connection_symbolic
+
+    q = sp.symbols(f"q1:{robot.n_joints + 1}", real=True)
+    A = sp.lambdify([q], connection_symbolic(robot, q), "numpy")
+    return lambda x, u: np.concatenate([u, [np.dot(A(x[:-1]), u)]])
+
+
 def controls(piece: dict, inputs: list[str], t: float, derivative: bool = False) -> np.ndarray:
     basis = piece["basis"]
     H, P = basis["harmonics"], basis["period"]

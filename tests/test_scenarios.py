@@ -7,7 +7,7 @@ import tomllib
 import numpy as np
 import pytest
 from conftest import SCENARIOS
-from reintegrate import PRINTED, custom_rhs_factory, reintegrate
+from reintegrate import PRINTED, custom_rhs_factory, reintegrate, symbolic_manipulator_rhs
 
 from stratcli.continuity import mode_order
 from stratcli.records.result import result_document
@@ -28,6 +28,9 @@ def _plan(path, **changes):
 def _rhs(task, doc):
     if doc["model"] in PRINTED:
         f = PRINTED[doc["model"]]
+        return lambda stratum, q, u: f(q, u)
+    if doc["model"] == "planar-manipulator":
+        f = symbolic_manipulator_rhs(task.system.robot)
         return lambda stratum, q, u: f(q, u)
     per_stratum = custom_rhs_factory(tomllib.loads(task.text)["model"])
     return lambda stratum, q, u: per_stratum[stratum](q, u)
