@@ -157,21 +157,55 @@ def _print_plan(task: Task, doc: dict, planning: float, compiling: float, run_di
 
 
 @app.command()
-def models() -> None:
-    """List the preset models with their coordinates, inputs and strata."""
+def models(
+    file: Annotated[
+        Path | None, typer.Argument(help="Scenario file: describe its model instead.")
+    ] = None,
+) -> None:
+    """List the preset models, or describe the model of a scenario file.
+
+    For a scenario: coordinates, inputs and every stratum with its locked coordinates, active
+    inputs, dimension and the end-point evaluator `auto` will use on it.
+    """
+    if file is None:
+        table = Table(show_edge=False)
+        for col in ("preset", "coordinates", "inputs", "strata", "description"):
+            table.add_column(col)
+        for name in PRESETS:
+            system = preset(name)
+            table.add_row(
+                name,
+                ", ".join(system.states),
+                ", ".join(system.inputs),
+                ", ".join(system.strata),
+                system.description,
+            )
+        out_console.print(table)
+        return
+    task = _load(file)
+    system = task.system
+    out_console.print(
+        f"[bold]{task.model_name}[/] model of {task.scenario.name}"
+        f"{': ' + system.description if system.description else ''}",
+        highlight=False,
+    )
+    out_console.print(f"coordinates: {', '.join(system.states)}", highlight=False)
+    out_console.print(f"inputs: {', '.join(system.inputs)}", highlight=False)
     table = Table(show_edge=False)
-    for col in ("preset", "coordinates", "inputs", "strata", "description"):
+    for col in ("stratum", "locked", "active inputs", "dimension", "auto evaluator"):
         table.add_column(col)
-    for name in PRESETS:
-        system = preset(name)
+    for s in system.strata.values():
+        cs = system.compiled(s)
         table.add_row(
-            name,
-            ", ".join(system.states),
-            ", ".join(system.inputs),
-            ", ".join(system.strata),
-            system.description,
+            s.name,
+            ", ".join(system.states[i] for i in s.locked) or "–",
+            ", ".join(system.inputs[j] for j in s.active),
+            str(system.n - len(s.locked)),
+            "quadrature" if cs.supports_quadrature else "ode",
         )
     out_console.print(table)
+    if task.settings.evaluator != "auto":
+        out_console.print(f"this scenario asks for the {task.settings.evaluator} evaluator")
 
 
 def main() -> None:  # pragma: no cover - entry point for `python -m stratcli`

@@ -1,0 +1,57 @@
+"""Scale: time of one Newton leg for planar chains of 3, 5, 10 and 20 links (one lock each).
+
+Usage: python benchmarks/bench_chains.py [--repeats N]
+
+Each chain is one arm of uniform rods (total length 3 m, total mass 3 kg) on a 10 kg, 1 x 1 m
+base; the leg locks joint 1 and steers every other joint by +0.3 rad and θ by +0.1 rad from a
+bent start. The model comes from physical parameters (closed-form A and dA, no sympy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+from stratcli.models.manipulator import ManipulatorSystem
+from stratcli.models.planar import Arm, Base, Link, PlanarManipulator
+from stratcli.stratified import LegSpec, PlannerSettings, plan_sequence
+
+
+def chain(n: int) -> ManipulatorSystem:
+    links = tuple(Link(3.0 / n, 3.0 / n) for _ in range(n))
+    robot = PlanarManipulator(Base.rectangle(10.0, 1.0, 1.0), (Arm((0.5, 0.0), 0.0, 1, links),))
+    return ManipulatorSystem(robot, lock_sets=[(0,)])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7)
+    args = parser.parse_args()
+    print("| links | status | iterations | final error | median ms | ms per iteration |")
+    print("|---|---|---|---|---|---|")
+    for n in (3, 5, 10, 20):
+        system = chain(n)
+        start = np.concatenate([np.full(n, 0.4), [0.0]])
+        goal = start + np.concatenate([[0.0], np.full(n - 1, 0.3), [0.1]])
+        legs = [LegSpec("S1", goal)]
+        settings = PlannerSettings(continuity="none")
+        result = plan_sequence(system, start, legs, settings)  # warm-up
+        times = []
+        for _ in range(args.repeats):
+            clock = time.perf_counter()
+            result = plan_sequence(system, start, legs, settings)
+            times.append(time.perf_counter() - clock)
+        leg = result.legs[0]
+        median = 1e3 * statistics.median(times)
+        print(
+            f"| {n} | {'ok' if result.ok else 'failed'} | {leg.iterations} | {leg.error:.1e} | "
+            f"{median:.1f} | {median / max(leg.iterations, 1):.1f} |",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main()
