@@ -300,8 +300,11 @@ def _planar_system(spec: PlanarModel) -> System:
         else Base.rectangle(b.mass, b.a, b.b)
     )
     robot = PlanarManipulator(base, tuple(arms))
-    return ManipulatorSystem(robot, lock_sets=lock_sets, description=f"planar manipulator, {k} "
-                             f"joints on {len(arms)} arm(s)")
+    return ManipulatorSystem(
+        robot,
+        lock_sets=lock_sets,
+        description=f"planar manipulator, {k} joints on {len(arms)} arm(s)",
+    )
 
 
 def _custom_system(spec: CustomModel) -> System:

@@ -137,3 +137,10 @@ def test_models_lists_presets():
     result = runner.invoke(app, ["models"])
     assert result.exit_code == 0
     assert "one-arm" in result.output and "S24" in result.output
+
+
+def test_models_describes_a_scenario_model():
+    result = runner.invoke(app, ["models", str(ROOT / "scenarios" / "biped.toml")])
+    assert result.exit_code == 0, result.output
+    assert "x, y, theta, phi1, phi2" in result.output
+    assert "S12" in result.output and "asks for the ode evaluator" in result.output
