@@ -1,0 +1,43 @@
+"""Everything a `plan` run records, assembled in one place and written atomically."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from ..scenario import Task
+from ..stratified import PlanResult
+from .rundir import run_name, write_run
+
+
+def _jsonable(value: Any) -> Any:
+    """NaN (a goal entry "*") becomes null; tuples become lists."""
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def resolved_scenario(task: Task) -> dict[str, Any]:
+    """The validated scenario with every default filled in (`resolved.json`)."""
+    return _jsonable(task.scenario.model_dump(mode="python"))
+
+
+def record_files(
+    task: Task, plan: PlanResult, doc: dict, manifest: dict, animation: bool = True
+) -> dict[str, Any]:
+    """Name → content of every file of the run directory."""
+    return {
+        "scenario.toml": task.text,
+        "resolved.json": resolved_scenario(task),
+        "result.json": doc,
+        "manifest.json": manifest,
+    }
+
+
+def write_record(out: Path, task: Task, files: dict[str, Any], started) -> Path:
+    return write_run(out, run_name(task.scenario.name, task.text, started), files)
