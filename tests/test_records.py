@@ -69,6 +69,8 @@ def test_show_reads_the_record_back(tmp_path):
     assert "sim4_task_c" in shown.output and "S3" in shown.output and "total energy" in shown.output
     data = json.loads(runner.invoke(app, ["show", str(run), "--json"]).stdout)
     assert data["result"]["total_energy"] == read_record(run).result["total_energy"]
+    assert data["mcap"]["topics"]["/state"] >= 200 * 3  # read back from run.mcap
+    assert "run.mcap:" in shown.output
     listed = json.loads(runner.invoke(app, ["runs", "--out", str(tmp_path), "--json"]).stdout)
     assert [r["run"] for r in listed] == [run.name]
 

@@ -8,7 +8,10 @@ from typing import Any
 
 from ..scenario import Task
 from ..stratified import PlanResult
+from .mcap_log import mcap_bytes
+from .plots import render_plots
 from .rundir import run_name, write_run
+from .trajectory import sample
 
 
 def _jsonable(value: Any) -> Any:
@@ -30,13 +33,21 @@ def resolved_scenario(task: Task) -> dict[str, Any]:
 def record_files(
     task: Task, plan: PlanResult, doc: dict, manifest: dict, animation: bool = True
 ) -> dict[str, Any]:
-    """Name → content of every file of the run directory."""
-    return {
+    """Name → content of every file of the run directory.
+
+    The trajectory is re-integrated densely (≥ 200 samples per leg) for the MCAP log and the
+    plots; both are built in memory so the run directory can be written atomically.
+    """
+    traj = sample(plan)
+    files: dict[str, Any] = {
         "scenario.toml": task.text,
         "resolved.json": resolved_scenario(task),
         "result.json": doc,
         "manifest.json": manifest,
+        "run.mcap": mcap_bytes(plan, traj, doc, manifest, task.text, task.scenario.name),
     }
+    files.update(render_plots(plan, traj, task.scenario.name, animation=animation))
+    return files
 
 
 def write_record(out: Path, task: Task, files: dict[str, Any], started) -> Path:

@@ -47,6 +47,29 @@ def read_record(path: Path) -> Record:
     return Record(path, result, manifest)
 
 
+def mcap_summary(path: Path) -> dict[str, Any] | None:
+    """Topics of a record's run.mcap with message counts and time span, read back from the
+    file's summary section (no re-planning); None when the record has no MCAP."""
+    from mcap.reader import make_reader
+
+    file = path / "run.mcap"
+    if not file.is_file():
+        return None
+    with open(file, "rb") as fh:
+        summary = make_reader(fh).get_summary()
+    if summary is None or summary.statistics is None:
+        return None
+    stats = summary.statistics
+    counts = {summary.channels[cid].topic: n for cid, n in stats.channel_message_counts.items()}
+    return {
+        "messages": stats.message_count,
+        "topics": dict(sorted(counts.items())),
+        "duration_s": (stats.message_end_time - stats.message_start_time) / 1e9,
+        "metadata": stats.metadata_count,
+        "attachments": stats.attachment_count,
+    }
+
+
 def list_records(out: Path) -> list[Record]:
     """Complete records under `out`, newest first."""
     if not out.is_dir():
