@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import time
@@ -11,17 +12,30 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from .errors import InputError
+from .compare import (
+    CRITERIA,
+    CRITERION_LABELS,
+    auto_settings,
+    compile_strata,
+    decompose_task,
+    default_jobs,
+)
+from .compare import compare as compare_candidates
+from .decompose import STRATEGIES, format_configuration, moved_coordinates, pi_fraction
+from .errors import InputError, Problem
 from .models.presets import PRESETS, preset
+from .records.comparison import comparison_csv, comparison_document, ranking_png
 from .records.manifest import manifest
 from .records.result import result_document
 from .records.run import record_files, write_record
-from .records.store import list_records, read_record
+from .records.store import list_records, mcap_summary, read_record
 from .regress import DEFAULT_TOLERANCES, baseline_document, compare, load_baseline, summarise
-from .scenario import Task, load_scenario
-from .stratified import plan_sequence
+from .scenario import DecomposeSpec, LegEntry, Task, load_scenario
+from .stratified import plan_sequence, time_scaled
 
 app = typer.Typer(
     name="stratplan",
@@ -37,7 +51,9 @@ err_console = Console(stderr=True)
 def _fail_input(exc: InputError) -> None:
     for problem in exc.problems:
         err_console.print(
-            f"[bold red]error:[/] {problem.render(exc.source)}", highlight=False, soft_wrap=True
+            f"[bold red]error:[/] {escape(problem.render(exc.source))}",
+            highlight=False,
+            soft_wrap=True,
         )
     raise typer.Exit(2)
 
@@ -65,13 +81,26 @@ def plan(
     animation: Annotated[
         bool, typer.Option("--animation/--no-animation", help="Write motion.gif.")
     ] = True,
+    time_scale: Annotated[
+        float | None,
+        typer.Option(
+            min=1e-6,
+            help="Run the planned path S times faster after planning (duration ÷ S, energy × S); "
+            "overrides planner.time_scale.",
+        ),
+    ] = None,
 ) -> None:
     """Plan a scenario: every leg to tolerance, controls continuous across switches.
 
     Writes a run record under OUT and exits 0 (planned), 1 (a leg failed; the record is
     still written, marked failed) or 2 (bad input).
+
+    Auto mode: a scenario with a decompose table and no legs plans every candidate sequence
+    (as compare-sequences does), records the best by the table's criterion and says why.
     """
     task = _load(file)
+    if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
+        _plan_auto_mode(task, out, json_output, quiet, animation)
     started = datetime.now(UTC)
     clock = time.perf_counter()
     for leg in task.legs:  # generate the numeric functions first: start-up, not planning
@@ -80,6 +109,9 @@ def plan(
     clock = time.perf_counter()
     result = plan_sequence(task.system, task.start, task.legs, task.settings)
     planning_time = time.perf_counter() - clock
+    scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
+    if scale != 1.0:
+        result = time_scaled(result, scale)
     reference = task.scenario.reference.energy if task.scenario.reference else None
     doc = result_document(result, task.scenario.name, task.model_name, reference)
     code = 0 if result.ok else 1
@@ -116,9 +148,12 @@ def plan(
 def _print_summary(doc: dict) -> None:
     """Header, one row per leg, total energy beside the paper's: from result.json alone."""
     extras = [x for x in ("soft_start", "full_stop") if doc.get(x)]
+    if doc.get("time_scale", 1.0) != 1.0:
+        extras.append(f"time scale {doc['time_scale']:g}")
     basis = doc["legs"][0]["pieces"][0]["basis"] if doc["legs"] else None
     out_console.print(
-        f"[bold]{doc['scenario']}[/] · model {doc['model']} · {doc['continuity']}"
+        f"[bold]{doc['scenario']}[/] · model {doc['model']} · {doc['continuity']} · "
+        f"objective {doc.get('objective', 'newton')}"
         f"{' · ' + ', '.join(x.replace('_', ' ') for x in extras) if extras else ''} · "
         f"tolerance {doc['tolerance']:g}"
         + (f" · H = {basis['harmonics']}, P = {basis['period']:g}" if basis else ""),
@@ -152,6 +187,17 @@ def _print_summary(doc: dict) -> None:
         line += f" · largest control jump at a switch {worst:.1e}"
     status = "[green]ok[/]" if doc["status"] == "ok" else "[red]failed[/]"
     out_console.print(f"{line} · status {status}", highlight=False)
+    opt = doc.get("optimisation")
+    if opt and opt.get("best") is not None:
+        best = opt["starts"][opt["best"]]
+        energies = ", ".join(_fmt(s["energy"]) for s in opt["starts"])
+        out_console.print(
+            f"energy-optimal: start {best['index'] + 1} of {len(opt['starts'])} "
+            f"({best['iterations']} SQP iterations, projected gradient "
+            f"{best['projected_gradient']:.0e}); the starts ended at {energies}; "
+            f"plain Newton: {_fmt(opt['newton_energy'])}",
+            highlight=False,
+        )
 
 
 @app.command()
@@ -164,10 +210,18 @@ def show(
         record = read_record(run)
     except InputError as exc:
         _fail_input(exc)
+    log = mcap_summary(record.path)
     if json_output:
-        print(json.dumps({"result": record.result, "manifest": record.manifest}, indent=2))
+        doc = {"result": record.result, "manifest": record.manifest, "mcap": log}
+        print(json.dumps(doc, indent=2))
         return
     _print_summary(record.result)
+    if log:
+        topics = ", ".join(f"{t} {n}" for t, n in log["topics"].items())
+        out_console.print(
+            f"run.mcap: {log['messages']} messages over {log['duration_s']:.2f} s ({topics})",
+            highlight=False,
+        )
     m = record.manifest
     out_console.print(
         f"run {record.path.name} · started {m.get('started', '?')} · planning "
@@ -325,6 +379,375 @@ def regress(
 
 def _show(x) -> str:
     return f"{x:.6g}" if isinstance(x, float) else str(x)
+
+
+MaxLengthOption = Annotated[
+    int | None,
+    typer.Option(
+        "--max-length", help="Longest sequence of strata (default: decompose table, else 3).", min=1
+    ),
+]
+JsonOption = Annotated[bool, typer.Option("--json", help="Machine-readable output.")]
+StrategyOption = Annotated[
+    str | None,
+    typer.Option(
+        help="conservative | postponed | both (default: decompose table, else conservative)."
+    ),
+]
+
+
+def _auto(task: Task, max_length, strategy, criterion=None):
+    """[decompose] settings with command-line overrides; bad option values exit 2."""
+    problems = []
+    if strategy is not None and strategy not in (*STRATEGIES, "both"):
+        problems.append(
+            Problem("--strategy", f"must be conservative, postponed or both (got {strategy!r})")
+        )
+    if criterion is not None and criterion not in CRITERIA:
+        problems.append(
+            Problem("--criterion", f"must be one of {', '.join(CRITERIA)} (got {criterion!r})")
+        )
+    if max_length is not None and max_length > 8:
+        problems.append(Problem("--max-length", f"must be at most 8 (got {max_length})"))
+    if problems:
+        _fail_input(InputError(problems))
+    auto = auto_settings(task, max_length=max_length, strategy=strategy, criterion=criterion)
+    try:
+        return auto, decompose_task(task, auto)
+    except InputError as exc:
+        _fail_input(exc)
+        raise  # unreachable
+
+
+def _via_cell(goal) -> str:
+    """A via as fractions of π where exact, then in radians (dim) if that differs."""
+    exact, plain = format_configuration(goal, "pi"), format_configuration(goal, "rad")
+    return exact if exact == plain else f"{exact}\n[dim]{plain}[/]"
+
+
+@app.command("decompose")
+def decompose_command(
+    file: Annotated[Path, typer.Argument(help="Scenario file (TOML); its start and goal.")],
+    max_length: MaxLengthOption = None,
+    strategy: StrategyOption = None,
+    json_output: JsonOption = False,
+) -> None:
+    """List the candidate sequences of strata and their via configurations, without planning.
+
+    Essential coordinates are those whose goal differs from the start; a sequence qualifies
+    when its strata together move all of them (no stratum twice in a row). `conservative`
+    sets every essential coordinate a leg can move to its goal value; `postponed` leaves it to
+    the last leg that can move it. Coordinates a leg's stratum locks keep their value.
+    """
+    task = _load(file)
+    _, dec = _auto(task, max_length, strategy)
+    system = task.system
+    rows = []
+    for k, cand in enumerate(dec.candidates):
+        rows.append(
+            {
+                "index": k + 1,
+                "sequence": list(cand.sequence),
+                "strategy": cand.strategy,
+                "vias": [[None if x != x else float(x) for x in v] for v in cand.vias],
+                "vias_pi": [[pi_fraction(float(x)) for x in v] for v in cand.vias],
+                "loops": list(cand.redundant_legs(task.start)),
+            }
+        )
+    if json_output:
+        doc = {
+            "scenario": task.scenario.name,
+            "coordinates": list(system.states),
+            "essential": [system.states[i] for i in dec.essential],
+            "candidate_strata": list(dec.candidates_strata),
+            "max_length": dec.max_length,
+            "strategies": list(dec.strategies),
+            "sequences": rows,
+        }
+        print(json.dumps(doc, indent=2))
+        return
+    out_console.print(
+        f"[bold]{task.scenario.name}[/] · model {task.model_name} · "
+        f"start {format_configuration(task.start)} → goal {format_configuration(task.goal)} "
+        "(angles in rad; π fractions where exact)",
+        highlight=False,
+    )
+    out_console.print(
+        f"essential coordinates: {', '.join(system.states[i] for i in dec.essential)} "
+        f"({len(dec.essential)} of {system.n})",
+        highlight=False,
+    )
+    moves = [
+        f"{s} moves {', '.join(system.states[i] for i in moved_coordinates(system, s))}"
+        for s in dec.candidates_strata
+    ]
+    out_console.print(f"candidate strata: {'; '.join(moves)}", highlight=False)
+    table = Table(show_edge=False, show_lines=True)
+    table.add_column("#", justify="right")
+    table.add_column("sequence")
+    table.add_column("strategy")
+    vias = max(len(c.legs) for c in dec.candidates) - 1
+    for v in range(vias):
+        table.add_column(f"via {v + 1}" if vias > 1 else "via")
+    table.add_column("loop legs")
+    for row, cand in zip(rows, dec.candidates, strict=True):
+        cells = [_via_cell(leg.goal) for leg in cand.legs[:-1]]
+        table.add_row(
+            str(row["index"]),
+            " → ".join(cand.sequence),
+            cand.strategy,
+            *cells,
+            *([""] * (vias - len(cells))),
+            ", ".join(map(str, row["loops"])) or "–",
+        )
+    out_console.print(table)
+    n, k = len(dec.sequences), len(dec.candidates)
+    out_console.print(
+        f"{n} sequence{'s' * (n != 1)} of at most {dec.max_length} strata × "
+        f"{' and '.join(dec.strategies)} = {k} candidate{'s' * (k != 1)}; a loop leg's goal "
+        f"is its start. Plan and rank them: stratplan compare-sequences {file}",
+        highlight=False,
+    )
+
+
+def _progress(total: int, enabled: bool):
+    """A progress bar on stderr, refreshed by hand: no refresh thread while workers fork."""
+    return Progress(
+        TextColumn("planning sequences"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=err_console,
+        auto_refresh=False,
+        transient=True,
+        disable=not enabled,
+    )
+
+
+def _run_comparison(task: Task, auto, dec, jobs: int, show_progress: bool):
+    compile_time = compile_strata(task.system, dec.candidates_strata)
+    with _progress(len(dec.candidates), show_progress) as bar:
+        job = bar.add_task("plan", total=len(dec.candidates))
+
+        def advance(k: int) -> None:
+            bar.update(job, advance=k)
+            bar.refresh()
+
+        comparison = compare_candidates(
+            task.system,
+            task.start,
+            dec.candidates,
+            task.settings,
+            criterion=auto.criterion,
+            jobs=jobs,
+            progress=advance,
+        )
+    if comparison.best is None or comparison.best.plan is None:
+        first = comparison.best.message if comparison.best else "no candidate sequences"
+        _fail_input(InputError([Problem("decompose", first)], task.source))
+    return comparison, compile_time
+
+
+def _comparison_record(task: Task, auto, dec, comparison, compile_time, started, out, animation):
+    """Write the best sequence's full run record plus comparison.json/csv and ranking.png."""
+    best = comparison.best
+    settings = {
+        k: getattr(task.settings, k)
+        for k in ("continuity", "soft_start", "full_stop", "tolerance", "seed", "objective")
+        if hasattr(task.settings, k)
+    }
+    doc = comparison_document(
+        comparison,
+        dec,
+        scenario=task.scenario.name,
+        model=task.model_name,
+        states=task.system.states,
+        start=task.start,
+        goal=task.goal,
+        settings=settings,
+        compile_time=compile_time,
+    )
+    strategy = "both" if len(auto.strategies) > 1 else auto.strategies[0]
+    entries = [
+        LegEntry(stratum=leg.stratum, method=leg.method, goal=list(leg.goal), duration=leg.duration)
+        for leg in best.candidate.legs
+    ]
+    scenario = task.scenario.model_copy(
+        update={
+            "legs": entries,
+            "decompose": DecomposeSpec(
+                max_length=auto.max_length,
+                strategy=strategy,
+                criterion=auto.criterion,
+                strata=list(auto.strata) if auto.strata else None,
+            ),
+        }
+    )
+    best_task = dataclasses.replace(task, scenario=scenario, legs=list(best.candidate.legs))
+    reference = task.scenario.reference.energy if task.scenario.reference else None
+    result = result_document(best.plan, task.scenario.name, task.model_name, reference)
+    code = 0 if best.ok else 1
+    info = manifest(
+        task.text,
+        ["stratplan", *sys.argv[1:]],
+        task.settings.seed,
+        {
+            "started": started.isoformat(),
+            "finished": datetime.now(UTC).isoformat(),
+            "compile_time_s": compile_time,
+            "planning_time_s": comparison.wall_time,
+        },
+        code,
+    )
+    files = record_files(best_task, best.plan, result, info, animation)
+    files["comparison.json"] = doc
+    files["comparison.csv"] = comparison_csv(doc)
+    files["ranking.png"] = ranking_png(doc)
+    run_dir = write_record(out, best_task, files, started)
+    return doc, result, run_dir, code
+
+
+def _footer(comparison, compile_time, run_dir) -> None:
+    saved = (
+        f"legs planned {comparison.legs_planned} of {comparison.legs_requested} "
+        f"({comparison.legs_saved} shared)"
+        if comparison.shared
+        else f"legs planned {comparison.legs_planned} of {comparison.legs_requested}"
+    )
+    out_console.print(
+        f"{saved} · {len(comparison.outcomes)} sequences in {comparison.wall_time:.2f} s on "
+        f"{comparison.jobs} process{'es' if comparison.jobs > 1 else ''} (model compiled in "
+        f"{compile_time * 1e3:.0f} ms) · record: {run_dir}",
+        highlight=False,
+    )
+
+
+@app.command("compare-sequences")
+def compare_sequences(
+    file: Annotated[Path, typer.Argument(help="Scenario file (TOML); its start and goal.")],
+    max_length: MaxLengthOption = None,
+    strategy: StrategyOption = None,
+    criterion: Annotated[
+        str | None,
+        typer.Option(
+            help="energy | peak-control | excursion | duration "
+            "(default: decompose table, else energy)."
+        ),
+    ] = None,
+    jobs: Annotated[
+        int | None, typer.Option(help="Worker processes (default: all cores).", min=1)
+    ] = None,
+    out: Annotated[Path, typer.Option(help="Directory for run records.")] = Path("runs"),
+    json_output: Annotated[
+        bool, typer.Option("--json", help="Print comparison.json instead of tables.")
+    ] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print nothing but errors.")] = False,
+    animation: Annotated[
+        bool, typer.Option("--animation/--no-animation", help="Write the best's motion.gif.")
+    ] = True,
+) -> None:
+    """Plan every candidate sequence (in parallel, shared prefixes planned once) and rank them.
+
+    Ranked by the criterion among the sequences that reached the goal (ties: lower energy);
+    failed sequences stay in the table with their reason. The record holds the best
+    sequence's full run record plus comparison.json, comparison.csv and ranking.png. Exits 0
+    when some sequence reached the goal, 1 when none did, 2 on bad input.
+    """
+    task = _load(file)
+    auto, dec = _auto(task, max_length, strategy, criterion)
+    started = datetime.now(UTC)
+    interactive = not (quiet or json_output) and err_console.is_terminal
+    comparison, compile_time = _run_comparison(task, auto, dec, jobs or default_jobs(), interactive)
+    doc, _, run_dir, code = _comparison_record(
+        task, auto, dec, comparison, compile_time, started, out, animation
+    )
+    if json_output:
+        print(json.dumps(doc, indent=2))
+    elif not quiet:
+        _print_ranking(task, auto, doc)
+        out_console.print(f"best: {comparison.choice()}", highlight=False)
+        _footer(comparison, compile_time, run_dir)
+    if code:
+        err_console.print(
+            f"[bold red]no sequence reached the goal:[/] {comparison.choice()}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    raise typer.Exit(code)
+
+
+def _print_ranking(task: Task, auto, doc: dict) -> None:
+    s = task.settings
+    out_console.print(
+        f"[bold]{doc['scenario']}[/] · model {doc['model']} · {s.continuity} · objective "
+        f"{getattr(s, 'objective', 'newton')} · tolerance {s.tolerance:g} · essential "
+        f"{', '.join(doc['essential'])} · {doc['sequences']} "
+        f"sequences (max length {doc['max_length']}, {' + '.join(doc['strategies'])}) · "
+        f"ranked by {CRITERION_LABELS[doc['criterion']]}",
+        highlight=False,
+    )
+    table = Table(show_edge=False)
+    columns = ("rank", "sequence", "strategy", "status", "energy", "peak |u|")
+    for col in (*columns, "max excursion", "duration", "planning ms"):
+        table.add_column(
+            col,
+            justify="left" if col in columns[1:4] else "right",
+            no_wrap=col in ("sequence", "strategy"),
+        )
+    for row in doc["rows"]:
+        ok = row["status"] == "ok"
+        style = "bold green" if ok and row["rank"] == 1 else None
+
+        def num(x, fmt="{:,.2f}"):
+            return "–" if x is None else fmt.format(x)
+
+        table.add_row(
+            str(row["rank"]),
+            " → ".join(row["sequence"]),
+            row["strategy"],
+            "ok" if ok else f"[red]failed[/]: {escape(row['reason'])}",
+            num(row["energy"]) if ok else "–",
+            num(row["peak_control"]) if ok else "–",
+            num(row["excursion"], "{:.3f}") if ok else "–",
+            num(row["duration"], "{:g}"),
+            f"{1e3 * row['planning_time_s']:.0f}",
+            style=style,
+        )
+    out_console.print(table)
+
+
+def _plan_auto_mode(task: Task, out: Path, json_output: bool, quiet: bool, animation: bool):
+    """`plan` on a scenario without legs: compare the candidates, record and show the best."""
+    auto, dec = _auto(task, None, None)
+    started = datetime.now(UTC)
+    interactive = not (quiet or json_output) and err_console.is_terminal
+    comparison, compile_time = _run_comparison(task, auto, dec, default_jobs(), interactive)
+    _, result, run_dir, code = _comparison_record(
+        task, auto, dec, comparison, compile_time, started, out, animation
+    )
+    if json_output:
+        print(json.dumps(result, indent=2))
+    elif not quiet:
+        out_console.print(
+            f"auto mode: {len(comparison.outcomes)} candidate sequences (max length "
+            f"{auto.max_length}, {' + '.join(auto.strategies)}) planned; chose "
+            f"{comparison.choice()}",
+            highlight=False,
+        )
+        _print_summary(result)
+        _footer(comparison, compile_time, run_dir)
+        out_console.print(
+            f"the full ranking: comparison.csv in the record, or stratplan compare-sequences "
+            f"{task.source}",
+            highlight=False,
+        )
+    if code:
+        err_console.print(
+            f"[bold red]planning failed:[/] {comparison.choice()}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    raise typer.Exit(code)
 
 
 def main() -> None:  # pragma: no cover - entry point for `python -m stratcli`

@@ -122,3 +122,60 @@ def eliminate(constraints: Constraints) -> Elimination:
     if residual > 1e-9 * (1.0 + float(np.abs(c).max())):
         raise ValueError(f"boundary conditions are inconsistent (residual {residual:.2e})")
     return Elimination(particular, Vt[rank:].T)
+
+
+def sequence_constraints(
+    basis: FourierBasis,
+    durations: list[float],
+    actives: list[tuple[int, ...]],
+    input_names: tuple[str, ...],
+    mode: str,
+    *,
+    soft_start: bool,
+    full_stop: bool,
+) -> Constraints:
+    """All boundary conditions of a whole sequence on the stacked coefficients of its legs.
+
+    The same conditions as `leg_constraints` applied leg by leg, but with the previous leg's
+    final controls as unknowns: used when all legs are optimised together.
+    """
+    order = mode_order(mode)
+    size = basis.size
+    offsets = np.cumsum([0] + [len(a) * size for a in actives])
+    rows: list[np.ndarray] = []
+    labels: list[str] = []
+    names = ("u", "u'")
+
+    def row(terms: list[tuple[int, int, np.ndarray]], label: str) -> None:
+        r = np.zeros(offsets[-1])
+        for leg, a, phi in terms:
+            r[offsets[leg] + a * size : offsets[leg] + (a + 1) * size] += phi
+        rows.append(r)
+        labels.append(label)
+
+    def at(t: float, d: int) -> np.ndarray:
+        return basis.values(t) if d == 0 else basis.derivatives(t)
+
+    last = len(actives) - 1
+    for i, active in enumerate(actives):
+        T = durations[i]
+        for a, k in enumerate(active):
+            name = input_names[k]
+            if i == 0 and soft_start:
+                for d in (0, 1):
+                    row([(0, a, at(0.0, d))], f"soft start: {names[d]}_{name}(0) = 0")
+            if i > 0 and order >= 0:
+                prev = actives[i - 1]
+                for d in range(order + 1):
+                    terms = [(i, a, at(0.0, d))]
+                    if k in prev:
+                        terms.append((i - 1, prev.index(k), -at(durations[i - 1], d)))
+                    row(terms, f"leg {i + 1}: {names[d]}_{name}(0) continues")
+            if i == last and full_stop:
+                for d in (0, 1):
+                    row([(i, a, at(T, d))], f"full stop: {names[d]}_{name}(T) = 0")
+            if i < last and mode.startswith("lr") and k not in actives[i + 1]:
+                for d in range(order + 1):
+                    row([(i, a, at(T, d))], f"leg {i + 1}: {names[d]}_{name}(T) = 0")
+    C = np.array(rows).reshape(len(rows), offsets[-1])
+    return Constraints(C, np.zeros(len(rows)), tuple(labels))

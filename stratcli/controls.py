@@ -92,3 +92,12 @@ def energy(basis: FourierBasis, duration: float, coefficients: np.ndarray) -> fl
     M = basis.gram(duration)
     lam = np.atleast_2d(coefficients)
     return float(np.einsum("ka,ab,kb->", lam, M, lam))
+
+
+def embed(coefficients: np.ndarray, harmonics: int, more: int) -> np.ndarray:
+    """Coefficients (…, 2H+1) in a basis with `more` ≥ H harmonics: the same controls."""
+    c = np.asarray(coefficients, dtype=float)
+    out = np.zeros((*c.shape[:-1], 2 * more + 1))
+    out[..., : harmonics + 1] = c[..., : harmonics + 1]
+    out[..., more + 1 : more + 1 + harmonics] = c[..., harmonics + 1 :]
+    return out

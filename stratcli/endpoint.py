@@ -24,6 +24,7 @@ from .models.system import CompiledStratum
 
 PANEL = 32  # Gauss–Legendre nodes per panel of the composite rule
 MIN_NODES = 128
+MAX_NODES = 1 << 15  # controls this large are wrong anyway; keep memory bounded
 
 
 @lru_cache(maxsize=128)
@@ -44,11 +45,19 @@ def node_count(coefficients: np.ndarray, duration: float, basis: FourierBasis) -
     """Nodes needed for ~1e-12 accuracy: the integrand oscillates with the joint speed.
 
     A fixed rule is not enough: at |λ| ≈ 20 a 64-node rule was 2e-3 rad off (DESIGN §1).
+    The speed bound is Σ_k max|u_k| sampled on a fine grid (the coefficients themselves can
+    be large and cancel: the basis is far from orthogonal on a leg shorter than its period).
     """
-    speed = float(np.abs(coefficients).sum())  # bound on Σ_k max|u_k|
-    wiggles = duration * (1.5 * speed + 2.0 * basis.omega[-1] if basis.harmonics else speed)
-    need = max(MIN_NODES, int(np.ceil(wiggles)))
+    u = _speed_grid(basis, float(duration)) @ np.atleast_2d(coefficients).T
+    speed = 1.1 * float(np.abs(u).sum(axis=1).max())
+    wiggles = duration * (4.0 * speed + 4.0 * basis.omega[-1] if basis.harmonics else speed)
+    need = min(max(MIN_NODES, int(np.ceil(wiggles))), MAX_NODES)
     return PANEL * int(np.ceil(need / PANEL))
+
+
+@lru_cache(maxsize=64)
+def _speed_grid(basis: FourierBasis, duration: float) -> np.ndarray:
+    return basis.values(np.linspace(0.0, duration, 97))
 
 
 class _Endpoint:
@@ -114,6 +123,30 @@ class QuadratureEndpoint(_Endpoint):
         JQ = weighted.T @ np.concatenate([Phi, Psi])  # (nQ * m, size)
         J[self.Q] = JQ.reshape(self.Q.size, -1)
         return end, J
+
+    def hessian(self, lam: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """`Σ_i weights_i ∇²k_i(λ)` (p x p): exact second derivatives of the end point.
+
+        Explicit coordinates are linear in λ; a quadrature row's integrand `G_Q(q_E(t)) u(t)`
+        is bilinear in (q_E, u) to first order, so its Hessian needs ∂G_Q/∂q_E and ∂²G_Q/∂q_E².
+        """
+        L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
+        p = self.n_coefficients
+        omega = np.asarray(weights, dtype=float)[self.Q]
+        if self.Q.size == 0 or not np.any(omega):
+            return np.zeros((p, p))
+        t, w, Phi, Psi = self._table(node_count(L, self.duration, self.basis))
+        u = Phi @ L.T
+        q = np.broadcast_to(self.q0, (t.size, self.q0.size)).copy()
+        q[:, self.E] += (Psi @ L.T) @ self.C.T
+        D1 = np.einsum("i,kiae->kae", omega, self.cs.quadrature_rows_d(q))  # (K, m, nE)
+        D2 = np.einsum("i,kiaef,ka->kef", omega, self.cs.quadrature_rows_dd(q), u)  # (K,nE,nE)
+        W1 = (D1 @ self.C) * w[:, None, None]  # (K, m, m): ∂G_a/∂q · ∂q/∂λ_a'
+        W2 = np.einsum("ea,kef,fc->kac", self.C, D2, self.C) * w[:, None, None]
+        H = np.einsum("kac,kb,kd->abcd", W1, Phi, Psi)
+        H = H + H.transpose(2, 3, 0, 1)
+        H += np.einsum("kac,kb,kd->abcd", W2, Psi, Psi)
+        return H.reshape(p, p)
 
     def _explicit_jacobian(self) -> np.ndarray:
         J = np.zeros((self.q0.size, self.n_coefficients))

@@ -17,7 +17,12 @@ DEFAULT_TOLERANCES = {"energy_rel": 1e-6, "error_abs": 1e-6}
 def summarise(path: Path) -> dict[str, Any]:
     """Plan one scenario and keep what the baseline compares."""
     task = load_scenario(path)
-    result = plan_sequence(task.system, task.start, task.legs, task.settings)
+    if not task.legs:  # auto mode ([decompose], no [[legs]]): the best candidate sequence
+        from .compare import default_jobs, plan_auto
+
+        result = plan_auto(task, jobs=default_jobs())[0]
+    else:
+        result = plan_sequence(task.system, task.start, task.legs, task.settings)
     return {
         "status": "ok" if result.ok else "failed",
         "total_energy": result.total_energy,

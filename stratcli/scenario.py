@@ -118,6 +118,9 @@ class PlannerSpec(_Strict):
     restarts: int = Field(11, ge=0)
     seed: int = Field(0, ge=0)
     evaluator: Literal["auto", "quadrature", "ode"] = "auto"
+    objective: Literal["energy", "newton"] = "energy"
+    starts: int = Field(6, ge=1, le=64)
+    time_scale: float = Field(1.0, gt=0)
 
 
 class TaskSpec(_Strict):
@@ -137,13 +140,23 @@ class ReferenceSpec(_Strict):
     source: str = ""
 
 
+class DecomposeSpec(_Strict):
+    """Auto mode (paper §5.3): stratplan finds the sequences of strata and their vias."""
+
+    max_length: int = Field(3, ge=1, le=8)
+    strategy: Literal["conservative", "postponed", "both"] = "conservative"
+    criterion: Literal["energy", "peak-control", "excursion", "duration"] = "energy"
+    strata: list[str] | None = Field(None, min_length=1, description="candidates (default all)")
+
+
 class Scenario(_Strict):
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")]
     description: str = ""
     model: ModelSpec
     task: TaskSpec
     planner: PlannerSpec = PlannerSpec()
-    legs: list[LegEntry] = Field(min_length=1)
+    legs: list[LegEntry] | None = Field(None, min_length=1)
+    decompose: DecomposeSpec | None = None
     reference: ReferenceSpec | None = None
 
 
@@ -385,7 +398,23 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
     goal = vector(scenario.task.goal, "task.goal")
     p = scenario.planner
     legs: list[LegSpec] = []
-    for i, entry in enumerate(scenario.legs):
+    if scenario.legs is None and scenario.decompose is None:
+        problems.append(
+            Problem(
+                "legs",
+                "give either [[legs]] (the strata in order) or a [decompose] table (auto "
+                "mode: stratplan finds the sequence); the scenario has neither",
+            )
+        )
+    for i, name in enumerate((scenario.decompose.strata or []) if scenario.decompose else []):
+        if name not in system.strata:
+            problems.append(
+                Problem(
+                    f"decompose.strata[{i}]",
+                    f"unknown stratum {name!r} (this model has: {', '.join(system.strata)})",
+                )
+            )
+    for i, entry in enumerate(scenario.legs or []):
         where = f"legs[{i}]"
         if entry.stratum not in system.strata:
             problems.append(
@@ -436,6 +465,8 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
         restarts=p.restarts,
         seed=p.seed,
         evaluator=p.evaluator,
+        objective=p.objective,
+        starts=p.starts,
     )
     if p.evaluator == "quadrature":
         for leg in legs:

@@ -6,7 +6,7 @@ reached, and its boundary conditions take the previous leg's final control value
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -29,6 +29,8 @@ class PlannerSettings:
     restarts: int = 11
     seed: int = 0
     evaluator: str = "auto"  # "auto" | "quadrature" | "ode"
+    objective: str = "energy"  # "energy" (minimum ∫|u|², beyond the paper) | "newton" (paper)
+    starts: int = 6  # energy objective: number of deterministic starts
 
     def __post_init__(self) -> None:
         if self.continuity not in MODES:
@@ -98,6 +100,8 @@ class PlanResult:
     switches: list[Switch] = field(default_factory=list)
     planned_legs: int = 0
     message: str = ""
+    optimisation: object | None = None  # planners.energy.EnergyOptimum for objective "energy"
+    time_scale: float = 1.0
 
     @property
     def ok(self) -> bool:
@@ -106,6 +110,23 @@ class PlanResult:
             and all(leg.converged for leg in self.legs)
             and (len(self.legs) == self.planned_legs)
         )
+
+    def add_leg(self, leg: LegResult, previous: tuple[np.ndarray, np.ndarray] | None) -> None:
+        """Append a planned leg; record the switch from the previous one (whose final control
+        values and derivatives are `previous`), and the failure message if it failed."""
+        if self.legs:
+            zero, basis, m = np.array([0.0]), self.settings.basis, self.system.m
+            self.switches.append(
+                Switch(
+                    leg.t0,
+                    self.legs[-1].index,
+                    leg.controls(basis, zero, m)[0] - previous[0],
+                    leg.controls(basis, zero, m, True)[0] - previous[1],
+                )
+            )
+        self.legs.append(leg)
+        if not leg.converged:
+            self.message = failure_message(leg, self.settings)
 
     @property
     def total_energy(self) -> float:
@@ -171,9 +192,169 @@ def _targets(system: System, stratum, leg: LegSpec) -> tuple[int, ...]:
 
 
 def plan_sequence(
-    system: System, start: np.ndarray, legs: list[LegSpec], settings: PlannerSettings
+    system: System,
+    start: np.ndarray,
+    legs: list[LegSpec],
+    settings: PlannerSettings,
+    warm_start: list[np.ndarray] | None = None,
 ) -> PlanResult:
-    """Plan all legs in order with the concatenation conditions of `settings.continuity`."""
+    """Plan a sequence of legs with the settings' objective.
+
+    `newton`: the paper's method, leg by leg. `energy`: Newton first (a feasible plan), then
+    the minimum-energy controls over all legs together from `settings.starts` deterministic
+    starts, then a final leg-by-leg pass that re-chains the legs from the configurations they
+    actually reach (Newton polishes a leg only if it is off by more than the tolerance).
+    `warm_start` (flat coefficients per leg, feasible) is tried as an extra first start.
+    """
+    start = np.asarray(start, dtype=float)
+    newton = _plan_legs(system, start, legs, settings)
+    if settings.objective == "newton" or not newton.ok:
+        return newton
+    from .planners.energy import optimise_energy
+
+    # Starts: the Newton plan, then Newton plans from more widely perturbed seeded starts
+    # (cheap, feasible, and in different basins: energy varies by orders of magnitude).
+    seeds = [newton]
+    for k in range(1, settings.starts):
+        other = _plan_legs(system, start, legs, settings, seed=settings.seed + 7919 * k,
+                           spread=0.02 + 0.3 * k)  # fmt: skip
+        if other.ok:
+            seeds.append(other)
+    nominal = [start]
+    for leg, planned in zip(legs[:-1], newton.legs[:-1], strict=True):
+        nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
+    targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
+    stacked = [np.concatenate([leg.coefficients.ravel() for leg in p.legs]) for p in seeds]
+    if warm_start is not None:
+        stacked.insert(0, np.concatenate([np.ravel(c) for c in warm_start]))
+    optimum = optimise_energy(system, nominal, legs, settings, targets, stacked)
+    optimum.newton_energy = newton.total_energy
+    newton.optimisation = optimum
+    if optimum.coefficients is None:
+        return newton
+    final = _plan_legs(system, start, legs, settings, initial=optimum.coefficients)
+    final.optimisation = optimum
+    return final if final.ok and final.total_energy <= newton.total_energy else newton
+
+
+def time_scaled(plan: PlanResult, s: float) -> PlanResult:
+    """The same path run `s` times faster (paper §6): `u(t) → s·u(s·t)`.
+
+    Durations and switch times are divided by `s`, the basis period too (so every piece is
+    still a Fourier series of the documented form), coefficients are multiplied by `s`;
+    energies grow by `s`, value jumps by `s` and derivative jumps by `s²`.
+    """
+    basis = FourierBasis(plan.settings.basis.harmonics, plan.settings.basis.period / s)
+    legs = [
+        replace(
+            leg,
+            t0=leg.t0 / s,
+            duration=leg.duration / s,
+            coefficients=leg.coefficients * s,
+            energy=energy(basis, leg.duration / s, leg.coefficients * s),
+        )
+        for leg in plan.legs
+    ]
+    switches = [
+        Switch(sw.time / s, sw.after_leg, sw.jump * s, sw.jump_derivative * s * s)
+        for sw in plan.switches
+    ]
+    out = replace(plan, legs=legs, switches=switches, settings=replace(plan.settings, basis=basis))
+    out.time_scale = plan.time_scale * s
+    return out
+
+
+def plan_one_leg(
+    system: System,
+    settings: PlannerSettings,
+    q: np.ndarray,
+    previous: tuple[np.ndarray, np.ndarray] | None,
+    leg: LegSpec,
+    index: int,
+    next_active: tuple[int, ...] | None,
+    t0: float,
+    newton: NewtonSettings,
+    initial: np.ndarray | None = None,
+) -> LegResult:
+    """Plan leg `index` from configuration `q`.
+
+    `previous` holds all inputs' values and derivatives at the end of the previous leg (None
+    for the first leg); `next_active` the next leg's inputs (None for the last leg).
+    """
+    basis = settings.basis
+    stratum = system.stratum(leg.stratum)
+    endpoint = make_endpoint(system.compiled(stratum), q, basis, leg.duration, settings.evaluator)
+    elimination = eliminate(
+        leg_constraints(
+            basis,
+            leg.duration,
+            stratum.active,
+            system.inputs,
+            settings.continuity,
+            previous=previous,
+            next_active=next_active,
+            soft_start=settings.soft_start,
+            full_stop=settings.full_stop,
+        )
+    )
+    targets = np.array(_targets(system, stratum, leg), dtype=int)
+    solution = plan_leg(
+        endpoint, leg.goal, targets, elimination, newton, stream=index, initial=initial
+    )
+    return LegResult(
+        index=index,
+        stratum=stratum.name,
+        method=leg.method,
+        evaluator=endpoint.kind,
+        active=stratum.active,
+        locked=stratum.locked,
+        targets=tuple(targets.tolist()),
+        t0=t0,
+        duration=leg.duration,
+        start=np.array(q, dtype=float),
+        goal=np.asarray(leg.goal, dtype=float).copy(),
+        end=solution.end.copy(),
+        coefficients=solution.coefficients,
+        error=solution.error,
+        iterations=solution.iterations,
+        attempts=solution.attempts,
+        energy=energy(basis, leg.duration, solution.coefficients),
+        converged=solution.converged,
+        free_coefficients=elimination.free,
+    )
+
+
+def failure_message(leg: LegResult, settings: PlannerSettings) -> str:
+    """What a user reads when a leg does not converge: which leg, how far off, what to try."""
+    return (
+        f"leg {leg.index + 1} on {leg.stratum} did not reach its goal: error "
+        f"{leg.error:.3g} > tolerance {settings.tolerance:.3g} after "
+        f"{leg.iterations} iterations in {leg.attempts} attempts; try more "
+        "harmonics (planner.basis.harmonics), a longer leg, or a via configuration "
+        "closer to the start"
+    )
+
+
+def end_controls(leg: LegResult, basis: FourierBasis, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Values and derivatives of all m inputs at the end of a leg (the next leg's start)."""
+    T = np.array([leg.duration])
+    return leg.controls(basis, T, m)[0], leg.controls(basis, T, m, True)[0]
+
+
+def _plan_legs(
+    system: System,
+    start: np.ndarray,
+    legs: list[LegSpec],
+    settings: PlannerSettings,
+    initial: list[np.ndarray] | None = None,
+    seed: int | None = None,
+    spread: float = 0.02,
+) -> PlanResult:
+    """Plan all legs in order with the concatenation conditions of `settings.continuity`.
+
+    `initial` (flat coefficients per leg) seeds each leg's first Newton start; a leg that is
+    already within tolerance then takes no iteration.
+    """
     start = np.asarray(start, dtype=float)
     check_legs(system, start, legs, settings)
     basis = settings.basis
@@ -182,75 +363,30 @@ def plan_sequence(
     t0 = 0.0
     previous = None
     newton = NewtonSettings(
-        settings.tolerance, settings.max_iterations, settings.restarts, settings.seed
+        settings.tolerance,
+        settings.max_iterations,
+        settings.restarts,
+        settings.seed if seed is None else seed,
+        spread,
     )
     for i, leg in enumerate(legs):
-        stratum = system.stratum(leg.stratum)
-        cs = system.compiled(stratum)
-        endpoint = make_endpoint(cs, q, basis, leg.duration, settings.evaluator)
         next_active = None if i + 1 == len(legs) else system.stratum(legs[i + 1].stratum).active
-        elimination = eliminate(
-            leg_constraints(
-                basis,
-                leg.duration,
-                stratum.active,
-                system.inputs,
-                settings.continuity,
-                previous=previous,
-                next_active=next_active,
-                soft_start=settings.soft_start,
-                full_stop=settings.full_stop,
-            )
+        leg_result = plan_one_leg(
+            system,
+            settings,
+            q,
+            previous,
+            leg,
+            i,
+            next_active,
+            t0,
+            newton,
+            None if initial is None else initial[i],
         )
-        targets = np.array(_targets(system, stratum, leg), dtype=int)
-        solution = plan_leg(endpoint, leg.goal, targets, elimination, newton, stream=i)
-        leg_result = LegResult(
-            index=i,
-            stratum=stratum.name,
-            method=leg.method,
-            evaluator=endpoint.kind,
-            active=stratum.active,
-            locked=stratum.locked,
-            targets=tuple(targets.tolist()),
-            t0=t0,
-            duration=leg.duration,
-            start=q.copy(),
-            goal=np.asarray(leg.goal, dtype=float).copy(),
-            end=solution.end.copy(),
-            coefficients=solution.coefficients,
-            error=solution.error,
-            iterations=solution.iterations,
-            attempts=solution.attempts,
-            energy=energy(basis, leg.duration, solution.coefficients),
-            converged=solution.converged,
-            free_coefficients=elimination.free,
-        )
-        if result.legs:
-            prev_leg = result.legs[-1]
-            result.switches.append(
-                Switch(
-                    time=t0,
-                    after_leg=prev_leg.index,
-                    jump=leg_result.controls(basis, np.array([0.0]), system.m)[0] - previous[0],
-                    jump_derivative=leg_result.controls(basis, np.array([0.0]), system.m, True)[0]
-                    - previous[1],
-                )
-            )
-        result.legs.append(leg_result)
-        if not solution.converged:
-            result.message = (
-                f"leg {i + 1} on {stratum.name} did not reach its goal: error "
-                f"{solution.error:.3g} > tolerance {settings.tolerance:.3g} after "
-                f"{solution.iterations} iterations in {solution.attempts} attempts; try more "
-                "harmonics (planner.basis.harmonics), a longer leg, or a via configuration "
-                "closer to the start"
-            )
+        result.add_leg(leg_result, previous)
+        if not leg_result.converged:
             break
-        T = np.array([leg.duration])
-        previous = (
-            leg_result.controls(basis, T, system.m)[0],
-            leg_result.controls(basis, T, system.m, True)[0],
-        )
-        q = solution.end.copy()
+        previous = end_controls(leg_result, basis, system.m)
+        q = leg_result.end.copy()
         t0 += leg.duration
     return result

@@ -69,8 +69,20 @@ class NumericManipulatorStratum:
         def rows_d(q):  # its derivatives along the joints: (..., 1, m, k)
             return connection(robot, q[..., :k])[1][..., None, act, :]
 
+        def rows_dd(q):  # second derivatives by central differences of dA: (..., 1, m, k, k)
+            h = 1e-5
+            out = np.empty((*q.shape[:-1], 1, m, k, k))
+            for c in range(k):
+                step = np.zeros(k)
+                step[c] = h
+                plus = connection(robot, q[..., :k] + step)[1][..., act, :]
+                minus = connection(robot, q[..., :k] - step)[1][..., act, :]
+                out[..., 0, :, :, c] = (plus - minus) / (2 * h)
+            return out
+
         self.G, self.dG = G, dG
         self.quadrature_rows, self.quadrature_rows_d = rows, rows_d
+        self.quadrature_rows_dd = rows_dd
 
 
 class ManipulatorSystem(System):

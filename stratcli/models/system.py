@@ -114,6 +114,20 @@ class CompiledStratum:
             self.quadrature_rows = _ArrayFunction(rows, q)
             self.quadrature_rows_d = _ArrayFunction(d_rows, q)
 
+    def quadrature_rows_dd(self, q: np.ndarray, h: float = 1e-5) -> np.ndarray:
+        """Second derivatives of the quadrature rows along explicit coordinates, (..., nQ, m,
+        nE, nE), by central differences of the exact first derivatives (accurate to ~1e-10,
+        plenty for the Hessian of the energy objective; no sympy compilation at start-up).
+        """
+        out = np.empty((*self.quadrature_rows_d(q).shape, len(self.explicit)))
+        for c, k in enumerate(self.explicit):
+            step = np.zeros(q.shape[-1])
+            step[k] = h
+            out[..., c] = (self.quadrature_rows_d(q + step) - self.quadrature_rows_d(q - step)) / (
+                2 * h
+            )
+        return out
+
     @property
     def supports_quadrature(self) -> bool:
         """True when every non-constant row depends only on constant-row coordinates."""

@@ -31,6 +31,7 @@ class NewtonSettings:
     max_iterations: int = 100
     restarts: int = 11
     seed: int = 0
+    spread: float = 0.02  # relative size of the seeded perturbation of the first start
 
 
 @dataclass
@@ -65,8 +66,13 @@ def plan_leg(
     elimination: Elimination,
     settings: NewtonSettings,
     stream: int = 0,
+    initial: np.ndarray | None = None,
 ) -> LegSolution:
-    """Steer `endpoint.q0` to `goal` on the coordinates `targets`; deterministic per `stream`."""
+    """Steer `endpoint.q0` to `goal` on the coordinates `targets`; deterministic per `stream`.
+
+    `initial` (flat coefficients) replaces the first start, e.g. to polish a solution found by
+    another method; it is projected onto the boundary conditions first.
+    """
     goal = np.asarray(goal, dtype=float)
     z_line = elimination.project(_initial_coefficients(endpoint, goal, targets))
     scale = 1.0 + float(np.abs(goal[targets] - endpoint.q0[targets]).max(initial=0.0))
@@ -75,8 +81,10 @@ def plan_leg(
     for attempt in range(settings.restarts + 1):
         rng = np.random.default_rng([settings.seed, stream, attempt])
         cycle, mu0 = divmod(attempt, len(DAMPING))
-        spread = (0.02 if cycle == 0 else 0.25 * cycle) * scale
+        spread = (settings.spread if cycle == 0 else 0.25 * cycle) * scale
         z0 = z_line + rng.normal(0.0, spread, elimination.free)
+        if attempt == 0 and initial is not None:
+            z0 = elimination.project(np.asarray(initial, dtype=float))
         solution = _newton(endpoint, goal, targets, elimination, z0, settings, DAMPING[mu0])
         total += solution.iterations
         if best is None or solution.error < best.error:

@@ -21,6 +21,31 @@ def _vec(x: np.ndarray) -> list[float | None]:
     return [None if math.isnan(v) else float(v) for v in np.asarray(x, dtype=float)]
 
 
+def _optimisation(plan: PlanResult) -> dict[str, Any] | None:
+    """Every start of the energy-optimal search (the record keeps them all)."""
+    opt = plan.optimisation
+    if opt is None:
+        return None
+    return {
+        "method": "feasible SQP, exact Hessian of the Lagrangian",
+        "best": opt.best,
+        "newton_energy": opt.newton_energy,
+        "starts": [
+            {
+                "index": o.index,
+                "from": o.kind,
+                "energy": o.energy,
+                "goal_error": o.goal_error,
+                "projected_gradient": o.projected_gradient,
+                "iterations": o.iterations,
+                "converged": o.converged,
+                "seconds": o.seconds,
+            }
+            for o in opt.outcomes
+        ],
+    }
+
+
 def result_document(
     plan: PlanResult, scenario: str, model: str, reference_energy: float | None = None
 ) -> dict[str, Any]:
@@ -93,6 +118,9 @@ def result_document(
         "full_stop": settings.full_stop,
         "tolerance": settings.tolerance,
         "seed": settings.seed,
+        "objective": settings.objective,
+        "time_scale": plan.time_scale,
+        "optimisation": _optimisation(plan),
         "legs": legs,
         "switches": switches,
     }

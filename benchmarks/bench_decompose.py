@@ -1,0 +1,180 @@
+"""compare-sequences on the paper's Sim 4 task: all sequences up to length 3, both strategies.
+
+Usage: python benchmarks/bench_decompose.py [--repeats N] [--jobs 1 2] [--no-energy]
+
+Times the comparison itself (decomposition, planning every candidate with shared prefixes,
+ranking) after a warm-up; model compilation (once per stratum, in the parent before workers
+fork) and process start-up are reported separately, as in bench_plan.py. Also reported: the
+median of the per-sequence planning times (a sequence's own legs, shared ones included), how
+many legs sharing saved, the same work without sharing (plan_sequence per sequence, one
+process), and the CPU time the workers used (on a busy machine wall time also measures the
+neighbours). The energy-optimal objective is timed once per job count when the planner
+settings have an `objective`; otherwise that line is skipped, saying so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import multiprocessing
+import os
+import platform
+import re
+import statistics
+import subprocess
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from stratcli.compare import compare, compile_strata
+from stratcli.decompose import decompose
+from stratcli.scenario import PlannerSpec, load_scenario
+from stratcli.stratified import plan_sequence
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIO = ROOT / "scenarios" / "sim4_auto.toml"
+
+
+def _with_objective(settings, objective: str):
+    if "objective" not in {f.name for f in dataclasses.fields(settings)}:
+        return None
+    return dataclasses.replace(settings, objective=objective)
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and its finished children."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def _busy(n: int) -> int:
+    s = 0
+    for i in range(n):
+        s += i * i
+    return s
+
+
+def parallel_capacity(jobs: int, n: int = 3_000_000) -> float:
+    """Speed-up of `jobs` processes on a pure CPU loop right now (neighbours take cores too)."""
+    clock = time.perf_counter()
+    for _ in range(jobs):
+        _busy(n)
+    serial = time.perf_counter() - clock
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+        clock = time.perf_counter()
+        list(pool.map(_busy, [n] * jobs))
+        parallel = time.perf_counter() - clock
+    return serial / parallel
+
+
+def run(task, candidates, settings, jobs: int, repeats: int) -> dict:
+    walls, cpus, result = [], [], None
+    for _ in range(repeats):
+        cpu = _cpu()
+        result = compare(task.system, task.start, candidates, settings, jobs=jobs)
+        walls.append(result.wall_time)
+        cpus.append(_cpu() - cpu)
+    per_sequence = [o.planning_time for o in result.outcomes]
+    return {
+        "jobs": jobs,
+        "median_s": statistics.median(walls),
+        "min_s": min(walls),
+        "cpu_s": statistics.median(cpus),
+        "per_sequence_ms": 1e3 * statistics.median(per_sequence),
+        "ok": sum(o.ok for o in result.outcomes),
+        "requested": result.legs_requested,
+        "planned": result.legs_planned,
+        "best": f"{result.best.candidate.label} {result.best.candidate.strategy}",
+        "best_energy": result.best.energy,
+    }
+
+
+def without_sharing(task, candidates, settings) -> float:
+    clock = time.perf_counter()
+    for cand in candidates:
+        plan_sequence(task.system, task.start, list(cand.legs), settings)
+    return time.perf_counter() - clock
+
+
+def end_to_end(jobs: int, out: Path) -> float | None:
+    """`stratplan compare-sequences` as a user runs it (start-up, compile, records), seconds.
+
+    With `objective = "newton"` in the scenario; None when scenarios cannot set it yet.
+    """
+    if "objective" not in PlannerSpec.model_fields:
+        return None
+    text = re.sub(r"(?m)^objective\s*=.*$", "", SCENARIO.read_text())
+    text = text.replace("[planner]", '[planner]\nobjective = "newton"', 1)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "sim4_auto_newton.toml"
+    path.write_text(text)
+    clock = time.perf_counter()
+    command = [sys.executable, "-m", "stratcli", "compare-sequences", str(path)]
+    options = ["--strategy", "both", "--jobs", str(jobs), "--out", str(out), "--quiet"]
+    subprocess.run([*command, *options, "--no-animation"], check=False)
+    return time.perf_counter() - clock
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--jobs", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--no-energy", action="store_true", help="skip the energy objective")
+    parser.add_argument("--end-to-end", action="store_true", help="also time the command")
+    args = parser.parse_args()
+    task = load_scenario(SCENARIO)
+    dec = decompose(
+        task.system, task.start, task.goal, max_length=3, strategies=("conservative", "postponed")
+    )
+    compile_time = compile_strata(task.system, dec.candidates_strata)
+    print(
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
+        f"{platform.python_version()}; Sim 4, {len(dec.sequences)} sequences x "
+        f"{len(dec.strategies)} strategies = {len(dec.candidates)} candidates; model compiled "
+        f"in {compile_time * 1e3:.0f} ms; load average {os.getloadavg()[0]:.2f}; a CPU "
+        f"loop ran {parallel_capacity(max(args.jobs)):.2f}x faster on {max(args.jobs)} "
+        "processes than on one\n"
+    )
+    print(
+        "| objective | jobs | median wall s | min wall s | CPU s | per-sequence median ms | "
+        "reached goal | legs planned / requested | best |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    newton = _with_objective(task.settings, "newton") or task.settings
+    compare(task.system, task.start, dec.candidates, newton, jobs=1)  # warm-up (caches)
+    objectives = [("newton", newton, args.repeats)]
+    energy = _with_objective(task.settings, "energy")
+    if args.no_energy:
+        pass
+    elif energy is None:
+        print("(energy objective: not in the planner settings yet, skipped)")
+    else:
+        objectives.append(("energy", energy, 1))
+    for name, settings, repeats in objectives:
+        for jobs in args.jobs:
+            r = run(task, dec.candidates, settings, jobs, repeats)
+            print(
+                f"| {name} | {jobs} | {r['median_s']:.2f} | {r['min_s']:.2f} | {r['cpu_s']:.2f} "
+                f"| {r['per_sequence_ms']:.0f} | {r['ok']}/{len(dec.candidates)} | "
+                f"{r['planned']} / {r['requested']} ({r['requested'] - r['planned']} saved) | "
+                f"{r['best']} {r['best_energy']:.2f} |",
+                flush=True,
+            )
+    alone = without_sharing(task, dec.candidates, newton)
+    print(f"\nnewton without sharing (plan_sequence per candidate, 1 process): {alone:.2f} s")
+    if args.end_to_end:
+        out = Path(os.environ.get("TMPDIR", "/tmp")) / "bench_decompose_runs"
+        for jobs in args.jobs:
+            seconds = end_to_end(jobs, out)
+            if seconds is None:
+                print("end to end: scenarios cannot set planner.objective yet, skipped")
+                break
+            print(
+                f"stratplan compare-sequences --strategy both --jobs {jobs} --no-animation "
+                f"(whole command: start-up, compile, records; Newton): {seconds:.2f} s"
+            )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,204 @@
+"""The comparison record: `comparison.json`, `comparison.csv` and the bar chart `ranking.png`.
+
+`comparison.json` (schema "stratplan.comparison/1") holds the task, the decomposition
+(essential coordinates, candidate strata, strategies) and one row per candidate sequence in
+rank order: its legs' strata and goals (the via configurations), status and reason, the
+ranking quantities and the planning time. The best sequence's full run record (result.json
+and the rest) sits beside it in the same run directory.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from typing import Any
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ..compare import CRITERION_LABELS, Comparison, Outcome
+from ..decompose import Decomposition, pi_fraction
+
+SCHEMA = "stratplan.comparison/1"
+TIMING_KEYS = ("planning_time_s",)  # the only row entries that vary between identical runs
+
+
+def _num(x: float) -> float | None:
+    return None if x is None or (isinstance(x, float) and math.isnan(x)) else float(x)
+
+
+def _vec(q) -> list[float | None]:
+    return [_num(float(x)) for x in q]
+
+
+def _pi(q) -> list[str | None]:
+    return [None if math.isnan(float(x)) else pi_fraction(float(x)) for x in q]
+
+
+def _leg_row(o: Outcome, i: int, leg) -> dict[str, Any]:
+    planned = None if o.plan is None or i >= len(o.plan.legs) else o.plan.legs[i]
+    return {
+        "stratum": leg.stratum,
+        "goal": _vec(leg.goal),
+        "error": None if planned is None else planned.error,
+        "converged": None if planned is None else planned.converged,
+        "energy": None if planned is None else planned.energy,
+    }
+
+
+def _row(o: Outcome) -> dict[str, Any]:
+    cand = o.candidate
+    return {
+        "rank": o.rank,
+        "sequence": list(cand.sequence),
+        "strategy": cand.strategy,
+        "status": o.status,
+        "reason": o.reason,
+        "message": o.message,
+        "energy": _num(o.energy),
+        "peak_control": _num(o.peak_control),
+        "excursion": _num(o.excursion),
+        "duration": _num(o.duration),
+        "planning_time_s": o.planning_time,
+        "vias": [_vec(v) for v in cand.vias],
+        "vias_pi": [_pi(v) for v in cand.vias],
+        "legs": [_leg_row(o, i, leg) for i, leg in enumerate(cand.legs)],
+    }
+
+
+def comparison_document(
+    comparison: Comparison,
+    decomposition: Decomposition,
+    *,
+    scenario: str,
+    model: str,
+    states: tuple[str, ...],
+    start,
+    goal,
+    settings: dict[str, Any],
+    compile_time: float,
+) -> dict[str, Any]:
+    """The JSON-ready comparison; rows in rank order (best first)."""
+    rows = [_row(comparison.outcomes[k]) for k in comparison.ranking]
+    best = comparison.best
+    return {
+        "schema": SCHEMA,
+        "scenario": scenario,
+        "model": model,
+        "coordinates": list(states),
+        "start": _vec(start),
+        "goal": _vec(goal),
+        "essential": [states[i] for i in decomposition.essential],
+        "candidate_strata": list(decomposition.candidates_strata),
+        "max_length": decomposition.max_length,
+        "strategies": list(decomposition.strategies),
+        "criterion": comparison.criterion,
+        "settings": settings,
+        "best": 0 if best is not None and best.ok else None,
+        "choice": comparison.choice(),
+        "sequences": len(rows),
+        "reached_goal": sum(1 for o in comparison.outcomes if o.ok),
+        "shared_prefixes": comparison.shared,
+        "legs_requested": comparison.legs_requested,
+        "legs_planned": comparison.legs_planned,
+        "legs_saved": comparison.legs_saved,
+        "jobs": comparison.jobs,
+        "wall_time_s": comparison.wall_time,
+        "compile_time_s": compile_time,
+        "rows": rows,
+    }
+
+
+CSV_COLUMNS = (
+    "rank",
+    "sequence",
+    "strategy",
+    "status",
+    "energy",
+    "peak_control",
+    "excursion",
+    "duration",
+    "planning_time_s",
+    "vias",
+    "reason",
+)
+
+
+def comparison_csv(doc: dict[str, Any]) -> str:
+    """One line per sequence, in rank order; vias as `(…);(…)` with "*" unprescribed."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    for row in doc["rows"]:
+        vias = ";".join(
+            "(" + " ".join("*" if x is None else repr(x) for x in v) + ")" for v in row["vias"]
+        )
+        writer.writerow(
+            [
+                row["rank"],
+                " ".join(row["sequence"]),
+                row["strategy"],
+                row["status"],
+                *("" if row[k] is None else repr(row[k]) for k in CSV_COLUMNS[4:9]),
+                vias,
+                row["reason"],
+            ]
+        )
+    return buf.getvalue()
+
+
+def _short(x: float) -> str:
+    return f"{x:,.0f}" if abs(x) >= 1000 else f"{x:.4g}"
+
+
+def ranking_png(doc: dict[str, Any]) -> bytes:
+    """Horizontal bars of the criterion per sequence, best on top; failed ones marked."""
+    key = {
+        "energy": "energy",
+        "peak-control": "peak_control",
+        "excursion": "excursion",
+        "duration": "duration",
+    }[doc["criterion"]]
+    rows = doc["rows"]
+    labels = [f"{'→'.join(r['sequence'])} · {r['strategy'][:4]}." for r in rows]
+    ok = [i for i, r in enumerate(rows) if r["status"] == "ok" and r[key] is not None]
+    values = [rows[i][key] for i in ok]
+    positive = [v for v in values if v > 0]
+    log = bool(positive) and len(positive) == len(values) and max(positive) > 50 * min(positive)
+    floor = min(positive) / 2 if log else 0.0
+    height = max(2.5, 0.24 * len(rows) + 1.0)
+    fig = Figure(figsize=(8.0, height))
+    FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=0.2, right=0.97, top=1 - 0.45 / height, bottom=0.55 / height)
+    ax = fig.add_subplot()
+    colors = ["#2e7d32" if i == 0 and doc.get("best") == 0 else "#4a6fa5" for i in ok]
+    ax.barh(ok, [v - floor for v in values], left=floor, color=colors, height=0.7)
+    for i, v in zip(ok, values, strict=True):
+        ax.text(v, i, f" {_short(v)}", va="center", fontsize=7)
+    for i, r in enumerate(rows):
+        if i not in ok:
+            reason = " failed: " + (r["reason"] or r["status"])[:60]
+            ax.text(floor if log else 0.0, i, reason, va="center", fontsize=7, color="#c0392b")
+    if log:
+        ax.set_xscale("log")
+    ax.set_yticks(range(len(rows)), labels, fontsize=7)
+    ax.set_ylim(len(rows) - 0.5, -0.5)
+    ax.set_xlabel(CRITERION_LABELS[doc["criterion"]] + (" (log scale)" if log else ""), fontsize=8)
+    ax.set_title(
+        f"{doc['scenario']}: {len(rows)} sequences ranked by {CRITERION_LABELS[doc['criterion']]}",
+        fontsize=9,
+    )
+    ax.grid(axis="x", alpha=0.3)
+    if values:
+        ax.set_xlim(floor if log else 0.0, max(values) * (3.0 if log else 1.18))
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    return buf.getvalue()
+
+
+def without_timings(doc: dict[str, Any]) -> dict[str, Any]:
+    """The document minus what varies between identical runs (timings, number of jobs)."""
+    out = {k: v for k, v in doc.items() if k not in ("wall_time_s", "compile_time_s", "jobs")}
+    out["rows"] = [{k: v for k, v in r.items() if k not in TIMING_KEYS} for r in doc["rows"]]
+    return out

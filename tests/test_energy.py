@@ -1,0 +1,97 @@
+"""Energy-optimal planning, time scaling, harmonics (DESIGN §2, §4)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from conftest import ROOT
+from reintegrate import PRINTED, reintegrate
+
+from stratcli.controls import FourierBasis, embed
+from stratcli.records.result import result_document
+from stratcli.scenario import load_scenario
+from stratcli.stratified import _plan_legs, plan_sequence, time_scaled
+
+TASK_D = ROOT / "scenarios" / "sim4_task_d.toml"
+
+
+@pytest.fixture(scope="module")
+def task_d():
+    task = load_scenario(TASK_D)
+    newton = plan_sequence(
+        task.system, task.start, task.legs, replace(task.settings, objective="newton")
+    )
+    energy = plan_sequence(task.system, task.start, task.legs, task.settings)
+    return task, newton, energy
+
+
+def test_energy_objective_beats_newton_and_the_paper(task_d):
+    task, newton, optimal = task_d
+    assert optimal.ok
+    assert optimal.total_energy < newton.total_energy
+    assert optimal.total_energy < task.scenario.reference.energy
+    opt = optimal.optimisation
+    assert len(opt.outcomes) == task.settings.starts  # every start recorded
+    best = opt.outcomes[opt.best]
+    assert best.projected_gradient <= 1e-8  # a true constrained minimum
+    assert best.energy == pytest.approx(optimal.total_energy, rel=1e-9)
+    assert all(leg.error <= task.settings.tolerance for leg in optimal.legs)
+
+
+def test_energy_optimum_is_a_local_minimum_on_the_constraint_set(task_d):
+    """Feasible perturbations (re-planned to the goal exactly) never lower the energy.
+
+    The goals must be met tightly here: at the planning tolerance (1e-3) the energy can drop by
+    about |multiplier| x 1e-3 simply by missing the goal a little.
+    """
+    task, _, optimal = task_d
+    rng = np.random.default_rng(5)
+    base = [leg.coefficients.ravel() for leg in optimal.legs]
+    newton_only = replace(task.settings, objective="newton", tolerance=1e-11)
+    for _ in range(3):
+        nudged = [c + rng.normal(0, 0.05, c.size) for c in base]
+        again = _plan_legs(task.system, task.start, task.legs, newton_only, initial=nudged)
+        assert again.ok
+        assert again.total_energy >= optimal.total_energy * (1 - 1e-9)
+
+
+def test_time_scaling_keeps_the_path(task_d):
+    _, _, optimal = task_d
+    s = 2.5
+    fast = time_scaled(optimal, s)
+    assert fast.duration == pytest.approx(optimal.duration / s)
+    assert fast.total_energy == pytest.approx(optimal.total_energy * s, rel=1e-12)
+    doc = result_document(fast, "d", "one-arm")
+    assert doc["time_scale"] == s
+    replay = reintegrate(doc, lambda stratum, q, u: PRINTED["one-arm"](q, u))
+    for leg, again in zip(optimal.legs, replay, strict=True):
+        np.testing.assert_allclose(again["end"], leg.end, atol=1e-8)  # same end points
+        assert again["energy"] == pytest.approx(leg.energy * s, rel=1e-8)
+
+
+def test_more_harmonics_warm_started_never_cost_more(task_d):
+    task, _, optimal = task_d
+    H = task.settings.basis.harmonics
+    more = replace(task.settings, basis=FourierBasis(H + 2, task.settings.basis.period), starts=1)
+    warm = [embed(leg.coefficients, H, H + 2) for leg in optimal.legs]
+    richer = plan_sequence(task.system, task.start, task.legs, more, warm_start=warm)
+    assert richer.ok
+    assert richer.total_energy <= optimal.total_energy * (1 + 1e-9)
+    assert richer.legs[0].coefficients.shape[1] == 2 * (H + 2) + 1
+
+
+def test_energy_planning_is_deterministic(task_d):
+    task, _, optimal = task_d
+    again = plan_sequence(task.system, task.start, task.legs, task.settings)
+    assert again.total_energy == optimal.total_energy
+    for a, b in zip(again.legs, optimal.legs, strict=True):
+        np.testing.assert_array_equal(a.coefficients, b.coefficients)
+
+
+def test_embed_keeps_the_controls():
+    small, big = FourierBasis(3, 2.17), FourierBasis(6, 2.17)
+    c = np.random.default_rng(0).normal(size=(2, 7))
+    t = np.linspace(0, 1, 11)
+    np.testing.assert_allclose(small.values(t) @ c.T, big.values(t) @ embed(c, 3, 6).T, atol=1e-14)
