@@ -23,7 +23,7 @@ from .controls import FourierBasis
 from .models.system import CompiledStratum
 
 PANEL = 32  # Gauss–Legendre nodes per panel of the composite rule
-MIN_NODES = 128
+MIN_NODES = 64
 MAX_NODES = 1 << 15  # controls this large are wrong anyway; keep memory bounded
 
 
