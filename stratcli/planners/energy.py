@@ -14,22 +14,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-from scipy.optimize import minimize
 
 from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
 
-MAX_ITERATIONS = 300  # SLSQP
 SQP_ITERATIONS = 100
+FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
+PG_TOL = 1e-10  # relative projected gradient at convergence (the issue asks ≤ 1e-8)
 CURVATURE_FLOOR = 1e-2  # reduced Hessian ≥ this x the energy's own, on the tangent space
 RESTORATION_STEPS = 12
-ABANDON_AFTER, ABANDON_RATIO = 4, 1.25
-STEP_LIMIT = 0.5
-ENERGY_RANK_TOL = 1e-12
-STALL_ITERATIONS = 5  # energy-norm step ≤ this x the current controls' energy norm
-PG_TOL = 1e-10  # relative projected gradient at convergence (the issue asks ≤ 1e-8)
-FTOL = 1e-12  # on the objective scaled to 1 at the start
+STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
+ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
+SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
+STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
+ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
 
 
 @dataclass
@@ -184,16 +183,16 @@ def optimise_energy(
     """
     problem = _Problem(system, starts, legs, settings, targets)
     initial = [("newton", lam) for lam in seeds]
+    if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
+        initial = initial[:1]
     outcome = EnergyOptimum(None)
     best_energy = np.inf
+    found: list[np.ndarray] = []  # minima reached by earlier starts
     tol = settings.tolerance
     for k, (kind, lam0) in enumerate(initial):
         clock = time.perf_counter()
         z0 = problem.project(lam0)
-        if problem.exact_hessians:
-            z, iterations = _sqp(problem, z0, tol, best_energy)
-        else:
-            z, iterations = _slsqp(problem, z0)
+        z, iterations = _sqp(problem, z0, tol, best_energy, found)
         err = float(np.abs(problem.constraint(z)).max()) if len(z) else 0.0
         energy = problem.energy(z)
         pg = problem.projected_gradient(z)
@@ -201,6 +200,8 @@ def optimise_energy(
         outcome.outcomes.append(
             StartOutcome(k, kind, energy, err, pg, iterations, ok, time.perf_counter() - clock)
         )
+        if ok:
+            found.append(z)
         if ok and energy < best_energy:
             best_energy = energy
             outcome.best = k
@@ -208,22 +209,12 @@ def optimise_energy(
     return outcome
 
 
-def _slsqp(problem: _Problem, z0: np.ndarray) -> tuple[np.ndarray, int]:
-    """scipy's SLSQP (quasi-Newton Hessian): for legs without exact second derivatives."""
-    scale = max(problem.energy(z0), 1.0)
-    res = minimize(
-        lambda z: problem.energy(z) / scale,
-        z0,
-        jac=lambda z: problem.energy_grad(z) / scale,
-        constraints=[{"type": "eq", "fun": problem.constraint, "jac": problem.constraint_jac}],
-        method="SLSQP",
-        options={"maxiter": MAX_ITERATIONS, "ftol": FTOL},
-    )
-    return res.x, int(res.nit)
-
-
 def _sqp(
-    problem: _Problem, z: np.ndarray, tol: float, best: float = np.inf
+    problem: _Problem,
+    z: np.ndarray,
+    tol: float,
+    best: float = np.inf,
+    found: list[np.ndarray] = (),
 ) -> tuple[np.ndarray, int]:
     """Feasible-point SQP with the exact Hessian of the Lagrangian.
 
@@ -231,10 +222,13 @@ def _sqp(
     minimises the quadratic model of the Lagrangian on the constraints' tangent space, and is
     halved until the restored point has less energy. Near a regular minimum the steps are
     Newton steps of the reduced problem: a handful of iterations, each a few endpoint calls.
-    A start still far above the `best` energy found so far after a few iterations is dropped.
+    A start still far above the `best` energy found so far after a few iterations is dropped,
+    and so is one that arrives next to a minimum an earlier start `found` (in the energy norm,
+    which is the Euclidean norm of these coordinates): it would only find that minimum again.
     """
     H0 = problem.H0
     chol = scipy.linalg.cho_factor(H0)
+    exact = problem.exact_hessians  # ODE-path legs: no second derivatives, first-order steps
     c_tol = min(1e-10, 1e-3 * tol)
 
     def restore(z):
@@ -266,9 +260,11 @@ def _sqp(
     energy = problem.energy(z)
     iterations = 0
     best_pg, since = np.inf, 0
-    while iterations < SQP_ITERATIONS:
+    while iterations < (SQP_ITERATIONS if exact else FIRST_ORDER_ITERATIONS):
         if iterations >= ABANDON_AFTER and energy > ABANDON_RATIO * best:
             break  # energy only decreases, and this start is unlikely to beat the best
+        if any(np.linalg.norm(z - f) <= SAME_MINIMUM * np.sqrt(energy) for f in found):
+            break  # converging to a minimum already found
         iterations += 1
         _, J = problem._evaluate(z, True)
         g = problem.energy_grad(z)
@@ -287,7 +283,8 @@ def _sqp(
                 break  # at the noise floor of the end-point map: no further progress
 
         mu = -np.linalg.lstsq(J.T, g, rcond=None)[0]
-        R = Z.T @ (H0 + problem.constraint_hessian(z, mu)) @ Z
+        W = H0 + problem.constraint_hessian(z, mu) if exact else H0
+        R = Z.T @ W @ Z
         R0 = Z.T @ H0 @ Z
         low = float(scipy.linalg.eigh(R, R0, eigvals_only=True)[0])
         if low < CURVATURE_FLOOR:  # convexify in the energy metric (the basis is ill-scaled)
