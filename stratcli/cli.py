@@ -89,23 +89,45 @@ def plan(
             "overrides planner.time_scale.",
         ),
     ] = None,
+    check_first: Annotated[
+        bool,
+        typer.Option(
+            "--check/--no-check",
+            help="First check that each leg's stratum spans what the leg steers (Lie brackets, "
+            "paper eq. 4; as `stratplan check`).",
+        ),
+    ] = True,
 ) -> None:
     """Plan a scenario: every leg to tolerance, controls continuous across switches.
 
     Writes a run record under OUT and exits 0 (planned), 1 (a leg failed; the record is
-    still written, marked failed) or 2 (bad input).
+    still written, marked failed), 2 (bad input) or 3 (the controllability check failed: a
+    leg's stratum cannot steer what the leg asks for; nothing is planned or written).
 
     Auto mode: a scenario with a decompose table and no legs plans every candidate sequence
     (as compare-sequences does), records the best by the table's criterion and says why.
     """
     task = _load(file)
+    check_time = time.perf_counter()
+    if check_first:
+        problems = _controllability_problems(task)
+        for problem in problems:
+            err_console.print(
+                f"[bold red]not controllable:[/] {escape(problem)} (stratplan check "
+                f"{escape(str(file))} shows the ranks; --no-check skips this)",
+                highlight=False,
+                soft_wrap=True,
+            )
+        if problems:
+            raise typer.Exit(3)
+    check_time = time.perf_counter() - check_time
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto_mode(task, out, json_output, quiet, animation)
     started = datetime.now(UTC)
     clock = time.perf_counter()
     for leg in task.legs:  # generate the numeric functions first: start-up, not planning
         task.system.compiled(leg.stratum)
-    compile_time = time.perf_counter() - clock
+    compile_time = time.perf_counter() - clock + check_time  # incl. the brackets of the check
     clock = time.perf_counter()
     result = plan_sequence(task.system, task.start, task.legs, task.settings)
     planning_time = time.perf_counter() - clock
@@ -187,6 +209,16 @@ def _print_summary(doc: dict) -> None:
         line += f" · largest control jump at a switch {worst:.1e}"
     status = "[green]ok[/]" if doc["status"] == "ok" else "[red]failed[/]"
     out_console.print(f"{line} · status {status}", highlight=False)
+    for note in doc.get("notes") or []:
+        out_console.print(f"note: {escape(note)}", highlight=False)
+    lie = [(i + 1, leg) for i, leg in enumerate(doc["legs"]) if leg["method"] == "lie"]
+    for i, leg in lie:
+        out_console.print(
+            f"leg {i}: {len(leg['pieces'])} Lie-algebraic steps of "
+            f"{leg['pieces'][0]['duration']:g} s (one piece each in result.json), "
+            f"{leg['duration']:g} s in all",
+            highlight=False,
+        )
     opt = doc.get("optimisation")
     if opt and opt.get("best") is not None:
         best = opt["starts"][opt["best"]]
@@ -748,6 +780,199 @@ def _plan_auto_mode(task: Task, out: Path, json_output: bool, quiet: bool, anima
             soft_wrap=True,
         )
     raise typer.Exit(code)
+
+
+def _check_target(target: str, at: str | None):
+    """(system, strata, configuration, legs, title) for a preset name or a scenario file."""
+    from .models.expressions import parse_number
+
+    if target in PRESETS and not Path(target).exists():
+        system, legs, title = preset(target), None, f"preset {target}"
+        strata, q = list(system.strata), [0.0] * system.n
+        source = "--at"
+    else:
+        task = _load(Path(target))
+        system, legs = task.system, task.legs or None
+        if legs:
+            strata = list(dict.fromkeys(leg.stratum for leg in legs))
+        elif task.scenario.decompose and task.scenario.decompose.strata:
+            strata = list(task.scenario.decompose.strata)
+        else:
+            strata = list(system.strata)
+        q, source = list(task.start), "--at"
+        title = f"{task.scenario.name} ({task.model_name} model)"
+    if at is not None:
+        try:
+            values = [parse_number(x.strip()) for x in at.strip("()[] ").split(",")]
+        except (ValueError, TypeError) as exc:
+            _fail_input(InputError([Problem(source, f"not a configuration: {exc}")]))
+        if len(values) != system.n:
+            _fail_input(
+                InputError(
+                    [
+                        Problem(
+                            source,
+                            f"needs {system.n} values ({', '.join(system.states)}), "
+                            f"got {len(values)}",
+                        )
+                    ]
+                )
+            )
+        q = values
+    return system, strata, q, legs, title
+
+
+def _controllability_problems(task: Task, degree: int = 2, samples: int = 100) -> list[str]:
+    """The check `plan` runs first: each leg's stratum spans what the leg steers (or, in auto
+    mode, the candidate strata together reach every direction)."""
+    from .controllability import check_document
+
+    degree = max([degree] + [(leg.lie or task.settings.lie).degree for leg in task.legs if
+                             leg.method == "lie"])  # fmt: skip
+    if task.legs:
+        strata = list(dict.fromkeys(leg.stratum for leg in task.legs))
+    elif task.scenario.decompose and task.scenario.decompose.strata:
+        strata = list(task.scenario.decompose.strata)
+    else:
+        strata = list(task.system.strata)
+    doc = check_document(
+        task.system,
+        strata,
+        task.start,
+        samples=samples,
+        degree=degree,
+        legs=task.legs or None,
+    )
+    return doc["problems"]
+
+
+@app.command()
+def check(
+    target: Annotated[str, typer.Argument(help="Scenario file (TOML) or preset model name.")],
+    at: Annotated[
+        str | None,
+        typer.Option(
+            help='Configuration, e.g. "0, pi/3, 0, 0" (default: the scenario start, or zeros '
+            "for a preset)."
+        ),
+    ] = None,
+    samples: Annotated[int, typer.Option(min=0, help="Sampled configurations.")] = 100,
+    degree: Annotated[int, typer.Option(min=1, max=3, help="Lie bracket degree (1-3).")] = 2,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the sampled configurations.")] = 0,
+    json_output: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+) -> None:
+    """Controllability of every stratum (paper eq. 4) and of the strata together (eq. 2).
+
+    Per stratum: the rank of its generators and Lie brackets (up to DEGREE, on its free
+    coordinates) and their smallest singular value, at the configuration and at SAMPLES
+    sampled ones; where DEGREE falls short, third-order brackets are tried. For a scenario,
+    also whether each leg's stratum spans the coordinates the leg steers. Exits 0, 2 on bad
+    input, 3 when the scenario's strata cannot do their legs (or the strata of a model or an
+    auto-mode scenario do not reach every direction together), naming stratum and
+    configuration.
+    """
+    from .controllability import check_document
+
+    system, strata, q, legs, title = _check_target(target, at)
+    clock = time.perf_counter()
+    doc = check_document(system, strata, q, samples=samples, degree=degree, seed=seed, legs=legs)
+    seconds = time.perf_counter() - clock
+    doc["target"] = target
+    if json_output:
+        print(json.dumps(doc, indent=2))
+    else:
+        _print_check(doc, title, seconds)
+    for problem in doc["problems"]:
+        err_console.print(
+            f"[bold red]not controllable:[/] {escape(problem)}", highlight=False, soft_wrap=True
+        )
+    raise typer.Exit(0 if doc["controllable"] else 3)
+
+
+def _print_check(doc: dict, title: str, seconds: float) -> None:
+    out_console.print(
+        f"[bold]{escape(title)}[/] · generators and Lie brackets up to degree {doc['degree']} · "
+        f"at q = {format_configuration(doc['at'])} and {doc['samples']} sampled "
+        f"configurations (seed {doc['seed']})",
+        highlight=False,
+    )
+    table = Table(show_edge=False)
+    for col in ("stratum", "dim", "rank at q", "σ_min at q", "min rank, σ_min (q + samples)"):
+        table.add_column(col, justify="left" if col == "stratum" else "right")
+    table.add_column("spanning at q")
+    table.add_column("eq. 4")
+    notes = []
+    for s in doc["strata"]:
+        rank = f"{s['rank_at']}"
+        escalated = s["degree_at"] != doc["degree"] and s["rank_at"] == s["dimension"]
+        if escalated:
+            rank += " (deg 3)"
+            notes.append(
+                f"{s['stratum']}: at q the brackets up to degree {doc['degree']} have rank "
+                f"{s['rank_at_requested_degree']}; third-order brackets span"
+            )
+        if s["third_order_needed"] > int(escalated):
+            notes.append(
+                f"{s['stratum']}: degree {doc['degree']} falls short at "
+                f"{s['third_order_needed'] - int(escalated)} sampled configuration(s), "
+                "third order spans there"
+            )
+        table.add_row(
+            s["stratum"],
+            str(s["dimension"]),
+            rank,
+            f"{s['sigma_min_at']:.1e}",
+            f"{s['min_rank']}, {s['min_sigma']:.1e}",
+            escape(", ".join(s["spanning_at"])),
+            "[green]strong[/]" if s["strong"] else "[red]no[/]",
+        )
+    out_console.print(table)
+    for note in notes:
+        out_console.print(f"note: {escape(note)}", highlight=False)
+    eq2 = doc["eq2"]
+    line = (
+        f"eq. 2 ({' + '.join(eq2['strata'])}, each stratum's closure): rank "
+        f"{eq2['sum_min_rank']} of {eq2['n']}"
+    )
+    if eq2["holds"]:
+        line += " at q and every sample: [green]holds[/]"
+    else:
+        line += (
+            f" — [red]falls short[/]; with brackets across strata (switching between them): "
+            f"rank {eq2['cross_min_rank']} of {eq2['n']}"
+        )
+        if eq2["by_switching"]:
+            extra = [x for x in eq2["cross_spanning_at"] if x.startswith("[")]
+            line += " ([green]holds[/]" + (f"; needs {escape(', '.join(extra))})" if extra else ")")
+    out_console.print(line, highlight=False)
+    if doc["legs"] is not None:
+        for leg in doc["legs"]:
+            steers = ", ".join(leg["steers"]) or "nothing"
+            mark = "[green]spanned[/]" if leg["ok"] else "[red]NOT spanned[/]"
+            out_console.print(
+                f"leg {leg['leg']} on {leg['stratum']} steers {steers}: rank {leg['rank']}, "
+                f"σ_min {leg['sigma_min']:.1e} at its start "
+                f"{format_configuration(leg['configuration'])}: {mark}",
+                highlight=False,
+            )
+    weak = [s["stratum"] for s in doc["strata"] if not s["strong"]]
+    verdict = (
+        "strongly controllable on every stratum (eq. 4)"
+        if not weak
+        else f"not strongly controllable on {', '.join(weak)} (eq. 4)"
+    )
+    verdict += (
+        "; stratified controllable (eq. 2" + (")" if eq2["holds"] else ", by switching)")
+        if doc["stratified_controllable"]
+        else "; [red]not stratified controllable[/] (eq. 2)"
+    )
+    if doc["legs"] is not None:
+        verdict += (
+            "; every leg's stratum spans the coordinates it steers"
+            if all(leg["ok"] for leg in doc["legs"])
+            else "; [red]some legs cannot be planned[/]"
+        )
+    out_console.print(f"verdict: {verdict} · {seconds * 1e3:.0f} ms", highlight=False)
 
 
 def main() -> None:  # pragma: no cover - entry point for `python -m stratcli`

@@ -23,6 +23,7 @@ from .models.manipulator import ManipulatorSystem
 from .models.planar import Arm, Base, Link, PlanarManipulator
 from .models.presets import PRESETS, preset
 from .models.system import Stratum, System
+from .planners.lie import LieSettings
 from .stratified import LegSpec, PlannerSettings, check_legs
 
 Number = Annotated[float, BeforeValidator(parse_number)]
@@ -107,6 +108,17 @@ class BasisSpec(_Strict):
     period: float = Field(2.17, gt=0)
 
 
+class LieSpec(_Strict):
+    """The Lie-algebraic method (legs with method = "lie", paper §4.2); every key optional."""
+
+    step_duration: float = Field(0.51, gt=0, description="length of one local step")
+    gamma: float = Field(0.5, gt=0, le=1, description="fraction of the error asked per step")
+    degree: int = Field(2, ge=1, le=3, description="Hall basis degree (brackets)")
+    max_steps: int = Field(40, ge=1, le=1000)
+    alpha: Literal["energy", "pinv"] = "energy"
+    rest: bool = Field(True, description="every step ends with u = u' = 0")
+
+
 class PlannerSpec(_Strict):
     continuity: Literal[MODES] = "lr-C1"  # type: ignore[valid-type]
     soft_start: bool = False
@@ -121,6 +133,7 @@ class PlannerSpec(_Strict):
     objective: Literal["energy", "newton"] = "energy"
     starts: int = Field(6, ge=1, le=64)
     time_scale: float = Field(1.0, gt=0)
+    lie: LieSpec = LieSpec()
 
 
 class TaskSpec(_Strict):
@@ -130,9 +143,10 @@ class TaskSpec(_Strict):
 
 class LegEntry(_Strict):
     stratum: str
-    method: Literal["newton"] = "newton"
+    method: Literal["newton", "lie"] = "newton"
     goal: list[Target] | None = None
     duration: float | None = Field(None, gt=0)
+    lie: LieSpec | None = None  # method "lie": overrides [planner.lie] for this leg
 
 
 class ReferenceSpec(_Strict):
@@ -382,6 +396,13 @@ def _custom_system(spec: CustomModel) -> System:
     return system
 
 
+def _leg_lie(entry: LegEntry, planner: PlannerSpec) -> LieSettings | None:
+    """A Lie leg's settings: [planner.lie] with the leg's own `lie` keys on top."""
+    if entry.method != "lie" or entry.lie is None:
+        return None
+    return LieSettings(**(planner.lie.model_dump() | entry.lie.model_dump(exclude_unset=True)))
+
+
 def _resolve(scenario: Scenario, source: str, text: str) -> Task:
     system = build_system(scenario.model)
     n = system.n
@@ -451,8 +472,19 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
                     goal=leg_goal,
                     method=entry.method,
                     duration=entry.duration or p.leg_duration,
+                    lie=_leg_lie(entry, p),
                 )
             )
+        if entry.method == "lie" and entry.duration is not None:
+            problems.append(
+                Problem(
+                    f"{where}.duration",
+                    "a Lie leg lasts (number of steps) x lie.step_duration; set "
+                    "lie = { step_duration = ... } instead",
+                )
+            )
+        if entry.method != "lie" and entry.lie is not None:
+            problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
     if problems:
         raise InputError(problems)
     settings = PlannerSettings(
@@ -467,6 +499,7 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
         evaluator=p.evaluator,
         objective=p.objective,
         starts=p.starts,
+        lie=LieSettings(**p.lie.model_dump()),
     )
     if p.evaluator == "quadrature":
         for leg in legs:

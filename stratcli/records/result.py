@@ -71,20 +71,21 @@ def result_document(
                 "attempts": leg.attempts,
                 "free_coefficients": leg.free_coefficients,
                 "energy": leg.energy,
-                "pieces": [
+                "pieces": [  # a Newton leg is one piece; a Lie leg one piece per step
                     {
-                        "t0": 0.0,
-                        "duration": leg.duration,
+                        "t0": t0,
+                        "duration": duration,
                         "basis": {
                             "kind": "fourier",
                             "harmonics": basis.harmonics,
                             "period": basis.period,
                         },
                         "coefficients": {
-                            system.inputs[k]: leg.coefficients[a].tolist()
+                            system.inputs[k]: np.asarray(coefficients)[a].tolist()
                             for a, k in enumerate(leg.active)
                         },
                     }
+                    for t0, duration, coefficients in leg.piece_list()
                 ],
             }
         )
@@ -120,6 +121,7 @@ def result_document(
         "seed": settings.seed,
         "objective": settings.objective,
         "time_scale": plan.time_scale,
+        "notes": list(getattr(plan, "notes", [])),  # e.g. how the objective was applied
         "optimisation": _optimisation(plan),
         "legs": legs,
         "switches": switches,

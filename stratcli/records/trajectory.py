@@ -63,6 +63,31 @@ def integrate_leg(plan: PlanResult, leg: LegResult, tau: np.ndarray) -> np.ndarr
     """Configurations of `leg` at leg-local times `tau` (sorted, within [0, duration])."""
     system, basis = plan.system, plan.settings.basis
     G = system.compiled(leg.stratum).G
+    pieces = leg.piece_list() if hasattr(leg, "piece_list") else None
+    if pieces is not None and len(pieces) > 1:  # a Lie leg: piece by piece, local times
+        tau = np.asarray(tau, dtype=float)
+        out = np.empty((tau.size, system.n))
+        q = np.asarray(leg.start, dtype=float)
+        for k, (t0, duration, coefficients) in enumerate(pieces):
+            last = k == len(pieces) - 1
+            inside = (tau >= t0) & (True if last else (tau < t0 + duration))
+            L = np.asarray(coefficients, dtype=float)
+            local = np.clip(tau[inside] - t0, 0.0, duration)
+            t_eval = np.unique(np.append(local, float(duration)))
+            sol = solve_ivp(
+                lambda t, y, L=L: G(y) @ (L @ basis.values(t)),
+                (0.0, float(duration)),
+                q,
+                method="DOP853",
+                t_eval=t_eval,
+                rtol=RTOL,
+                atol=ATOL,
+            )
+            if not sol.success:  # pragma: no cover
+                raise RuntimeError(f"re-integration of leg {leg.index + 1} failed: {sol.message}")
+            out[inside] = sol.y.T[np.searchsorted(t_eval, local)]
+            q = sol.y[:, -1]
+        return out
     lam = np.asarray(leg.coefficients, dtype=float)
 
     def rhs(t: float, q: np.ndarray) -> np.ndarray:

@@ -1,0 +1,398 @@
+"""Controllability of strata and sequences (paper eq. 2 and 4, DESIGN §6).
+
+* **Strong controllability (eq. 4)** of a stratum at `q`: its generators and their Lie brackets
+  up to a degree, restricted to the stratum's free coordinates, have rank `dim S` (the number
+  of free coordinates). Reported with the smallest singular value of that stack, so a user
+  sees how close to singular a configuration is. Where the requested degree falls short
+  (e.g. the space manipulators at q = 0, where every first derivative of `A` vanishes), the
+  check retries with third-order brackets and says so: the verdict uses the highest degree.
+* **Stratified controllability (eq. 2)**: the closures of the strata of a sequence, each taken
+  within its own stratum, summed in the full tangent space, span `R^n`. When that sum falls
+  short, the closure *across* the strata is computed too: brackets between fields of
+  different strata, which switching back and forth between the strata realises (this is how
+  the biped of eq. 3 walks sideways; Goodwine's stratified construction). Strong
+  controllability of the strata implies eq. 2 (paper §2).
+* **A leg of a scenario** needs less than eq. 4: its stratum must span the coordinates the leg
+  steers (the others are free, "*"). This is what decides the exit code 3 of `check` and
+  `plan`: the biped is not controllable on S1 or S2, yet each of its legs only steers what
+  its stratum controls.
+
+Configurations: the given one (a scenario's start, or each leg's nominal start: the previous
+leg's goal where prescribed) and `samples` seeded uniform draws in [-π, π]^n.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from .lie import MAX_DEGREE, bracket, element_label, hall_basis, lie_basis
+from .models.system import System, _ArrayFunction
+
+RANK_RTOL = 1e-9  # singular values below this times the largest count as zero
+
+
+def sample_configurations(n: int, count: int, seed: int = 0) -> np.ndarray:
+    """`count` configurations uniform in [-π, π]^n, reproducible by `seed`."""
+    return np.random.default_rng([seed, 6]).uniform(-np.pi, np.pi, (count, n))
+
+
+def _rank_and_sigma(B: np.ndarray, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rank and the `dim`-th singular value (0 when fewer fields) of stacks B (..., rows, r)."""
+    S = np.linalg.svd(B, compute_uv=False)
+    if S.shape[-1] == 0:
+        zero = np.zeros(B.shape[:-2])
+        return zero.astype(int), zero
+    top = S[..., :1]
+    rank = np.sum(S > RANK_RTOL * np.maximum(top, 1e-300), axis=-1)
+    rank = np.where(top[..., 0] > 0, rank, 0)
+    sigma = S[..., dim - 1] if S.shape[-1] >= dim else np.zeros(B.shape[:-2])
+    return rank, sigma
+
+
+@dataclass
+class StratumReport:
+    """Eq. 4 for one stratum at the given configurations (the first is the start)."""
+
+    stratum: str
+    dimension: int
+    generators: list[str]
+    degree: int  # requested
+    basis_size: int
+    configurations: np.ndarray  # (K, n)
+    rank: np.ndarray  # (K,) at the degree used at each configuration
+    sigma: np.ndarray  # (K,) smallest singular value (the dimension-th)
+    degree_used: np.ndarray  # (K,) requested degree, or 3 where that fell short
+    spanning: list[str]  # a spanning subset at the first configuration (greedy, basis order)
+    rank_requested: np.ndarray  # (K,) rank at the requested degree
+
+    @property
+    def strong(self) -> bool:
+        return bool(np.all(self.rank == self.dimension))
+
+    @property
+    def worst(self) -> int:
+        """Index of the configuration with the smallest singular value."""
+        return int(np.argmin(self.sigma))
+
+    @property
+    def escalated(self) -> int:
+        """Configurations where the requested degree fell short but degree 3 did not."""
+        return int(np.sum((self.rank_requested < self.dimension) & (self.rank == self.dimension)))
+
+
+def stratum_report(
+    system: System, stratum: str, configurations: np.ndarray, degree: int = 2
+) -> StratumReport:
+    """Rank and smallest singular value of the stratum's generators + brackets (eq. 4)."""
+    s = system.stratum(stratum)
+    Q = np.atleast_2d(np.asarray(configurations, dtype=float))
+    lb = lie_basis(system, s, degree)
+    dim = len(lb.free)
+    B = lb.evaluate(Q)
+    rank, sigma = _rank_and_sigma(B, dim)
+    rank_requested = rank.copy()
+    used = np.full(len(Q), degree)
+    short = rank < dim
+    if np.any(short) and degree < MAX_DEGREE:
+        B3 = lie_basis(system, s, MAX_DEGREE).evaluate(Q[short])
+        r3, s3 = _rank_and_sigma(B3, dim)
+        rank[short], sigma[short], used[short] = r3, s3, MAX_DEGREE
+    first = lb if used[0] == degree else lie_basis(system, s, MAX_DEGREE)
+    spanning = _spanning(first.evaluate(Q[0]), first.labels)
+    return StratumReport(
+        s.name,
+        dim,
+        [system.inputs[j] for j in s.active],
+        degree,
+        lb.size,
+        Q,
+        rank,
+        sigma,
+        used,
+        spanning,
+        rank_requested,
+    )
+
+
+def _spanning(B: np.ndarray, labels: list[str]) -> list[str]:
+    """Fields kept in basis order when they raise the rank: which brackets are needed."""
+    chosen: list[int] = []
+    rank = 0
+    for c in range(B.shape[1]):
+        r, _ = _rank_and_sigma(B[:, [*chosen, c]][None], 1)
+        if int(r[0]) > rank:
+            chosen.append(c)
+            rank = int(r[0])
+        if rank == B.shape[0]:
+            break
+    return [labels[c] for c in chosen]
+
+
+# --------------------------------------------------------------------------------------------
+# Eq. 2: several strata together
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class SequenceReport:
+    """Eq. 2 for a set of strata at the given configurations."""
+
+    strata: list[str]
+    n: int
+    configurations: np.ndarray
+    sum_rank: np.ndarray  # (K,) rank of Σ of the strata's closures (each within its stratum)
+    cross_rank: np.ndarray | None  # (K,) closure across strata, when the sum falls short
+    cross_spanning: list[str] = field(default_factory=list)
+
+    @property
+    def eq2(self) -> bool:
+        return bool(np.all(self.sum_rank == self.n))
+
+    @property
+    def by_switching(self) -> bool:
+        return self.cross_rank is not None and bool(np.all(self.cross_rank == self.n))
+
+    @property
+    def controllable(self) -> bool:
+        return self.eq2 or self.by_switching
+
+
+def sequence_report(
+    system: System, strata: Sequence[str], configurations: np.ndarray, degree: int = 2
+) -> SequenceReport:
+    Q = np.atleast_2d(np.asarray(configurations, dtype=float))
+    names = list(dict.fromkeys(strata))
+    blocks = []
+    for name in names:
+        lb = lie_basis(system, name, degree)
+        blocks.append(lb.full(Q))
+        short = _rank_and_sigma(blocks[-1][:, list(lb.free)], len(lb.free))[0] < len(lb.free)
+        if np.any(short) and degree < MAX_DEGREE:  # third order where needed, as for eq. 4
+            blocks.append(lie_basis(system, name, MAX_DEGREE).full(Q))
+    sum_rank, _ = _rank_and_sigma(np.concatenate(blocks, axis=-1), system.n)
+    report = SequenceReport(names, system.n, Q, sum_rank, None)
+    if not report.eq2:
+        cross = _cross_basis(system, tuple(names), max(degree, 2))
+        B = cross.evaluate(Q)
+        report.cross_rank = _rank_and_sigma(B, system.n)[0]
+        report.cross_spanning = _spanning(B[0], cross.labels)
+    return report
+
+
+@dataclass
+class _CrossBasis:
+    labels: list[str]
+    evaluate: _ArrayFunction
+
+
+def _cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _CrossBasis:
+    """Hall basis of all distinct fields of `strata` together (symbolic, cached)."""
+    cache = system.__dict__.setdefault("_lie_cache", {})
+    key = ("cross", strata, degree)
+    if key in cache:
+        return cache[key]
+    symbols = list(system.symbols)
+    generators: list[sp.Matrix] = []
+    names: list[str] = []
+    for name in strata:
+        s = system.stratum(name)
+        G = system.fields_on(s)
+        for c, j in enumerate(s.active):
+            col = G[:, c]
+            if any((col - g).is_zero_matrix for g in generators):
+                continue
+            generators.append(col)
+            names.append(f"{system.inputs[j]}@{s.name}")
+    elements = hall_basis(len(generators), degree)
+    fields: dict = {}
+    every = tuple(range(system.n))
+    for h in elements:
+        fields[h] = (
+            generators[h]
+            if isinstance(h, int)
+            else bracket(fields[h[0]], fields[h[1]], symbols, every)
+        )
+    matrix = sp.Matrix.hstack(*(fields[h] for h in elements))
+    out = _CrossBasis([element_label(h, names) for h in elements], _ArrayFunction(matrix, symbols))
+    cache[key] = out
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# A scenario's legs
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class LegReport:
+    index: int
+    stratum: str
+    targets: tuple[int, ...]
+    configuration: np.ndarray  # the leg's nominal start
+    rank: int  # at the nominal start, on the targeted coordinates
+    sigma: float
+    failure: np.ndarray | None  # first configuration where the targets are not spanned
+    failure_rank: int = 0
+
+    @property
+    def ok(self) -> bool:
+        return self.failure is None
+
+
+def leg_reports(
+    system: System, start: np.ndarray, legs, samples: np.ndarray, degree: int = 2
+) -> list[LegReport]:
+    """Each leg's stratum must span the coordinates the leg steers (at its nominal start and
+    at the samples; third-order brackets where the degree falls short)."""
+    out = []
+    nominal = np.asarray(start, dtype=float).copy()
+    for i, leg in enumerate(legs):
+        s = system.stratum(leg.stratum)
+        goal = np.asarray(leg.goal, dtype=float)
+        targets = tuple(j for j in s.free(system.n) if not np.isnan(goal[j]))
+        Q = np.vstack([nominal, samples]) if len(samples) else nominal[None]
+        rank, sigma = _target_rank(system, s.name, targets, Q, degree)
+        bad = np.flatnonzero(rank < len(targets))
+        out.append(
+            LegReport(
+                i,
+                s.name,
+                targets,
+                nominal.copy(),
+                int(rank[0]),
+                float(sigma[0]),
+                Q[bad[0]].copy() if bad.size else None,
+                int(rank[bad[0]]) if bad.size else 0,
+            )
+        )
+        nominal = np.where(np.isnan(goal), nominal, goal)
+    return out
+
+
+def _target_rank(system, stratum, targets, Q, degree):
+    lb = lie_basis(system, stratum, degree)
+    rows = [lb.free.index(j) for j in targets]
+    if not rows:
+        return np.zeros(len(Q), dtype=int), np.ones(len(Q))
+    rank, sigma = _rank_and_sigma(lb.evaluate(Q)[:, rows], len(rows))
+    short = rank < len(rows)
+    if np.any(short) and degree < MAX_DEGREE:
+        lb3 = lie_basis(system, stratum, MAX_DEGREE)
+        r3, s3 = _rank_and_sigma(lb3.evaluate(Q[short])[:, rows], len(rows))
+        rank[short], sigma[short] = r3, s3
+    return rank, sigma
+
+
+# --------------------------------------------------------------------------------------------
+# The whole check, as a JSON-ready document (the `check` command prints it)
+# --------------------------------------------------------------------------------------------
+
+
+def _vec(q: np.ndarray) -> list[float]:
+    return [float(x) for x in np.asarray(q, dtype=float)]
+
+
+def check_document(
+    system: System,
+    strata: Sequence[str],
+    at: np.ndarray,
+    *,
+    samples: int = 100,
+    degree: int = 2,
+    seed: int = 0,
+    legs=None,
+) -> dict:
+    """Eq. 4 per stratum, eq. 2 for the strata together and, given a scenario's legs, whether
+    each leg's stratum spans the coordinates it steers. `controllable` decides exit code 3:
+    for legs, every leg must be spanned; without legs, every stratum strongly controllable."""
+    at = np.asarray(at, dtype=float)
+    sampled = sample_configurations(system.n, samples, seed)
+    Q = np.vstack([at, sampled])
+    reports = [stratum_report(system, s, Q, degree) for s in strata]
+    seq = sequence_report(system, strata, Q, degree)
+    strata_doc = []
+    for r in reports:
+        worst = r.worst
+        strata_doc.append(
+            {
+                "stratum": r.stratum,
+                "dimension": r.dimension,
+                "inputs": r.generators,
+                "basis_size": r.basis_size,
+                "rank_at": int(r.rank[0]),
+                "sigma_min_at": float(r.sigma[0]),
+                "degree_at": int(r.degree_used[0]),
+                "rank_at_requested_degree": int(r.rank_requested[0]),
+                "min_rank": int(r.rank.min()),
+                "min_sigma": float(r.sigma[worst]),
+                "worst_configuration": _vec(r.configurations[worst]),
+                "third_order_needed": r.escalated,
+                "spanning_at": r.spanning,
+                "strong": r.strong,
+            }
+        )
+    doc = {
+        "model": system.name,
+        "coordinates": list(system.states),
+        "degree": degree,
+        "samples": samples,
+        "seed": seed,
+        "at": _vec(at),
+        "strata": strata_doc,
+        "eq2": {
+            "strata": seq.strata,
+            "sum_rank_at": int(seq.sum_rank[0]),
+            "sum_min_rank": int(seq.sum_rank.min()),
+            "holds": seq.eq2,
+            "cross_rank_at": None if seq.cross_rank is None else int(seq.cross_rank[0]),
+            "cross_min_rank": None if seq.cross_rank is None else int(seq.cross_rank.min()),
+            "cross_spanning_at": seq.cross_spanning,
+            "by_switching": seq.by_switching,
+            "n": system.n,
+        },
+        "strongly_controllable": all(r.strong for r in reports),
+        "stratified_controllable": seq.controllable,
+        "legs": None,
+        "problems": [],
+    }
+    problems: list[str] = []
+    if legs is not None:
+        doc["legs"] = []
+        for leg in leg_reports(system, at, legs, sampled, degree):
+            names = [system.states[j] for j in leg.targets]
+            doc["legs"].append(
+                {
+                    "leg": leg.index + 1,
+                    "stratum": leg.stratum,
+                    "steers": names,
+                    "configuration": _vec(leg.configuration),
+                    "rank": leg.rank,
+                    "sigma_min": leg.sigma,
+                    "ok": leg.ok,
+                    "failure_configuration": None if leg.ok else _vec(leg.failure),
+                }
+            )
+            if not leg.ok:
+                problems.append(
+                    f"leg {leg.index + 1} on {leg.stratum}: its generators and brackets (up to "
+                    f"degree {MAX_DEGREE}) span only {leg.failure_rank} of the {len(names)} "
+                    f"coordinates it steers ({', '.join(names)}) at q = "
+                    f"({', '.join(f'{x:.4g}' for x in leg.failure)}); steer fewer coordinates "
+                    'on this leg (goal "*") or use another stratum'
+                )
+    elif not seq.controllable:
+        worst = int(np.argmin(seq.cross_rank if seq.cross_rank is not None else seq.sum_rank))
+        q = Q[worst]
+        rank = (seq.cross_rank if seq.cross_rank is not None else seq.sum_rank)[worst]
+        problems.append(
+            f"the strata {', '.join(seq.strata)} together reach only {int(rank)} of "
+            f"{system.n} directions at q = ({', '.join(f'{x:.4g}' for x in q)}), even with "
+            "brackets across strata: not stratified controllable (eq. 2)"
+        )
+    doc["problems"] = problems
+    doc["controllable"] = not problems
+    return doc
