@@ -66,6 +66,17 @@ def _load(path: Path) -> Task:
         raise  # unreachable
 
 
+def _manifest(task: Task, started: datetime, compile_s: float, planning_s: float, code: int):
+    """manifest.json of a run started at `started` (UTC) that ends now with exit `code`."""
+    timings = {
+        "started": started.isoformat(),
+        "finished": datetime.now(UTC).isoformat(),
+        "compile_time_s": compile_s,
+        "planning_time_s": planning_s,
+    }
+    return manifest(task.text, ["stratplan", *sys.argv[1:]], task.settings.seed, timings, code)
+
+
 def _fmt(x: float) -> str:
     return f"{x:,.2f}" if abs(x) < 1e6 else f"{x:.3e}"
 
@@ -137,18 +148,7 @@ def plan(
     reference = task.scenario.reference.energy if task.scenario.reference else None
     doc = result_document(result, task.scenario.name, task.model_name, reference)
     code = 0 if result.ok else 1
-    info = manifest(
-        task.text,
-        ["stratplan", *sys.argv[1:]],
-        task.settings.seed,
-        {
-            "started": started.isoformat(),
-            "finished": datetime.now(UTC).isoformat(),
-            "compile_time_s": compile_time,
-            "planning_time_s": planning_time,
-        },
-        code,
-    )
+    info = _manifest(task, started, compile_time, planning_time, code)
     files = record_files(task, result, doc, info, animation)
     run_dir = write_record(out, task, files, started)
     if json_output:
@@ -619,18 +619,7 @@ def _comparison_record(task: Task, auto, dec, comparison, compile_time, started,
     reference = task.scenario.reference.energy if task.scenario.reference else None
     result = result_document(best.plan, task.scenario.name, task.model_name, reference)
     code = 0 if best.ok else 1
-    info = manifest(
-        task.text,
-        ["stratplan", *sys.argv[1:]],
-        task.settings.seed,
-        {
-            "started": started.isoformat(),
-            "finished": datetime.now(UTC).isoformat(),
-            "compile_time_s": compile_time,
-            "planning_time_s": comparison.wall_time,
-        },
-        code,
-    )
+    info = _manifest(task, started, compile_time, comparison.wall_time, code)
     files = record_files(best_task, best.plan, result, info, animation)
     files["comparison.json"] = doc
     files["comparison.csv"] = comparison_csv(doc)
