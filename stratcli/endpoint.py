@@ -100,12 +100,17 @@ class QuadratureEndpoint(_Endpoint):
             self._tables[K] = (t, w, self.basis.values(t), self.basis.integrals(t))
         return self._tables[K]
 
-    def __call__(self, lam: np.ndarray, jacobian: bool = True):
+    def _nodes(self, lam: np.ndarray):
+        """Coefficients (m, size), the quadrature rule and its tables, and the controls u and
+        configurations q at the nodes (explicit coordinates in closed form)."""
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
         t, w, Phi, Psi = self._table(node_count(L, self.duration, self.basis))
-        u = Phi @ L.T  # (K, m)
         q = np.broadcast_to(self.q0, (t.size, self.q0.size)).copy()
         q[:, self.E] += (Psi @ L.T) @ self.C.T
+        return L, w, Phi, Psi, Phi @ L.T, q
+
+    def __call__(self, lam: np.ndarray, jacobian: bool = True):
+        L, w, Phi, Psi, u, q = self._nodes(lam)
         end = self.q0.copy()
         end[self.E] += self.C @ (L @ self.psi_T)
         if self.Q.size == 0:
@@ -118,8 +123,7 @@ class QuadratureEndpoint(_Endpoint):
         dGQ = self.cs.quadrature_rows_d(q)  # (K, nQ, m, nE)
         # ∂(G u)/∂λ: directly through u (basis values Φ) and through q_E (basis integrals Ψ)
         D = np.matmul((dGQ * u[:, None, :, None]).sum(axis=2), self.C)  # (K, nQ, m)
-        K = t.size
-        weighted = np.concatenate([GQ, D]).reshape(2 * K, -1) * np.concatenate([w, w])[:, None]
+        weighted = np.concatenate([GQ, D]).reshape(2 * w.size, -1) * np.concatenate([w, w])[:, None]
         JQ = weighted.T @ np.concatenate([Phi, Psi])  # (nQ * m, size)
         J[self.Q] = JQ.reshape(self.Q.size, -1)
         return end, J
@@ -130,15 +134,11 @@ class QuadratureEndpoint(_Endpoint):
         Explicit coordinates are linear in λ; a quadrature row's integrand `G_Q(q_E(t)) u(t)`
         is bilinear in (q_E, u) to first order, so its Hessian needs ∂G_Q/∂q_E and ∂²G_Q/∂q_E².
         """
-        L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
         p = self.n_coefficients
         omega = np.asarray(weights, dtype=float)[self.Q]
         if self.Q.size == 0 or not np.any(omega):
             return np.zeros((p, p))
-        t, w, Phi, Psi = self._table(node_count(L, self.duration, self.basis))
-        u = Phi @ L.T
-        q = np.broadcast_to(self.q0, (t.size, self.q0.size)).copy()
-        q[:, self.E] += (Psi @ L.T) @ self.C.T
+        _, w, Phi, Psi, u, q = self._nodes(lam)
         D1 = np.einsum("i,kiae->kae", omega, self.cs.quadrature_rows_d(q))  # (K, m, nE)
         D2 = np.einsum("i,kiaef,ka->kef", omega, self.cs.quadrature_rows_dd(q), u)  # (K,nE,nE)
         W1 = (D1 @ self.C) * w[:, None, None]  # (K, m, m): ∂G_a/∂q · ∂q/∂λ_a'
