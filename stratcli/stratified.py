@@ -275,6 +275,7 @@ def plan_sequence(
     `warm_start` (flat coefficients per leg, feasible) is tried as an extra first start.
     """
     start = np.asarray(start, dtype=float)
+    check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
     lie_legs = [i + 1 for i, leg in enumerate(legs) if leg.method == "lie"]
     if lie_legs and settings.objective != "newton":
         return _with_lie_legs(system, start, legs, settings, lie_legs)
@@ -546,7 +547,6 @@ def _plan_legs(
     already within tolerance then takes no iteration.
     """
     start = np.asarray(start, dtype=float)
-    check_legs(system, start, legs, settings)
     basis = settings.basis
     result = PlanResult(system, settings, start, legs[-1].goal.copy(), planned_legs=len(legs))
     q = start.copy()
