@@ -342,7 +342,9 @@ def compare(
         valid.append(k)
     for cand in candidates:
         for leg in cand.legs:
-            system.compiled(leg.stratum)  # before forking: workers inherit the functions
+            cs = system.compiled(leg.stratum)  # before forking: workers inherit the functions
+            if settings.evaluator == "ode":
+                _ = cs.G, cs.dG  # the general path's functions are generated on first use
     _STATE.update(system=system, settings=settings, start=start)
     try:
         if is_newton(settings):

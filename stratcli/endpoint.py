@@ -14,7 +14,7 @@ Coefficients are a flat vector laid out as `(m_active, 2H+1)`, row `a` for activ
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -114,17 +114,18 @@ class QuadratureEndpoint(_Endpoint):
         end = self.q0.copy()
         end[self.E] += self.C @ (L @ self.psi_T)
         if self.Q.size == 0:
-            return (end, self._explicit_jacobian()) if jacobian else (end, None)
-        GQ = self.cs.quadrature_rows(q)  # (K, nQ, m)
+            return (end, self._J_explicit.copy()) if jacobian else (end, None)
+        terms = self.cs.quadrature_terms(q, 1 if jacobian else 0)
+        GQ = terms[0]  # (K, nQ, m)
         end[self.Q] += w @ (GQ @ u[:, :, None])[..., 0]
         if not jacobian:
             return end, None
-        J = self._explicit_jacobian()
-        dGQ = self.cs.quadrature_rows_d(q)  # (K, nQ, m, nE)
+        J = self._J_explicit.copy()
         # ∂(G u)/∂λ: directly through u (basis values Φ) and through q_E (basis integrals Ψ)
-        D = np.matmul((dGQ * u[:, None, :, None]).sum(axis=2), self.C)  # (K, nQ, m)
-        weighted = np.concatenate([GQ, D]).reshape(2 * w.size, -1) * np.concatenate([w, w])[:, None]
-        JQ = weighted.T @ np.concatenate([Phi, Psi])  # (nQ * m, size)
+        D = (u[:, None, None, :] @ terms[1])[:, :, 0, :] @ self.C  # (K, nQ, m)
+        K = w.size
+        JQ = (GQ * w[:, None, None]).reshape(K, -1).T @ Phi
+        JQ += (D * w[:, None, None]).reshape(K, -1).T @ Psi  # (nQ * m, size)
         J[self.Q] = JQ.reshape(self.Q.size, -1)
         return end, J
 
@@ -139,18 +140,26 @@ class QuadratureEndpoint(_Endpoint):
         if self.Q.size == 0 or not np.any(omega):
             return np.zeros((p, p))
         _, w, Phi, Psi, u, q = self._nodes(lam)
-        D1 = np.einsum("i,kiae->kae", omega, self.cs.quadrature_rows_d(q))  # (K, m, nE)
-        D2 = np.einsum("i,kiaef,ka->kef", omega, self.cs.quadrature_rows_dd(q), u)  # (K,nE,nE)
+        _, dGQ, ddGQ = self.cs.quadrature_terms(q, 2)
+        K, m, s = w.size, self.m, self.size
+        D1 = np.tensordot(dGQ, omega, axes=(1, 0))  # (K, m, nE)
+        nE = self.E.size
+        D2 = u[:, None, :] @ np.tensordot(ddGQ, omega, axes=(1, 0)).reshape(K, m, nE * nE)
         W1 = (D1 @ self.C) * w[:, None, None]  # (K, m, m): ∂G_a/∂q · ∂q/∂λ_a'
-        W2 = np.einsum("ea,kef,fc->kac", self.C, D2, self.C) * w[:, None, None]
-        H = np.einsum("kac,kb,kd->abcd", W1, Phi, Psi)
+        W2 = (self.C.T @ D2.reshape(K, nE, nE) @ self.C) * w[:, None, None]  # (K, m, m)
+        # H[a,b,c,d] = Σ_k W1[k,a,c] Φ[k,b] Ψ[k,d] (+ transpose) + Σ_k W2[k,a,c] Ψ[k,b] Ψ[k,d]
+        X1 = (W1[:, :, None, :] * Phi[:, None, :, None]).reshape(K, -1)  # (K, a b c)
+        X2 = (W2[:, :, None, :] * Psi[:, None, :, None]).reshape(K, -1)
+        H = (X1.T @ Psi).reshape(m, s, m, s)
         H = H + H.transpose(2, 3, 0, 1)
-        H += np.einsum("kac,kb,kd->abcd", W2, Psi, Psi)
+        H += (X2.T @ Psi).reshape(m, s, m, s)
         return H.reshape(p, p)
 
-    def _explicit_jacobian(self) -> np.ndarray:
+    @cached_property
+    def _J_explicit(self) -> np.ndarray:
         J = np.zeros((self.q0.size, self.n_coefficients))
         J[self.E] = np.einsum("ea,b->eab", self.C, self.psi_T).reshape(self.E.size, -1)
+        J.setflags(write=False)
         return J
 
 

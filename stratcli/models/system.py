@@ -66,33 +66,89 @@ class _ArrayFunction:
         return out.reshape(*lead, *self.shape)
 
 
+def _derivatives(exprs: list[sp.Expr], symbols: list[sp.Symbol]) -> list[sp.Expr]:
+    """`∂e/∂s` for every e of `exprs` (outer) and s of `symbols` (inner), flat."""
+    return [sp.diff(e, s) for e in exprs for s in symbols]
+
+
+class _FusedRows:
+    """The quadrature rows `G_Q(q)` and their first and second derivatives along the explicit
+    coordinates, each order one numpy function with common subexpressions shared (DESIGN §1).
+
+    On the few hundred quadrature nodes of a leg the cost is the number of numpy operations,
+    not the array length, so fusing the derivatives with the rows (and stacking rather than
+    differencing for the second ones) is what makes the Jacobian and Hessian cheap.
+    """
+
+    def __init__(self, rows: sp.Matrix, symbols: list[sp.Symbol], explicit: tuple[int, ...]):
+        nQ, m = rows.shape
+        nE = len(explicit)
+        self.shapes = ((nQ, m), (nQ, m, nE), (nQ, m, nE, nE))
+        along = [symbols[k] for k in explicit]
+        flat0 = [rows[i, j] for i in range(nQ) for j in range(m)]
+        flat1 = _derivatives(flat0, along)
+        # second derivatives: only the upper triangle (e ≤ f) is compiled, then mirrored
+        pairs = [(e, f) for e in range(nE) for f in range(e, nE)]
+        flat2 = [sp.diff(flat1[r * nE + e], along[f]) for r in range(len(flat0)) for e, f in pairs]
+        self._pairs = pairs
+        self._symbols = symbols
+        self._flats = (flat0, flat0 + flat1, flat0 + flat1 + flat2)
+        self._funcs: list[Callable | None] = [None, None, None]
+
+    def _func(self, order: int) -> Callable:
+        if self._funcs[order] is None:
+            self._funcs[order] = sp.lambdify(
+                self._symbols, self._flats[order], modules="numpy", cse=True
+            )
+        return self._funcs[order]
+
+    def compile(self, order: int = 2) -> None:
+        """Generate the functions up to `order` now (e.g. before forking workers)."""
+        for k in range(order + 1):
+            self._func(k)
+
+    def __call__(self, q: np.ndarray, order: int) -> tuple[np.ndarray, ...]:
+        """(rows (..., nQ, m), [d (..., nQ, m, nE), [dd (..., nQ, m, nE, nE)]]) at points q."""
+        lead = q.shape[:-1]
+        values = self._func(order)(*np.moveaxis(q, -1, 0))
+        flat = np.empty((*lead, len(values)))
+        for i, v in enumerate(values):
+            flat[..., i] = v
+        (nQ, m), nE = self.shapes[0], self.shapes[1][-1]
+        a, b = nQ * m, nQ * m * (1 + nE)
+        out = [flat[..., :a].reshape(*lead, nQ, m)]
+        if order >= 1:
+            out.append(flat[..., a:b].reshape(*lead, nQ, m, nE))
+        if order == 2:  # mirror the compiled upper triangle
+            upper = flat[..., b:].reshape(*lead, nQ * m, len(self._pairs))
+            dd = np.empty((*lead, nQ * m, nE, nE))
+            e, f = np.array(self._pairs).T
+            dd[..., e, f] = upper
+            dd[..., f, e] = upper
+            out.append(dd.reshape(*lead, nQ, m, nE, nE))
+        return tuple(out)
+
+
 @dataclass
 class CompiledStratum:
-    """Numeric functions of one stratum; inputs are the stratum's active inputs only."""
+    """Numeric functions of one stratum; inputs are the stratum's active inputs only.
+
+    The quadrature path needs only `quadrature_terms`; the full `G` and `∂G/∂q` (the ODE
+    path) are generated on first use.
+    """
 
     system: System
     stratum: Stratum
     G_sym: sp.Matrix  # n x m_active, parameters substituted
-    G: _ArrayFunction = field(init=False)  # (..., n) -> (..., n, m_active)
-    dG: _ArrayFunction = field(init=False)  # (..., n) -> (..., n, m_active, n)
     explicit: tuple[int, ...] = field(init=False)
     quadrature: tuple[int, ...] = field(init=False)
     C_explicit: np.ndarray = field(init=False)  # |E| x m_active constant rows
-    quadrature_rows: _ArrayFunction | None = field(init=False)  # None: no quadrature path
-    quadrature_rows_d: _ArrayFunction | None = field(init=False)
+    quadrature_terms: _FusedRows | None = field(init=False)  # None: no quadrature path
 
     def __post_init__(self) -> None:
         q = list(self.system.symbols)
         G = self.G_sym
         n, m = G.shape
-        self.G = _ArrayFunction(G, q)
-        dG = sp.MutableDenseNDimArray.zeros(n, m, n)
-        for i in range(n):
-            for j in range(m):
-                for k in range(n):
-                    dG[i, j, k] = sp.diff(G[i, j], q[k])
-        self.dG = _ArrayFunction(dG, q)
-
         state_syms = set(q)
         depends = [G.row(i).free_symbols & state_syms for i in range(n)]
         explicit = tuple(i for i in range(n) if not depends[i])
@@ -103,35 +159,45 @@ class CompiledStratum:
         self.C_explicit = np.array(
             [[float(G[i, j]) for j in range(m)] for i in explicit], dtype=float
         ).reshape(len(explicit), m)
-        self.quadrature_rows = self.quadrature_rows_d = None
+        self.quadrature_terms = None
         if all(depends[i] <= explicit_syms for i in quad):
             rows = G.extract(list(quad), list(range(m)))
-            d_rows = sp.MutableDenseNDimArray.zeros(len(quad), m, len(explicit))
-            for a, i in enumerate(quad):
-                for j in range(m):
-                    for b, k in enumerate(explicit):
-                        d_rows[a, j, b] = dG[i, j, k]
-            self.quadrature_rows = _ArrayFunction(rows, q)
-            self.quadrature_rows_d = _ArrayFunction(d_rows, q)
+            self.quadrature_terms = _FusedRows(rows, q, explicit)
+            self.quadrature_terms.compile(2)
+        else:
+            _ = self.G, self.dG  # the ODE path is the only one: compile now
 
-    def quadrature_rows_dd(self, q: np.ndarray, h: float = 1e-5) -> np.ndarray:
-        """Second derivatives of the quadrature rows along explicit coordinates, (..., nQ, m,
-        nE, nE), by central differences of the exact first derivatives (accurate to ~1e-10,
-        plenty for the Hessian of the energy objective; no sympy compilation at start-up).
-        """
-        out = np.empty((*self.quadrature_rows_d(q).shape, len(self.explicit)))
-        for c, k in enumerate(self.explicit):
-            step = np.zeros(q.shape[-1])
-            step[k] = h
-            out[..., c] = (self.quadrature_rows_d(q + step) - self.quadrature_rows_d(q - step)) / (
-                2 * h
-            )
-        return out
+    @cached_property
+    def G(self) -> _ArrayFunction:  # (..., n) -> (..., n, m_active)
+        return _ArrayFunction(self.G_sym, list(self.system.symbols))
+
+    @cached_property
+    def dG(self) -> _ArrayFunction:  # (..., n) -> (..., n, m_active, n)
+        q = list(self.system.symbols)
+        n, m = self.G_sym.shape
+        dG = sp.MutableDenseNDimArray.zeros(n, m, n)
+        for i in range(n):
+            for j in range(m):
+                for k in range(n):
+                    dG[i, j, k] = sp.diff(self.G_sym[i, j], q[k])
+        return _ArrayFunction(dG, q)
+
+    def quadrature_rows(self, q: np.ndarray) -> np.ndarray:
+        """`G_Q(q)`, (..., nQ, m)."""
+        return self.quadrature_terms(q, 0)[0]
+
+    def quadrature_rows_d(self, q: np.ndarray) -> np.ndarray:
+        """`∂G_Q/∂q_E`, (..., nQ, m, nE)."""
+        return self.quadrature_terms(q, 1)[1]
+
+    def quadrature_rows_dd(self, q: np.ndarray) -> np.ndarray:
+        """`∂²G_Q/∂q_E²`, (..., nQ, m, nE, nE)."""
+        return self.quadrature_terms(q, 2)[2]
 
     @property
     def supports_quadrature(self) -> bool:
         """True when every non-constant row depends only on constant-row coordinates."""
-        return self.quadrature_rows is not None
+        return self.quadrature_terms is not None
 
 
 @dataclass
