@@ -180,28 +180,57 @@ def optimise_energy(
     """Minimum energy over all legs from each of `seeds` (stacked feasible coefficients).
 
     `starts` are the legs' nominal start configurations (the previous leg's via).
+
+    The starts are raced, not run one after another: every start first takes
+    `ABANDON_AFTER` iterations; then the starts still running are finished in the order of
+    their energy, lowest first, so that the best energy is known early and a start still
+    `ABANDON_RATIO` above it is dropped before it spends iterations on a worse minimum.
     """
     problem = _Problem(system, starts, legs, settings, targets)
-    initial = [("newton", lam) for lam in seeds]
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
-        initial = initial[:1]
+        seeds = seeds[:1]
+    runs = [_Descent(problem, problem.project(lam), settings.tolerance) for lam in seeds]
+    found: list[np.ndarray] = []  # minima reached by finished starts
+    best = [np.inf]
+
+    def finish(run: _Descent, iterations: int | None) -> None:
+        while not run.done and (iterations is None or run.iterations < iterations):
+            if run.iterations >= ABANDON_AFTER and run.energy > ABANDON_RATIO * best[0]:
+                run.stop("abandoned")  # energy only decreases: unlikely to beat the best
+            elif any(
+                np.linalg.norm(run.z - f) <= SAME_MINIMUM * np.sqrt(run.energy) for f in found
+            ):
+                run.stop("same minimum")  # converging to a minimum already found
+            else:
+                run.step()
+        if run.done and run.feasible:
+            found.append(run.z)
+            best[0] = min(best[0], run.energy)
+
+    for run in runs:
+        finish(run, ABANDON_AFTER)
+    for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
+        finish(run, None)
+
     outcome = EnergyOptimum(None)
     best_energy = np.inf
-    found: list[np.ndarray] = []  # minima reached by earlier starts
-    tol = settings.tolerance
-    for k, (kind, lam0) in enumerate(initial):
-        clock = time.perf_counter()
-        z0 = problem.project(lam0)
-        z, iterations = _sqp(problem, z0, tol, best_energy, found)
+    for k, run in enumerate(runs):
+        z = run.z
         err = float(np.abs(problem.constraint(z)).max()) if len(z) else 0.0
         energy = problem.energy(z)
-        pg = problem.projected_gradient(z)
-        ok = bool(np.isfinite(energy) and err <= 0.1 * tol)
+        ok = bool(np.isfinite(energy) and err <= 0.1 * settings.tolerance)
         outcome.outcomes.append(
-            StartOutcome(k, kind, energy, err, pg, iterations, ok, time.perf_counter() - clock)
+            StartOutcome(
+                k,
+                "newton",
+                energy,
+                err,
+                problem.projected_gradient(z),
+                run.iterations,
+                ok,
+                run.seconds,
+            )
         )
-        if ok:
-            found.append(z)
         if ok and energy < best_energy:
             best_energy = energy
             outcome.best = k
@@ -209,41 +238,48 @@ def optimise_energy(
     return outcome
 
 
-def _sqp(
-    problem: _Problem,
-    z: np.ndarray,
-    tol: float,
-    best: float = np.inf,
-    found: list[np.ndarray] = (),
-) -> tuple[np.ndarray, int]:
-    """Feasible-point SQP with the exact Hessian of the Lagrangian.
+class _Descent:
+    """One start of the feasible-point SQP with the exact Hessian of the Lagrangian, advanced
+    one iteration at a time (so that starts can be raced).
 
     Every iterate reaches the goals (restored by Newton steps of least energy norm); a step
     minimises the quadratic model of the Lagrangian on the constraints' tangent space, and is
     halved until the restored point has less energy. Near a regular minimum the steps are
     Newton steps of the reduced problem: a handful of iterations, each a few endpoint calls.
-    A start still far above the `best` energy found so far after a few iterations is dropped,
-    and so is one that arrives next to a minimum an earlier start `found` (in the energy norm,
-    which is the Euclidean norm of these coordinates): it would only find that minimum again.
     """
-    H0 = problem.H0
-    chol = scipy.linalg.cho_factor(H0)
-    exact = problem.exact_hessians  # ODE-path legs: no second derivatives, first-order steps
-    c_tol = min(1e-10, 1e-3 * tol)
 
-    def restore(z):
+    def __init__(self, problem: _Problem, z: np.ndarray, tol: float):
+        clock = time.perf_counter()
+        self.problem = problem
+        self.H0 = problem.H0
+        self.chol = scipy.linalg.cho_factor(self.H0)
+        self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
+        self.c_tol = min(1e-10, 1e-3 * tol)
+        self.iterations = 0
+        self.best_pg, self.since = np.inf, 0
+        self.reason = ""
+        start = self._restore(z)
+        self.feasible = start is not None
+        self.z = z if start is None else start
+        self.energy = problem.energy(self.z) if self.feasible else np.inf
+        self.done = not self.feasible
+        self.seconds = time.perf_counter() - clock
+
+    def stop(self, reason: str) -> None:
+        self.done, self.reason = True, reason
+
+    def _restore(self, z):
         """Back onto the goals: Newton steps of least energy norm, quadratically convergent."""
-        previous = np.inf
+        problem, previous = self.problem, np.inf
         for _ in range(RESTORATION_STEPS):
-            c = problem.constraint(z)
+            c, J = problem._evaluate(z, True)
             violation = np.abs(c).max(initial=0.0)
-            if violation <= c_tol:
+            if violation <= self.c_tol:
                 return z
             if violation > 0.5 * previous:
                 return None  # not converging fast: let the line search shorten the step
             previous = violation
-            J = problem.constraint_jac(z)
-            HJ = scipy.linalg.cho_solve(chol, J.T)
+            HJ = scipy.linalg.cho_solve(self.chol, J.T)
             try:
                 S = scipy.linalg.cho_factor(J @ HJ)
             except np.linalg.LinAlgError:
@@ -253,19 +289,18 @@ def _sqp(
                 return None
         return None
 
-    start = restore(z)
-    if start is None:
-        return z, 0
-    z = start
-    energy = problem.energy(z)
-    iterations = 0
-    best_pg, since = np.inf, 0
-    while iterations < (SQP_ITERATIONS if exact else FIRST_ORDER_ITERATIONS):
-        if iterations >= ABANDON_AFTER and energy > ABANDON_RATIO * best:
-            break  # energy only decreases, and this start is unlikely to beat the best
-        if any(np.linalg.norm(z - f) <= SAME_MINIMUM * np.sqrt(energy) for f in found):
-            break  # converging to a minimum already found
-        iterations += 1
+    def step(self) -> None:
+        clock = time.perf_counter()
+        try:
+            self._step()
+        finally:
+            self.seconds += time.perf_counter() - clock
+
+    def _step(self) -> None:
+        problem, H0, z, energy = self.problem, self.H0, self.z, self.energy
+        if self.iterations >= (SQP_ITERATIONS if self.exact else FIRST_ORDER_ITERATIONS):
+            return self.stop("iteration limit")
+        self.iterations += 1
         _, J = problem._evaluate(z, True)
         g = problem.energy_grad(z)
         _, S, Vt = np.linalg.svd(J)
@@ -274,16 +309,16 @@ def _sqp(
         reduced = Z.T @ g
         pg = np.linalg.norm(reduced) / max(np.linalg.norm(g), 1e-300)
         if pg <= PG_TOL:
-            break
-        if pg < 0.5 * best_pg:
-            best_pg, since = pg, 0
+            return self.stop("converged")
+        if pg < 0.5 * self.best_pg:
+            self.best_pg, self.since = pg, 0
         else:
-            since += 1
-            if pg <= 1e-6 and since >= STALL_ITERATIONS:
-                break  # at the noise floor of the end-point map: no further progress
+            self.since += 1
+            if pg <= 1e-6 and self.since >= STALL_ITERATIONS:
+                return self.stop("noise floor")  # the end-point map allows no further progress
 
         mu = -np.linalg.lstsq(J.T, g, rcond=None)[0]
-        W = H0 + problem.constraint_hessian(z, mu) if exact else H0
+        W = H0 + problem.constraint_hessian(z, mu) if self.exact else H0
         R = Z.T @ W @ Z
         R0 = Z.T @ H0 @ Z
         low = float(scipy.linalg.eigh(R, R0, eigvals_only=True)[0])
@@ -299,21 +334,18 @@ def _sqp(
             d *= limit / size
         slope = float(g @ d)
         if -slope <= 1e-16 * max(energy, 1e-300):
-            break  # the model predicts no decrease above rounding: converged
+            return self.stop("converged")  # no decrease predicted above rounding
         near = np.linalg.norm(reduced) <= 1e-6 * np.linalg.norm(g)
-        alpha, accepted = 1.0, False
+        alpha = 1.0
         while alpha > 1e-10:
-            trial = restore(z + alpha * d)
+            trial = self._restore(z + alpha * d)
             if trial is not None:
                 e = problem.energy(trial)
                 # close to the solution a full Newton step is trusted: the energy of a restored
                 # point is only known to about |multiplier| x the restoration tolerance
                 allowed = 1e-9 * energy if near else 1e-4 * alpha * slope + 1e-15 * energy
                 if e <= energy + allowed:
-                    accepted = True
-                    break
+                    self.z, self.energy = trial, e
+                    return None
             alpha *= 0.5
-        if not accepted:
-            break
-        z, energy = trial, e
-    return z, iterations
+        return self.stop("line search")

@@ -123,7 +123,8 @@ def _newton(endpoint, goal, targets, elimination, z, settings, mu) -> LegSolutio
         gamma, accepted = 1.0, False
         while gamma > 1e-6:  # backtracking: accept only a step that lowers the error
             z_new = z + gamma * step
-            lam_new, end_new, _, e_new = evaluate(z_new, False)
+            # the full step is usually accepted: its Jacobian comes with it at little cost
+            lam_new, end_new, J_new, e_new = evaluate(z_new, gamma == 1.0)
             err_new = float(np.linalg.norm(e_new))
             if np.isfinite(err_new) and err_new < err:
                 accepted = True
@@ -136,7 +137,7 @@ def _newton(endpoint, goal, targets, elimination, z, settings, mu) -> LegSolutio
             continue
         z, lam, end, e, err = z_new, lam_new, end_new, e_new, err_new
         if err > settings.tolerance:
-            J = endpoint(lam, True)[1]
+            J = J_new if J_new is not None else endpoint(lam, True)[1]
         mu = max(mu / 10.0, 1e-12) if gamma == 1.0 else min(mu * 2.0, 1.0)
         history.append(err)
     L = lam.reshape(endpoint.m, endpoint.size)
