@@ -404,8 +404,18 @@ def regress(
     if diffs:
         out_console.print(table)
     bad = sum(d.regression for d in diffs)
-    verdict = "[red]regressions[/]" if bad else "[green]no regressions[/]"
-    out_console.print(f"{verdict}: {bad} of {len(diffs)} differences", highlight=False)
+    if not diffs:
+        out_console.print(
+            f"[green]no regressions[/]: all {len(now)} scenarios match {baseline} "
+            f"(energy within {tolerances['energy_rel']:g} relative, errors within "
+            f"{tolerances['error_abs']:g})",
+            highlight=False,
+        )
+    else:
+        verdict = "[red]regressions[/]" if bad else "[green]no regressions[/]"
+        out_console.print(
+            f"{verdict}: {bad} of {len(diffs)} differences are regressions", highlight=False
+        )
     raise typer.Exit(1 if bad else 0)
 
 

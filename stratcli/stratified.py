@@ -297,9 +297,11 @@ def plan_sequence(
     for leg, planned in zip(legs[:-1], newton.legs[:-1], strict=True):
         nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
     targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
-    stacked = [np.concatenate([leg.coefficients.ravel() for leg in p.legs]) for p in seeds]
+    stacked = [
+        ("newton", np.concatenate([leg.coefficients.ravel() for leg in p.legs])) for p in seeds
+    ]
     if warm_start is not None:
-        stacked.insert(0, np.concatenate([np.ravel(c) for c in warm_start]))
+        stacked.insert(0, ("warm start", np.concatenate([np.ravel(c) for c in warm_start])))
     optimum = optimise_energy(system, nominal, legs, settings, targets, stacked)
     optimum.newton_energy = newton.total_energy
     newton.optimisation = optimum

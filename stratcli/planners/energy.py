@@ -36,18 +36,20 @@ class StartOutcome:
     """One start of the multi-start search, as recorded in result.json."""
 
     index: int
-    kind: str  # where the start came from: "newton" (a Newton plan, seeded)
+    kind: str  # where the start came from: "newton" (a seeded Newton plan) or "warm start"
     energy: float
     goal_error: float  # largest goal error over legs at the SLSQP solution
     projected_gradient: float  # relative, at the solution
     iterations: int
     converged: bool
     seconds: float
+    stopped: str = ""  # why the search from this start ended (see _Descent.stop)
 
 
 @dataclass
 class EnergyOptimum:
     coefficients: list[np.ndarray] | None  # flat, per leg; None if no start succeeded
+    ends: list[list[np.ndarray] | None] = field(default_factory=list)  # every start's end point
     outcomes: list[StartOutcome] = field(default_factory=list)
     best: int | None = None
     newton_energy: float | None = None  # of the plain Newton plan, for comparison
@@ -97,6 +99,12 @@ class _Problem:
         self.null = N @ (V[:, keep] / np.sqrt(ev[keep]))  # λ = λp + null @ z
         self._to_z = (np.sqrt(ev[keep])[:, None] * V[:, keep].T) @ N.T
         self.H0 = 2.0 * np.eye(int(keep.sum()))  # Hessian of the energy in z
+        # The energy as the quadratic it is in z, `e0 + b·z + |z|²`: evaluating λᵀMλ instead
+        # loses ~1e-12 of it to the Gram matrix's conditioning, more than the decrease left
+        # near an optimum with 8 harmonics, so the line search would stall short of it.
+        Mp = self.M @ self._particular
+        self._e0 = float(self._particular @ Mp)
+        self._b = 2.0 * self.null.T @ Mp
         self._z = None
 
     def coefficients(self, z):
@@ -138,11 +146,10 @@ class _Problem:
         return self._evaluate(z, True)[1]
 
     def energy(self, z):
-        lam = self.coefficients(z)
-        return float(lam @ self.M @ lam)
+        return self._e0 + float(self._b @ z) + float(z @ z)
 
     def energy_grad(self, z):
-        return 2.0 * self.null.T @ (self.M @ self.coefficients(z))
+        return self._b + 2.0 * z
 
     @property
     def exact_hessians(self) -> bool:
@@ -175,9 +182,10 @@ def optimise_energy(
     legs,
     settings,
     targets: list[np.ndarray],
-    seeds: list[np.ndarray],
+    seeds: list[tuple[str, np.ndarray]],
 ) -> EnergyOptimum:
-    """Minimum energy over all legs from each of `seeds` (stacked feasible coefficients).
+    """Minimum energy over all legs from each of `seeds` ((kind, stacked feasible
+    coefficients); the kind is recorded, e.g. "newton" or "warm start").
 
     `starts` are the legs' nominal start configurations (the previous leg's via).
 
@@ -189,7 +197,7 @@ def optimise_energy(
     problem = _Problem(system, starts, legs, settings, targets)
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
         seeds = seeds[:1]
-    runs = [_Descent(problem, problem.project(lam), settings.tolerance) for lam in seeds]
+    runs = [_Descent(problem, problem.project(lam), settings.tolerance) for _, lam in seeds]
     found: list[np.ndarray] = []  # minima reached by finished starts
     best = [np.inf]
 
@@ -222,15 +230,17 @@ def optimise_energy(
         outcome.outcomes.append(
             StartOutcome(
                 k,
-                "newton",
+                seeds[k][0],
                 energy,
                 err,
                 problem.projected_gradient(z),
                 run.iterations,
                 ok,
                 run.seconds,
+                run.reason or "not started",
             )
         )
+        outcome.ends.append(problem.split(problem.coefficients(z)) if ok else None)
         if ok and energy < best_energy:
             best_energy = energy
             outcome.best = k
@@ -263,6 +273,7 @@ class _Descent:
         self.z = z if start is None else start
         self.energy = problem.energy(self.z) if self.feasible else np.inf
         self.done = not self.feasible
+        self.reason = "" if self.feasible else "not restored onto the goals"
         self.seconds = time.perf_counter() - clock
 
     def stop(self, reason: str) -> None:
@@ -336,15 +347,20 @@ class _Descent:
         if -slope <= 1e-16 * max(energy, 1e-300):
             return self.stop("converged")  # no decrease predicted above rounding
         near = np.linalg.norm(reduced) <= 1e-6 * np.linalg.norm(g)
+        # Merit: the Lagrangian f + μᵀc, not f alone. Restored points meet the goals only to
+        # the restoration tolerance, which moves f by about |μ| x that tolerance: more than
+        # the decrease left near the solution. In the Lagrangian that first-order effect
+        # cancels, so the line search still sees progress there.
+        merit = energy + float(mu @ problem.constraint(z))
         alpha = 1.0
         while alpha > 1e-10:
             trial = self._restore(z + alpha * d)
             if trial is not None:
                 e = problem.energy(trial)
-                # close to the solution a full Newton step is trusted: the energy of a restored
-                # point is only known to about |multiplier| x the restoration tolerance
-                allowed = 1e-9 * energy if near else 1e-4 * alpha * slope + 1e-15 * energy
-                if e <= energy + allowed:
+                m = e + float(mu @ problem.constraint(trial))
+                # close to the solution a full Newton step is trusted up to rounding
+                allowed = 1e-12 * energy if near else 1e-4 * alpha * slope + 1e-15 * energy
+                if m <= merit + allowed:
                     self.z, self.energy = trial, e
                     return None
             alpha *= 0.5

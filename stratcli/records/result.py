@@ -39,6 +39,7 @@ def _optimisation(plan: PlanResult) -> dict[str, Any] | None:
                 "projected_gradient": o.projected_gradient,
                 "iterations": o.iterations,
                 "converged": o.converged,
+                "stopped": o.stopped,
                 "seconds": o.seconds,
             }
             for o in opt.outcomes
