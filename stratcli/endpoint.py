@@ -105,8 +105,9 @@ class QuadratureEndpoint(_Endpoint):
         configurations q at the nodes (explicit coordinates in closed form)."""
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
         t, w, Phi, Psi = self._table(node_count(L, self.duration, self.basis))
-        q = np.broadcast_to(self.q0, (t.size, self.q0.size)).copy()
-        q[:, self.E] += (Psi @ L.T) @ self.C.T
+        q = np.empty((t.size, self.q0.size))
+        q[:, self.E] = self.q0[self.E] + Psi @ (L.T @ self.C.T)
+        q[:, self.Q] = self.q0[self.Q]
         return L, w, Phi, Psi, Phi @ L.T, q
 
     def __call__(self, lam: np.ndarray, jacobian: bool = True):

@@ -110,7 +110,7 @@ class _FusedRows:
     def __call__(self, q: np.ndarray, order: int) -> tuple[np.ndarray, ...]:
         """(rows (..., nQ, m), [d (..., nQ, m, nE), [dd (..., nQ, m, nE, nE)]]) at points q."""
         lead = q.shape[:-1]
-        values = self._func(order)(*np.moveaxis(q, -1, 0))
+        values = self._func(order)(*(q.T if q.ndim == 2 else np.moveaxis(q, -1, 0)))
         flat = np.empty((*lead, len(values)))
         for i, v in enumerate(values):
             flat[..., i] = v
