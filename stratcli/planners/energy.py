@@ -212,8 +212,9 @@ def optimise_energy(
             else:
                 run.step()
         if run.done and run.feasible:
-            found.append(run.z)
             best[0] = min(best[0], run.energy)
+            if run.reason in ("converged", "noise floor"):
+                found.append(run.z)  # a minimum (not a start dropped on the way down)
 
     for run in runs:
         finish(run, ABANDON_AFTER)
@@ -241,7 +242,9 @@ def optimise_energy(
             )
         )
         outcome.ends.append(problem.split(problem.coefficients(z)) if ok else None)
-        if ok and energy < best_energy:
+        # a start stopped next to a minimum another start reached is not a candidate: its
+        # energy can undercut that converged one only by rounding
+        if ok and run.reason != "same minimum" and energy < best_energy:
             best_energy = energy
             outcome.best = k
             outcome.coefficients = problem.split(problem.coefficients(z))
