@@ -9,6 +9,11 @@ bent start. The model comes from physical parameters (closed-form A and dA, no s
 
 from __future__ import annotations
 
+import os
+
+# as the stratplan command does (stratcli/__main__.py): no BLAS threads for small matrices
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import statistics
 import time
@@ -37,7 +42,7 @@ def main() -> None:
         start = np.concatenate([np.full(n, 0.4), [0.0]])
         goal = start + np.concatenate([[0.0], np.full(n - 1, 0.3), [0.1]])
         legs = [LegSpec("S1", goal)]
-        settings = PlannerSettings(continuity="none")
+        settings = PlannerSettings(continuity="none", objective="newton")  # one Newton leg
         result = plan_sequence(system, start, legs, settings)  # warm-up
         times = []
         for _ in range(args.repeats):

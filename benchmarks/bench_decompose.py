@@ -14,6 +14,11 @@ settings have an `objective`; otherwise that line is skipped, saying so.
 
 from __future__ import annotations
 
+import os
+
+# as the stratplan command does (stratcli/__main__.py): no BLAS threads for small matrices
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import dataclasses
 import multiprocessing

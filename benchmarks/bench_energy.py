@@ -18,6 +18,11 @@ pip install -e '.[bench]'.
 
 from __future__ import annotations
 
+import os
+
+# as the stratplan command does (stratcli/__main__.py): no BLAS threads for small matrices
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import platform
 import statistics
@@ -212,7 +217,7 @@ def main(argv: list[str] | None = None) -> None:
         print(
             "Relative projected gradient at the optimum (H = 3 / H = "
             f"{MORE_HARMONICS}; the issue asks ≤ 1e-8): "
-            + ", ".join(f"{name} {_num(a, '.0e')} / {_num(b, '.0e')}" for name, (a, b) in pgs)
+            + ", ".join(f"{name} {_num(a, '.1e')} / {_num(b, '.1e')}" for name, (a, b) in pgs)
             + "."
         )
     sim4 = [r["seconds"] for r in rows if r["scenario"].startswith("sim4") and "seconds" in r]

@@ -13,6 +13,11 @@ paper's group reports about 11.5 s per elementary Lie-algebraic task (Mathematic
 
 from __future__ import annotations
 
+import os
+
+# as the stratplan command does (stratcli/__main__.py): no BLAS threads for small matrices
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import statistics
 import time

@@ -9,6 +9,11 @@ paper's method; `energy` (the default objective) adds the multi-start minimum-en
 
 from __future__ import annotations
 
+import os
+
+# as the stratplan command does (stratcli/__main__.py): no BLAS threads for small matrices
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import platform
 import statistics

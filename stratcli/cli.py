@@ -182,7 +182,11 @@ def _print_summary(doc: dict) -> None:
         highlight=False,
     )
     table = Table(show_edge=False)
-    columns = ("leg", "stratum", "method", "evaluator", "iterations", "starts", "final error")
+    # Per-leg Newton iterations and starts describe the plan only when legs are planned one
+    # by one; the energy objective optimises all legs together (its line below says how).
+    per_leg = not (doc.get("optimisation") or {}).get("starts")
+    counts = ("iterations", "starts") if per_leg else ()
+    columns = ("leg", "stratum", "method", "evaluator", *counts, "final error")
     for col in (*columns, "energy", "status"):
         table.add_column(
             col, justify="left" if col in ("stratum", "method", "evaluator", "status") else "right"
@@ -193,8 +197,7 @@ def _print_summary(doc: dict) -> None:
             leg["stratum"],
             leg["method"],
             leg["evaluator"],
-            str(leg["iterations"]),
-            str(leg["attempts"]),
+            *((str(leg["iterations"]), str(leg["attempts"])) if per_leg else ()),
             f"{leg['error']:.2e}",
             _fmt(leg["energy"]),
             "[green]ok[/]" if leg["converged"] else "[red]failed[/]",
@@ -224,10 +227,11 @@ def _print_summary(doc: dict) -> None:
         best = opt["starts"][opt["best"]]
         energies = ", ".join(_fmt(s["energy"]) for s in opt["starts"])
         out_console.print(
-            f"energy-optimal: start {best['index'] + 1} of {len(opt['starts'])} "
-            f"({best['iterations']} SQP iterations, projected gradient "
-            f"{best['projected_gradient']:.0e}); the starts ended at {energies}; "
-            f"plain Newton: {_fmt(opt['newton_energy'])}",
+            f"energy-optimal over all legs together: start {best['index'] + 1} of "
+            f"{len(opt['starts'])} ({best['iterations']} SQP iterations"
+            f"{', ' + best['stopped'] if best.get('stopped') else ''}, "
+            f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
+            f"{energies}; plain Newton: {_fmt(opt['newton_energy'])}",
             highlight=False,
         )
 
@@ -972,7 +976,3 @@ def _print_check(doc: dict, title: str, seconds: float) -> None:
             else "; [red]some legs cannot be planned[/]"
         )
     out_console.print(f"verdict: {verdict} · {seconds * 1e3:.0f} ms", highlight=False)
-
-
-def main() -> None:  # pragma: no cover - entry point for `python -m stratcli`
-    app()
