@@ -1,10 +1,11 @@
 """Energy-optimal planning (beyond the paper): min Σ ∫|u|² subject to reaching every via.
 
 All legs are optimised together: the continuity conditions of the whole sequence are linear in
-the stacked coefficients and eliminated once (`λ = λp + N z`); the goals are nonlinear
-equality constraints with exact Jacobians (the leg end-point maps). The problem
-`min λᵀMλ s.t. k_i(λ_i) = goal_i` is solved by SLSQP (an SQP with a quasi-Newton Hessian of
-the Lagrangian, so the constraints' curvature is used), from several deterministic starts.
+the stacked coefficients and eliminated once (`λ = λp + N z`, N whitened so that the energy is
+`e0 + b·z + |z|²`); the goals are nonlinear equality constraints with exact Jacobians and
+Hessians (the legs' quadrature end-point maps). The problem `min λᵀMλ s.t. k_i(λ_i) = goal_i`
+is solved by a feasible-point SQP with the exact Hessian of the Lagrangian (`_Descent`), from
+several deterministic starts that are raced (`optimise_energy`).
 """
 
 from __future__ import annotations
