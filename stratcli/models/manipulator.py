@@ -84,15 +84,6 @@ class NumericManipulatorStratum:
         self.G, self.dG = G, dG
         self.quadrature_terms = terms
 
-    def quadrature_rows(self, q):
-        return self.quadrature_terms(q, 0)[0]
-
-    def quadrature_rows_d(self, q):
-        return self.quadrature_terms(q, 1)[1]
-
-    def quadrature_rows_dd(self, q):
-        return self.quadrature_terms(q, 2)[2]
-
 
 class ManipulatorSystem(System):
     """A `System` whose vector fields come from a `PlanarManipulator`."""

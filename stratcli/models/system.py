@@ -84,7 +84,7 @@ class _FusedRows:
     def __init__(self, rows: sp.Matrix, symbols: list[sp.Symbol], explicit: tuple[int, ...]):
         nQ, m = rows.shape
         nE = len(explicit)
-        self.shapes = ((nQ, m), (nQ, m, nE), (nQ, m, nE, nE))
+        self._sizes = (nQ, m, nE)
         along = [symbols[k] for k in explicit]
         flat0 = [rows[i, j] for i in range(nQ) for j in range(m)]
         flat1 = _derivatives(flat0, along)
@@ -115,7 +115,7 @@ class _FusedRows:
         flat = np.empty((*lead, len(values)))
         for i, v in enumerate(values):
             flat[..., i] = v
-        (nQ, m), nE = self.shapes[0], self.shapes[1][-1]
+        nQ, m, nE = self._sizes
         a, b = nQ * m, nQ * m * (1 + nE)
         out = [flat[..., :a].reshape(*lead, nQ, m)]
         if order >= 1:
@@ -182,18 +182,6 @@ class CompiledStratum:
                 for k in range(n):
                     dG[i, j, k] = sp.diff(self.G_sym[i, j], q[k])
         return _ArrayFunction(dG, q)
-
-    def quadrature_rows(self, q: np.ndarray) -> np.ndarray:
-        """`G_Q(q)`, (..., nQ, m)."""
-        return self.quadrature_terms(q, 0)[0]
-
-    def quadrature_rows_d(self, q: np.ndarray) -> np.ndarray:
-        """`∂G_Q/∂q_E`, (..., nQ, m, nE)."""
-        return self.quadrature_terms(q, 1)[1]
-
-    def quadrature_rows_dd(self, q: np.ndarray) -> np.ndarray:
-        """`∂²G_Q/∂q_E²`, (..., nQ, m, nE, nE)."""
-        return self.quadrature_terms(q, 2)[2]
 
     @property
     def supports_quadrature(self) -> bool:

@@ -50,7 +50,6 @@ class StartOutcome:
 @dataclass
 class EnergyOptimum:
     coefficients: list[np.ndarray] | None  # flat, per leg; None if no start succeeded
-    ends: list[list[np.ndarray] | None] = field(default_factory=list)  # every start's end point
     outcomes: list[StartOutcome] = field(default_factory=list)
     best: int | None = None
     newton_energy: float | None = None  # of the plain Newton plan, for comparison
@@ -242,7 +241,6 @@ def optimise_energy(
                 run.reason or "not started",
             )
         )
-        outcome.ends.append(problem.split(problem.coefficients(z)) if ok else None)
         # a start stopped next to a minimum another start reached is not a candidate: its
         # energy can undercut that converged one only by rounding
         if ok and run.reason != "same minimum" and energy < best_energy:
@@ -271,7 +269,6 @@ class _Descent:
         self.c_tol = min(1e-10, 1e-3 * tol)
         self.iterations = 0
         self.best_pg, self.since = np.inf, 0
-        self.reason = ""
         start = self._restore(z)
         self.feasible = start is not None
         self.z = z if start is None else start
