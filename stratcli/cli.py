@@ -20,11 +20,10 @@ from .compare import (
     CRITERIA,
     CRITERION_LABELS,
     auto_settings,
-    compile_strata,
+    compare_decomposition,
     decompose_task,
     default_jobs,
 )
-from .compare import compare as compare_candidates
 from .decompose import STRATEGIES, format_configuration, moved_coordinates, pi_fraction
 from .errors import InputError, Problem
 from .models.presets import PRESETS, preset
@@ -571,27 +570,17 @@ def _progress(total: int, enabled: bool):
 
 
 def _run_comparison(task: Task, auto, dec, jobs: int, show_progress: bool):
-    compile_time = compile_strata(task.system, dec.candidates_strata)
-    with _progress(len(dec.candidates), show_progress) as bar:
-        job = bar.add_task("plan", total=len(dec.candidates))
+    try:
+        with _progress(len(dec.candidates), show_progress) as bar:
+            job = bar.add_task("plan", total=len(dec.candidates))
 
-        def advance(k: int) -> None:
-            bar.update(job, advance=k)
-            bar.refresh()
+            def advance(k: int) -> None:
+                bar.update(job, advance=k)
+                bar.refresh()
 
-        comparison = compare_candidates(
-            task.system,
-            task.start,
-            dec.candidates,
-            task.settings,
-            criterion=auto.criterion,
-            jobs=jobs,
-            progress=advance,
-        )
-    if comparison.best is None or comparison.best.plan is None:
-        first = comparison.best.message if comparison.best else "no candidate sequences"
-        _fail_input(InputError([Problem("decompose", first)], task.source))
-    return comparison, compile_time
+            return compare_decomposition(task, auto, dec, jobs=jobs, progress=advance)
+    except InputError as exc:
+        _fail_input(exc)
 
 
 def _comparison_record(task: Task, auto, dec, comparison, compile_time, started, out, animation):

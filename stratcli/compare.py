@@ -601,11 +601,13 @@ def compile_strata(system: System, names) -> float:
     return time.perf_counter() - clock
 
 
-def plan_auto(task, *, jobs: int = 1, progress=None) -> tuple[PlanResult, Comparison]:
-    """Auto mode: decompose with the scenario's [decompose] table, plan all, return the best."""
-    auto = auto_settings(task)
-    decomposition = decompose_task(task, auto)
-    compile_strata(task.system, decomposition.candidates_strata)
+def compare_decomposition(
+    task, auto, decomposition, *, jobs: int = 1, progress=None
+) -> tuple[Comparison, float]:
+    """Compile the candidates' strata, then plan and rank every candidate of `decomposition`
+    by `auto.criterion`; returns the comparison and the compile time. InputError when no
+    candidate could even be planned (all were rejected before planning)."""
+    compile_time = compile_strata(task.system, decomposition.candidates_strata)
     comparison = compare(
         task.system,
         task.start,
@@ -616,13 +618,21 @@ def plan_auto(task, *, jobs: int = 1, progress=None) -> tuple[PlanResult, Compar
         progress=progress,
     )
     best = comparison.best
-    plan = best.plan if best is not None else None
-    if plan is None:  # rejected before planning: nothing was planned at all
+    if best is None or best.plan is None:
         raise InputError(
             [Problem("decompose", best.message if best else "no candidate sequences")],
             task.source,
         )
-    return plan, comparison
+    return comparison, compile_time
+
+
+def plan_auto(task, *, jobs: int = 1, progress=None) -> tuple[PlanResult, Comparison]:
+    """Auto mode: decompose with the scenario's [decompose] table, plan all, return the best."""
+    auto = auto_settings(task)
+    comparison, _ = compare_decomposition(
+        task, auto, decompose_task(task, auto), jobs=jobs, progress=progress
+    )
+    return comparison.best.plan, comparison
 
 
 __all__ = [
@@ -632,6 +642,7 @@ __all__ = [
     "auto_settings",
     "build_trie",
     "compare",
+    "compare_decomposition",
     "compile_strata",
     "decompose_task",
     "default_jobs",
