@@ -226,18 +226,8 @@ def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings:
             unlocked = np.isin(np.arange(system.n), stratum.locked, invert=True)
             previous = np.where(unlocked, leg.goal, previous)
             continue
-        cons = leg_constraints(
-            settings.basis,
-            leg.duration,
-            stratum.active,
-            system.inputs,
-            settings.continuity,
-            previous=None if i == 0 else (np.zeros(system.m), np.zeros(system.m)),
-            next_active=next_active,
-            soft_start=settings.soft_start,
-            full_stop=settings.full_stop,
-        )
-        free = eliminate(cons).free
+        previous_controls = None if i == 0 else (np.zeros(system.m), np.zeros(system.m))
+        free = _leg_elimination(system, settings, leg, previous_controls, next_active).free
         if free < len(targets):
             problems.append(
                 Problem(
@@ -253,6 +243,27 @@ def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings:
         previous = np.where(unlocked, leg.goal, previous)
     if problems:
         raise InputError(problems)
+
+
+def _leg_elimination(
+    system: System, settings: PlannerSettings, leg: LegSpec, previous, next_active
+):
+    """The boundary conditions of a Newton leg (continuity with `previous` controls, or soft
+    start on the first leg; lr-continuity into `next_active`, or full stop on the last),
+    eliminated: the free coefficients the planner works in."""
+    return eliminate(
+        leg_constraints(
+            settings.basis,
+            leg.duration,
+            system.stratum(leg.stratum).active,
+            system.inputs,
+            settings.continuity,
+            previous=previous,
+            next_active=next_active,
+            soft_start=settings.soft_start,
+            full_stop=settings.full_stop,
+        )
+    )
 
 
 def _targets(system: System, stratum, leg: LegSpec) -> tuple[int, ...]:
@@ -422,19 +433,7 @@ def plan_one_leg(
     basis = settings.basis
     stratum = system.stratum(leg.stratum)
     endpoint = make_endpoint(system.compiled(stratum), q, basis, leg.duration, settings.evaluator)
-    elimination = eliminate(
-        leg_constraints(
-            basis,
-            leg.duration,
-            stratum.active,
-            system.inputs,
-            settings.continuity,
-            previous=previous,
-            next_active=next_active,
-            soft_start=settings.soft_start,
-            full_stop=settings.full_stop,
-        )
-    )
+    elimination = _leg_elimination(system, settings, leg, previous, next_active)
     targets = np.array(_targets(system, stratum, leg), dtype=int)
     solution = plan_leg(
         endpoint, leg.goal, targets, elimination, newton, stream=index, initial=initial
