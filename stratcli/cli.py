@@ -204,7 +204,11 @@ def _print_summary(doc: dict) -> None:
     out_console.print(table)
     line = f"total energy [bold]{_fmt(doc['total_energy'])}[/]"
     ref = doc.get("reference_energy")
-    if ref:
+    scale = doc.get("time_scale", 1.0)
+    if ref and scale != 1.0:  # the paper's legs last 1 s: compare the path at its own speed
+        own = doc["total_energy"] / scale
+        line += f" (at time scale 1: {_fmt(own)}; paper: {_fmt(ref)}, ratio {own / ref:.2f})"
+    elif ref:
         line += f" (paper: {_fmt(ref)}, ratio {doc['total_energy'] / ref:.2f})"
     if doc["switches"]:
         worst = max(max(abs(v) for v in sw["jump"].values()) for sw in doc["switches"])
@@ -230,7 +234,8 @@ def _print_summary(doc: dict) -> None:
             f"{len(opt['starts'])} ({best['iterations']} SQP iterations"
             f"{', ' + best['stopped'] if best.get('stopped') else ''}, "
             f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
-            f"{energies}; plain Newton: {_fmt(opt['newton_energy'])}",
+            f"{energies}; plain Newton: {_fmt(opt['newton_energy'])}"
+            + (" (energies before time scaling)" if scale != 1.0 else ""),
             highlight=False,
         )
 

@@ -43,6 +43,19 @@ def test_plan_writes_a_record_and_prints_the_table(tmp_path):
     assert json.loads((run_dir / "manifest.json").read_text())["exit_code"] == 0
 
 
+def test_time_scaled_plan_is_compared_with_the_paper_at_its_own_speed(tmp_path):
+    """--time-scale 2 doubles the energy; the paper's value is for 1 s legs, so the ratio is
+    taken at time scale 1, and the table's energies are the scaled ones."""
+    result, _ = run(tmp_path, TASK_D, "--time-scale", "2", "--no-animation")
+    assert result.exit_code == 0, result.output
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    doc = json.loads((run_dir / "result.json").read_text())
+    own = doc["total_energy"] / 2
+    text = " ".join(result.output.split())
+    assert f"at time scale 1: {own:,.2f}; paper: 124.59, ratio {own / 124.59:.2f}" in text
+    assert "before time scaling" in text
+
+
 def test_json_output_is_the_result_document(tmp_path):
     result, _ = run(tmp_path, TASK_D, "--json")
     assert result.exit_code == 0
