@@ -675,7 +675,7 @@ def compare_sequences(
         bool, typer.Option("--animation/--no-animation", help="Write the best's motion.gif.")
     ] = True,
 ) -> None:
-    """Plan every candidate sequence (in parallel, shared prefixes planned once) and rank them.
+    """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
 
     Ranked by the criterion among the sequences that reached the goal (ties: lower energy);
     failed sequences stay in the table with their reason. The record holds the best
