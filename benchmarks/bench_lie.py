@@ -27,11 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from stratcli.controllability import check_document
-from stratcli.lie import iterated_integrals, lie_basis
+from stratcli.liealgebra import iterated_integrals, lie_basis
 from stratcli.models.presets import PRESETS
-from stratcli.planners.newton import NewtonSettings
 from stratcli.scenario import load_scenario
-from stratcli.stratified import end_controls, plan_one_leg, plan_sequence
+from stratcli.stratified import LegStart, plan_next_leg, plan_sequence, planner_for
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -47,7 +46,7 @@ def main() -> None:
     plan = plan_sequence(system, task.start, task.legs, settings)
     assert plan.ok, plan.message
     q = plan.legs[1].end
-    previous = end_controls(plan.legs[1], settings.basis, system.m)
+    previous = plan.legs[1].end_controls()
     print(
         f"Sim 3: Newton legs {', '.join(leg.stratum for leg in newton_legs)} then the Lie leg on "
         f"{lie_leg.stratum} from q = {np.round(q, 4).tolist()}, u(0) = "
@@ -70,7 +69,8 @@ def main() -> None:
         leg = replace(lie_leg, lie=lie)
 
         def run(leg=leg):
-            return plan_one_leg(system, settings, q, previous, leg, 2, None, 2.0, NewtonSettings())
+            at = LegStart(q, previous, 2.0, 2)
+            return plan_next_leg(system, settings, leg, at, None, planner_for(leg, settings))
 
         result = run()  # warm-up
         times = []

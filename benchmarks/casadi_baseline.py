@@ -344,12 +344,11 @@ class _Collocation:
 def _plan_guess(problem: _Collocation, plan) -> np.ndarray:
     """A guess from a stratplan plan (`PlanResult`): its Fourier controls on each leg and the
     configurations they produce (integrated from the leg's start)."""
-    basis, m = plan.settings.basis, problem.task.system.m
     tracks = []
     for leg, result in zip(problem.legs, plan.legs, strict=True):
 
         def u_of(t, result=result, leg=leg):
-            return result.controls(basis, np.array([t]), m)[0][list(leg.active)]
+            return result.controls(np.array([t]))[0][list(leg.active)]
 
         def rhs(t, y, G=leg.G_numpy, u_of=u_of):
             return G(y) @ u_of(t)

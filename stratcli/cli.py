@@ -33,7 +33,8 @@ from .records.result import result_document
 from .records.run import record_files, write_record
 from .records.store import list_records, mcap_summary, read_record
 from .regress import DEFAULT_TOLERANCES, baseline_document, compare, load_baseline, summarise
-from .scenario import DecomposeSpec, LegEntry, Task, load_scenario
+from .scenario import LegEntry, Task, load_scenario
+from .settings import DecomposeSettings
 from .stratified import plan_sequence, time_scaled
 
 app = typer.Typer(
@@ -615,11 +616,11 @@ def _comparison_record(task: Task, auto, dec, comparison, compile_time, started,
     scenario = task.scenario.model_copy(
         update={
             "legs": entries,
-            "decompose": DecomposeSpec(
+            "decompose": DecomposeSettings(
                 max_length=auto.max_length,
                 strategy=strategy,
                 criterion=auto.criterion,
-                strata=list(auto.strata) if auto.strata else None,
+                strata=tuple(auto.strata) if auto.strata else None,
             ),
         }
     )

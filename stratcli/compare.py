@@ -20,7 +20,6 @@ do not depend on the number of processes.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import multiprocessing
 import os
@@ -35,16 +34,16 @@ import numpy as np
 from .decompose import STRATEGIES, Candidate, Decomposition, decompose
 from .errors import InputError, Problem
 from .models.system import System
-from .planners.newton import NewtonSettings
+from .results import LegPlan, SequencePlan
+from .settings import PlannerSettings
 from .stratified import (
-    LegResult,
     LegSpec,
-    PlannerSettings,
-    PlanResult,
+    LegStart,
+    assemble,
     check_legs,
-    end_controls,
-    plan_one_leg,
+    plan_next_leg,
     plan_sequence,
+    planner_for,
 )
 
 CRITERIA = ("energy", "peak-control", "excursion", "duration")
@@ -71,7 +70,7 @@ class Outcome:
 
     index: int  # position among the candidates (enumeration order)
     candidate: Candidate
-    plan: PlanResult | None  # None when the legs were rejected before planning
+    plan: SequencePlan | None  # None when the legs were rejected before planning
     status: str  # "ok" | "failed"
     reason: str  # short, for tables; "" when ok
     message: str  # full message (as in result.json), "" when ok
@@ -156,11 +155,6 @@ def is_newton(settings: PlannerSettings) -> bool:
 
 
 # ------------------------------------------------------------------------------------------
-# One Newton leg: the body of stratified.plan_sequence's loop, for one node of the trie
-# ------------------------------------------------------------------------------------------
-
-
-# ------------------------------------------------------------------------------------------
 # The trie of prefixes
 # ------------------------------------------------------------------------------------------
 
@@ -171,7 +165,7 @@ class _Node:
     parent: int | None  # None: a first leg
     depth: int
     leg: LegSpec
-    next_active: tuple[int, ...] | None  # what leg_constraints is given at the leg's end
+    next_leg: LegSpec | None  # what follows (its inputs enter the leg's end conditions)
     children: list[int] = field(default_factory=list)
 
 
@@ -204,10 +198,8 @@ def build_trie(
             node = index.get(key)
             if node is None:
                 node = len(nodes)
-                next_active = (
-                    None if i + 1 == len(legs) else system.stratum(legs[i + 1].stratum).active
-                )
-                nodes.append(_Node(node, parent, i, leg, next_active))
+                next_leg = legs[i + 1] if i + 1 < len(legs) else None
+                nodes.append(_Node(node, parent, i, leg, next_leg))
                 if parent is not None:
                     nodes[parent].children.append(node)
                 index[key] = node
@@ -219,7 +211,7 @@ def build_trie(
 
 @dataclass
 class _NodeResult:
-    leg: LegResult | None
+    leg: LegPlan | None
     seconds: float
     error: str = ""  # an exception while planning (reported, never raised)
 
@@ -229,37 +221,30 @@ _STATE: dict[str, Any] = {}
 
 
 def _plan_subtree(node_specs: list[tuple[int, int | None, LegSpec, Any]]) -> dict[int, Any]:
-    """Plan a sub-trie given in depth-first order (parents before children)."""
+    """Plan a sub-trie given in depth-first order (parents before children): each node is
+    one `stratified.plan_next_leg` from where its parent ended."""
     system: System = _STATE["system"]
     settings: PlannerSettings = _STATE["settings"]
     start: np.ndarray = _STATE["start"]
-    newton = NewtonSettings(
-        settings.tolerance, settings.max_iterations, settings.restarts, settings.seed
-    )
     done: dict[int, _NodeResult] = {}
-    after: dict[int, tuple[np.ndarray, Any, float]] = {}  # end q, end controls, end time
-    for node_id, parent, leg, next_active in node_specs:
+    after: dict[int, LegStart] = {}  # where each converged node's children start
+    for node_id, parent, leg, next_leg in node_specs:
         if parent is None:
-            q, previous, t0, depth = start, None, 0.0, 0
-        else:
-            if parent not in after:  # the parent failed: nothing to plan after it
-                continue
-            q, previous, t0 = after[parent]
-            depth = done[parent].leg.index + 1
+            at = LegStart(start)
+        elif parent in after:
+            at = after[parent]
+        else:  # the parent failed: nothing to plan after it
+            continue
         clock = time.perf_counter()
         try:
-            result = plan_one_leg(
-                system, settings, q, previous, leg, depth, next_active, t0, newton
-            )
-        except Exception as exc:  # a numerical breakdown fails this leg, not the comparison
+            result = plan_next_leg(system, settings, leg, at, next_leg, planner_for(leg, settings))
+        except Exception as exc:  # a breakdown fails this sequence, not the comparison
             done[node_id] = _NodeResult(None, time.perf_counter() - clock, f"{exc}")
             continue
         done[node_id] = _NodeResult(result, time.perf_counter() - clock)
         if result.converged:
-            after[node_id] = (
-                result.end.copy(),
-                end_controls(result, settings.basis, system.m),
-                t0 + leg.duration,
+            after[node_id] = LegStart(
+                result.end, result.end_controls(), at.t0 + result.duration, at.index + 1
             )
     return done
 
@@ -274,7 +259,7 @@ def _plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
         clock = time.perf_counter()
         try:
             plan = plan_sequence(system, start, legs, settings)
-            out[key] = (dataclasses.replace(plan, system=None), time.perf_counter() - clock, "")
+            out[key] = (plan, time.perf_counter() - clock, "")  # pickles without its model
         except Exception as exc:
             out[key] = (None, time.perf_counter() - clock, f"{exc}")
     return out
@@ -387,24 +372,21 @@ def _compare_shared(system, settings, start, candidates, valid, jobs, advance):
         specs, stack = [], [r]
         while stack:  # depth first, parents before children, children in insertion order
             n = nodes[stack.pop()]
-            specs.append((n.id, n.parent, n.leg, n.next_active))
+            specs.append((n.id, n.parent, n.leg, n.next_leg))
             stack.extend(reversed(n.children))
         units.append((specs, per_root[r]))
     results = _run(_plan_subtree, units, jobs, advance)
     done: dict[int, _NodeResult] = {}
     for part in results:
         done.update(part)
-    plans: dict[int, PlanResult | str] = {}
+    plans: dict[int, SequencePlan | str] = {}
     times: dict[int, float] = {}
     requested = 0
     for k, path in zip(valid, paths, strict=True):
         cand = candidates[k]
-        plan = PlanResult(
-            system, settings, start, cand.legs[-1].goal.copy(), planned_legs=len(cand.legs)
-        )
+        legs: list[LegPlan] = []
         seconds = 0.0
         error = ""
-        previous = None
         for node_id in path:
             node = done.get(node_id)
             if node is None:
@@ -414,13 +396,11 @@ def _compare_shared(system, settings, start, candidates, valid, jobs, advance):
                 error = node.error
                 requested += 1
                 break
-            leg = node.leg
-            plan.add_leg(leg, previous)
+            legs.append(node.leg)
             requested += 1
-            if not leg.converged:
+            if not node.leg.converged:
                 break
-            previous = end_controls(leg, settings.basis, system.m)
-        plans[k] = error or plan
+        plans[k] = error or assemble(system, settings, start, list(cand.legs), legs)
         times[k] = seconds
     planned = len(done)
     return planned, requested, plans, times
@@ -447,7 +427,7 @@ def _compare_whole(system, settings, candidates, valid, jobs, advance):
     for k in valid:
         plan, seconds, error = done[owner[k]]
         if plan is not None:
-            plan = dataclasses.replace(plan, system=system)
+            plan = plan.with_system(system)
             requested += len(plan.legs)
             if owner[k] == k:
                 planned += len(plan.legs)
@@ -481,7 +461,7 @@ def joint_coordinates(system: System, strata: Sequence[str]) -> tuple[int, ...]:
     return tuple(sorted(set.intersection(*sets))) if sets else ()
 
 
-def _peak_and_excursion(plan: PlanResult, system, settings) -> tuple[float, float]:
+def _peak_and_excursion(plan: SequencePlan, system, settings) -> tuple[float, float]:
     """max |u_k(t)| and the largest range max_t q_j − min_t q_j over the joints, sampled."""
     basis = settings.basis
     joints = joint_coordinates(system, [leg.stratum for leg in plan.legs])
@@ -626,7 +606,7 @@ def compare_decomposition(
     return comparison, compile_time
 
 
-def plan_auto(task, *, jobs: int = 1, progress=None) -> tuple[PlanResult, Comparison]:
+def plan_auto(task, *, jobs: int = 1, progress=None) -> tuple[SequencePlan, Comparison]:
     """Auto mode: decompose with the scenario's [decompose] table, plan all, return the best."""
     auto = auto_settings(task)
     comparison, _ = compare_decomposition(

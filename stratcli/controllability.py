@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from .lie import MAX_DEGREE, bracket, element_label, hall_basis, lie_basis
+from .liealgebra import MAX_DEGREE, bracket, element_label, hall_basis, lie_basis
 from .models.system import System, _ArrayFunction
 
 RANK_RTOL = 1e-9  # singular values below this times the largest count as zero

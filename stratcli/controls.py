@@ -7,18 +7,29 @@ Energy `∫ u_k² dt = λᵀ M λ` with the exact Gram matrix `M` of the basis o
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import cached_property, lru_cache
+from typing import Annotated
 
 import numpy as np
+from pydantic import ConfigDict, Field, Strict
+from pydantic.dataclasses import dataclass
+
+# Shared by every settings class: unknown keys and non-finite numbers are errors.
+CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False)
+MAX_PERIODS_PER_LEG = 1000  # duration / period of one leg (or one Lie step)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=CONFIG)
 class FourierBasis:
-    """Basis functions `1, sin(ω_i t), cos(ω_i t)` (i = 1..H) with `ω_i = 2πi/period`."""
+    """Basis functions `1, sin(ω_i t), cos(ω_i t)` (i = 1..H) with `ω_i = 2πi/period`.
 
-    harmonics: int = 3
-    period: float = 2.17
+    Scenario table ``[planner.basis]``. What bounds the work of a leg is its number of
+    periods, `duration / period` (quadrature nodes grow with it); the scenario checks it per
+    leg (`MAX_PERIODS_PER_LEG`), since time scaling divides both by the same factor.
+    """
+
+    harmonics: Annotated[int, Strict(), Field(ge=1, le=40)] = 3
+    period: Annotated[float, Strict(), Field(gt=0, le=1e6)] = 2.17
 
     @property
     def size(self) -> int:

@@ -6,40 +6,52 @@ evaluated as code (angles such as "pi/3" or "60deg" go through the safe expressi
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
 import sympy as sp
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError
 
-from .continuity import MODES
-from .controls import FourierBasis
+from . import tomlwrite
+from .controls import MAX_PERIODS_PER_LEG
 from .errors import InputError, Problem
 from .models.expressions import ExpressionError, parse_expression, parse_number
 from .models.manipulator import ManipulatorSystem
 from .models.planar import Arm, Base, Link, PlanarManipulator
 from .models.presets import PRESETS, preset
 from .models.system import Stratum, System
-from .planners.lie import LieSettings
-from .stratified import LegSpec, PlannerSettings, check_legs
+from .settings import (
+    MAX_DURATION,
+    MIN_DURATION,
+    UNKNOWN_KEY_ERRORS,
+    DecomposeSettings,
+    LieSettings,
+    PlannerSettings,
+)
+from .stratified import LegSpec, check_legs
+
+MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
 
 Number = Annotated[float, BeforeValidator(parse_number)]
+Coordinate = Annotated[float, Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
 
 
-def _parse_target(value: Any) -> float:
-    """A goal entry: a number, or "*" for a coordinate whose end value is not prescribed."""
-    return float("nan") if isinstance(value, str) and value.strip() == "*" else parse_number(value)
+def _parse_target(value: Any) -> float | None:
+    """A goal entry: a number, or "*" (None) for a coordinate whose end value is free."""
+    return None if isinstance(value, str) and value.strip() == "*" else parse_number(value)
 
 
-Target = Annotated[float, BeforeValidator(_parse_target)]
-Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
+Target = Annotated[Coordinate | None, BeforeValidator(_parse_target)]
+Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class PresetModel(_Strict):
@@ -103,74 +115,35 @@ ModelSpec = Annotated[PresetModel | CustomModel | PlanarModel, Field(discriminat
 KINDS = ("preset", "custom", "planar-manipulator")
 
 
-class BasisSpec(_Strict):
-    harmonics: int = Field(3, ge=1, le=40)
-    period: float = Field(2.17, gt=0)
-
-
-class LieSpec(_Strict):
-    """The Lie-algebraic method (legs with method = "lie", paper §4.2); every key optional."""
-
-    step_duration: float = Field(0.51, gt=0, description="length of one local step")
-    gamma: float = Field(0.5, gt=0, le=1, description="fraction of the error asked per step")
-    degree: int = Field(2, ge=1, le=3, description="Hall basis degree (brackets)")
-    max_steps: int = Field(40, ge=1, le=1000)
-    alpha: Literal["energy", "pinv"] = "energy"
-    rest: bool = Field(True, description="every step ends with u = u' = 0")
-
-
-class PlannerSpec(_Strict):
-    continuity: Literal[MODES] = "lr-C1"  # type: ignore[valid-type]
-    soft_start: bool = False
-    full_stop: bool = False
-    tolerance: float = Field(1e-3, gt=0)
-    leg_duration: float = Field(1.0, gt=0)
-    basis: BasisSpec = BasisSpec()
-    max_iterations: int = Field(100, ge=1)
-    restarts: int = Field(11, ge=0)
-    seed: int = Field(0, ge=0)
-    evaluator: Literal["auto", "quadrature", "ode"] = "auto"
-    objective: Literal["energy", "newton"] = "energy"
-    starts: int = Field(6, ge=1, le=64)
-    time_scale: float = Field(1.0, gt=0)
-    lie: LieSpec = LieSpec()
-
-
 class TaskSpec(_Strict):
-    start: list[Number]
-    goal: list[Target]
+    start: list[Annotated[Coordinate, BeforeValidator(parse_number)]] = Field(max_length=1000)
+    goal: list[Target] = Field(max_length=1000)
 
 
 class LegEntry(_Strict):
-    stratum: str
+    stratum: str = Field(max_length=200)
     method: Literal["newton", "lie"] = "newton"
-    goal: list[Target] | None = None
-    duration: float | None = Field(None, gt=0)
-    lie: LieSpec | None = None  # method "lie": overrides [planner.lie] for this leg
+    goal: list[Target] | None = Field(None, max_length=1000)
+    duration: Annotated[float, Strict(), Field(ge=MIN_DURATION, le=MAX_DURATION)] | None = None
+    # method "lie": keys of [planner.lie] overridden for this leg (validated as LieSettings)
+    lie: dict[str, Any] | None = None
 
 
 class ReferenceSpec(_Strict):
-    energy: float | None = None
-    source: str = ""
-
-
-class DecomposeSpec(_Strict):
-    """Auto mode (paper §5.3): stratplan finds the sequences of strata and their vias."""
-
-    max_length: int = Field(3, ge=1, le=8)
-    strategy: Literal["conservative", "postponed", "both"] = "conservative"
-    criterion: Literal["energy", "peak-control", "excursion", "duration"] = "energy"
-    strata: list[str] | None = Field(None, min_length=1, description="candidates (default all)")
+    energy: Annotated[float, Strict()] | None = None
+    source: str = Field("", max_length=1000)
 
 
 class Scenario(_Strict):
-    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")]
-    description: str = ""
+    """A scenario file: what to plan (task, legs or auto mode), on which model, and how."""
+
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)]
+    description: str = Field("", max_length=10_000)
     model: ModelSpec
     task: TaskSpec
-    planner: PlannerSpec = PlannerSpec()
-    legs: list[LegEntry] | None = Field(None, min_length=1)
-    decompose: DecomposeSpec | None = None
+    planner: PlannerSettings = PlannerSettings()
+    legs: list[LegEntry] | None = Field(None, min_length=1, max_length=1000)
+    decompose: DecomposeSettings | None = None
     reference: ReferenceSpec | None = None
 
 
@@ -206,6 +179,14 @@ def _path(loc: tuple) -> str:
     return ".".join(parts)
 
 
+def _fields_of(cls: Any) -> dict[str, Any] | None:
+    """Field name → annotation of a schema class (pydantic model or pydantic dataclass)."""
+    if isinstance(cls, type) and issubclass(cls, BaseModel):
+        return {k: f.annotation for k, f in cls.model_fields.items()}
+    fields = getattr(cls, "__pydantic_fields__", None)
+    return None if fields is None else {k: f.annotation for k, f in fields.items()}
+
+
 def _allowed_keys(loc: tuple) -> list[str]:
     """Keys allowed at the table that holds `loc[-1]`, by walking the schema."""
     cls: Any = Scenario
@@ -215,35 +196,30 @@ def _allowed_keys(loc: tuple) -> list[str]:
         if item in KINDS and cls is None:
             cls = {"preset": PresetModel, "custom": CustomModel}.get(item, PlanarModel)
             continue
-        if not (isinstance(cls, type) and issubclass(cls, BaseModel)):
+        fields = _fields_of(cls)
+        if fields is None or item not in fields:
             return []
-        field = cls.model_fields.get(item)
-        if field is None:
-            return []
-        ann = field.annotation
-        cls = None if item == "model" else _unwrap(ann)
-    if isinstance(cls, type) and issubclass(cls, BaseModel):
-        return list(cls.model_fields)
-    return []
+        cls = None if item == "model" else _unwrap(fields[item])
+    fields = _fields_of(cls)
+    return list(fields) if fields else []
 
 
 def _unwrap(ann: Any) -> Any:
-    args = getattr(ann, "__args__", None)
-    if isinstance(ann, type) and issubclass(ann, BaseModel):
+    if _fields_of(ann) is not None:
         return ann
-    for a in args or ():
+    for a in getattr(ann, "__args__", None) or ():
         found = _unwrap(a)
         if found is not None:
             return found
     return None
 
 
-def _problems(exc: ValidationError) -> list[Problem]:
+def _problems(exc: ValidationError, prefix: tuple = ()) -> list[Problem]:
     out = []
     for err in exc.errors():
-        loc = tuple(err["loc"])
+        loc = prefix + tuple(err["loc"])
         kind = err["type"]
-        if kind == "extra_forbidden":
+        if kind in UNKNOWN_KEY_ERRORS:
             allowed = _allowed_keys(loc)
             hint = f" (allowed: {', '.join(allowed)})" if allowed else ""
             out.append(Problem(_path(loc), f"unknown key{hint}"))
@@ -251,31 +227,70 @@ def _problems(exc: ValidationError) -> list[Problem]:
         msg = err["msg"].removeprefix("Value error, ")
         if kind == "missing":
             msg = "required field is missing"
-        shown = "" if kind == "missing" else f" (got {err['input']!r})"
+        shown = "" if kind == "missing" else f" (got {_short(err['input'])})"
         out.append(Problem(_path(loc), f"{msg}{shown}"))
     return out
 
 
-def load_scenario(path: str | Path) -> Task:
-    """Read, validate and resolve a scenario file; raises InputError naming every problem."""
-    path = Path(path)
-    source = str(path)
+def _short(value: Any) -> str:
+    """repr of an offending value, cut to one readable line."""
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = None) -> Task:
+    """Read, validate and resolve a scenario.
+
+    Parameters
+    ----------
+    source : str, Path or Mapping
+        A path to a TOML file; TOML text (a string with a newline or "="); or a plain `dict`
+        with the same structure as the file (so a sweep never templates TOML strings).
+    name : str, optional
+        How messages refer to the source (default: the path, "<text>" or "<dict>").
+
+    Returns
+    -------
+    Task
+        The validated scenario with its model built, start, goal and legs.
+
+    Raises
+    ------
+    InputError
+        Naming every problem, one line each: `source: field.path: message (got value)`.
+    """
+    if isinstance(source, Mapping):
+        return _from_raw(dict(source), None, name or "<dict>")
+    if isinstance(source, str) and ("\n" in source or "=" in source):
+        return parse_scenario(source, name or "<text>")
+    path = Path(source)
+    where = name or str(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
-        raise InputError(f"cannot read scenario file: {exc.strerror}", source) from None
-    return parse_scenario(text, source)
+        raise InputError(f"cannot read scenario file: {exc.strerror}", where) from None
+    return parse_scenario(text, where)
 
 
 def parse_scenario(text: str, source: str = "<scenario>") -> Task:
+    """`load_scenario` for TOML text."""
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"not valid TOML: {exc}", source) from None
+    return _from_raw(raw, text, source)
+
+
+def _from_raw(raw: dict[str, Any], text: str | None, source: str) -> Task:
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
         raise InputError(_problems(exc), source) from None
+    if text is None:  # a dict: record it as the TOML file it stands for
+        try:
+            text = tomlwrite.dumps(raw)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"cannot be written as TOML: {exc}", source) from None
     try:
         return _resolve(scenario, source, text)
     except InputError as exc:
@@ -283,12 +298,16 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Task:
 
 
 def build_system(spec: PresetModel | CustomModel | PlanarModel) -> System:
-    """The model named or described by the scenario's [model] table."""
+    """The model named or described by the scenario's [model] table (which it keeps as
+    `spec`, the reference plans carry)."""
     if spec.kind == "preset":
-        return preset(spec.name)
-    if spec.kind == "planar-manipulator":
-        return _planar_system(spec)
-    return _custom_system(spec)
+        system = preset(spec.name)
+    elif spec.kind == "planar-manipulator":
+        system = _planar_system(spec)
+    else:
+        system = _custom_system(spec)
+    system.spec = spec
+    return system
 
 
 def _planar_system(spec: PlanarModel) -> System:
@@ -396,11 +415,19 @@ def _custom_system(spec: CustomModel) -> System:
     return system
 
 
-def _leg_lie(entry: LegEntry, planner: PlannerSpec) -> LieSettings | None:
+def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[Problem]):
     """A Lie leg's settings: [planner.lie] with the leg's own `lie` keys on top."""
     if entry.method != "lie" or entry.lie is None:
         return None
-    return LieSettings(**(planner.lie.model_dump() | entry.lie.model_dump(exclude_unset=True)))
+    try:
+        return dataclasses.replace(planner.lie, **entry.lie)
+    except ValidationError as exc:
+        problems.extend(_problems(exc, ("legs", i, "lie")))
+    except TypeError:  # an unknown key (dataclasses.replace refuses it before pydantic)
+        names = [f.name for f in dataclasses.fields(LieSettings)]
+        known, unknown = ", ".join(names), ", ".join(sorted(set(entry.lie) - set(names)))
+        problems.append(Problem(f"legs[{i}].lie", f"unknown key {unknown} (allowed: {known})"))
+    return None
 
 
 def _resolve(scenario: Scenario, source: str, text: str) -> Task:
@@ -413,7 +440,9 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
         if values is not None and len(values) != n:
             problems.append(Problem(where, f"needs {n} values ({names}), got {len(values)}"))
             return None
-        return None if values is None else np.array(values, dtype=float)
+        if values is None:
+            return None
+        return np.array([np.nan if v is None else v for v in values], dtype=float)
 
     start = vector(scenario.task.start, "task.start")
     goal = vector(scenario.task.goal, "task.goal")
@@ -472,9 +501,23 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
                     goal=leg_goal,
                     method=entry.method,
                     duration=entry.duration or p.leg_duration,
-                    lie=_leg_lie(entry, p),
+                    lie=_leg_lie(entry, i, p, problems),
                 )
             )
+            duration = (
+                (legs[-1].lie or p.lie).step_duration
+                if entry.method == "lie"
+                else (legs[-1].duration)
+            )
+            if duration / p.basis.period > MAX_PERIODS_PER_LEG:
+                problems.append(
+                    Problem(
+                        f"{where}.duration" if entry.duration else "planner.basis.period",
+                        f"a leg of {duration:g} s spans {duration / p.basis.period:.3g} basis "
+                        f"periods (at most {MAX_PERIODS_PER_LEG}); use a longer period or "
+                        "a shorter leg",
+                    )
+                )
         if entry.method == "lie" and entry.duration is not None:
             problems.append(
                 Problem(
@@ -487,20 +530,7 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
     if problems:
         raise InputError(problems)
-    settings = PlannerSettings(
-        continuity=p.continuity,
-        soft_start=p.soft_start,
-        full_stop=p.full_stop,
-        tolerance=p.tolerance,
-        basis=FourierBasis(p.basis.harmonics, p.basis.period),
-        max_iterations=p.max_iterations,
-        restarts=p.restarts,
-        seed=p.seed,
-        evaluator=p.evaluator,
-        objective=p.objective,
-        starts=p.starts,
-        lie=LieSettings(**p.lie.model_dump()),
-    )
+    settings = p
     if p.evaluator == "quadrature":
         for leg in legs:
             if not system.compiled(leg.stratum).supports_quadrature:

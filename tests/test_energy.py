@@ -12,7 +12,7 @@ from reintegrate import PRINTED, reintegrate
 from stratcli.controls import FourierBasis, embed
 from stratcli.records.result import result_document
 from stratcli.scenario import load_scenario
-from stratcli.stratified import _plan_legs, plan_sequence, time_scaled
+from stratcli.stratified import chain_legs, plan_sequence, time_scaled
 
 TASK_D = ROOT / "scenarios" / "sim4_task_d.toml"
 
@@ -33,8 +33,8 @@ def test_energy_objective_beats_newton_and_the_paper(task_d):
     assert optimal.total_energy < newton.total_energy
     assert optimal.total_energy < task.scenario.reference.energy
     opt = optimal.optimisation
-    assert len(opt.outcomes) == task.settings.starts  # every start recorded
-    best = opt.outcomes[opt.best]
+    assert len(opt.starts) == task.settings.starts  # every start recorded
+    best = opt.starts[opt.best]
     assert best.projected_gradient <= 1e-8  # a true constrained minimum
     assert best.energy == pytest.approx(optimal.total_energy, rel=1e-9)
     assert all(leg.error <= task.settings.tolerance for leg in optimal.legs)
@@ -52,7 +52,7 @@ def test_energy_optimum_is_a_local_minimum_on_the_constraint_set(task_d):
     newton_only = replace(task.settings, objective="newton", tolerance=1e-11)
     for _ in range(3):
         nudged = [c + rng.normal(0, 0.05, c.size) for c in base]
-        again = _plan_legs(task.system, task.start, task.legs, newton_only, initial=nudged)
+        again = chain_legs(task.system, task.start, task.legs, newton_only, initial=nudged)
         assert again.ok
         assert again.total_energy >= optimal.total_energy * (1 - 1e-9)
 
@@ -84,8 +84,8 @@ def test_more_harmonics_warm_started_never_cost_more(task_d):
     assert richer.total_energy <= optimal.total_energy * (1 + 1e-9)
     assert richer.legs[0].coefficients.shape[1] == 2 * 8 + 1
     opt = richer.optimisation
-    assert opt.outcomes[0].kind == "warm start" and opt.outcomes[0].stopped == "converged"
-    assert opt.outcomes[opt.best].projected_gradient <= 1e-8
+    assert opt.starts[0].kind == "warm start" and opt.starts[0].stopped == "converged"
+    assert opt.starts[opt.best].projected_gradient <= 1e-8
 
 
 def test_energy_planning_is_deterministic(task_d):

@@ -17,7 +17,7 @@ from stratcli.continuity import mode_order
 from stratcli.controllability import check_document
 from stratcli.controls import FourierBasis
 from stratcli.endpoint import OdeEndpoint
-from stratcli.lie import element_degree, flow, hall_basis, iterated_integrals, lie_basis
+from stratcli.liealgebra import element_degree, flow, hall_basis, iterated_integrals, lie_basis
 from stratcli.models.planar import connection
 from stratcli.models.presets import preset
 from stratcli.records.result import result_document
@@ -94,7 +94,7 @@ def test_one_arm_bracket_is_the_curvature_of_the_connection(stratum):
 
 
 def test_manipulator_closed_form_brackets_equal_the_symbolic_ones(scenarios_dir, monkeypatch):
-    import stratcli.lie as lie
+    import stratcli.liealgebra as lie
 
     system = load_scenario(scenarios_dir / "rods_three_link.toml").system
     q = np.random.default_rng(4).uniform(-PI, PI, (50, 4))
@@ -235,21 +235,21 @@ def test_sim3_lie_leg_is_local_and_cheap(scenarios_dir):
     # the Lie leg alone, from the configuration and the controls the Newton legs leave
     start = np.array([-PI / 3, -PI / 3, PI / 6, PI / 12])
     previous = (np.array([0.0, 0.0, -1.25]), np.array([0.0, 0.0, 19.6]))
-    from stratcli.planners.newton import NewtonSettings
-    from stratcli.stratified import plan_one_leg
+    from stratcli.stratified import LegStart, plan_next_leg, planner_for
 
-    leg = plan_one_leg(
-        task.system, task.settings, start, previous, task.legs[2], 2, None, 2.0, NewtonSettings()
-    )
+    lie_leg = task.legs[2]
+    at = LegStart(start, previous, 2.0, 2)
+    planner = planner_for(lie_leg, task.settings)
+    leg = plan_next_leg(task.system, task.settings, lie_leg, at, None, planner)
     assert leg.converged and leg.error <= 1e-3
     assert leg.energy < 20.0  # small loops (the Newton legs cost ~10² here)
     # local: small periodic motions of the joints (the Newton legs sweep them by ~3 rad)
     t = np.linspace(0.0, leg.duration, 4001)
-    u = leg.controls(task.settings.basis, t, 3)
+    u = leg.controls(t)
     joints = cumulative_trapezoid(u[:, 1:], t, axis=0, initial=0.0)
     assert np.ptp(joints, axis=0).max() < 0.5
-    u0 = leg.controls(task.settings.basis, np.array([0.0]), 3, False)[0]
-    du0 = leg.controls(task.settings.basis, np.array([0.0]), 3, True)[0]
+    u0 = leg.controls(np.array([0.0]))[0]
+    du0 = leg.controls(np.array([0.0]), True)[0]
     np.testing.assert_allclose(u0, previous[0], atol=1e-9)
     np.testing.assert_allclose(du0, previous[1], atol=1e-9)
 

@@ -198,7 +198,7 @@ def test_mcap_channels_schemas_and_counts(any_run):
             "json",
         )
         assert json.loads(schema.data)["title"] == schema.name
-    assert counts["/state"] == counts["/controls"] == len(any_run.traj) >= 200 * legs
+    assert counts["/state"] == counts["/controls"] == any_run.traj.size >= 200 * legs
     assert counts["/legs"] == legs + len(any_run.plan.switches)
     assert counts["/summary"] == 1
     if manipulator:
@@ -384,4 +384,4 @@ def test_failed_run_is_logged_up_to_the_failing_leg():
     ((log_time, summary),) = _messages(data, "/summary")
     assert summary["status"] == "failed" and "leg 1" in summary["message"]
     assert log_time == round(plan.legs[0].duration * 1e9)  # no manifest: the epoch is 0
-    assert len(_messages(data, "/state")) == len(_messages(data, "/tf")) == len(traj)
+    assert len(_messages(data, "/state")) == len(_messages(data, "/tf")) == traj.size

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -201,6 +202,7 @@ class System:
     parameters: dict[str, float] = field(default_factory=dict)
     description: str = ""
     robot: PlanarManipulator | None = None  # physical robot, when the model is a manipulator
+    spec: Any = None  # the scenario's [model] table it was built from (a plan's reference)
     _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False)
 
     @cached_property

@@ -11,7 +11,6 @@ several deterministic starts that are raced (`optimise_energy`).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
@@ -19,6 +18,7 @@ import scipy.linalg
 from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
+from ..results import Optimisation, StartOutcome
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
@@ -30,29 +30,6 @@ ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best s
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
-
-
-@dataclass
-class StartOutcome:
-    """One start of the multi-start search, as recorded in result.json."""
-
-    index: int
-    kind: str  # where the start came from: "newton" (a seeded Newton plan) or "warm start"
-    energy: float
-    goal_error: float  # largest goal error over legs at the SLSQP solution
-    projected_gradient: float  # relative, at the solution
-    iterations: int
-    converged: bool
-    seconds: float
-    stopped: str = ""  # why the search from this start ended (see _Descent.stop)
-
-
-@dataclass
-class EnergyOptimum:
-    coefficients: list[np.ndarray] | None  # flat, per leg; None if no start succeeded
-    outcomes: list[StartOutcome] = field(default_factory=list)
-    best: int | None = None
-    newton_energy: float | None = None  # of the plain Newton plan, for comparison
 
 
 class _Problem:
@@ -183,9 +160,12 @@ def optimise_energy(
     settings,
     targets: list[np.ndarray],
     seeds: list[tuple[str, np.ndarray]],
-) -> EnergyOptimum:
+) -> tuple[list[np.ndarray] | None, Optimisation]:
     """Minimum energy over all legs from each of `seeds` ((kind, stacked feasible
     coefficients); the kind is recorded, e.g. "newton" or "warm start").
+
+    Returns the best coefficients (flat, per leg; None if no start succeeded) and the record
+    of the search (`newton_energy` is left for the caller).
 
     `starts` are the legs' nominal start configurations (the previous leg's via).
 
@@ -221,14 +201,15 @@ def optimise_energy(
     for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
         finish(run, None)
 
-    outcome = EnergyOptimum(None)
+    outcomes: list[StartOutcome] = []
+    best_index, coefficients = None, None
     best_energy = np.inf
     for k, run in enumerate(runs):
         z = run.z
         err = float(np.abs(problem.constraint(z)).max()) if len(z) else 0.0
         energy = problem.energy(z)
         ok = bool(np.isfinite(energy) and err <= 0.1 * settings.tolerance)
-        outcome.outcomes.append(
+        outcomes.append(
             StartOutcome(
                 k,
                 seeds[k][0],
@@ -245,9 +226,9 @@ def optimise_energy(
         # energy can undercut that converged one only by rounding
         if ok and run.reason != "same minimum" and energy < best_energy:
             best_energy = energy
-            outcome.best = k
-            outcome.coefficients = problem.split(problem.coefficients(z))
-    return outcome
+            best_index = k
+            coefficients = problem.split(problem.coefficients(z))
+    return coefficients, Optimisation(tuple(outcomes), best_index, None)
 
 
 class _Descent:

@@ -33,62 +33,21 @@ leg gives up.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from ..continuity import eliminate, leg_constraints
-from ..controls import FourierBasis, energy
-from ..endpoint import make_endpoint
-from ..lie import iterated_integrals, lie_basis
-from ..models.system import System
+from ..controls import energy
+from ..liealgebra import hall_basis, iterated_integrals, lie_basis
+from ..results import Piece
+from ..settings import LieSettings
+from ..status import Status
+from .base import LegOutcome, LegPlanner, LegProblem, damped_gauss_newton
+
+__all__ = ["LiePlanner"]
 
 RETRIES = 6  # halvings of γ per step when the true step does not lower the error
 STARTS = 3  # seeded starts of the eq.-24 Newton method per step, until one finds a solution
 RCOND = 1e-10  # directions of eq. 22 weaker than this (relative) are not asked for
 STALL_STEPS = 3  # consecutive steps without progress before the leg gives up
-ALPHA_MODES = ("energy", "pinv")
-
-
-@dataclass(frozen=True)
-class LieSettings:
-    """Settings of the Lie-algebraic method (scenario: `lie = { ... }`)."""
-
-    step_duration: float = 0.51  # the paper's step length
-    gamma: float = 0.5  # fraction of the remaining error asked of one step
-    degree: int = 2  # Hall basis degree: 2 (default) or 3
-    max_steps: int = 40
-    alpha: str = "energy"  # "energy" | "pinv" (the paper's two stages), see the module doc
-    rest: bool = True  # every step ends with u = u' = 0 (self-contained loops), see module doc
-
-    def __post_init__(self) -> None:
-        if not 1 <= self.degree <= 3:
-            raise ValueError(f"lie.degree must be 1, 2 or 3, got {self.degree}")
-        if not 0.0 < self.gamma <= 1.0:
-            raise ValueError(f"lie.gamma must be in (0, 1], got {self.gamma}")
-        if self.alpha not in ALPHA_MODES:
-            raise ValueError(f"lie.alpha must be one of {ALPHA_MODES}, got {self.alpha!r}")
-
-
-@dataclass
-class LiePiece:
-    t0: float  # leg-local start time
-    duration: float
-    coefficients: np.ndarray  # (m_active, 2H+1)
-
-
-@dataclass
-class LieSolution:
-    pieces: list[LiePiece]
-    end: np.ndarray
-    error: float
-    steps: int
-    iterations: int  # Newton iterations (eq. 24 and least energy), all steps
-    converged: bool
-    free_coefficients: int
-    energy: float
-    errors: list[float] = field(default_factory=list)  # error after each step
-    message: str = ""
 
 
 class _StepSolver:
@@ -118,36 +77,17 @@ class _StepSolver:
         return self.target - self.Bt @ val, self.Bt @ jac @ self.N
 
     def feasible(self, z, max_iter=60, mu=1e-3):
-        r, Jz = self.residual(z)
-        err = float(np.linalg.norm(r))
-        eye = np.eye(len(r))
-        for _ in range(max_iter):
-            if err <= self.tol:
-                break
-            self.iterations += 1
-            A = Jz @ Jz.T
-            damp = mu * max(float(np.trace(A)) / max(len(r), 1), 1e-300)
-            try:
-                step = Jz.T @ np.linalg.solve(A + damp * eye, r)
-            except np.linalg.LinAlgError:
-                mu *= 100.0
-                continue
-            g = 1.0
-            while g > 1e-4:
-                z_new = z + g * step
-                r_new, J_new = self.residual(z_new)
-                e_new = float(np.linalg.norm(r_new))
-                if e_new < err:
-                    break
-                g *= 0.5
-            else:
-                mu *= 100.0
-                if mu > 1e8:
-                    break
-                continue
-            z, r, Jz, err = z_new, r_new, J_new, e_new
-            mu = max(mu / 10.0, 1e-12) if g == 1.0 else min(mu * 2.0, 1.0)
-        return z, err
+        """A solution of `F(z) = target` near `z` (damped Gauss–Newton, eq. 24)."""
+
+        def evaluate(z, _jacobian):
+            r, Jz = self.residual(z)
+            return r, Jz, None
+
+        result = damped_gauss_newton(
+            evaluate, z, tolerance=self.tol, max_iterations=max_iter, mu=mu, min_step=1e-4
+        )
+        self.iterations += result.iterations
+        return result.z, result.error
 
     def cheapest(self, z, max_iter=30):
         """Newton's method on the KKT conditions from a solution `z`."""
@@ -195,120 +135,117 @@ class _StepSolver:
         return best
 
 
-def plan_lie_leg(
-    system: System,
-    stratum_name: str,
-    q0: np.ndarray,
-    goal: np.ndarray,
-    targets: np.ndarray,
-    basis: FourierBasis,
-    settings: LieSettings,
-    *,
-    tolerance: float,
-    mode: str,
-    previous: tuple[np.ndarray, np.ndarray] | None,
-    next_active: tuple[int, ...] | None,
-    soft_start: bool,
-    full_stop: bool,
-    evaluator: str = "auto",
-    seed: int = 0,
-    stream: int = 0,
-) -> LieSolution:
-    """Steer `q0` to `goal` on `targets` with Lie-algebraic steps; see the module docstring.
+class LiePlanner(LegPlanner):
+    """Lie-algebraic local steps (paper §4.2); one piece per step. See the module docstring.
 
-    `previous`/`next_active`/`soft_start`/`full_stop` are the leg's boundary data, as for a
-    Newton leg (`soft_start` only affects the first piece of the first leg).
+    Parameters
+    ----------
+    settings : LieSettings
+        Step length, γ, Hall basis degree, step limit, how α is chosen, rest between steps.
     """
-    stratum = system.stratum(stratum_name)
-    active = stratum.active
-    m = len(active)
-    tau = float(settings.step_duration)
-    lb = lie_basis(system, stratum, settings.degree)
-    hI = iterated_integrals(basis, tau, m, settings.degree)
-    cs = system.compiled(stratum)
-    M = np.kron(np.eye(m), basis.gram(tau))
-    rows = [lb.free.index(int(i)) for i in targets]
-    goal = np.asarray(goal, dtype=float)
-    q = np.asarray(q0, dtype=float).copy()
 
-    def error_of(x: np.ndarray) -> float:
-        return float(np.linalg.norm(goal[targets] - x[targets]))
+    method = "lie"
 
-    err = error_of(q)
-    pieces: list[LiePiece] = []
-    errors: list[float] = []
-    iterations = 0
-    free = None
-    stalls = 0
-    message = ""
-    prev = previous
-    while (err > tolerance or not pieces) and len(pieces) < settings.max_steps:
-        elim = eliminate(
-            leg_constraints(
-                basis,
-                tau,
-                active,
-                system.inputs,
-                mode,
-                previous=prev,
-                next_active=None if settings.rest else next_active,  # rest: u = u' = 0
-                soft_start=soft_start and not pieces,
-                full_stop=full_stop or settings.rest,
-            )
+    def __init__(self, settings: LieSettings | None = None):
+        self.settings = settings or LieSettings()
+
+    def failure_hint(self) -> Status:
+        return Status.LIE_NOT_CONVERGED
+
+    def missing_coefficients(self, problem: LegProblem) -> tuple[int, int]:
+        """A step must leave enough free coefficients to solve `h(λ) = α` (eq. 23) for all
+        Hall coordinates, both as the first step and as a later one (from rest)."""
+        lie = self.settings
+        r = max(len(hall_basis(len(problem.stratum.active), lie.degree)), len(problem.targets))
+        zero = (np.zeros(problem.system.m), np.zeros(problem.system.m))
+        free = min(
+            problem.elimination(lie.step_duration, previous, lie.rest, first).free
+            for previous, first in ((problem.previous, True), (zero, False))
         )
-        free = elim.free if free is None else min(free, elim.free)
-        endpoint = make_endpoint(cs, q, basis, tau, evaluator)
-        B = lb.evaluate(q)[rows]  # the Hall-basis fields on the targeted coordinates
-        U, S, Vt = np.linalg.svd(B, full_matrices=False)
-        rank = int(np.sum(S > RCOND * S[0])) if S.size and S[0] > 0 else 0
-        gamma = settings.gamma
-        best = None
-        for trial in range(RETRIES + 1):
-            dq = gamma * (goal[targets] - q[targets])
-            coords = (U.T @ dq)[:rank] / S[:rank]  # eq. 22 in the orthonormal basis V of α
-            alpha0 = Vt[:rank].T @ coords  # its minimum-norm solution
-            if settings.alpha == "pinv":  # then h(λ) = α_d (eq. 23-24)
-                solver = _StepSolver(hI, elim, M, np.eye(lb.size), alpha0)
-            else:  # every α with Σ α_h B_h(q) = δq: Vᵀα = S⁻¹Uᵀδq (well conditioned)
-                solver = _StepSolver(hI, elim, M, Vt[:rank], coords)
-            rng = np.random.default_rng([seed, stream, len(pieces), trial])
-            # starts sized like the controls that make α: brackets need |u| ~ sqrt(α)/τ
-            scale = 0.3 * np.sqrt(float(np.abs(alpha0).max(initial=0.0)) + 1e-12) / tau
-            z, _ = solver.solve(rng, scale)
-            iterations += solver.iterations
-            lam = elim.coefficients(z)
-            end, _ = endpoint(lam, False)
-            new_err = error_of(end)
-            if best is None or new_err < best[0]:
-                best = (new_err, lam, end)
-            if new_err < err:
+        return free, r
+
+    def plan(self, problem: LegProblem) -> LegOutcome:
+        """Steer `problem.start` to `problem.goal` with local steps until the tolerance."""
+        lie = self.settings
+        system, stratum = problem.system, problem.stratum
+        active = stratum.active
+        m = len(active)
+        basis = problem.basis
+        tau = float(lie.step_duration)
+        targets = np.array(problem.targets, dtype=int)
+        lb = lie_basis(system, stratum, lie.degree)
+        hI = iterated_integrals(basis, tau, m, lie.degree)
+        M = np.kron(np.eye(m), basis.gram(tau))
+        rows = [lb.free.index(int(i)) for i in targets]
+        goal = np.asarray(problem.goal, dtype=float)
+        q = np.asarray(problem.start, dtype=float).copy()
+        err = problem.error(q)
+        pieces: list[Piece] = []
+        iterations = 0
+        free = None
+        stalls = 0
+        message = ""
+        prev = problem.previous
+        kind = problem.endpoint(q, tau).kind
+        while (err > problem.tolerance or not pieces) and len(pieces) < lie.max_steps:
+            elim = problem.elimination(tau, prev, lie.rest, not pieces)
+            free = elim.free if free is None else min(free, elim.free)
+            endpoint = problem.endpoint(q, tau)
+            B = lb.evaluate(q)[rows]  # the Hall-basis fields on the targeted coordinates
+            U, S, Vt = np.linalg.svd(B, full_matrices=False)
+            rank = int(np.sum(S > RCOND * S[0])) if S.size and S[0] > 0 else 0
+            gamma = lie.gamma
+            best = None
+            for trial in range(RETRIES + 1):
+                dq = gamma * (goal[targets] - q[targets])
+                coords = (U.T @ dq)[:rank] / S[:rank]  # eq. 22 in the orthonormal basis V of α
+                alpha0 = Vt[:rank].T @ coords  # its minimum-norm solution
+                if lie.alpha == "pinv":  # then h(λ) = α_d (eq. 23-24)
+                    solver = _StepSolver(hI, elim, M, np.eye(lb.size), alpha0)
+                else:  # every α with Σ α_h B_h(q) = δq: Vᵀα = S⁻¹Uᵀδq (well conditioned)
+                    solver = _StepSolver(hI, elim, M, Vt[:rank], coords)
+                rng = np.random.default_rng([problem.seed, problem.index, len(pieces), trial])
+                # starts sized like the controls that make α: brackets need |u| ~ sqrt(α)/τ
+                scale = 0.3 * np.sqrt(float(np.abs(alpha0).max(initial=0.0)) + 1e-12) / tau
+                z, _ = solver.solve(rng, scale)
+                iterations += solver.iterations
+                lam = elim.coefficients(z)
+                end, _ = endpoint(lam, False)
+                new_err = problem.error(end)
+                if best is None or new_err < best[0]:
+                    best = (new_err, lam, end)
+                if new_err < err:
+                    break
+                gamma *= 0.5
+            new_err, lam, end = best
+            stalls = stalls + 1 if new_err >= err else 0
+            L = lam.reshape(m, basis.size)
+            pieces.append(Piece(len(pieces) * tau, tau, L))
+            q, err = end, new_err
+            u_end = np.zeros(system.m)
+            du_end = np.zeros(system.m)
+            u_end[list(active)] = L @ basis.values(tau)
+            du_end[list(active)] = L @ basis.derivatives(tau)
+            prev = (u_end, du_end)
+            if stalls >= STALL_STEPS:
+                message = f"no progress in {STALL_STEPS} consecutive steps"
                 break
-            gamma *= 0.5
-        new_err, lam, end = best
-        stalls = stalls + 1 if new_err >= err else 0
-        L = lam.reshape(m, basis.size)
-        pieces.append(LiePiece(len(pieces) * tau, tau, L))
-        errors.append(new_err)
-        q, err = end, new_err
-        u_end = np.zeros(system.m)
-        du_end = np.zeros(system.m)
-        u_end[list(active)] = L @ basis.values(tau)
-        du_end[list(active)] = L @ basis.derivatives(tau)
-        prev = (u_end, du_end)
-        if stalls >= STALL_STEPS:
-            message = f"no progress in {STALL_STEPS} consecutive steps"
-            break
-    if err > tolerance and not message:
-        message = f"{settings.max_steps} steps (lie.max_steps) were not enough"
-    return LieSolution(
-        pieces=pieces,
-        end=q,
-        error=err,
-        steps=len(pieces),
-        iterations=iterations,
-        converged=err <= tolerance,
-        free_coefficients=0 if free is None else free,
-        energy=float(sum(energy(basis, p.duration, p.coefficients) for p in pieces)),
-        errors=errors,
-        message=message,
-    )
+        ok = err <= problem.tolerance
+        if not ok and not message:
+            message = f"{lie.max_steps} steps (lie.max_steps) were not enough"
+        return LegOutcome(
+            pieces=tuple(pieces),
+            end=np.array(q, dtype=float),
+            error=err,
+            iterations=len(pieces),  # result.json counts a Lie leg's steps as iterations
+            attempts=1,
+            status=Status.SUCCESS if ok else Status.LIE_NOT_CONVERGED,
+            free_coefficients=0 if free is None else free,
+            evaluator=kind,
+            message="" if ok else message,
+        )
+
+
+def step_energy(basis, pieces) -> float:
+    """Energy of a multi-piece leg: the sum over its pieces."""
+    return float(sum(energy(basis, p.duration, p.coefficients) for p in pieces))

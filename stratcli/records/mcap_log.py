@@ -36,7 +36,7 @@ import numpy as np
 from mcap.writer import Writer
 
 from .. import __version__
-from ..stratified import PlanResult
+from ..results import SequencePlan as PlanResult
 from .trajectory import Trajectory, base_extent, world_geometry
 
 __all__ = ["SCHEMA_NAMES", "epoch_ns", "mcap_bytes"]
@@ -536,7 +536,7 @@ def mcap_bytes(
     for topic, schema in _own_schemas(states, inputs).items():
         log.channel(topic, schema)
     manipulator = (
-        system.robot is not None and system.n == system.robot.n_joints + 1 and len(traj) > 0
+        system.robot is not None and system.n == system.robot.n_joints + 1 and traj.size > 0
     )
     if manipulator:
         log.channel("/tf", FRAME_TRANSFORMS_SCHEMA)
@@ -559,8 +559,8 @@ def mcap_bytes(
         data=scenario_text.encode("utf-8"),
     )
 
-    t_first = float(traj.t[0]) if len(traj) else 0.0
-    if manipulator and len(traj):
+    t_first = float(traj.t[0]) if traj.size else 0.0
+    if manipulator and traj.size:
         log.write("/scene", at(t_first), _scene(plan, geo, at(t_first)))
     legs_doc = result_doc.get("legs", [])
     switches = {sw["after_leg"]: sw for sw in result_doc.get("switches", [])}
@@ -614,7 +614,7 @@ def mcap_bytes(
     all_jumps = [abs(v) for sw in result_doc.get("switches", []) for v in sw["jump"].values()]
     log.write(
         "/summary",
-        max(log.last, at(traj.t[-1] if len(traj) else 0.0)),
+        max(log.last, at(traj.t[-1] if traj.size else 0.0)),
         {
             **{key: result_doc.get(key) for key in _SUMMARY_KEYS},
             "scenario": result_doc.get("scenario", scenario_name),

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.transforms import blended_transform_factory
 
-from ..stratified import PlanResult
+from ..results import SequencePlan as PlanResult
 from .trajectory import Trajectory, world_geometry
 
 __all__ = [
@@ -370,8 +370,8 @@ def motion_gif(
     frames = int(np.clip(round(fps * total), 2, max_frames - hold))
     times = np.linspace(traj.t[0], traj.t[-1], frames)
     # the sample at (or just after) each frame time; a switch instant shows the later leg
-    index = np.minimum(np.searchsorted(traj.t, times, side="left"), len(traj) - 1)
-    index = np.concatenate([index, np.full(hold, len(traj) - 1)])
+    index = np.minimum(np.searchsorted(traj.t, times, side="left"), traj.size - 1)
+    index = np.concatenate([index, np.full(hold, traj.size - 1)])
     times = np.concatenate([times, np.full(hold, traj.t[-1])])
 
     span = max(xlim[1] - xlim[0], 1e-9) / max(ylim[1] - ylim[0], 1e-9)
@@ -384,7 +384,7 @@ def motion_gif(
     ax.tick_params(labelsize=7)
     ax.grid(True, color="0.9", linewidth=0.5)
     _draw_poses(ax, geo, np.array([0]), ["0.7"], lw=1.3, zorder=1, linestyle="--")
-    _draw_poses(ax, geo, np.array([len(traj) - 1]), ["#7fb3d5"], lw=1.3, zorder=1, linestyle=":")
+    _draw_poses(ax, geo, np.array([traj.size - 1]), ["#7fb3d5"], lw=1.3, zorder=1, linestyle=":")
     (centre,) = ax.plot(0, 0, "+", color="k", markersize=6, zorder=7)
     tips = _tips(geo)
     trails = [
@@ -473,7 +473,7 @@ def render_plots(
     `configuration.png` and `controls.png` always; `stroboscope.png` and (when `animation`)
     `motion.gif` for manipulator models. A plan without legs gives no files.
     """
-    if not plan.legs or len(traj) == 0:
+    if not plan.legs or traj.size == 0:
         return {}
     files = {
         "configuration.png": _png(configuration_figure(plan, traj, title)),

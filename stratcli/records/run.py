@@ -6,8 +6,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from ..results import SequencePlan as PlanResult
 from ..scenario import Task
-from ..stratified import PlanResult
 from .mcap_log import mcap_bytes
 from .plots import render_plots
 from .rundir import run_name, write_run

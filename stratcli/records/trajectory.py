@@ -1,147 +1,21 @@
-"""Dense samples of a planned motion, for plots and the MCAP log (no I/O).
+"""Geometry of planar manipulators for plots and the MCAP log (no I/O).
 
-`sample` re-integrates every leg from its recorded start with the leg's own Fourier controls
-(scipy's DOP853, independent of the planner's end-point evaluator) on a uniform grid of
-leg-local times, and places the samples on the real time axis (leg k spans
-`[t0_k, t0_k + duration_k]`). Both ends of every leg are sampled, so a switch instant appears
-twice: once as the end of the leg before it and once as the start of the leg after it.
-
-`world_geometry` turns configurations of a planar manipulator (joints, then the base angle θ)
-into inertial-frame drawings: base rectangle, joints and links. The inertial origin is the
+Samples come from `stratcli.simulate` (re-exported here). `world_geometry` turns
+configurations of a planar manipulator (joints, then the base angle θ) into inertial-frame
+drawings: base rectangle, joints and links. The inertial origin is the
 fixed system CM; a base-frame point x is at `R(θ) (x − p_c)` (MODELS.md §1).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from ..models.planar import PlanarManipulator, link_geometry
-from ..stratified import LegResult, PlanResult
+from ..simulate import Trajectory, sample
 
 __all__ = ["Trajectory", "base_extent", "sample", "world_geometry"]
-
-RTOL = 1e-10
-ATOL = 1e-12
-
-
-@dataclass(frozen=True)
-class Trajectory:
-    """Samples of a motion on the real time axis.
-
-    Attributes
-    ----------
-    t : (N,) times, non-decreasing; each leg contributes `samples_per_leg` samples including
-        both its ends.
-    q : (N, n) configurations (re-integrated).
-    u : (N, m) controls; inputs inactive on a leg are exactly zero there.
-    du : (N, m) time derivatives of the controls.
-    leg : (N,) index of the leg each sample belongs to (0-based).
-    strata : name of the stratum of each leg.
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    u: np.ndarray
-    du: np.ndarray
-    leg: np.ndarray
-    strata: tuple[str, ...]
-
-    def __len__(self) -> int:
-        return int(self.t.size)
-
-    def leg_slice(self, k: int) -> slice:
-        """Index range of leg k's samples (they are contiguous)."""
-        idx = np.flatnonzero(self.leg == k)
-        return slice(int(idx[0]), int(idx[-1]) + 1) if idx.size else slice(0, 0)
-
-
-def integrate_leg(plan: PlanResult, leg: LegResult, tau: np.ndarray) -> np.ndarray:
-    """Configurations of `leg` at leg-local times `tau` (sorted, within [0, duration])."""
-    system, basis = plan.system, plan.settings.basis
-    G = system.compiled(leg.stratum).G
-    pieces = leg.piece_list() if hasattr(leg, "piece_list") else None
-    if pieces is not None and len(pieces) > 1:  # a Lie leg: piece by piece, local times
-        tau = np.asarray(tau, dtype=float)
-        out = np.empty((tau.size, system.n))
-        q = np.asarray(leg.start, dtype=float)
-        for k, (t0, duration, coefficients) in enumerate(pieces):
-            last = k == len(pieces) - 1
-            inside = (tau >= t0) & (True if last else (tau < t0 + duration))
-            L = np.asarray(coefficients, dtype=float)
-            local = np.clip(tau[inside] - t0, 0.0, duration)
-            t_eval = np.unique(np.append(local, float(duration)))
-            sol = solve_ivp(
-                lambda t, y, L=L: G(y) @ (L @ basis.values(t)),
-                (0.0, float(duration)),
-                q,
-                method="DOP853",
-                t_eval=t_eval,
-                rtol=RTOL,
-                atol=ATOL,
-            )
-            if not sol.success:  # pragma: no cover
-                raise RuntimeError(f"re-integration of leg {leg.index + 1} failed: {sol.message}")
-            out[inside] = sol.y.T[np.searchsorted(t_eval, local)]
-            q = sol.y[:, -1]
-        return out
-    lam = np.asarray(leg.coefficients, dtype=float)
-
-    def rhs(t: float, q: np.ndarray) -> np.ndarray:
-        return G(q) @ (lam @ basis.values(t))
-
-    sol = solve_ivp(
-        rhs,
-        (0.0, float(leg.duration)),
-        np.asarray(leg.start, dtype=float),
-        method="DOP853",
-        t_eval=tau,
-        rtol=RTOL,
-        atol=ATOL,
-    )
-    if not sol.success:  # pragma: no cover - DOP853 on smooth fields does not fail
-        raise RuntimeError(f"re-integration of leg {leg.index + 1} failed: {sol.message}")
-    return sol.y.T
-
-
-def sample(plan: PlanResult, samples_per_leg: int = 200) -> Trajectory:
-    """Re-integrate every leg of `plan` on `samples_per_leg` uniform instants (ends included)."""
-    if samples_per_leg < 2:
-        raise ValueError("samples_per_leg must be at least 2")
-    system, basis = plan.system, plan.settings.basis
-    ts, qs, us, dus, legs = [], [], [], [], []
-    for leg in plan.legs:
-        tau = np.linspace(0.0, float(leg.duration), samples_per_leg)
-        ts.append(leg.t0 + tau)
-        qs.append(integrate_leg(plan, leg, tau))
-        us.append(leg.controls(basis, tau, system.m))
-        dus.append(leg.controls(basis, tau, system.m, derivative=True))
-        legs.append(np.full(tau.size, leg.index, dtype=int))
-    if not plan.legs:
-        empty = np.zeros(0)
-        return Trajectory(
-            empty,
-            np.zeros((0, system.n)),
-            np.zeros((0, system.m)),
-            np.zeros((0, system.m)),
-            np.zeros(0, dtype=int),
-            (),
-        )
-    t = np.concatenate(ts)
-    # t0 + duration of one leg and t0 of the next are sums of the same floats: force equality
-    # so that time never steps back at a switch.
-    t = np.maximum.accumulate(t)
-    return Trajectory(
-        t=t,
-        q=np.concatenate(qs),
-        u=np.concatenate(us),
-        du=np.concatenate(dus),
-        leg=np.concatenate(legs),
-        strata=tuple(leg.stratum for leg in plan.legs),
-    )
 
 
 # --------------------------------------------------------------------------------------------

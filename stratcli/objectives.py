@@ -1,0 +1,132 @@
+"""Objectives of a sequence: the paper's Newton method, or minimum energy over all legs.
+
+`newton`: legs planned one by one (`stratified.chain_legs`). `energy`: Newton first (a
+feasible plan), then the minimum-energy controls over all legs together from
+`settings.starts` deterministic starts (`planners.energy`), then a final leg-by-leg pass that
+re-chains the legs from the configurations they actually reach (Newton polishes a leg only if
+it is off by more than the tolerance). Every start is a `chain_legs` call.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from .errors import InputError
+from .models.system import System
+from .planners.energy import optimise_energy
+from .results import SequencePlan
+from .settings import PlannerSettings
+from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
+
+__all__ = ["plan_with_objective"]
+
+SEED_RESTARTS = 2  # Newton restarts allowed for the extra starts of the energy objective
+
+
+def plan_with_objective(
+    system: System,
+    start: np.ndarray,
+    legs: list[LegSpec],
+    settings: PlannerSettings,
+    warm_start: list[np.ndarray] | None = None,
+) -> SequencePlan:
+    """Plan checked legs with `settings.objective`; `warm_start` (flat coefficients per leg,
+    feasible) is tried as an extra first start of the energy search."""
+    lie_legs = [i + 1 for i, leg in enumerate(legs) if leg.method == "lie"]
+    if lie_legs and settings.objective != "newton":
+        return _with_lie_legs(system, start, legs, settings, lie_legs)
+    newton = chain_legs(system, start, legs, settings)
+    if settings.objective == "newton" or not newton.ok:
+        return newton
+    # Starts: the Newton plan, then Newton plans from more widely perturbed seeded starts
+    # (cheap, feasible, and in different basins: energy varies by orders of magnitude).
+    seeds = [newton]
+    for k in range(1, settings.starts):
+        other = chain_legs(
+            system,
+            start,
+            legs,
+            settings,
+            restarts=min(settings.restarts, SEED_RESTARTS),
+            seed=settings.seed + 7919 * k,
+            spread=0.02 + 0.3 * k,
+        )
+        if other.ok:  # a seed that needs many restarts is not worth its time: skip it
+            seeds.append(other)
+    nominal = [start]
+    for leg, planned in zip(legs[:-1], newton.legs[:-1], strict=True):
+        nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
+    targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
+    stacked = [
+        ("newton", np.concatenate([leg.coefficients.ravel() for leg in p.legs])) for p in seeds
+    ]
+    if warm_start is not None:
+        stacked.insert(0, ("warm start", np.concatenate([np.ravel(c) for c in warm_start])))
+    try:
+        with np.errstate(all="ignore"):
+            coefficients, search = optimise_energy(
+                system, nominal, legs, settings, targets, stacked
+            )
+    except NUMERICAL_ERRORS as exc:
+        note = (
+            f"the energy search stopped on a numerical failure ({type(exc).__name__}: "
+            f"{exc}); the plan is plain Newton's"
+        )
+        return replace(newton, notes=(*newton.notes, note[:400]))
+    search = replace(search, newton_energy=newton.total_energy)
+    newton = replace(newton, optimisation=search)
+    if coefficients is None:
+        return newton
+    final = chain_legs(system, start, legs, settings, initial=coefficients)
+    final = replace(final, optimisation=search)
+    return final if final.ok and final.total_energy <= newton.total_energy else newton
+
+
+def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
+    """The energy objective for a sequence with Lie legs, which it cannot optimise itself.
+
+    Lie legs are built step by step from where the system actually is, so there is no fixed
+    set of their coefficients to optimise jointly: the sequence is planned leg by leg. The
+    Newton legs of that pass are seeded with the minimum-energy plan of the same sequence
+    with a Newton stand-in for every Lie leg (Newton legs after a Lie leg are re-polished
+    from where it ends; Lie legs are planned as usual). If that fails, the plain leg-by-leg
+    plan (the paper's Newton method) is returned. A note says which.
+    """
+    stand_in = [replace(leg, method="newton") if leg.method == "lie" else leg for leg in legs]
+    which = ", ".join(map(str, lie_legs))
+    objective = settings.objective
+    if len(lie_legs) == len(legs):
+        plain = chain_legs(system, start, legs, settings)
+        return _noted(
+            plain,
+            f"objective {objective!r} does not apply: every leg uses the Lie-algebraic method "
+            "(local steps of least energy, planned where the system is)",
+        )
+    try:
+        check_legs(system, start, stand_in, settings)
+        proxy = plan_with_objective(system, start, stand_in, settings)
+    except (InputError, *NUMERICAL_ERRORS):  # the stand-in is only a helper
+        proxy = None
+    if proxy is not None and proxy.ok and proxy.optimisation is not None:
+        initial = [np.ravel(leg.coefficients) for leg in proxy.legs]
+        seeded = chain_legs(system, start, legs, settings, initial=initial)
+        if seeded.ok:
+            return _noted(
+                seeded,
+                f"objective {objective!r} applied to the Newton legs only: leg(s) {which} use "
+                "the Lie-algebraic method (local steps, planned where the system is); the "
+                "Newton legs come from the minimum-energy plan with a Newton stand-in for "
+                "each Lie leg, then the sequence was planned leg by leg",
+            )
+    plain = chain_legs(system, start, legs, settings)
+    return _noted(
+        plain,
+        f"objective {objective!r} not applied: leg(s) {which} use the Lie-algebraic method, "
+        "so the sequence was planned leg by leg (Newton legs with the paper's Newton method)",
+    )
+
+
+def _noted(plan: SequencePlan, note: str) -> SequencePlan:
+    return replace(plan, notes=(*plan.notes, note))

@@ -1,0 +1,231 @@
+"""The leg-planner interface: a leg problem in, a leg outcome out (ARCHITECTURE.md).
+
+A `LegProblem` is everything one leg needs: the stratum, where it starts, what it must reach,
+its boundary conditions (the previous leg's final controls, the next leg's inputs, soft start
+and full stop), the basis, its duration and its seed. A `LegPlanner` turns it into a
+`LegOutcome` (one or more pieces of controls, where they end, how well). Newton (`newton.py`)
+and the Lie-algebraic method (`lie.py`) implement it; a third planner is one more module whose
+class sets `method` (it registers itself in `PLANNERS`).
+
+`damped_gauss_newton` is the one Levenberg–Marquardt loop with backtracking that both use.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ..continuity import Elimination, eliminate, leg_constraints
+from ..controls import FourierBasis
+from ..endpoint import make_endpoint
+from ..models.system import Stratum, System
+from ..results import Piece
+from ..status import Status
+
+__all__ = [
+    "PLANNERS",
+    "GaussNewtonResult",
+    "LegOutcome",
+    "LegPlanner",
+    "LegProblem",
+    "damped_gauss_newton",
+]
+
+PLANNERS: dict[str, type[LegPlanner]] = {}
+
+
+@dataclass(frozen=True, eq=False)
+class LegProblem:
+    """One leg to plan.
+
+    Attributes
+    ----------
+    system, stratum : the model and the leg's stratum.
+    start, goal : configurations (goal NaN where not prescribed).
+    targets : coordinates steered to the goal (unlocked and prescribed).
+    duration : leg length, s (a Lie leg: length of one step).
+    basis : Fourier control basis.
+    continuity : concatenation mode (DESIGN §3).
+    previous : values and derivatives of all inputs at the previous leg's end; None for the
+        first leg.
+    next_active : inputs of the next leg; None for the last leg.
+    soft_start, full_stop : ``u = u' = 0`` at the leg's start / end (first / last leg only).
+    tolerance, evaluator, seed : as in `PlannerSettings`.
+    index : 0-based position of the leg (also its random stream).
+    initial : flat coefficients to start from (projected onto the boundary conditions).
+    """
+
+    system: System
+    stratum: Stratum
+    start: np.ndarray
+    goal: np.ndarray
+    targets: tuple[int, ...]
+    duration: float
+    basis: FourierBasis
+    continuity: str
+    previous: tuple[np.ndarray, np.ndarray] | None
+    next_active: tuple[int, ...] | None
+    soft_start: bool
+    full_stop: bool
+    tolerance: float
+    evaluator: str
+    seed: int
+    index: int
+    initial: np.ndarray | None = None
+
+    def elimination(
+        self,
+        duration: float | None = None,
+        previous: tuple[np.ndarray, np.ndarray] | str | None = "leg",
+        rest: bool = False,
+        first_piece: bool = True,
+    ) -> Elimination:
+        """The boundary conditions, eliminated (`λ = λp + N z`, eq. 26-29).
+
+        For a piece of a multi-piece leg: its `duration`, its `previous` controls, `rest`
+        (it ends with u = u' = 0 instead of the leg's end conditions) and whether it is the
+        `first_piece` (the only one a soft start applies to).
+        """
+        return eliminate(
+            leg_constraints(
+                self.basis,
+                self.duration if duration is None else duration,
+                self.stratum.active,
+                self.system.inputs,
+                self.continuity,
+                previous=self.previous if previous == "leg" else previous,
+                next_active=None if rest else self.next_active,
+                soft_start=self.soft_start and first_piece,
+                full_stop=self.full_stop or rest,
+            )
+        )
+
+    def endpoint(self, q: np.ndarray | None = None, duration: float | None = None):
+        """The end-point map (and its Jacobian) from `q` (default: the leg's start)."""
+        return make_endpoint(
+            self.system.compiled(self.stratum),
+            self.start if q is None else q,
+            self.basis,
+            self.duration if duration is None else duration,
+            self.evaluator,
+        )
+
+    def error(self, q: np.ndarray) -> float:
+        """Euclidean goal error over the targeted coordinates."""
+        t = list(self.targets)
+        return float(np.linalg.norm(self.goal[t] - np.asarray(q)[t]))
+
+
+@dataclass(frozen=True, eq=False)
+class LegOutcome:
+    """What a leg planner returns; `stratified` turns it into a `LegPlan`."""
+
+    pieces: tuple[Piece, ...]
+    end: np.ndarray
+    error: float
+    iterations: int
+    attempts: int
+    status: Status
+    free_coefficients: int
+    evaluator: str
+    message: str = ""
+
+    @property
+    def duration(self) -> float:
+        return float(sum(p.duration for p in self.pieces))
+
+
+class LegPlanner(abc.ABC):
+    """A method that plans one leg. Subclasses set `method` and implement `plan`."""
+
+    method: ClassVar[str]
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if getattr(cls, "method", None):
+            PLANNERS[cls.method] = cls
+
+    @abc.abstractmethod
+    def plan(self, problem: LegProblem) -> LegOutcome:
+        """Steer `problem.start` to `problem.goal` on `problem.targets`; never raises for a
+        numerical failure of the search (the outcome says so)."""
+
+    @abc.abstractmethod
+    def missing_coefficients(self, problem: LegProblem) -> tuple[int, int]:
+        """(free coefficients left by the boundary conditions, coefficients needed): the
+        check made before planning (a leg with fewer free than needed cannot be planned)."""
+
+    @abc.abstractmethod
+    def failure_hint(self) -> Status:
+        """The status of a leg this planner did not bring to its goal."""
+
+
+@dataclass(frozen=True)
+class GaussNewtonResult:
+    z: np.ndarray
+    error: float
+    iterations: int
+    extra: object  # the last accepted evaluation's payload (e.g. coefficients and end point)
+
+
+def damped_gauss_newton(
+    evaluate: Callable[[np.ndarray, bool], tuple[np.ndarray, np.ndarray | None, object]],
+    z: np.ndarray,
+    *,
+    tolerance: float,
+    max_iterations: int,
+    mu: float,
+    min_step: float = 1e-6,
+    stall_window: int | None = None,
+    stall_ratio: float = 0.5,
+) -> GaussNewtonResult:
+    """Drive the residual `e(z)` to zero: damped pseudo-inverse steps with backtracking.
+
+    `evaluate(z, jacobian)` returns `(e, J, payload)` with `J = −∂e/∂z` (or None when not
+    asked). Steps `Jᵀ(JJᵀ + μ tr(JJᵀ)/k · I)⁻¹ e` (Levenberg–Marquardt, paper eq. 20 and 24);
+    a step is accepted only if it lowers |e| (halving down to `min_step`); μ falls after a
+    full step and rises after a failure. It stops at `tolerance`, after `max_iterations`,
+    when no damping makes progress, or, with `stall_window`, when |e| did not fall by
+    `stall_ratio` over that many iterations (a fresh start is cheaper than crawling on).
+    """
+    e, J, payload = evaluate(z, True)
+    err = float(np.linalg.norm(e))
+    iterations = 0
+    history = [err]
+    while err > tolerance and iterations < max_iterations:
+        if stall_window and len(history) > stall_window:
+            if err > stall_ratio * history[-stall_window - 1]:
+                break
+        iterations += 1
+        A = J @ J.T
+        damping = mu * max(float(np.trace(A)) / max(len(e), 1), 1e-300)
+        try:
+            step = J.T @ np.linalg.solve(A + damping * np.eye(len(e)), e)
+        except np.linalg.LinAlgError:
+            mu = max(mu * 100.0, 1e-8)
+            continue
+        gamma, accepted = 1.0, False
+        while gamma > min_step:
+            z_new = z + gamma * step
+            # the full step is usually accepted: its Jacobian comes with it at little cost
+            e_new, J_new, payload_new = evaluate(z_new, gamma == 1.0)
+            err_new = float(np.linalg.norm(e_new))
+            if np.isfinite(err_new) and err_new < err:
+                accepted = True
+                break
+            gamma *= 0.5
+        if not accepted:
+            mu *= 100.0
+            if mu > 1e8:
+                break  # stalled: no damping makes progress
+            continue
+        z, e, err, payload = z_new, e_new, err_new, payload_new
+        if err > tolerance:
+            J = J_new if J_new is not None else evaluate(z, True)[1]
+        mu = max(mu / 10.0, 1e-12) if gamma == 1.0 else min(mu * 2.0, 1.0)
+        history.append(err)
+    return GaussNewtonResult(z, err, iterations, payload)

@@ -1,0 +1,51 @@
+"""How a leg or a plan ended: an enumeration whose values are what the user should read.
+
+In the style of diffrax's `RESULTS`: every failure is a value, not an exception, and its
+message says what to try. `result.json` stores the member's name in lower case
+(`"not_converged"`), the CLI prints the sentence.
+"""
+
+from __future__ import annotations
+
+import enum
+
+__all__ = ["Status"]
+
+
+class Status(enum.Enum):
+    """Outcome of a leg (and, by its worst leg, of a plan).
+
+    The value of each member is an actionable message; `describe` adds the leg's numbers.
+    """
+
+    SUCCESS = "reached its goal"
+    NOT_CONVERGED = (
+        "did not reach its goal; try more harmonics (planner.basis.harmonics), a longer leg, "
+        "or a via configuration closer to the start"
+    )
+    LIE_NOT_CONVERGED = (
+        "did not reach its goal; try a smaller lie.gamma, "
+        "lie.degree = 3, more lie.max_steps, a goal closer to the start (the method is "
+        'local), or method = "newton"'
+    )
+    NUMERICAL_FAILURE = (
+        "stopped by a numerical failure (overflow, a singular matrix or a failed "
+        "integration); check the model's parameters and expressions, or try a via "
+        "configuration closer to the start"
+    )
+    NOT_PLANNED = "was not planned: an earlier leg failed"
+
+    @property
+    def ok(self) -> bool:
+        """True for `SUCCESS` only."""
+        return self is Status.SUCCESS
+
+    @property
+    def key(self) -> str:
+        """The name used in result.json, e.g. ``"not_converged"``."""
+        return self.name.lower()
+
+    @classmethod
+    def from_key(cls, key: str) -> Status:
+        """The member named `key` (as written by `key`)."""
+        return cls[key.upper()]
