@@ -1,0 +1,168 @@
+"""Run-record use cases: writing and reading records, replaying scenarios against a baseline."""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+from ..records import run as run_files
+from ..records.comparison import comparison_csv, ranking_png
+from ..records.manifest import manifest
+from ..records.store import Record, list_records, mcap_summary, read_record
+from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summarise
+from ..regress import compare as compare_baseline
+from .planning import ComparisonOutcome, PlanOutcome
+
+
+@dataclass(frozen=True)
+class RegressReport:
+    """Scenarios replayed against a baseline file."""
+
+    scenarios: int
+    baseline: Path
+    tolerances: dict[str, float]
+    differences: list[Difference]
+    updated: bool  # the baseline was rewritten from this run
+
+    @property
+    def regressions(self) -> int:
+        return sum(d.regression for d in self.differences)
+
+
+# ------------------------------------------------------------------------------------------
+# Records
+# ------------------------------------------------------------------------------------------
+
+
+def write_record(
+    out: Path,
+    outcome: PlanOutcome | ComparisonOutcome,
+    *,
+    animation: bool = True,
+    argv: Sequence[str] | None = None,
+) -> Path:
+    """Write a run record (result, manifest, scenario, MCAP log, plots) atomically.
+
+    Parameters
+    ----------
+    out : Path
+        Directory of run records; the run gets a new directory inside it.
+    outcome : PlanOutcome or ComparisonOutcome
+        A plan; for a comparison, the best sequence's record plus comparison.json,
+        comparison.csv and ranking.png.
+    animation : bool
+        Also write motion.gif.
+    argv : sequence of str, optional
+        The command recorded in manifest.json (default: this process's `sys.argv`).
+
+    Returns
+    -------
+    Path
+        The run directory.
+    """
+    plan = outcome.best if isinstance(outcome, ComparisonOutcome) else outcome
+    task = plan.task
+    timings = {
+        "started": plan.started.isoformat(),
+        "finished": datetime.now(UTC).isoformat(),
+        "compile_time_s": plan.compile_time,
+        "planning_time_s": plan.planning_time,
+    }
+    command = list(sys.argv if argv is None else argv)
+    code = 0 if plan.ok else 1
+    info = manifest(task.text, command, task.settings.seed, timings, code)
+    files = run_files.record_files(task, plan.result, plan.document, info, animation)
+    if isinstance(outcome, ComparisonOutcome):
+        files["comparison.json"] = outcome.document
+        files["comparison.csv"] = comparison_csv(outcome.document)
+        files["ranking.png"] = ranking_png(outcome.document)
+    return run_files.write_record(out, task, files, plan.started)
+
+
+def read_run(path: Path) -> tuple[Record, dict[str, Any] | None]:
+    """A run record read back (not re-planned) and a summary of its MCAP log.
+
+    Parameters
+    ----------
+    path : Path
+        A run directory.
+
+    Returns
+    -------
+    tuple
+        The record (result.json and manifest.json as dicts) and the MCAP summary, or None
+        when the record has no log.
+    """
+    record = read_record(path)
+    return record, mcap_summary(record.path)
+
+
+def list_runs(out: Path) -> list[dict[str, Any]]:
+    """The run records in `out`, newest first.
+
+    Parameters
+    ----------
+    out : Path
+        Directory of run records.
+
+    Returns
+    -------
+    list of dict
+        One row per record: run, started, scenario, status, total_energy.
+    """
+    return [
+        {
+            "run": r.path.name,
+            "started": r.started,
+            "scenario": r.result.get("scenario"),
+            "status": r.result.get("status"),
+            "total_energy": r.result.get("total_energy"),
+        }
+        for r in list_records(out)
+    ]
+
+
+# ------------------------------------------------------------------------------------------
+# Regression against a baseline
+# ------------------------------------------------------------------------------------------
+
+
+def regress(directory: Path, baseline: Path, update: bool = False) -> RegressReport:
+    """Plan every scenario in `directory` and compare with a baseline file.
+
+    Parameters
+    ----------
+    directory : Path
+        Directory of scenario files (``*.toml``).
+    baseline : Path
+        Baseline JSON file (schema ``stratplan.baseline/1``).
+    update : bool
+        Rewrite the baseline from this run (keeping its tolerances when it exists).
+
+    Returns
+    -------
+    RegressReport
+        Every difference beyond the baseline's tolerances; `.regressions` counts the ones
+        that fail CI.
+    """
+    paths = sorted(Path(directory).glob("*.toml"))
+    if not paths:
+        raise InputError(f"no scenario files (*.toml) in {directory}")
+    old, tolerances = {}, dict(DEFAULT_TOLERANCES)
+    if not update or baseline.exists():
+        try:
+            old, tolerances = load_baseline(baseline)
+        except InputError:
+            if not update:
+                raise
+    now = {path.stem: summarise(path) for path in paths}
+    diffs = compare_baseline(now, old, tolerances)
+    if update:
+        baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")
+    return RegressReport(len(now), baseline, tolerances, diffs, update)
