@@ -15,9 +15,10 @@ from ..records import run as run_files
 from ..records.comparison import comparison_csv, ranking_png
 from ..records.manifest import manifest
 from ..records.store import Record, list_records, mcap_summary, read_record
-from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summarise
+from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline
 from ..regress import compare as compare_baseline
-from .planning import ComparisonOutcome, PlanOutcome
+from ..scenario import load_scenario
+from .planning import ComparisonOutcome, PlanOutcome, plan, plan_auto
 
 
 @dataclass(frozen=True)
@@ -166,3 +167,30 @@ def regress(directory: Path, baseline: Path, update: bool = False) -> RegressRep
     if update:
         baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")
     return RegressReport(len(now), baseline, tolerances, diffs, update)
+
+
+def summarise(path: Path) -> dict[str, Any]:
+    """Plan one scenario (as `plan` does, unchecked and not time-scaled) and keep what the
+    baseline compares.
+
+    Parameters
+    ----------
+    path : Path
+        A scenario file; in auto mode the best candidate sequence is kept.
+
+    Returns
+    -------
+    dict
+        status, total_energy, errors and energies (one per leg).
+    """
+    task = load_scenario(path)
+    if task.legs:
+        result = plan(task, check=False, time_scale=1.0).result
+    else:  # auto mode ([decompose], no [[legs]]): the best candidate sequence
+        result = plan_auto(task, check=False).best.result
+    return {
+        "status": "ok" if result.ok else "failed",
+        "total_energy": result.total_energy,
+        "errors": [leg.error for leg in result.legs],
+        "energies": [leg.energy for leg in result.legs],
+    }
