@@ -49,6 +49,7 @@ def plan(
         bool,
         typer.Option(
             "--check/--no-check",
+            metavar="",
             help="First check that each leg's stratum spans what the leg steers (Lie brackets, "
             "paper eq. 4; as `stratplan check`).",
         ),
@@ -259,7 +260,9 @@ def regress(
     baseline: Annotated[Path, typer.Option(help="Baseline JSON file.")] = Path(
         "scenarios/baseline.json"
     ),
-    update: Annotated[bool, typer.Option(help="Rewrite the baseline from this run.")] = False,
+    update: Annotated[
+        bool, typer.Option(metavar="", help="Rewrite the baseline from this run.")
+    ] = False,
 ) -> None:
     """Plan every scenario in DIRECTORY and compare with a baseline; exit 1 on a regression.
 

@@ -1,4 +1,8 @@
-"""Options more than one command takes, declared once (`Annotated` aliases)."""
+"""Options more than one command takes, declared once (`Annotated` aliases).
+
+Flags get an empty metavar: typer would otherwise print `<bool>` beside a flag that takes no
+value.
+"""
 
 from __future__ import annotations
 
@@ -8,13 +12,18 @@ from typing import Annotated
 import typer
 
 Json = Annotated[
-    bool, typer.Option("--json", help="Print JSON to stdout instead of tables (plan: result.json).")
+    bool,
+    typer.Option(
+        "--json", metavar="", help="Print JSON to stdout instead of tables (plan: result.json)."
+    ),
 ]
-Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="Print nothing but errors.")]
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", metavar="", help="Print nothing but errors.")]
 Out = Annotated[Path, typer.Option(help="Directory of run records.")]
 Animation = Annotated[
     bool,
-    typer.Option("--animation/--no-animation", help="Write motion.gif (comparing: the best's)."),
+    typer.Option(
+        "--animation/--no-animation", metavar="", help="Write motion.gif (comparing: the best's)."
+    ),
 ]
 Scenario = Annotated[Path, typer.Argument(help="Scenario file (TOML).")]
 TaskScenario = Annotated[Path, typer.Argument(help="Scenario file (TOML); its start and goal.")]
