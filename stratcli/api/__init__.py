@@ -8,9 +8,6 @@ written as a run record.
 
 from .inspection import CheckReport as CheckReport
 from .inspection import check_controllability as check_controllability
-from .inspection import check_strata as check_strata
-from .inspection import configuration as configuration
-from .inspection import controllability_first as controllability_first
 from .inspection import preset_models as preset_models
 from .inspection import strata_table as strata_table
 from .planning import ComparisonOutcome as ComparisonOutcome
