@@ -127,7 +127,7 @@ def plan_auto(
     Parameters
     ----------
     task : Task
-        A loaded scenario (its legs, if any, are ignored).
+        A loaded scenario without legs; its start, goal and [decompose] table are used.
     check : bool
         First check that the candidate strata together reach every direction.
     jobs : int, optional
@@ -139,6 +139,13 @@ def plan_auto(
     -------
     ComparisonOutcome
         The ranking and, in `.best`, the chosen sequence's plan.
+
+    Raises
+    ------
+    NotControllableError
+        When `check` finds the strata cannot reach every direction; nothing is planned.
+    InputError
+        When no candidate sequence could even be planned.
     """
     if check:
         controllability_first(task)

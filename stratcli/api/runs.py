@@ -67,23 +67,23 @@ def write_record(
     Path
         The run directory.
     """
-    plan = outcome.best if isinstance(outcome, ComparisonOutcome) else outcome
-    task = plan.task
+    planned = outcome.best if isinstance(outcome, ComparisonOutcome) else outcome
+    task = planned.task
     timings = {
-        "started": plan.started.isoformat(),
+        "started": planned.started.isoformat(),
         "finished": datetime.now(UTC).isoformat(),
-        "compile_time_s": plan.compile_time,
-        "planning_time_s": plan.planning_time,
+        "compile_time_s": planned.compile_time,
+        "planning_time_s": planned.planning_time,
     }
     command = list(sys.argv if argv is None else argv)
-    code = 0 if plan.ok else 1
+    code = 0 if planned.ok else 1
     info = manifest(task.text, command, task.settings.seed, timings, code)
-    files = run_files.record_files(task, plan.result, plan.document, info, animation)
+    files = run_files.record_files(task, planned.result, planned.document, info, animation)
     if isinstance(outcome, ComparisonOutcome):
         files["comparison.json"] = outcome.document
         files["comparison.csv"] = comparison_csv(outcome.document)
         files["ranking.png"] = ranking_png(outcome.document)
-    return run_files.write_record(out, task, files, plan.started)
+    return run_files.write_record(out, task, files, planned.started)
 
 
 def read_run(path: Path) -> tuple[Record, dict[str, Any] | None]:
