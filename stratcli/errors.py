@@ -44,3 +44,15 @@ class InputError(StratplanError, ValueError):
 
 class ModelError(InputError):
     """A model definition that cannot be used (bad expression, inconsistent stratum)."""
+
+
+class NotControllableError(StratplanError):
+    """A leg's stratum cannot steer what the leg asks for (Lie brackets, paper eq. 4); exit 3.
+
+    `problems` holds one sentence per failure, naming stratum and configuration.
+    """
+
+    def __init__(self, problems: list[str], source: str | None = None):
+        self.problems = list(problems)
+        self.source = source
+        super().__init__("\n".join(self.problems))

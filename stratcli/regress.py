@@ -1,4 +1,8 @@
-"""Replay scenarios and compare them with a committed baseline (for users' CI)."""
+"""Compare replayed scenarios with a committed baseline (for users' CI).
+
+Pure functions over summaries (status, total energy, each leg's error and energy); the
+replaying itself is `stratcli.api.regress`.
+"""
 
 from __future__ import annotations
 
@@ -7,28 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from .errors import InputError
-from .scenario import load_scenario
-from .stratified import plan_sequence
 
 SCHEMA = "stratplan.baseline/1"
 DEFAULT_TOLERANCES = {"energy_rel": 1e-6, "error_abs": 1e-6}
-
-
-def summarise(path: Path) -> dict[str, Any]:
-    """Plan one scenario and keep what the baseline compares."""
-    task = load_scenario(path)
-    if not task.legs:  # auto mode ([decompose], no [[legs]]): the best candidate sequence
-        from .compare import default_jobs, plan_auto
-
-        result = plan_auto(task, jobs=default_jobs())[0]
-    else:
-        result = plan_sequence(task.system, task.start, task.legs, task.settings)
-    return {
-        "status": "ok" if result.ok else "failed",
-        "total_energy": result.total_energy,
-        "errors": [leg.error for leg in result.legs],
-        "energies": [leg.energy for leg in result.legs],
-    }
 
 
 @dataclass

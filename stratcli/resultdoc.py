@@ -23,6 +23,7 @@ from .results import (
     SequencePlan,
     StartOutcome,
     Switch,
+    finite_or_none,
     nan_to_none,
 )
 from .settings import PlannerSettings
@@ -66,13 +67,13 @@ def _leg(plan: SequencePlan, leg: LegPlan) -> dict[str, Any]:
         "start": nan_to_none(leg.start),
         "goal": nan_to_none(leg.goal),
         "end": nan_to_none(leg.end),
-        "error": leg.error,
+        "error": finite_or_none(leg.error),
         "converged": leg.converged,
         "status": leg.status.key,
         "iterations": leg.iterations,
         "attempts": leg.attempts,
         "free_coefficients": leg.free_coefficients,
-        "energy": leg.energy,
+        "energy": finite_or_none(leg.energy),
         "pieces": [  # a Newton leg is one piece; a Lie leg one piece per step
             {
                 "t0": p.t0,
@@ -101,7 +102,7 @@ def plan_document(plan: SequencePlan) -> dict[str, Any]:
         "start": nan_to_none(plan.start),
         "goal": nan_to_none(plan.goal),
         "end": nan_to_none(plan.end) if plan.legs else None,
-        "total_energy": plan.total_energy,
+        "total_energy": finite_or_none(plan.total_energy),
         "reference_energy": plan.reference_energy,
         "duration": plan.duration,
         "planned_legs": plan.planned_legs,
@@ -119,10 +120,10 @@ def plan_document(plan: SequencePlan) -> dict[str, Any]:
             {
                 "time": sw.time,
                 "after_leg": sw.after_leg,
-                "jump": {u: float(sw.jump[k]) for k, u in enumerate(plan.inputs)},
-                "jump_derivative": {
-                    u: float(sw.jump_derivative[k]) for k, u in enumerate(plan.inputs)
-                },
+                "jump": dict(zip(plan.inputs, nan_to_none(sw.jump), strict=True)),
+                "jump_derivative": dict(
+                    zip(plan.inputs, nan_to_none(sw.jump_derivative), strict=True)
+                ),
             }
             for sw in plan.switches
         ],
@@ -170,10 +171,10 @@ def _leg_from(doc: dict, i: int, coordinates: list[str], inputs: list[str]) -> L
         goal=_vector(doc["goal"]),
         end=_vector(doc["end"]),
         pieces=pieces,
-        error=doc["error"],
+        error=np.nan if doc["error"] is None else doc["error"],
         iterations=doc["iterations"],
         attempts=doc["attempts"],
-        energy=doc["energy"],
+        energy=np.nan if doc["energy"] is None else doc["energy"],
         free_coefficients=doc["free_coefficients"],
         status=Status.from_key(status),
         basis=basis,
@@ -212,8 +213,8 @@ def plan_from_document(
         Switch(
             sw["time"],
             sw["after_leg"],
-            np.array([sw["jump"][u] for u in inputs], dtype=float),
-            np.array([sw["jump_derivative"][u] for u in inputs], dtype=float),
+            _vector([sw["jump"][u] for u in inputs]),
+            _vector([sw["jump_derivative"][u] for u in inputs]),
         )
         for sw in doc["switches"]
     )

@@ -35,6 +35,7 @@ __all__ = [
     "SequencePlan",
     "StartOutcome",
     "Switch",
+    "Timings",
 ]
 
 SCHEMA = "stratplan.result/1"
@@ -183,6 +184,15 @@ class Optimisation:
 
 
 @dataclass(frozen=True)
+class Timings:
+    """When planning started (UTC, ISO 8601) and how long it took, s (for manifest.json)."""
+
+    started: str = ""
+    compile_s: float = float("nan")  # generating numeric functions (and the check)
+    planning_s: float = float("nan")
+
+
+@dataclass(frozen=True)
 class ModelRef:
     """Which model a plan is for: its name (result.json `model`) and, when it came from a
     scenario, the `[model]` table it is built from (so the model can be rebuilt)."""
@@ -214,6 +224,8 @@ class SequencePlan:
     time_scale: float = 1.0
     notes: tuple[str, ...] = ()
     reference_energy: float | None = None
+    scenario_text: str = field(default="", repr=False)  # the scenario it was planned from
+    timings: Timings = Timings()
     _system: Any = field(default=None, repr=False, compare=False)  # not pickled
 
     def __post_init__(self) -> None:
@@ -342,5 +354,10 @@ def make_leg(**values: Any) -> LegPlan:
 
 
 def nan_to_none(x: Any) -> list[float | None]:
-    """A vector for JSON: NaN (not prescribed) becomes null."""
-    return [None if math.isnan(v) else float(v) for v in np.asarray(x, dtype=float)]
+    """A vector for JSON: NaN (not prescribed) and other non-finite values become null."""
+    return [float(v) if math.isfinite(v) else None for v in np.asarray(x, dtype=float)]
+
+
+def finite_or_none(x: float | None) -> float | None:
+    """A number for JSON: non-finite values (a leg stopped by overflow) become null."""
+    return None if x is None or not math.isfinite(x) else float(x)

@@ -1,0 +1,179 @@
+"""Inspection use cases: controllability checks and model descriptions."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..controllability import check_document
+from ..errors import InputError, NotControllableError, Problem
+from ..models.expressions import parse_number
+from ..models.presets import PRESETS, preset
+from ..models.system import System
+from ..scenario import Task, load_scenario
+
+
+@dataclass(frozen=True)
+class CheckReport:
+    """A controllability check (paper eqs. 2 and 4) of a preset model or a scenario."""
+
+    document: dict[str, Any]  # what `stratplan check --json` prints
+    title: str  # "preset <name>" or "<scenario> (<model> model)"
+    seconds: float
+
+    @property
+    def controllable(self) -> bool:
+        return bool(self.document["controllable"])
+
+    @property
+    def problems(self) -> list[str]:
+        return list(self.document["problems"])
+
+
+# ------------------------------------------------------------------------------------------
+# Controllability
+# ------------------------------------------------------------------------------------------
+
+
+def check_strata(task: Task) -> list[str]:
+    """The strata a scenario's check covers: its legs', its [decompose] table's, or all."""
+    if task.legs:
+        return list(dict.fromkeys(leg.stratum for leg in task.legs))
+    if task.scenario.decompose and task.scenario.decompose.strata:
+        return list(task.scenario.decompose.strata)
+    return list(task.system.strata)
+
+
+def controllability_first(task: Task, degree: int = 2, samples: int = 100) -> float:
+    """The check planning runs first; returns its seconds or raises NotControllableError.
+
+    Each leg's stratum must span what the leg steers (or, in auto mode, the candidate strata
+    together must reach every direction); Lie legs raise the bracket degree to theirs.
+    """
+    clock = time.perf_counter()
+    lie = [(leg.lie or task.settings.lie).degree for leg in task.legs if leg.method == "lie"]
+    doc = check_document(
+        task.system,
+        check_strata(task),
+        task.start,
+        samples=samples,
+        degree=max([degree, *lie]),
+        legs=task.legs or None,
+    )
+    if doc["problems"]:
+        raise NotControllableError(doc["problems"], task.source)
+    return time.perf_counter() - clock
+
+
+def check_controllability(
+    target: str | Path | Task,
+    at: str | Sequence[float] | None = None,
+    samples: int = 100,
+    degree: int = 2,
+    seed: int = 0,
+) -> CheckReport:
+    """Controllability of every stratum (paper eq. 4) and of the strata together (eq. 2).
+
+    Parameters
+    ----------
+    target : str, Path or Task
+        A preset model name, a scenario file or a loaded scenario.
+    at : str or sequence of float, optional
+        The configuration, e.g. ``"0, pi/3, 0, 0"`` (default: the scenario start, or zeros
+        for a preset).
+    samples : int
+        Sampled configurations checked besides `at`.
+    degree : int
+        Lie bracket degree (1-3).
+    seed : int
+        Seed of the sampled configurations.
+
+    Returns
+    -------
+    CheckReport
+        The check document (`.controllable`, `.problems`), a title and the time taken.
+    """
+    if isinstance(target, str) and target in PRESETS and not Path(target).exists():
+        system, legs, title = preset(target), None, f"preset {target}"
+        strata, q = list(system.strata), [0.0] * system.n
+    else:
+        task = target if isinstance(target, Task) else load_scenario(target)
+        system, legs, strata, q = task.system, task.legs or None, check_strata(task), task.start
+        title = f"{task.scenario.name} ({task.model_name} model)"
+    if at is not None:
+        q = configuration(system, at)
+    clock = time.perf_counter()
+    doc = check_document(system, strata, q, samples=samples, degree=degree, seed=seed, legs=legs)
+    seconds = time.perf_counter() - clock
+    doc["target"] = target.source if isinstance(target, Task) else str(target)
+    return CheckReport(doc, title, seconds)
+
+
+def configuration(system: System, at: str | Sequence[float], option: str = "--at") -> list:
+    """A configuration of `system` from text such as ``"(0, pi/3, 0, 0)"``; InputError naming
+    `option` when it does not parse or has the wrong length."""
+    try:
+        if isinstance(at, str):
+            values = [parse_number(x.strip()) for x in at.strip("()[] ").split(",")]
+        else:
+            values = [float(x) for x in at]
+    except (ValueError, TypeError) as exc:
+        raise InputError([Problem(option, f"not a configuration: {exc}")]) from None
+    if len(values) != system.n:
+        raise InputError(
+            [
+                Problem(
+                    option,
+                    f"needs {system.n} values ({', '.join(system.states)}), got {len(values)}",
+                )
+            ]
+        )
+    return values
+
+
+# ------------------------------------------------------------------------------------------
+# Models
+# ------------------------------------------------------------------------------------------
+
+
+def preset_models() -> dict[str, System]:
+    """Every preset model by name.
+
+    Returns
+    -------
+    dict
+        Name → System.
+    """
+    return {name: preset(name) for name in PRESETS}
+
+
+def strata_table(system: System) -> list[dict[str, Any]]:
+    """Each stratum of `system`: locked coordinates, active inputs, dimension, evaluator.
+
+    Parameters
+    ----------
+    system : System
+        A model; its strata's numeric functions are generated.
+
+    Returns
+    -------
+    list of dict
+        stratum, locked, active, dimension and evaluator ("quadrature" or "ode", what
+        `auto` uses on it).
+    """
+    rows = []
+    for s in system.strata.values():
+        cs = system.compiled(s)
+        rows.append(
+            {
+                "stratum": s.name,
+                "locked": [system.states[i] for i in s.locked],
+                "active": [system.inputs[j] for j in s.active],
+                "dimension": system.n - len(s.locked),
+                "evaluator": "quadrature" if cs.supports_quadrature else "ode",
+            }
+        )
+    return rows

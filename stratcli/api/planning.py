@@ -1,0 +1,357 @@
+"""Planning use cases: a scenario's legs, auto mode, comparing and decomposing sequences."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from ..compare import (
+    CRITERIA,
+    AutoSettings,
+    Comparison,
+    auto_settings,
+    compare_decomposition,
+    decompose_task,
+    default_jobs,
+)
+from ..decompose import STRATEGIES, Decomposition, pi_fraction
+from ..errors import InputError, Problem
+from ..records.comparison import comparison_document
+from ..results import SequencePlan, Timings
+from ..scenario import LegEntry, Task, load_scenario
+from ..settings import DecomposeSettings
+from ..stratified import plan_sequence, time_scaled
+from .inspection import controllability_first
+
+Progress = Callable[[int, int], None]  # (sequences planned so far, sequences in all)
+
+
+@dataclass(frozen=True)
+class PlanOutcome:
+    """A planned scenario: the plan, its result.json document and what it took."""
+
+    task: Task  # in auto mode: the scenario with the chosen sequence's legs
+    result: SequencePlan
+    document: dict[str, Any]  # result.json
+    started: datetime  # UTC, when planning started
+    compile_time: float  # seconds generating numeric functions (and checking controllability)
+    planning_time: float  # seconds planning
+
+    @property
+    def ok(self) -> bool:
+        """Every leg reached its goal."""
+        return self.result.ok
+
+
+@dataclass(frozen=True)
+class ComparisonOutcome:
+    """Every candidate sequence planned and ranked; `best` is the chosen one's plan."""
+
+    task: Task
+    settings: AutoSettings  # the [decompose] table with overrides applied
+    decomposition: Decomposition
+    comparison: Comparison
+    document: dict[str, Any]  # comparison.json
+    best: PlanOutcome
+
+    @property
+    def ok(self) -> bool:
+        """Some sequence reached the goal."""
+        return self.best.ok
+
+
+@dataclass(frozen=True)
+class DecompositionOutcome:
+    """The candidate sequences of a scenario's task, not planned."""
+
+    task: Task
+    settings: AutoSettings
+    decomposition: Decomposition
+    document: dict[str, Any]  # what `stratplan decompose --json` prints
+
+
+# ------------------------------------------------------------------------------------------
+# Planning
+# ------------------------------------------------------------------------------------------
+
+
+def plan(
+    scenario: Task | str | Path | Mapping[str, Any],
+    *,
+    check: bool = True,
+    time_scale: float | None = None,
+    jobs: int | None = None,
+) -> SequencePlan:
+    """Plan a scenario: every leg to tolerance, controls continuous across switches.
+
+    Parameters
+    ----------
+    scenario : Task, str, Path or Mapping
+        A loaded scenario, or what `load_scenario` takes (a path, TOML text or a dict).
+        Without legs (a [decompose] table only) it is planned in auto mode: every candidate
+        sequence is planned and the best by the table's criterion is returned.
+    check : bool
+        First check that each leg's stratum spans what the leg steers.
+    time_scale : float, optional
+        Run the planned path this many times faster; default: `planner.time_scale`.
+    jobs : int, optional
+        Worker processes in auto mode (default: all cores).
+
+    Returns
+    -------
+    SequencePlan
+        The plan value; `.ok` is False when a leg did not reach its goal (`.message` says
+        which and what to try), it is not an exception.
+
+    Raises
+    ------
+    InputError
+        Bad input, naming the field.
+    NotControllableError
+        When `check` finds a stratum that cannot do its leg; nothing is planned.
+    """
+    task = scenario if isinstance(scenario, Task) else load_scenario(scenario)
+    if not task.legs:
+        return plan_auto(task, check=check, jobs=jobs).best.result
+    return plan_run(task, check=check, time_scale=time_scale).result
+
+
+def plan_run(task: Task, *, check: bool = True, time_scale: float | None = None) -> PlanOutcome:
+    """Plan a scenario's legs one after another, to tolerance (what `stratplan plan` runs).
+
+    Parameters
+    ----------
+    task : Task
+        A loaded scenario with legs (`load_scenario`); without legs use `plan_auto`.
+    check : bool
+        First check that each leg's stratum spans what the leg steers.
+    time_scale : float, optional
+        Run the planned path this many times faster; default: the scenario's
+        `planner.time_scale`.
+
+    Returns
+    -------
+    PlanOutcome
+        The plan (`.ok` is False when a leg failed), result.json and timings.
+
+    Raises
+    ------
+    NotControllableError
+        When `check` finds a leg its stratum cannot steer; nothing is planned.
+    """
+    if not task.legs:
+        raise InputError("the scenario has no legs: plan it in auto mode (plan_auto)", task.source)
+    check_time = controllability_first(task) if check else 0.0
+    started = datetime.now(UTC)
+    clock = time.perf_counter()
+    for leg in task.legs:  # generate the numeric functions first: start-up, not planning
+        task.system.compiled(leg.stratum)
+    compile_time = time.perf_counter() - clock + check_time  # incl. the brackets of the check
+    clock = time.perf_counter()
+    result = plan_sequence(task.system, task.start, task.legs, task.settings)
+    planning_time = time.perf_counter() - clock
+    scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
+    if scale != 1.0:
+        result = time_scaled(result, scale)
+    result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
+    return PlanOutcome(task, result, result.to_dict(), started, compile_time, planning_time)
+
+
+def plan_auto(
+    task: Task, *, check: bool = True, jobs: int | None = None, progress: Progress | None = None
+) -> ComparisonOutcome:
+    """Auto mode: plan every candidate sequence of the [decompose] table, keep the best.
+
+    Parameters
+    ----------
+    task : Task
+        A loaded scenario without legs; its start, goal and [decompose] table are used.
+    check : bool
+        First check that the candidate strata together reach every direction.
+    jobs : int, optional
+        Worker processes (default: all cores).
+    progress : callable, optional
+        Called as `progress(done, total)` while sequences are planned.
+
+    Returns
+    -------
+    ComparisonOutcome
+        The ranking and, in `.best`, the chosen sequence's plan.
+
+    Raises
+    ------
+    NotControllableError
+        When `check` finds the strata cannot reach every direction; nothing is planned.
+    InputError
+        When no candidate sequence could even be planned.
+    """
+    if check:
+        controllability_first(task)
+    return compare_sequences(task, jobs=jobs, progress=progress)
+
+
+def compare_sequences(
+    task: Task,
+    *,
+    max_length: int | None = None,
+    strategy: str | None = None,
+    criterion: str | None = None,
+    jobs: int | None = None,
+    progress: Progress | None = None,
+) -> ComparisonOutcome:
+    """Plan every candidate sequence of strata in parallel and rank them.
+
+    Parameters
+    ----------
+    task : Task
+        A loaded scenario; its start and goal are decomposed.
+    max_length : int, optional
+        Longest sequence of strata (default: decompose table, else 3; at most 8).
+    strategy : str, optional
+        conservative | postponed | both (default: decompose table, else conservative).
+    criterion : str, optional
+        energy | peak-control | excursion | duration (default: decompose table, else energy).
+    jobs : int, optional
+        Worker processes (default: all cores).
+    progress : callable, optional
+        Called as `progress(done, total)` while sequences are planned.
+
+    Returns
+    -------
+    ComparisonOutcome
+        Outcomes, ranking, comparison.json and the best sequence's plan.
+    """
+    auto, dec = _decomposition(task, max_length, strategy, criterion)
+    started = datetime.now(UTC)
+    total, done = len(dec.candidates), 0
+
+    def advance(k: int) -> None:
+        nonlocal done
+        done += k
+        if progress is not None:
+            progress(done, total)
+
+    if progress is not None:
+        progress(0, total)
+    comparison, compile_time = compare_decomposition(
+        task, auto, dec, jobs=jobs or default_jobs(), progress=advance
+    )
+    doc = comparison_document(
+        comparison,
+        dec,
+        scenario=task.scenario.name,
+        model=task.model_name,
+        states=task.system.states,
+        start=task.start,
+        goal=task.goal,
+        settings={
+            k: getattr(task.settings, k)
+            for k in ("continuity", "soft_start", "full_stop", "tolerance", "seed", "objective")
+            if hasattr(task.settings, k)
+        },
+        compile_time=compile_time,
+    )
+    best = comparison.best
+    best_task = with_legs(task, auto, best.candidate.legs)
+    timings = Timings(started.isoformat(), compile_time, comparison.wall_time)
+    result = _named(best.plan, task, timings)
+    plan = PlanOutcome(
+        best_task, result, result.to_dict(), started, compile_time, comparison.wall_time
+    )
+    return ComparisonOutcome(task, auto, dec, comparison, doc, plan)
+
+
+def decompose(
+    task: Task, *, max_length: int | None = None, strategy: str | None = None
+) -> DecompositionOutcome:
+    """The candidate sequences of strata and their via configurations, without planning.
+
+    Parameters
+    ----------
+    task : Task
+        A loaded scenario; its start and goal are decomposed.
+    max_length : int, optional
+        Longest sequence of strata (default: decompose table, else 3; at most 8).
+    strategy : str, optional
+        conservative | postponed | both (default: decompose table, else conservative).
+
+    Returns
+    -------
+    DecompositionOutcome
+        The decomposition and its JSON document.
+    """
+    auto, dec = _decomposition(task, max_length, strategy)
+    system = task.system
+    rows = [
+        {
+            "index": k + 1,
+            "sequence": list(cand.sequence),
+            "strategy": cand.strategy,
+            "vias": [[None if x != x else float(x) for x in v] for v in cand.vias],
+            "vias_pi": [[pi_fraction(float(x)) for x in v] for v in cand.vias],
+            "loops": list(cand.redundant_legs(task.start)),
+        }
+        for k, cand in enumerate(dec.candidates)
+    ]
+    doc = {
+        "scenario": task.scenario.name,
+        "coordinates": list(system.states),
+        "essential": [system.states[i] for i in dec.essential],
+        "candidate_strata": list(dec.candidates_strata),
+        "max_length": dec.max_length,
+        "strategies": list(dec.strategies),
+        "sequences": rows,
+    }
+    return DecompositionOutcome(task, auto, dec, doc)
+
+
+def _decomposition(task: Task, max_length, strategy, criterion=None):
+    """[decompose] settings with overrides, and the decomposition; InputError on bad values."""
+    problems = []
+    if strategy is not None and strategy not in (*STRATEGIES, "both"):
+        problems.append(
+            Problem("--strategy", f"must be conservative, postponed or both (got {strategy!r})")
+        )
+    if criterion is not None and criterion not in CRITERIA:
+        problems.append(
+            Problem("--criterion", f"must be one of {', '.join(CRITERIA)} (got {criterion!r})")
+        )
+    if max_length is not None and max_length > 8:
+        problems.append(Problem("--max-length", f"must be at most 8 (got {max_length})"))
+    if problems:
+        raise InputError(problems)
+    auto = auto_settings(task, max_length=max_length, strategy=strategy, criterion=criterion)
+    return auto, decompose_task(task, auto)
+
+
+def with_legs(task: Task, auto: AutoSettings, legs) -> Task:
+    """The scenario rewritten with a chosen sequence's legs (what resolved.json records)."""
+    entries = [
+        LegEntry(stratum=leg.stratum, method=leg.method, goal=list(leg.goal), duration=leg.duration)
+        for leg in legs
+    ]
+    decompose_spec = DecomposeSettings(
+        max_length=auto.max_length,
+        strategy="both" if len(auto.strategies) > 1 else auto.strategies[0],
+        criterion=auto.criterion,
+        strata=tuple(auto.strata) if auto.strata else None,
+    )
+    scenario = task.scenario.model_copy(update={"legs": entries, "decompose": decompose_spec})
+    return dataclasses.replace(task, scenario=scenario, legs=list(legs))
+
+
+def _named(plan: SequencePlan, task: Task, timings: Timings) -> SequencePlan:
+    """The plan with what its scenario knows: name, paper energy, text and timings."""
+    reference = task.scenario.reference.energy if task.scenario.reference else None
+    return dataclasses.replace(
+        plan,
+        scenario=task.scenario.name,
+        reference_energy=reference,
+        scenario_text=task.text,
+        timings=timings,
+    )

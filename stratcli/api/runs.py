@@ -1,0 +1,265 @@
+"""Run-record use cases: writing and reading records, replaying scenarios against a baseline."""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+from ..records import run as run_files
+from ..records.comparison import comparison_csv, ranking_png
+from ..records.manifest import manifest
+from ..records.store import Record, list_records, mcap_summary, read_record
+from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline
+from ..regress import compare as compare_baseline
+from ..results import ModelRef, SequencePlan, Timings
+from ..scenario import Scenario, load_scenario
+from ..stratified import LegSpec
+from .planning import ComparisonOutcome, PlanOutcome, plan_auto, plan_run, with_legs
+
+
+@dataclass(frozen=True)
+class RegressReport:
+    """Scenarios replayed against a baseline file."""
+
+    scenarios: int
+    baseline: Path
+    tolerances: dict[str, float]
+    differences: list[Difference]
+    updated: bool  # the baseline was rewritten from this run
+
+    @property
+    def regressions(self) -> int:
+        return sum(d.regression for d in self.differences)
+
+
+# ------------------------------------------------------------------------------------------
+# Records
+# ------------------------------------------------------------------------------------------
+
+
+def write_record(
+    out: str | Path,
+    outcome: SequencePlan | PlanOutcome | ComparisonOutcome,
+    *,
+    animation: bool = True,
+    argv: Sequence[str] | None = None,
+) -> Path:
+    """Write a run record (result, manifest, scenario, MCAP log, plots) atomically.
+
+    Parameters
+    ----------
+    out : str or Path
+        Directory of run records; the run gets a new directory inside it.
+    outcome : SequencePlan, PlanOutcome or ComparisonOutcome
+        A plan (from `plan`, or a run of the CLI's use cases); for a comparison, the best
+        sequence's record plus comparison.json, comparison.csv and ranking.png.
+    animation : bool
+        Also write motion.gif.
+    argv : sequence of str, optional
+        The command recorded in manifest.json (default: this process's `sys.argv`).
+
+    Returns
+    -------
+    Path
+        The run directory.
+    """
+    if isinstance(outcome, SequencePlan):
+        outcome = _outcome_of(outcome)
+    planned = outcome.best if isinstance(outcome, ComparisonOutcome) else outcome
+    task = planned.task
+    timings = {
+        "started": planned.started.isoformat(),
+        "finished": datetime.now(UTC).isoformat(),
+        "compile_time_s": planned.compile_time,
+        "planning_time_s": planned.planning_time,
+    }
+    command = list(sys.argv if argv is None else argv)
+    code = 0 if planned.ok else 1
+    info = manifest(task.text, command, task.settings.seed, timings, code)
+    files = run_files.record_files(task, planned.result, planned.document, info, animation)
+    if isinstance(outcome, ComparisonOutcome):
+        files["comparison.json"] = outcome.document
+        files["comparison.csv"] = comparison_csv(outcome.document)
+        files["ranking.png"] = ranking_png(outcome.document)
+    return run_files.write_record(Path(out), task, files, planned.started)
+
+
+def _outcome_of(plan: SequencePlan) -> PlanOutcome:
+    """What a record needs of a plan value: its scenario (re-read from the plan's text)."""
+    if not plan.scenario_text:
+        raise InputError(
+            "the plan has no scenario to record (it was not planned from one): plan it with "
+            "stratcli.plan(scenario)"
+        )
+    task = load_scenario(plan.scenario_text, name=plan.scenario or "<plan>")
+    if not task.legs:  # auto mode: record the chosen sequence, as `stratplan plan` does
+        from ..compare import auto_settings
+
+        legs = [LegSpec(leg.stratum, leg.goal, leg.method, leg.duration) for leg in plan.legs]
+        task = with_legs(task, auto_settings(task), legs)
+    try:
+        started = datetime.fromisoformat(plan.timings.started)
+    except ValueError:
+        started = datetime.now(UTC)
+    t = plan.timings
+    return PlanOutcome(task, plan, plan.to_dict(), started, t.compile_s, t.planning_s)
+
+
+def load_run(path: str | Path) -> SequencePlan:
+    """A plan read back from its run record (nothing is re-planned).
+
+    Parameters
+    ----------
+    path : str or Path
+        A run directory, or its `result.json`.
+
+    Returns
+    -------
+    SequencePlan
+        The same plan type `plan` returns: `load_run(d).to_dict()` equals the record's
+        result.json; `.sample()` rebuilds the model from the record's scenario.
+
+    Raises
+    ------
+    InputError
+        When the record is missing, incomplete or damaged.
+    """
+    import tomllib
+
+    path = Path(path)
+    if path.is_file():
+        path = path.parent
+    record = read_record(path)
+    text = (path / "scenario.toml").read_text(encoding="utf-8")
+    try:
+        scenario = Scenario.model_validate(tomllib.loads(text))
+    except (tomllib.TOMLDecodeError, ValueError) as exc:
+        raise InputError(f"{path}/scenario.toml: not a valid scenario ({exc})") from None
+    model = ModelRef(record.result["model"], scenario.model)
+    try:
+        plan = SequencePlan.from_dict(record.result, scenario.planner, model)
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise InputError(f"{path}/result.json: damaged ({type(exc).__name__}: {exc})") from None
+    m = record.manifest
+    timings = Timings(
+        str(m.get("started", "")),
+        float(m.get("compile_time_s", float("nan"))),
+        float(m.get("planning_time_s", float("nan"))),
+    )
+    return replace(plan, scenario_text=text, timings=timings)
+
+
+def read_run(path: Path) -> tuple[Record, dict[str, Any] | None]:
+    """A run record read back (not re-planned) and a summary of its MCAP log.
+
+    Parameters
+    ----------
+    path : Path
+        A run directory.
+
+    Returns
+    -------
+    tuple
+        The record (result.json and manifest.json as dicts) and the MCAP summary, or None
+        when the record has no log.
+    """
+    record = read_record(path)
+    return record, mcap_summary(record.path)
+
+
+def list_runs(out: Path) -> list[dict[str, Any]]:
+    """The run records in `out`, newest first.
+
+    Parameters
+    ----------
+    out : Path
+        Directory of run records.
+
+    Returns
+    -------
+    list of dict
+        One row per record: run, started, scenario, status, total_energy.
+    """
+    return [
+        {
+            "run": r.path.name,
+            "started": r.started,
+            "scenario": r.result.get("scenario"),
+            "status": r.result.get("status"),
+            "total_energy": r.result.get("total_energy"),
+        }
+        for r in list_records(out)
+    ]
+
+
+# ------------------------------------------------------------------------------------------
+# Regression against a baseline
+# ------------------------------------------------------------------------------------------
+
+
+def regress(directory: Path, baseline: Path, update: bool = False) -> RegressReport:
+    """Plan every scenario in `directory` and compare with a baseline file.
+
+    Parameters
+    ----------
+    directory : Path
+        Directory of scenario files (``*.toml``).
+    baseline : Path
+        Baseline JSON file (schema ``stratplan.baseline/1``).
+    update : bool
+        Rewrite the baseline from this run (keeping its tolerances when it exists).
+
+    Returns
+    -------
+    RegressReport
+        Every difference beyond the baseline's tolerances; `.regressions` counts the ones
+        that fail CI.
+    """
+    paths = sorted(Path(directory).glob("*.toml"))
+    if not paths:
+        raise InputError(f"no scenario files (*.toml) in {directory}")
+    old, tolerances = {}, dict(DEFAULT_TOLERANCES)
+    if not update or baseline.exists():
+        try:
+            old, tolerances = load_baseline(baseline)
+        except InputError:
+            if not update:
+                raise
+    now = {path.stem: summarise(path) for path in paths}
+    diffs = compare_baseline(now, old, tolerances)
+    if update:
+        baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")
+    return RegressReport(len(now), baseline, tolerances, diffs, update)
+
+
+def summarise(path: Path) -> dict[str, Any]:
+    """Plan one scenario (as `plan` does, unchecked and not time-scaled) and keep what the
+    baseline compares.
+
+    Parameters
+    ----------
+    path : Path
+        A scenario file; in auto mode the best candidate sequence is kept.
+
+    Returns
+    -------
+    dict
+        status, total_energy, errors and energies (one per leg).
+    """
+    task = load_scenario(path)
+    if task.legs:
+        result = plan_run(task, check=False, time_scale=1.0).result
+    else:  # auto mode ([decompose], no [[legs]]): the best candidate sequence
+        result = plan_auto(task, check=False).best.result
+    return {
+        "status": "ok" if result.ok else "failed",
+        "total_energy": result.total_energy,
+        "errors": [leg.error for leg in result.legs],
+        "energies": [leg.energy for leg in result.legs],
+    }

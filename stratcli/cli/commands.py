@@ -1,0 +1,278 @@
+"""One function per command: parse, call `stratcli.api`, render, exit with a code.
+
+Exit codes: 0 ok, 1 a leg or every sequence failed (the record is still written), 2 bad input,
+3 not controllable. The API is imported inside the commands, for start-up speed: `--help`
+needs none of the planner.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from . import render
+from .options import Animation, Json, MaxLength, Out, Quiet, Scenario, Strategy, TaskScenario
+from .render_analysis import check_report, decomposition
+
+
+def _load(path: Path):
+    """The scenario file, or exit 2 naming every problem."""
+    from .. import cli  # `cli.load_scenario` at call time: tests may substitute it
+
+    with render.reported():
+        return cli.load_scenario(path)
+
+
+def _argv() -> list[str]:
+    """The command as manifest.json records it."""
+    return ["stratplan", *sys.argv[1:]]
+
+
+def plan(
+    file: Scenario,
+    out: Out = Path("runs"),
+    json_output: Json = False,
+    quiet: Quiet = False,
+    animation: Animation = True,
+    time_scale: Annotated[
+        float | None,
+        typer.Option(
+            min=1e-6,
+            help="Run the planned path S times faster after planning (duration ÷ S, energy × S); "
+            "overrides planner.time_scale.",
+        ),
+    ] = None,
+    check: Annotated[
+        bool,
+        typer.Option(
+            "--check/--no-check",
+            metavar="",
+            help="First check that each leg's stratum spans what the leg steers (Lie brackets, "
+            "paper eq. 4; as `stratplan check`).",
+        ),
+    ] = True,
+) -> None:
+    """Plan a scenario: every leg to tolerance, controls continuous across switches.
+
+    Writes a run record under OUT and exits 0 (planned), 1 (a leg failed; the record is
+    still written, marked failed), 2 (bad input) or 3 (the controllability check failed: a
+    leg's stratum cannot steer what the leg asks for; nothing is planned or written).
+
+    Auto mode: a scenario with a decompose table and no legs plans every candidate sequence
+    (as compare-sequences does), records the best by the table's criterion and says why.
+    """
+    from .. import api  # start-up speed
+
+    task = _load(file)
+    if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
+        _plan_auto(task, file, out, json_output, quiet, animation, check)
+    with render.reported(file):
+        outcome = api.plan_run(task, check=check, time_scale=time_scale)
+    run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+    if json_output:
+        render.print_json(outcome.document)
+    elif not quiet:
+        render.plan_summary(outcome.document)
+        render.plan_footer(outcome, run_dir)
+    if not outcome.ok:
+        render.error("planning failed", outcome.result.message)
+    raise typer.Exit(0 if outcome.ok else 1)
+
+
+def _plan_auto(task, file: Path, out: Path, json_output, quiet, animation, check) -> None:
+    """`plan` on a scenario without legs: compare the candidates, record and show the best."""
+    from .. import api  # start-up speed
+
+    with render.reported(file), render.progress_bar(_interactive(quiet, json_output)) as bar:
+        outcome = api.plan_auto(task, check=check, progress=bar)
+    run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+    if json_output:
+        render.print_json(outcome.best.document)
+    elif not quiet:
+        render.auto_mode(outcome, run_dir)
+    if not outcome.ok:
+        render.error("planning failed", outcome.comparison.choice())
+    raise typer.Exit(0 if outcome.ok else 1)
+
+
+def _interactive(quiet: bool, json_output: bool) -> bool:
+    """Draw a progress bar: only for people watching a terminal."""
+    return not (quiet or json_output) and render.err_console.is_terminal
+
+
+def compare_sequences(
+    file: TaskScenario,
+    max_length: MaxLength = None,
+    strategy: Strategy = None,
+    criterion: Annotated[
+        str | None,
+        typer.Option(
+            help="energy | peak-control | excursion | duration "
+            "(default: decompose table, else energy)."
+        ),
+    ] = None,
+    jobs: Annotated[
+        int | None, typer.Option(help="Worker processes (default: all cores).", min=1)
+    ] = None,
+    out: Out = Path("runs"),
+    json_output: Json = False,
+    quiet: Quiet = False,
+    animation: Animation = True,
+) -> None:
+    """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
+
+    Ranked by the criterion among the sequences that reached the goal (ties: lower energy);
+    failed sequences stay in the table with their reason. The record holds the best
+    sequence's full run record plus comparison.json, comparison.csv and ranking.png. Exits 0
+    when some sequence reached the goal, 1 when none did, 2 on bad input.
+    """
+    from .. import api  # start-up speed
+
+    task = _load(file)
+    with render.reported(), render.progress_bar(_interactive(quiet, json_output)) as bar:
+        options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
+        outcome = api.compare_sequences(task, **options, jobs=jobs, progress=bar)
+    run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+    if json_output:
+        render.print_json(outcome.document)
+    elif not quiet:
+        render.ranking(task, outcome.document)
+        render.say(f"best: {outcome.comparison.choice()}")
+        render.comparison_footer(outcome, run_dir)
+    if not outcome.ok:
+        render.error("no sequence reached the goal", outcome.comparison.choice())
+    raise typer.Exit(0 if outcome.ok else 1)
+
+
+def decompose(
+    file: TaskScenario,
+    max_length: MaxLength = None,
+    strategy: Strategy = None,
+    json_output: Json = False,
+) -> None:
+    """List the candidate sequences of strata and their via configurations, without planning.
+
+    Essential coordinates are those whose goal differs from the start; a sequence qualifies
+    when its strata together move all of them (no stratum twice in a row). `conservative`
+    sets every essential coordinate a leg can move to its goal value; `postponed` leaves it to
+    the last leg that can move it. Coordinates a leg's stratum locks keep their value.
+    """
+    from .. import api  # start-up speed
+
+    task = _load(file)
+    with render.reported():
+        outcome = api.decompose(task, max_length=max_length, strategy=strategy)
+    if json_output:
+        render.print_json(outcome.document)
+    else:
+        decomposition(outcome, file)
+
+
+def check(
+    target: Annotated[str, typer.Argument(help="Scenario file (TOML) or preset model name.")],
+    at: Annotated[
+        str | None,
+        typer.Option(
+            help='Configuration, e.g. "0, pi/3, 0, 0" (default: the scenario start, or zeros '
+            "for a preset)."
+        ),
+    ] = None,
+    samples: Annotated[int, typer.Option(min=0, help="Sampled configurations.")] = 100,
+    degree: Annotated[int, typer.Option(min=1, max=3, help="Lie bracket degree (1-3).")] = 2,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the sampled configurations.")] = 0,
+    json_output: Json = False,
+) -> None:
+    """Controllability of every stratum (paper eq. 4) and of the strata together (eq. 2).
+
+    Per stratum: the rank of its generators and Lie brackets (up to DEGREE, on its free
+    coordinates) and their smallest singular value, at the configuration and at SAMPLES
+    sampled ones; where DEGREE falls short, third-order brackets are tried. For a scenario,
+    also whether each leg's stratum spans the coordinates the leg steers. Exits 0, 2 on bad
+    input, 3 when the scenario's strata cannot do their legs (or the strata of a model or an
+    auto-mode scenario do not reach every direction together), naming stratum and
+    configuration.
+    """
+    from .. import api  # start-up speed
+
+    with render.reported():
+        report = api.check_controllability(target, at, samples=samples, degree=degree, seed=seed)
+    if json_output:
+        render.print_json(report.document)
+    else:
+        check_report(report)
+    for problem in report.problems:
+        render.error("not controllable", problem)
+    raise typer.Exit(0 if report.controllable else 3)
+
+
+def show(
+    run: Annotated[Path, typer.Argument(help="Run directory (as printed by plan).")],
+    json_output: Json = False,
+) -> None:
+    """Show a run record (read back from its files, not re-planned)."""
+    from .. import api  # start-up speed
+
+    with render.reported():
+        record, log = api.read_run(run)
+    if json_output:
+        render.print_json({"result": record.result, "manifest": record.manifest, "mcap": log})
+    else:
+        render.run_record(record, log)
+
+
+def runs(out: Out = Path("runs"), json_output: Json = False) -> None:
+    """List run records, newest first: time, scenario, status, energy."""
+    from .. import api  # start-up speed
+
+    rows = api.list_runs(out)
+    if json_output:
+        render.print_json(rows)
+    else:
+        render.runs_table(rows, out)
+
+
+def models(
+    file: Annotated[
+        Path | None, typer.Argument(help="Scenario file: describe its model instead.")
+    ] = None,
+) -> None:
+    """List the preset models, or describe the model of a scenario file.
+
+    For a scenario: coordinates, inputs and every stratum with its locked coordinates, active
+    inputs, dimension and the end-point evaluator `auto` will use on it.
+    """
+    from .. import api  # start-up speed
+
+    if file is None:
+        render.presets_table(api.preset_models())
+        return
+    task = _load(file)
+    render.model(task, api.strata_table(task.system))
+
+
+def regress(
+    directory: Annotated[Path, typer.Argument(help="Directory of scenario files.")] = Path(
+        "scenarios"
+    ),
+    baseline: Annotated[Path, typer.Option(help="Baseline JSON file.")] = Path(
+        "scenarios/baseline.json"
+    ),
+    update: Annotated[
+        bool, typer.Option(metavar="", help="Rewrite the baseline from this run.")
+    ] = False,
+) -> None:
+    """Plan every scenario in DIRECTORY and compare with a baseline; exit 1 on a regression.
+
+    Compared: status, each leg's final error and the total energy, with the tolerances stored
+    in the baseline file (`energy_rel`, `error_abs`).
+    """
+    from .. import api  # start-up speed
+
+    with render.reported():
+        report = api.regress(directory, baseline, update=update)
+    render.regress_report(report)
+    if not report.updated:
+        raise typer.Exit(1 if report.regressions else 0)

@@ -1,0 +1,41 @@
+"""Options more than one command takes, declared once (`Annotated` aliases).
+
+Flags get an empty metavar: typer would otherwise print `<bool>` beside a flag that takes no
+value.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+Json = Annotated[
+    bool,
+    typer.Option(
+        "--json", metavar="", help="Print JSON to stdout instead of tables (plan: result.json)."
+    ),
+]
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", metavar="", help="Print nothing but errors.")]
+Out = Annotated[Path, typer.Option(help="Directory of run records.")]
+Animation = Annotated[
+    bool,
+    typer.Option(
+        "--animation/--no-animation", metavar="", help="Write motion.gif (comparing: the best's)."
+    ),
+]
+Scenario = Annotated[Path, typer.Argument(help="Scenario file (TOML).")]
+TaskScenario = Annotated[Path, typer.Argument(help="Scenario file (TOML); its start and goal.")]
+MaxLength = Annotated[
+    int | None,
+    typer.Option(
+        "--max-length", help="Longest sequence of strata (default: decompose table, else 3).", min=1
+    ),
+]
+Strategy = Annotated[
+    str | None,
+    typer.Option(
+        help="conservative | postponed | both (default: decompose table, else conservative)."
+    ),
+]

@@ -1,0 +1,158 @@
+"""Rich rendering of the analyses that plan nothing: the decomposition and the check report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.markup import escape
+from rich.table import Table
+
+from .render import out_console
+
+
+def _via_cell(goal) -> str:
+    """A via as fractions of π where exact, then in radians (dim) if that differs."""
+    from ..decompose import format_configuration  # here, not at the top: start-up speed
+
+    exact, plain = format_configuration(goal, "pi"), format_configuration(goal, "rad")
+    return exact if exact == plain else f"{exact}\n[dim]{plain}[/]"
+
+
+def decomposition(outcome, file: Path) -> None:
+    """`decompose`: task, essential coordinates, candidate strata and one row per candidate."""
+    from ..decompose import format_configuration, moved_coordinates  # start-up speed
+
+    task, dec, rows = outcome.task, outcome.decomposition, outcome.document["sequences"]
+    system = task.system
+    out_console.print(
+        f"[bold]{task.scenario.name}[/] · model {task.model_name} · "
+        f"start {format_configuration(task.start)} → goal {format_configuration(task.goal)} "
+        "(angles in rad; π fractions where exact)",
+        highlight=False,
+    )
+    out_console.print(
+        f"essential coordinates: {', '.join(system.states[i] for i in dec.essential)} "
+        f"({len(dec.essential)} of {system.n})",
+        highlight=False,
+    )
+    moves = [
+        f"{s} moves {', '.join(system.states[i] for i in moved_coordinates(system, s))}"
+        for s in dec.candidates_strata
+    ]
+    out_console.print(f"candidate strata: {'; '.join(moves)}", highlight=False)
+    table = Table(show_edge=False, show_lines=True)
+    table.add_column("#", justify="right")
+    table.add_column("sequence")
+    table.add_column("strategy")
+    vias = max(len(c.legs) for c in dec.candidates) - 1
+    for v in range(vias):
+        table.add_column(f"via {v + 1}" if vias > 1 else "via")
+    table.add_column("loop legs")
+    for row, cand in zip(rows, dec.candidates, strict=True):
+        cells = [_via_cell(leg.goal) for leg in cand.legs[:-1]]
+        table.add_row(
+            str(row["index"]),
+            " → ".join(cand.sequence),
+            cand.strategy,
+            *cells,
+            *([""] * (vias - len(cells))),
+            ", ".join(map(str, row["loops"])) or "–",
+        )
+    out_console.print(table)
+    n, k = len(dec.sequences), len(dec.candidates)
+    out_console.print(
+        f"{n} sequence{'s' * (n != 1)} of at most {dec.max_length} strata × "
+        f"{' and '.join(dec.strategies)} = {k} candidate{'s' * (k != 1)}; a loop leg's goal "
+        f"is its start. Plan and rank them: stratplan compare-sequences {file}",
+        highlight=False,
+    )
+
+
+def check_report(report) -> None:
+    """`check`: per stratum rank and σ_min, eq. 2, each leg, the verdict."""
+    from ..decompose import format_configuration  # here, not at the top: start-up speed
+
+    doc, title, seconds = report.document, report.title, report.seconds
+    out_console.print(
+        f"[bold]{escape(title)}[/] · generators and Lie brackets up to degree {doc['degree']} · "
+        f"at q = {format_configuration(doc['at'])} and {doc['samples']} sampled "
+        f"configurations (seed {doc['seed']})",
+        highlight=False,
+    )
+    table = Table(show_edge=False)
+    for col in ("stratum", "dim", "rank at q", "σ_min at q", "min rank, σ_min (q + samples)"):
+        table.add_column(col, justify="left" if col == "stratum" else "right")
+    table.add_column("spanning at q")
+    table.add_column("eq. 4")
+    notes = []
+    for s in doc["strata"]:
+        rank = f"{s['rank_at']}"
+        escalated = s["degree_at"] != doc["degree"] and s["rank_at"] == s["dimension"]
+        if escalated:
+            rank += " (deg 3)"
+            notes.append(
+                f"{s['stratum']}: at q the brackets up to degree {doc['degree']} have rank "
+                f"{s['rank_at_requested_degree']}; third-order brackets span"
+            )
+        if s["third_order_needed"] > int(escalated):
+            notes.append(
+                f"{s['stratum']}: degree {doc['degree']} falls short at "
+                f"{s['third_order_needed'] - int(escalated)} sampled configuration(s), "
+                "third order spans there"
+            )
+        table.add_row(
+            s["stratum"],
+            str(s["dimension"]),
+            rank,
+            f"{s['sigma_min_at']:.1e}",
+            f"{s['min_rank']}, {s['min_sigma']:.1e}",
+            escape(", ".join(s["spanning_at"])),
+            "[green]strong[/]" if s["strong"] else "[red]no[/]",
+        )
+    out_console.print(table)
+    for note in notes:
+        out_console.print(f"note: {escape(note)}", highlight=False)
+    eq2 = doc["eq2"]
+    line = (
+        f"eq. 2 ({' + '.join(eq2['strata'])}, each stratum's closure): rank "
+        f"{eq2['sum_min_rank']} of {eq2['n']}"
+    )
+    if eq2["holds"]:
+        line += " at q and every sample: [green]holds[/]"
+    else:
+        line += (
+            f" — [red]falls short[/]; with brackets across strata (switching between them): "
+            f"rank {eq2['cross_min_rank']} of {eq2['n']}"
+        )
+        if eq2["by_switching"]:
+            extra = [x for x in eq2["cross_spanning_at"] if x.startswith("[")]
+            line += " ([green]holds[/]" + (f"; needs {escape(', '.join(extra))})" if extra else ")")
+    out_console.print(line, highlight=False)
+    if doc["legs"] is not None:
+        for leg in doc["legs"]:
+            steers = ", ".join(leg["steers"]) or "nothing"
+            mark = "[green]spanned[/]" if leg["ok"] else "[red]NOT spanned[/]"
+            out_console.print(
+                f"leg {leg['leg']} on {leg['stratum']} steers {steers}: rank {leg['rank']}, "
+                f"σ_min {leg['sigma_min']:.1e} at its start "
+                f"{format_configuration(leg['configuration'])}: {mark}",
+                highlight=False,
+            )
+    weak = [s["stratum"] for s in doc["strata"] if not s["strong"]]
+    verdict = (
+        "strongly controllable on every stratum (eq. 4)"
+        if not weak
+        else f"not strongly controllable on {', '.join(weak)} (eq. 4)"
+    )
+    verdict += (
+        "; stratified controllable (eq. 2" + (")" if eq2["holds"] else ", by switching)")
+        if doc["stratified_controllable"]
+        else "; [red]not stratified controllable[/] (eq. 2)"
+    )
+    if doc["legs"] is not None:
+        verdict += (
+            "; every leg's stratum spans the coordinates it steers"
+            if all(leg["ok"] for leg in doc["legs"])
+            else "; [red]some legs cannot be planned[/]"
+        )
+    out_console.print(f"verdict: {verdict} · {seconds * 1e3:.0f} ms", highlight=False)
