@@ -42,7 +42,7 @@ _PUBLIC = {
     "write_record": "api",
     "time_scaled": "stratified",
     "LegSpec": "stratified",
-    "SequencePlan": "results",
+    "SequencePlan": "sequence",
     "LegPlan": "results",
     "Piece": "results",
     "Switch": "results",
@@ -111,12 +111,12 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .results import ModelRef as ModelRef
     from .results import Optimisation as Optimisation
     from .results import Piece as Piece
-    from .results import SequencePlan as SequencePlan
     from .results import StartOutcome as StartOutcome
     from .results import Switch as Switch
     from .results import Timings as Timings
     from .scenario import Task as Task
     from .scenario import load_scenario as load_scenario
+    from .sequence import SequencePlan as SequencePlan
     from .settings import DecomposeSettings as DecomposeSettings
     from .settings import LieSettings as LieSettings
     from .settings import PlannerSettings as PlannerSettings

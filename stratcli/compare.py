@@ -34,7 +34,8 @@ import numpy as np
 from .decompose import STRATEGIES, Candidate, Decomposition, decompose
 from .errors import InputError, Problem
 from .models.system import System
-from .results import LegPlan, SequencePlan
+from .results import LegPlan
+from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import (
     LegSpec,

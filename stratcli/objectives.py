@@ -16,7 +16,7 @@ import numpy as np
 from .errors import InputError
 from .models.system import System
 from .planners.energy import optimise_energy
-from .results import SequencePlan
+from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
 

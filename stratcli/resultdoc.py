@@ -9,7 +9,7 @@ duration]`) and re-integrate the model from `start`. Coordinates not prescribed 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,7 +20,6 @@ from .results import (
     ModelRef,
     Optimisation,
     Piece,
-    SequencePlan,
     StartOutcome,
     Switch,
     finite_or_none,
@@ -28,6 +27,9 @@ from .results import (
 )
 from .settings import PlannerSettings
 from .status import Status
+
+if TYPE_CHECKING:  # documents are made from, and into, the plan type that uses this module
+    from .sequence import SequencePlan
 
 _START_KEYS = {
     "index": "index",

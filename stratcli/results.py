@@ -1,4 +1,6 @@
-"""What planning returns: frozen, picklable values (a sequence plan → legs → pieces; switches).
+"""The parts of a plan: frozen, picklable values (legs → pieces; switches; the energy search).
+
+`stratcli.sequence.SequencePlan` holds them.
 
 Numbering (the same in the CLI, `result.json` and the MCAP log): legs are numbered from 1 in
 everything a person reads (tables, messages, figure labels) and from 0 in everything a program
@@ -11,19 +13,18 @@ piece per step.
 
 A plan refers to its model (`ModelRef`: the name and the scenario's `[model]` table); it does
 not hold compiled functions, so it pickles small and a record can be loaded back without a
-compile (`SequencePlan.from_dict`). `sample` rebuilds the model when it needs to integrate.
+compile.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from .controls import FourierBasis, energy
-from .settings import PlannerSettings
 from .status import Status
 
 __all__ = [
@@ -32,16 +33,18 @@ __all__ = [
     "ModelRef",
     "Optimisation",
     "Piece",
-    "SequencePlan",
     "StartOutcome",
     "Switch",
     "Timings",
+    "finite_or_none",
+    "make_leg",
+    "nan_to_none",
 ]
 
 SCHEMA = "stratplan.result/1"
 
 
-def _frozen(x: Any) -> np.ndarray:
+def frozen_array(x: Any) -> np.ndarray:
     a = np.array(x, dtype=float)
     a.setflags(write=False)
     return a
@@ -56,7 +59,7 @@ class Piece:
     coefficients: np.ndarray
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "coefficients", _frozen(self.coefficients))
+        object.__setattr__(self, "coefficients", frozen_array(self.coefficients))
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,7 +107,7 @@ class LegPlan:
 
     def __post_init__(self) -> None:
         for name in ("start", "goal", "end"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
         object.__setattr__(self, "pieces", tuple(self.pieces))
 
     @property
@@ -154,8 +157,8 @@ class Switch:
     jump_derivative: np.ndarray
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "jump", _frozen(self.jump))
-        object.__setattr__(self, "jump_derivative", _frozen(self.jump_derivative))
+        object.__setattr__(self, "jump", frozen_array(self.jump))
+        object.__setattr__(self, "jump_derivative", frozen_array(self.jump_derivative))
 
 
 @dataclass(frozen=True)
@@ -199,148 +202,6 @@ class ModelRef:
 
     name: str
     spec: Any = None
-
-
-@dataclass(frozen=True, eq=False)
-class SequencePlan:
-    """A planned sequence of legs (or how far it got).
-
-    Build one with `stratcli.plan`; read one back with `stratcli.load_run`. `ok` is True when
-    every leg reached its goal; `message` says which leg failed and what to try.
-    """
-
-    scenario: str
-    model: ModelRef
-    coordinates: tuple[str, ...]
-    inputs: tuple[str, ...]
-    settings: PlannerSettings
-    start: np.ndarray
-    goal: np.ndarray
-    legs: tuple[LegPlan, ...]
-    switches: tuple[Switch, ...]
-    planned_legs: int
-    message: str = ""
-    optimisation: Optimisation | None = None
-    time_scale: float = 1.0
-    notes: tuple[str, ...] = ()
-    reference_energy: float | None = None
-    scenario_text: str = field(default="", repr=False)  # the scenario it was planned from
-    timings: Timings = Timings()
-    _system: Any = field(default=None, repr=False, compare=False)  # not pickled
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "start", _frozen(self.start))
-        object.__setattr__(self, "goal", _frozen(self.goal))
-        object.__setattr__(self, "legs", tuple(self.legs))
-        object.__setattr__(self, "switches", tuple(self.switches))
-        object.__setattr__(self, "notes", tuple(self.notes))
-
-    def __getstate__(self) -> dict:
-        state = dict(self.__dict__)
-        state["_system"] = None  # the model is referenced, never pickled
-        return state
-
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update(state)
-
-    # ---- summary -------------------------------------------------------------------------
-    @property
-    def ok(self) -> bool:
-        """Every planned leg reached its goal, and every leg was planned."""
-        return (
-            self.planned_legs > 0
-            and len(self.legs) == self.planned_legs
-            and all(leg.converged for leg in self.legs)
-        )
-
-    @property
-    def status(self) -> Status:
-        """`SUCCESS`, or the status of the first leg that failed (`NOT_PLANNED` if missing)."""
-        for leg in self.legs:
-            if not leg.converged:
-                return leg.status
-        return Status.SUCCESS if self.ok else Status.NOT_PLANNED
-
-    @property
-    def total_energy(self) -> float:
-        """Σ over legs of ∫|u|² dt (exact Gram-matrix energies)."""
-        return float(sum(leg.energy for leg in self.legs))
-
-    @property
-    def duration(self) -> float:
-        """Total duration, s."""
-        return float(sum(leg.duration for leg in self.legs))
-
-    @property
-    def end(self) -> np.ndarray | None:
-        """Where the last planned leg ended."""
-        return self.legs[-1].end if self.legs else None
-
-    @property
-    def system(self):
-        """The model (rebuilt from its reference, and cached, when the plan was loaded)."""
-        if self._system is None:
-            from .models.specs import system_from_ref
-
-            object.__setattr__(self, "_system", system_from_ref(self.model))
-        return self._system
-
-    def with_system(self, system) -> SequencePlan:
-        """The same plan bound to an already built model (no rebuild on `sample`)."""
-        out = replace(self)
-        object.__setattr__(out, "_system", system)
-        return out
-
-    # ---- controls and trajectory ---------------------------------------------------------
-    def controls(self, t: np.ndarray | float, derivative: bool = False) -> np.ndarray:
-        """All inputs at plan times `t`, shape (len(t), m); at a switch the later leg."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        out = np.zeros((t.size, len(self.inputs)))
-        if not self.legs:
-            return out
-        starts = np.array([leg.t0 for leg in self.legs])
-        which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.legs) - 1)
-        for k, leg in enumerate(self.legs):
-            sel = which == k
-            if sel.any():
-                out[sel] = leg.controls(t[sel] - leg.t0, derivative)
-        return out
-
-    def sample(self, samples_per_leg: int = 200):
-        """Re-integrate the plan (independently of the planner) on the real time axis.
-
-        Parameters
-        ----------
-        samples_per_leg : int
-            Uniform instants per leg, both ends included (a switch appears twice).
-
-        Returns
-        -------
-        Trajectory
-            With arrays `t` (N,), `q` (N, n), `u` (N, m), `du` (N, m) and `leg` (N,);
-            unpacks as ``t, q, u = plan.sample()``.
-        """
-        from .simulate import sample
-
-        return sample(self, samples_per_leg)
-
-    # ---- result.json ---------------------------------------------------------------------
-    def to_dict(self) -> dict[str, Any]:
-        """The `result.json` document (schema "stratplan.result/1")."""
-        from .resultdoc import plan_document
-
-        return plan_document(self)
-
-    @classmethod
-    def from_dict(cls, doc: dict[str, Any], settings: PlannerSettings | None = None, model=None):
-        """A plan read back from a `result.json` document (nothing is re-planned).
-
-        `settings` (e.g. the record's scenario) fill what result.json does not hold; `model`
-        is the `ModelRef` to rebuild the model from.
-        """
-        from .resultdoc import plan_from_document
-
-        return plan_from_document(cls, doc, settings, model)
 
 
 def make_leg(**values: Any) -> LegPlan:

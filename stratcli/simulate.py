@@ -11,11 +11,15 @@ Records (plots, MCAP) and `SequencePlan.sample` use it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .results import LegPlan, SequencePlan
+from .results import LegPlan
+
+if TYPE_CHECKING:  # the plan type holds a sampler; only its annotations are needed here
+    from .sequence import SequencePlan
 
 __all__ = ["Trajectory", "integrate_leg", "sample"]
 

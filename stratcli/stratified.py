@@ -19,7 +19,8 @@ from .controls import FourierBasis, energy
 from .errors import InputError, Problem
 from .models.system import System
 from .planners import PLANNERS, LegPlanner, LegProblem, NewtonPlanner
-from .results import LegPlan, ModelRef, SequencePlan, Switch, make_leg
+from .results import LegPlan, ModelRef, Switch, make_leg
+from .sequence import SequencePlan
 from .settings import LieSettings, PlannerSettings
 from .status import Status
 
@@ -153,7 +154,7 @@ def plan_next_leg(
     except NUMERICAL_ERRORS as exc:
         return make_leg(
             **common,
-            evaluator=settings.evaluator,
+            evaluator=_evaluator_kind(problem),
             duration=problem.duration,
             end=np.full(system.n, np.nan),
             pieces=(),
@@ -181,6 +182,14 @@ def plan_next_leg(
         status=status,
         message=out.message,
     )
+
+
+def _evaluator_kind(problem: LegProblem) -> str:
+    """The end-point evaluator a leg uses (or was to use, when it failed)."""
+    if problem.evaluator != "auto":
+        return problem.evaluator
+    quadrature = problem.system.compiled(problem.stratum).supports_quadrature
+    return "quadrature" if quadrature else "ode"
 
 
 def failure_message(leg: LegPlan, tolerance: float) -> str:

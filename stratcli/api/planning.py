@@ -22,8 +22,9 @@ from ..compare import (
 from ..decompose import STRATEGIES, Decomposition, pi_fraction
 from ..errors import InputError, Problem
 from ..records.comparison import comparison_document
-from ..results import SequencePlan, Timings
+from ..results import Timings
 from ..scenario import LegEntry, Task, load_scenario
+from ..sequence import SequencePlan
 from ..settings import DecomposeSettings
 from ..stratified import plan_sequence, time_scaled
 from .inspection import controllability_first

@@ -17,8 +17,9 @@ from ..records.manifest import manifest
 from ..records.store import Record, list_records, mcap_summary, read_record
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline
 from ..regress import compare as compare_baseline
-from ..results import ModelRef, SequencePlan, Timings
+from ..results import ModelRef, Timings
 from ..scenario import Scenario, load_scenario
+from ..sequence import SequencePlan
 from ..stratified import LegSpec
 from .planning import ComparisonOutcome, PlanOutcome, plan_auto, plan_run, with_legs
 

@@ -72,8 +72,16 @@ def progress_bar(enabled: bool) -> Iterator[Any]:
         yield update
 
 
-def fmt(x: float) -> str:
+def fmt(x: float | None) -> str:
+    """An energy for a table: grouped digits, scientific when large, "–" when unknown."""
+    if x is None or x != x:
+        return "–"
     return f"{x:,.2f}" if abs(x) < 1e6 else f"{x:.3e}"
+
+
+def fmt_error(x: float | None) -> str:
+    """A goal error for a table ("–" when a numerical failure left none)."""
+    return "–" if x is None else f"{x:.2e}"
 
 
 def plan_summary(doc: dict) -> None:
@@ -81,7 +89,8 @@ def plan_summary(doc: dict) -> None:
     extras = [x for x in ("soft_start", "full_stop") if doc.get(x)]
     if doc.get("time_scale", 1.0) != 1.0:
         extras.append(f"time scale {doc['time_scale']:g}")
-    basis = doc["legs"][0]["pieces"][0]["basis"] if doc["legs"] else None
+    with_pieces = [leg for leg in doc["legs"] if leg["pieces"]]
+    basis = with_pieces[0]["pieces"][0]["basis"] if with_pieces else None
     out_console.print(
         f"[bold]{doc['scenario']}[/] · model {doc['model']} · {doc['continuity']} · "
         f"objective {doc.get('objective', 'newton')}"
@@ -107,7 +116,7 @@ def plan_summary(doc: dict) -> None:
             leg["method"],
             leg["evaluator"],
             *((str(leg["iterations"]), str(leg["attempts"])) if per_leg else ()),
-            f"{leg['error']:.2e}",
+            fmt_error(leg["error"]),
             fmt(leg["energy"]),
             "[green]ok[/]" if leg["converged"] else "[red]failed[/]",
         )
@@ -115,6 +124,8 @@ def plan_summary(doc: dict) -> None:
     line = f"total energy [bold]{fmt(doc['total_energy'])}[/]"
     ref = doc.get("reference_energy")
     scale = doc.get("time_scale", 1.0)
+    if doc["total_energy"] is None:
+        ref = None  # no energy to compare (a numerical failure)
     if ref and scale != 1.0:  # the paper's legs last 1 s: compare the path at its own speed
         own = doc["total_energy"] / scale
         line += f" (at time scale 1: {fmt(own)}; paper: {fmt(ref)}, ratio {own / ref:.2f})"
@@ -127,7 +138,11 @@ def plan_summary(doc: dict) -> None:
     out_console.print(f"{line} · status {status}", highlight=False)
     for note in doc.get("notes") or []:
         out_console.print(f"note: {escape(note)}", highlight=False)
-    lie = [(i + 1, leg) for i, leg in enumerate(doc["legs"]) if leg["method"] == "lie"]
+    lie = [
+        (i + 1, leg)
+        for i, leg in enumerate(doc["legs"])
+        if leg["method"] == "lie" and leg["pieces"]
+    ]
     for i, leg in lie:
         out_console.print(
             f"leg {i}: {len(leg['pieces'])} Lie-algebraic steps of "

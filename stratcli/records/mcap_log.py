@@ -36,7 +36,7 @@ import numpy as np
 from mcap.writer import Writer
 
 from .. import __version__
-from ..results import SequencePlan as PlanResult
+from ..sequence import SequencePlan
 from .trajectory import Trajectory, base_extent, world_geometry
 
 __all__ = ["SCHEMA_NAMES", "epoch_ns", "mcap_bytes"]
@@ -371,7 +371,7 @@ class _Log:
 # --------------------------------------------------------------------------------------------
 
 
-def _link_frames(plan: PlanResult) -> list[tuple[str, str]]:
+def _link_frames(plan: SequencePlan) -> list[tuple[str, str]]:
     """(frame, parent) of every link: each arm is a chain from the base."""
     robot = plan.system.robot
     out, j = [], 0
@@ -419,7 +419,7 @@ def _transforms(geo: dict[str, np.ndarray], frames: list[tuple[str, str]], i: in
     return {"transforms": out}
 
 
-def _scene(plan: PlanResult, geo: dict[str, np.ndarray], ns: int) -> dict:
+def _scene(plan: SequencePlan, geo: dict[str, np.ndarray], ns: int) -> dict:
     robot = plan.system.robot
     hx, hy = base_extent(robot)
     lengths = [link.length for link in robot.links]
@@ -505,7 +505,7 @@ def _scene(plan: PlanResult, geo: dict[str, np.ndarray], ns: int) -> dict:
 
 
 def mcap_bytes(
-    plan: PlanResult,
+    plan: SequencePlan,
     traj: Trajectory,
     result_doc: dict[str, Any],
     manifest: dict[str, Any] | None,

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.transforms import blended_transform_factory
 
-from ..results import SequencePlan as PlanResult
+from ..sequence import SequencePlan
 from .trajectory import Trajectory, world_geometry
 
 __all__ = [
@@ -57,16 +57,16 @@ def _png(fig: Figure) -> bytes:
     return buf.getvalue()
 
 
-def _is_manipulator(plan: PlanResult) -> bool:
+def _is_manipulator(plan: SequencePlan) -> bool:
     robot = plan.system.robot
     return robot is not None and plan.system.n == robot.n_joints + 1
 
 
-def _locked_names(plan: PlanResult, k: int) -> list[str]:
+def _locked_names(plan: SequencePlan, k: int) -> list[str]:
     return [plan.system.states[i] for i in plan.legs[k].locked]
 
 
-def _leg_label(plan: PlanResult, k: int) -> str:
+def _leg_label(plan: SequencePlan, k: int) -> str:
     locked = _locked_names(plan, k)
     head = f"leg {k + 1}: {plan.legs[k].stratum}"
     if not locked:
@@ -74,7 +74,7 @@ def _leg_label(plan: PlanResult, k: int) -> str:
     return f"{head}\n{', '.join(locked)} locked"
 
 
-def _decorate_time_axes(axes: list[Any], plan: PlanResult) -> None:
+def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> None:
     """Shade the legs, label them with their stratum at the top, dash the switches."""
     total = plan.duration if plan.legs else 1.0
     for k, leg in enumerate(plan.legs):
@@ -103,7 +103,7 @@ def _decorate_time_axes(axes: list[Any], plan: PlanResult) -> None:
 
 
 def _time_series(
-    plan: PlanResult,
+    plan: SequencePlan,
     traj: Trajectory,
     values: np.ndarray,
     names: tuple[str, ...],
@@ -129,7 +129,7 @@ def _time_series(
     return fig
 
 
-def _mark_goals(plan: PlanResult, axes: list[Any]) -> None:
+def _mark_goals(plan: SequencePlan, axes: list[Any]) -> None:
     """The value each leg was asked to reach, at the leg's end time."""
     shown = False
     for leg in plan.legs:
@@ -154,7 +154,7 @@ def _mark_goals(plan: PlanResult, axes: list[Any]) -> None:
         )
 
 
-def _mark_off_inputs(plan: PlanResult, axes: list[Any]) -> None:
+def _mark_off_inputs(plan: SequencePlan, axes: list[Any]) -> None:
     """Write "off" over the legs on which an input is not active (it is zero there)."""
     for i, ax in enumerate(axes):
         ax.axhline(0.0, color="0.55", linewidth=0.7, zorder=2)
@@ -183,7 +183,7 @@ def _mark_off_inputs(plan: PlanResult, axes: list[Any]) -> None:
 # --------------------------------------------------------------------------------------------
 
 
-def configuration_figure(plan: PlanResult, traj: Trajectory, title: str = "") -> Figure:
+def configuration_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Figure:
     """Every coordinate against time (rad for manipulators)."""
     unit = "rad" if _is_manipulator(plan) else None
     head = f"{title}: configuration" if title else "configuration"
@@ -192,7 +192,7 @@ def configuration_figure(plan: PlanResult, traj: Trajectory, title: str = "") ->
     )
 
 
-def controls_figure(plan: PlanResult, traj: Trajectory, title: str = "") -> Figure:
+def controls_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Figure:
     """Every input against time (rad/s for manipulators: u_i is the speed of joint i)."""
     unit = "rad/s" if _is_manipulator(plan) else None
     head = f"{title}: controls" if title else "controls"
@@ -277,7 +277,7 @@ def _draw_poses(
 
 
 def stroboscope_figure(
-    plan: PlanResult, traj: Trajectory, title: str = "", snapshots: int = 10
+    plan: SequencePlan, traj: Trajectory, title: str = "", snapshots: int = 10
 ) -> Figure:
     """The manipulator at `snapshots` instants of each leg, light to dark, one panel per leg."""
     robot = plan.system.robot
@@ -350,7 +350,7 @@ def stroboscope_figure(
 
 
 def motion_gif(
-    plan: PlanResult, traj: Trajectory, title: str = "", max_frames: int = 120, fps: int = 25
+    plan: SequencePlan, traj: Trajectory, title: str = "", max_frames: int = 120, fps: int = 25
 ) -> bytes:
     """An animated GIF of the motion: at most `max_frames` frames at `fps`, looping.
 
@@ -466,7 +466,7 @@ def motion_gif(
 
 
 def render_plots(
-    plan: PlanResult, traj: Trajectory, title: str = "", animation: bool = True
+    plan: SequencePlan, traj: Trajectory, title: str = "", animation: bool = True
 ) -> dict[str, bytes]:
     """All plots of a run as {file name: bytes}.
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-from ..results import SCHEMA, SequencePlan
+from ..results import SCHEMA
+from ..sequence import SequencePlan
 
 __all__ = ["SCHEMA", "result_document"]
 

@@ -6,8 +6,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from ..results import SequencePlan as PlanResult
 from ..scenario import Task
+from ..sequence import SequencePlan
 from .mcap_log import mcap_bytes
 from .plots import render_plots
 from .rundir import run_name, write_run
@@ -31,7 +31,7 @@ def resolved_scenario(task: Task) -> dict[str, Any]:
 
 
 def record_files(
-    task: Task, plan: PlanResult, doc: dict, manifest: dict, animation: bool = True
+    task: Task, plan: SequencePlan, doc: dict, manifest: dict, animation: bool = True
 ) -> dict[str, Any]:
     """Name → content of every file of the run directory.
 

@@ -1,0 +1,156 @@
+"""A planned sequence of legs: the value `stratcli.plan` returns and `load_run` reads back.
+
+Frozen and picklable (the model is referenced, never pickled); `to_dict` is `result.json`
+(`stratcli.resultdoc`), `sample` the independent re-integration (`stratcli.simulate`). Leg and
+switch numbering is documented in `stratcli.results`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from .models.specs import system_from_ref
+from .resultdoc import plan_document, plan_from_document
+from .results import LegPlan, ModelRef, Optimisation, Switch, Timings, frozen_array
+from .settings import PlannerSettings
+from .simulate import Trajectory, sample
+from .status import Status
+
+__all__ = ["SequencePlan"]
+
+
+@dataclass(frozen=True, eq=False)
+class SequencePlan:
+    """A planned sequence of legs (or how far it got).
+
+    Build one with `stratcli.plan`; read one back with `stratcli.load_run`. `ok` is True when
+    every leg reached its goal; `message` says which leg failed and what to try.
+    """
+
+    scenario: str
+    model: ModelRef
+    coordinates: tuple[str, ...]
+    inputs: tuple[str, ...]
+    settings: PlannerSettings
+    start: np.ndarray
+    goal: np.ndarray
+    legs: tuple[LegPlan, ...]
+    switches: tuple[Switch, ...]
+    planned_legs: int
+    message: str = ""
+    optimisation: Optimisation | None = None
+    time_scale: float = 1.0
+    notes: tuple[str, ...] = ()
+    reference_energy: float | None = None
+    scenario_text: str = field(default="", repr=False)  # the scenario it was planned from
+    timings: Timings = Timings()
+    _system: Any = field(default=None, repr=False, compare=False)  # not pickled
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "start", frozen_array(self.start))
+        object.__setattr__(self, "goal", frozen_array(self.goal))
+        object.__setattr__(self, "legs", tuple(self.legs))
+        object.__setattr__(self, "switches", tuple(self.switches))
+        object.__setattr__(self, "notes", tuple(self.notes))
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_system"] = None  # the model is referenced, never pickled
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+
+    # ---- summary -------------------------------------------------------------------------
+    @property
+    def ok(self) -> bool:
+        """Every planned leg reached its goal, and every leg was planned."""
+        return (
+            self.planned_legs > 0
+            and len(self.legs) == self.planned_legs
+            and all(leg.converged for leg in self.legs)
+        )
+
+    @property
+    def status(self) -> Status:
+        """`SUCCESS`, or the status of the first leg that failed (`NOT_PLANNED` if missing)."""
+        for leg in self.legs:
+            if not leg.converged:
+                return leg.status
+        return Status.SUCCESS if self.ok else Status.NOT_PLANNED
+
+    @property
+    def total_energy(self) -> float:
+        """Σ over legs of ∫|u|² dt (exact Gram-matrix energies)."""
+        return float(sum(leg.energy for leg in self.legs))
+
+    @property
+    def duration(self) -> float:
+        """Total duration, s."""
+        return float(sum(leg.duration for leg in self.legs))
+
+    @property
+    def end(self) -> np.ndarray | None:
+        """Where the last planned leg ended."""
+        return self.legs[-1].end if self.legs else None
+
+    @property
+    def system(self):
+        """The model (rebuilt from its reference, and cached, when the plan was loaded)."""
+        if self._system is None:
+            object.__setattr__(self, "_system", system_from_ref(self.model))
+        return self._system
+
+    def with_system(self, system) -> SequencePlan:
+        """The same plan bound to an already built model (no rebuild on `sample`)."""
+        out = replace(self)
+        object.__setattr__(out, "_system", system)
+        return out
+
+    # ---- controls and trajectory ---------------------------------------------------------
+    def controls(self, t: np.ndarray | float, derivative: bool = False) -> np.ndarray:
+        """All inputs at plan times `t`, shape (len(t), m); at a switch the later leg."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.zeros((t.size, len(self.inputs)))
+        if not self.legs:
+            return out
+        starts = np.array([leg.t0 for leg in self.legs])
+        which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.legs) - 1)
+        for k, leg in enumerate(self.legs):
+            sel = which == k
+            if sel.any():
+                out[sel] = leg.controls(t[sel] - leg.t0, derivative)
+        return out
+
+    def sample(self, samples_per_leg: int = 200) -> Trajectory:
+        """Re-integrate the plan (independently of the planner) on the real time axis.
+
+        Parameters
+        ----------
+        samples_per_leg : int
+            Uniform instants per leg, both ends included (a switch appears twice).
+
+        Returns
+        -------
+        Trajectory
+            With arrays `t` (N,), `q` (N, n), `u` (N, m), `du` (N, m) and `leg` (N,);
+            unpacks as ``t, q, u = plan.sample()``.
+        """
+        return sample(self, samples_per_leg)
+
+    # ---- result.json ---------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """The `result.json` document (schema "stratplan.result/1")."""
+        return plan_document(self)
+
+    @classmethod
+    def from_dict(cls, doc: dict[str, Any], settings: PlannerSettings | None = None, model=None):
+        """A plan read back from a `result.json` document (nothing is re-planned).
+
+        `settings` (e.g. the record's scenario) fill what result.json does not hold; `model`
+        is the `ModelRef` to rebuild the model from.
+        """
+        return plan_from_document(cls, doc, settings, model)
