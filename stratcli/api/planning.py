@@ -10,15 +10,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from ..compare import (
-    CRITERIA,
-    AutoSettings,
-    Comparison,
-    auto_settings,
-    compare_decomposition,
-    decompose_task,
-    default_jobs,
-)
+from ..compare import CRITERIA, Comparison, default_jobs
 from ..decompose import STRATEGIES, Decomposition, pi_fraction
 from ..errors import InputError, Problem
 from ..records.comparison import comparison_document
@@ -27,6 +19,7 @@ from ..scenario import LegEntry, Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import DecomposeSettings
 from ..stratified import plan_sequence, time_scaled
+from .auto import AutoSettings, auto_settings, compare_decomposition, decompose_task
 from .inspection import controllability_first
 
 Progress = Callable[[int, int], None]  # (sequences planned so far, sequences in all)

@@ -21,6 +21,7 @@ from ..results import ModelRef, Timings
 from ..scenario import Scenario, load_scenario
 from ..sequence import SequencePlan
 from ..stratified import LegSpec
+from .auto import auto_settings
 from .planning import ComparisonOutcome, PlanOutcome, plan_auto, plan_run, with_legs
 
 
@@ -100,8 +101,6 @@ def _outcome_of(plan: SequencePlan) -> PlanOutcome:
         )
     task = load_scenario(plan.scenario_text, name=plan.scenario or "<plan>")
     if not task.legs:  # auto mode: record the chosen sequence, as `stratplan plan` does
-        from ..compare import auto_settings
-
         legs = [LegSpec(leg.stratum, leg.goal, leg.method, leg.duration) for leg in plan.legs]
         task = with_legs(task, auto_settings(task), legs)
     try:

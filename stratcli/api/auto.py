@@ -1,0 +1,100 @@
+"""Auto-mode glue: the scenario's [decompose] table with command-line overrides, the
+decomposition it asks for, and planning every candidate of it (`compare.compare`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..compare import Comparison, compare, compile_strata
+from ..decompose import STRATEGIES, Decomposition, decompose
+from ..errors import InputError, Problem
+from ..scenario import Task
+from ..settings import DecomposeSettings
+
+
+@dataclass(frozen=True)
+class AutoSettings:
+    """What the decomposer is asked, and where each value came from (for error messages)."""
+
+    max_length: int
+    strategies: tuple[str, ...]
+    criterion: str
+    strata: tuple[str, ...] | None
+    origin: dict[str, str]  # field -> "decompose.<field>" (file), "--<option>" or "default"
+
+
+def auto_settings(
+    task: Task,
+    *,
+    max_length: int | None = None,
+    strategy: str | None = None,
+    criterion: str | None = None,
+) -> AutoSettings:
+    """The scenario's [decompose] table (or the defaults), overridden by command-line values."""
+    spec = task.scenario.decompose
+    defaults = DecomposeSettings()  # the one place the defaults live
+    origin = {}
+    values = {}
+    for name, given in (
+        ("max_length", max_length),
+        ("strategy", strategy),
+        ("criterion", criterion),
+    ):
+        default = getattr(defaults, name)
+        option = "--" + name.replace("_", "-")
+        if given is not None:
+            values[name], origin[name] = given, option
+        elif spec is not None:
+            values[name], origin[name] = getattr(spec, name), f"decompose.{name}"
+        else:
+            values[name], origin[name] = default, option
+    strata = None if spec is None or spec.strata is None else tuple(spec.strata)
+    origin["strata"] = "decompose.strata" if strata is not None else "task.goal"
+    strategy_value = values["strategy"]
+    strategies = STRATEGIES if strategy_value == "both" else (strategy_value,)
+    return AutoSettings(values["max_length"], strategies, values["criterion"], strata, origin)
+
+
+def decompose_task(task: Task, auto: AutoSettings) -> Decomposition:
+    """Decompose the scenario's task; InputError problems name the field or option to change."""
+    try:
+        return decompose(
+            task.system,
+            task.start,
+            task.goal,
+            max_length=auto.max_length,
+            strategies=auto.strategies,
+            strata=auto.strata,
+            duration=task.scenario.planner.leg_duration,
+        )
+    except InputError as exc:
+        where = {"": "task.goal", "max_length": auto.origin["max_length"]}
+        where["strata"] = auto.origin["strata"]
+        raise InputError(
+            [Problem(where.get(p.path, p.path), p.message) for p in exc.problems], task.source
+        ) from None
+
+
+def compare_decomposition(
+    task, auto, decomposition, *, jobs: int = 1, progress=None
+) -> tuple[Comparison, float]:
+    """Compile the candidates' strata, then plan and rank every candidate of `decomposition`
+    by `auto.criterion`; returns the comparison and the compile time. InputError when no
+    candidate could even be planned (all were rejected before planning)."""
+    compile_time = compile_strata(task.system, decomposition.candidates_strata)
+    comparison = compare(
+        task.system,
+        task.start,
+        decomposition.candidates,
+        task.settings,
+        criterion=auto.criterion,
+        jobs=jobs,
+        progress=progress,
+    )
+    best = comparison.best
+    if best is None or best.plan is None:
+        raise InputError(
+            [Problem("decompose", best.message if best else "no candidate sequences")],
+            task.source,
+        )
+    return comparison, compile_time
