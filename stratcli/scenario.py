@@ -6,7 +6,6 @@ evaluated as code (angles such as "pi/3" or "60deg" go through the safe expressi
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -25,6 +24,7 @@ from .models.presets import PRESETS, preset
 from .models.system import Stratum, System
 from .planners.lie import LieSettings
 from .stratified import LegSpec, PlannerSettings, check_legs
+from .tomlread import parse_toml, read_scenario_text, reject_non_finite
 
 Number = Annotated[float, BeforeValidator(parse_number)]
 
@@ -259,19 +259,13 @@ def _problems(exc: ValidationError) -> list[Problem]:
 def load_scenario(path: str | Path) -> Task:
     """Read, validate and resolve a scenario file; raises InputError naming every problem."""
     path = Path(path)
-    source = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"cannot read scenario file: {exc.strerror}", source) from None
-    return parse_scenario(text, source)
+    return parse_scenario(read_scenario_text(path), str(path))
 
 
 def parse_scenario(text: str, source: str = "<scenario>") -> Task:
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"not valid TOML: {exc}", source) from None
+    raw = parse_toml(text, source)
+    if non_finite := reject_non_finite(raw):
+        raise InputError(non_finite, source)
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
