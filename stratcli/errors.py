@@ -44,3 +44,8 @@ class InputError(StratplanError, ValueError):
 
 class ModelError(InputError):
     """A model definition that cannot be used (bad expression, inconsistent stratum)."""
+
+
+class RecordError(StratplanError, OSError):
+    """A run record that could not be written (disk full, permissions, a name the file system
+    refuses); nothing complete-looking is left behind."""
