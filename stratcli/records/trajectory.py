@@ -6,6 +6,11 @@ leg-local times, and places the samples on the real time axis (leg k spans
 `[t0_k, t0_k + duration_k]`). Both ends of every leg are sampled, so a switch instant appears
 twice: once as the end of the leg before it and once as the start of the leg after it.
 
+Re-integration is bounded: a leg (or a piece of a Lie leg) gets at most `MAX_EVALUATIONS`
+evaluations of its vector field. A leg that exceeds them (e.g. `period = 1e-12` or a duration
+of 1e300 s), whose integration fails, or whose start or duration is not finite is not
+integrated further: its configurations are NaN and `Trajectory.notes` says so.
+
 `world_geometry` turns configurations of a planar manipulator (joints, then the base angle θ)
 into inertial-frame drawings: base rectangle, joints and links. The inertial origin is the
 fixed system CM; a base-frame point x is at `R(θ) (x − p_c)` (MODELS.md §1).
@@ -13,6 +18,7 @@ fixed system CM; a base-frame point x is at `R(θ) (x − p_c)` (MODELS.md §1).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,6 +32,45 @@ __all__ = ["Trajectory", "base_extent", "sample", "world_geometry"]
 
 RTOL = 1e-10
 ATOL = 1e-12
+MAX_EVALUATIONS = 50_000  # per leg or Lie piece; DOP853 takes 12 per step
+
+
+class _Budget(Exception):
+    """The vector field was evaluated more than MAX_EVALUATIONS times."""
+
+
+def _solve(rhs, duration: float, q0: np.ndarray, t_eval: np.ndarray) -> np.ndarray | None:
+    """States at `t_eval` (len, n), or None when the integration is out of budget or fails."""
+    q0 = np.asarray(q0, dtype=float)
+    if not (math.isfinite(duration) and duration >= 0 and np.all(np.isfinite(q0))):
+        return None
+    if duration == 0:
+        return np.repeat(q0[None], len(t_eval), axis=0)
+    calls = 0
+
+    def counted(t: float, y: np.ndarray) -> np.ndarray:
+        nonlocal calls
+        calls += 1
+        if calls > MAX_EVALUATIONS:
+            raise _Budget
+        return rhs(t, y)
+
+    try:
+        with np.errstate(all="ignore"):
+            sol = solve_ivp(
+                counted,
+                (0.0, duration),
+                q0,
+                method="DOP853",
+                t_eval=t_eval,
+                rtol=RTOL,
+                atol=ATOL,
+            )
+    except (_Budget, ArithmeticError, ValueError, np.linalg.LinAlgError):
+        return None
+    if not sol.success or sol.y.shape[1] != len(t_eval):
+        return None
+    return sol.y.T
 
 
 @dataclass(frozen=True)
@@ -41,6 +86,7 @@ class Trajectory:
     du : (N, m) time derivatives of the controls.
     leg : (N,) index of the leg each sample belongs to (0-based).
     strata : name of the stratum of each leg.
+    notes : what could not be re-integrated (those legs' `q` are NaN), empty when all were.
     """
 
     t: np.ndarray
@@ -49,6 +95,7 @@ class Trajectory:
     du: np.ndarray
     leg: np.ndarray
     strata: tuple[str, ...]
+    notes: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -60,7 +107,19 @@ class Trajectory:
 
 
 def integrate_leg(plan: PlanResult, leg: LegResult, tau: np.ndarray) -> np.ndarray:
-    """Configurations of `leg` at leg-local times `tau` (sorted, within [0, duration])."""
+    """Configurations of `leg` at leg-local times `tau` (sorted, within [0, duration]).
+
+    Parameters
+    ----------
+    plan : the plan (system and basis).
+    leg : one of its legs.
+    tau : leg-local times.
+
+    Returns
+    -------
+    (len(tau), n) configurations; all NaN where the integration failed or ran out of its
+    `MAX_EVALUATIONS` budget.
+    """
     system, basis = plan.system, plan.settings.basis
     G = system.compiled(leg.stratum).G
     pieces = leg.piece_list() if hasattr(leg, "piece_list") else None
@@ -74,37 +133,19 @@ def integrate_leg(plan: PlanResult, leg: LegResult, tau: np.ndarray) -> np.ndarr
             L = np.asarray(coefficients, dtype=float)
             local = np.clip(tau[inside] - t0, 0.0, duration)
             t_eval = np.unique(np.append(local, float(duration)))
-            sol = solve_ivp(
-                lambda t, y, L=L: G(y) @ (L @ basis.values(t)),
-                (0.0, float(duration)),
-                q,
-                method="DOP853",
-                t_eval=t_eval,
-                rtol=RTOL,
-                atol=ATOL,
-            )
-            if not sol.success:  # pragma: no cover
-                raise RuntimeError(f"re-integration of leg {leg.index + 1} failed: {sol.message}")
-            out[inside] = sol.y.T[np.searchsorted(t_eval, local)]
-            q = sol.y[:, -1]
+            y = _solve(lambda t, y, L=L: G(y) @ (L @ basis.values(t)), float(duration), q, t_eval)
+            if y is None:
+                y = np.full((t_eval.size, system.n), np.nan)
+            out[inside] = y[np.searchsorted(t_eval, local)]
+            q = y[-1]
         return out
     lam = np.asarray(leg.coefficients, dtype=float)
 
     def rhs(t: float, q: np.ndarray) -> np.ndarray:
         return G(q) @ (lam @ basis.values(t))
 
-    sol = solve_ivp(
-        rhs,
-        (0.0, float(leg.duration)),
-        np.asarray(leg.start, dtype=float),
-        method="DOP853",
-        t_eval=tau,
-        rtol=RTOL,
-        atol=ATOL,
-    )
-    if not sol.success:  # pragma: no cover - DOP853 on smooth fields does not fail
-        raise RuntimeError(f"re-integration of leg {leg.index + 1} failed: {sol.message}")
-    return sol.y.T
+    y = _solve(rhs, float(leg.duration), leg.start, np.asarray(tau, dtype=float))
+    return np.full((np.size(tau), system.n), np.nan) if y is None else y
 
 
 def sample(plan: PlanResult, samples_per_leg: int = 200) -> Trajectory:
@@ -112,11 +153,17 @@ def sample(plan: PlanResult, samples_per_leg: int = 200) -> Trajectory:
     if samples_per_leg < 2:
         raise ValueError("samples_per_leg must be at least 2")
     system, basis = plan.system, plan.settings.basis
-    ts, qs, us, dus, legs = [], [], [], [], []
+    ts, qs, us, dus, legs, notes = [], [], [], [], [], []
     for leg in plan.legs:
         tau = np.linspace(0.0, float(leg.duration), samples_per_leg)
         ts.append(leg.t0 + tau)
-        qs.append(integrate_leg(plan, leg, tau))
+        q = integrate_leg(plan, leg, tau)
+        if not np.all(np.isfinite(q)):
+            notes.append(
+                f"leg {leg.index + 1}: the trajectory could not be re-integrated (not finite, "
+                f"failed, or more than {MAX_EVALUATIONS} evaluations); its samples are NaN"
+            )
+        qs.append(q)
         us.append(leg.controls(basis, tau, system.m))
         dus.append(leg.controls(basis, tau, system.m, derivative=True))
         legs.append(np.full(tau.size, leg.index, dtype=int))
@@ -141,6 +188,7 @@ def sample(plan: PlanResult, samples_per_leg: int = 200) -> Trajectory:
         du=np.concatenate(dus),
         leg=np.concatenate(legs),
         strata=tuple(leg.stratum for leg in plan.legs),
+        notes=tuple(notes),
     )
 
 
