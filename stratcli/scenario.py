@@ -286,7 +286,9 @@ def _problems(exc: ValidationError) -> list[Problem]:
         msg = err["msg"].removeprefix("Value error, ")
         if kind == "missing":
             msg = "required field is missing"
-        shown = "" if kind == "missing" else f" (got {err['input']!r})"
+        got = repr(err["input"])
+        got = got if len(got) <= 80 else got[:70] + f"... ({len(got)} characters)"
+        shown = "" if kind == "missing" else f" (got {got})"
         out.append(Problem(_path(loc), f"{msg}{shown}"))
     return out
 

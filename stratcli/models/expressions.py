@@ -8,11 +8,11 @@ Python code, so ``__import__('os')`` or attribute access is rejected with a clea
 Work is bounded so that no text can hang sympy's exact arithmetic or exhaust memory:
 
 * at most `MAX_LENGTH` characters, `MAX_NODES` syntax nodes nested `MAX_DEPTH` deep;
-* a numeric exponent must be at most `MAX_EXPONENT` in magnitude (``x**2``, ``x**-1/2``; not
+* a numeric exponent must be at most `MAX_EXPONENT` in magnitude (``x**2``, ``x**(-1/2)``; not
   ``9**9**9**9`` or ``2**10**8``);
 * every constant sub-expression (``1e20``, ``exp(800)``, ``10**30``) must be finite and at most
   `MAX_MAGNITUDE` in magnitude, and ``exp``/``sinh``/``cosh`` of a constant at most
-  `MAX_EXP_ARGUMENT`;
+  `MAX_EXP_ARGUMENT` (in magnitude; ``exp(-40)`` is fine);
 * functions take their exact number of arguments.
 """
 
@@ -184,7 +184,8 @@ def _node(node: ast.AST, rec, symbols: dict[str, sp.Symbol], text: str, allowed:
             )
         args = [rec(a) for a in node.args]
         if name in _GROWING and args[0].is_number:
-            if abs(complex(sp.N(args[0], 15))) > MAX_EXP_ARGUMENT:
+            x = complex(sp.N(args[0], 15))
+            if (x.real if name == "exp" else abs(x)) > MAX_EXP_ARGUMENT:
                 raise ExpressionError(
                     f"in {text!r}: {name}() of a constant above {MAX_EXP_ARGUMENT:g} is too large"
                 )
