@@ -161,3 +161,9 @@ def test_json_and_log_times_of_non_finite_values():
 
 def test_rundir_module_names_its_limit():
     assert rundir.MAX_NAME_BYTES <= 128
+
+
+def test_non_finite_json_values_are_written_as_null(tmp_path):
+    files = dict(FILES, **{"result.json": {"schema": "stratplan.result/1", "e": float("nan")}})
+    run = write_run(tmp_path, "nan", files)
+    assert json.loads((run / "result.json").read_text())["e"] is None

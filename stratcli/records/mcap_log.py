@@ -41,6 +41,7 @@ from mcap.writer import Writer
 
 from .. import __version__
 from ..stratified import PlanResult
+from .rundir import finite_or_none
 from .trajectory import Trajectory, base_extent, world_geometry
 
 __all__ = ["SCHEMA_NAMES", "epoch_ns", "mcap_bytes"]
@@ -311,23 +312,12 @@ def _stamp(ns: int) -> dict[str, int]:
     return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
 
 
-def _finite(obj: Any) -> Any:
-    """`obj` with every non-finite float replaced by None (JSON null)."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_finite(v) for v in obj]
-    return obj
-
-
 def _json(obj: Any) -> bytes:
     """Compact JSON; NaN and ±inf become null (the fast path assumes all values finite)."""
     try:
         text = json.dumps(obj, separators=(",", ":"), allow_nan=False)
     except ValueError:
-        text = json.dumps(_finite(obj), separators=(",", ":"), allow_nan=False)
+        text = json.dumps(finite_or_none(obj), separators=(",", ":"), allow_nan=False)
     return text.encode("utf-8")
 
 

@@ -7,13 +7,15 @@ directory that looks complete (`runs/<UTC time>-<scenario>-<hash>/`).
 The scenario part of the name is cut to `MAX_NAME_BYTES` bytes (the hash of the scenario text
 keeps truncated names distinct), so every name fits the usual 255-byte file-name limit with
 room for the temporary prefix and suffix. Any `OSError` while writing becomes a `RecordError`
-after the temporary directory has been removed.
+after the temporary directory has been removed. JSON files are strict JSON: a NaN or ±inf
+(e.g. the energy of a plan whose legs overflowed) is written as `null`.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -44,6 +46,25 @@ def run_name(scenario: str, text: str, when: datetime | None = None) -> str:
     part = scenario.replace("/", "_").replace("\x00", "_")
     part = part.encode("utf-8")[:MAX_NAME_BYTES].decode("utf-8", errors="ignore")
     return f"{when.strftime('%Y%m%dT%H%M%SZ')}-{part}-{digest}"
+
+
+def finite_or_none(obj: Any) -> Any:
+    """`obj` with every non-finite float (at any depth) replaced by None (JSON null)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: finite_or_none(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [finite_or_none(v) for v in obj]
+    return obj
+
+
+def _json_bytes(content: Any) -> bytes:
+    try:
+        text = json.dumps(content, indent=2, allow_nan=False)
+    except ValueError:  # NaN or inf somewhere: null, as documented above
+        text = json.dumps(finite_or_none(content), indent=2, allow_nan=False)
+    return (text + "\n").encode()
 
 
 def write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
@@ -79,7 +100,7 @@ def _write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
     try:
         for filename, content in files.items():
             if isinstance(content, dict | list):
-                data = (json.dumps(content, indent=2, allow_nan=False) + "\n").encode()
+                data = _json_bytes(content)
             elif isinstance(content, str):
                 data = content.encode("utf-8")
             else:
