@@ -19,6 +19,15 @@
 
 Configurations: the given one (a scenario's start, or each leg's nominal start: the previous
 leg's goal where prescribed) and `samples` seeded uniform draws in [-π, π]^n.
+
+Bounded work on large models: planar manipulators get closed-form brackets (degree 3 by
+central differences above `lie.SYMBOLIC_MAX_COORDINATES` coordinates, so a 20-link chain is
+checked in about a second); the symbolic closure across strata is computed only for
+manipulators of at most that many coordinates and custom models whose Hall basis across the
+strata has at most `MAX_SYMBOLIC_BRACKETS` elements; a custom model retries with third-order
+brackets only when the stratum's degree-3 Hall basis has at most `MAX_SYMBOLIC_BRACKETS`
+elements (else the verdict stays at the requested degree). The paper's models are below every
+one of these limits.
 """
 
 from __future__ import annotations
@@ -29,10 +38,34 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from .liealgebra import MAX_DEGREE, bracket, element_label, hall_basis, lie_basis
+from .liealgebra import (
+    MAX_DEGREE,
+    SYMBOLIC_MAX_COORDINATES,
+    bracket,
+    element_label,
+    hall_basis,
+    lie_basis,
+)
 from .models.system import System, _ArrayFunction
 
 RANK_RTOL = 1e-9  # singular values below this times the largest count as zero
+MAX_SYMBOLIC_BRACKETS = 250  # custom models: largest degree-3 Hall basis derived by sympy
+
+
+def _cross_affordable(system: System, strata: list[str], degree: int) -> bool:
+    """Whether the symbolic closure across `strata` is small enough to derive."""
+    if getattr(system, "robot", None) is not None:
+        return system.n <= SYMBOLIC_MAX_COORDINATES
+    m = sum(len(system.stratum(s).active) for s in strata)  # an upper bound on the generators
+    return len(hall_basis(m, degree)) <= MAX_SYMBOLIC_BRACKETS
+
+
+def _can_escalate(system: System, stratum: str) -> bool:
+    """Whether third-order brackets of `stratum` are affordable (closed form or small)."""
+    if getattr(system, "robot", None) is not None:
+        return True
+    m = len(system.stratum(stratum).active)
+    return len(hall_basis(m, MAX_DEGREE)) <= MAX_SYMBOLIC_BRACKETS
 
 
 def sample_configurations(n: int, count: int, seed: int = 0) -> np.ndarray:
@@ -97,7 +130,7 @@ def stratum_report(
     rank_requested = rank.copy()
     used = np.full(len(Q), degree)
     short = rank < dim
-    if np.any(short) and degree < MAX_DEGREE:
+    if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, s.name):
         B3 = lie_basis(system, s, MAX_DEGREE).evaluate(Q[short])
         r3, s3 = _rank_and_sigma(B3, dim)
         rank[short], sigma[short], used[short] = r3, s3, MAX_DEGREE
@@ -171,11 +204,11 @@ def sequence_report(
         lb = lie_basis(system, name, degree)
         blocks.append(lb.full(Q))
         short = _rank_and_sigma(blocks[-1][:, list(lb.free)], len(lb.free))[0] < len(lb.free)
-        if np.any(short) and degree < MAX_DEGREE:  # third order where needed, as for eq. 4
+        if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, name):  # as eq. 4
             blocks.append(lie_basis(system, name, MAX_DEGREE).full(Q))
     sum_rank, _ = _rank_and_sigma(np.concatenate(blocks, axis=-1), system.n)
     report = SequenceReport(names, system.n, Q, sum_rank, None)
-    if not report.eq2:
+    if not report.eq2 and _cross_affordable(system, names, max(degree, 2)):
         cross = _cross_basis(system, tuple(names), max(degree, 2))
         B = cross.evaluate(Q)
         report.cross_rank = _rank_and_sigma(B, system.n)[0]
@@ -280,7 +313,7 @@ def _target_rank(system, stratum, targets, Q, degree):
         return np.zeros(len(Q), dtype=int), np.ones(len(Q))
     rank, sigma = _rank_and_sigma(lb.evaluate(Q)[:, rows], len(rows))
     short = rank < len(rows)
-    if np.any(short) and degree < MAX_DEGREE:
+    if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, stratum):
         lb3 = lie_basis(system, stratum, MAX_DEGREE)
         r3, s3 = _rank_and_sigma(lb3.evaluate(Q[short])[:, rows], len(rows))
         rank[short], sigma[short] = r3, s3

@@ -56,3 +56,8 @@ class NotControllableError(StratplanError):
         self.problems = list(problems)
         self.source = source
         super().__init__("\n".join(self.problems))
+
+
+class RecordError(StratplanError, OSError):
+    """A run record that could not be written (disk full, permissions, a name the file system
+    refuses); nothing complete-looking is left behind."""

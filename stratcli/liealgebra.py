@@ -155,9 +155,14 @@ def lie_basis(system: System, stratum: Stratum | str, degree: int = 2) -> LieBas
     return cache[key]
 
 
+SYMBOLIC_MAX_COORDINATES = 5  # larger manipulators: degree-3 brackets numerically
+STEP = 1e-5  # central-difference step of those brackets
+
+
 def _build(system: System, stratum: Stratum, degree: int) -> LieBasis:
-    if degree <= 2 and getattr(system, "robot", None) is not None and _is_manipulator(system):
-        return _manipulator_basis(system, stratum, degree)
+    if getattr(system, "robot", None) is not None and _is_manipulator(system):
+        if degree <= 2 or system.n > SYMBOLIC_MAX_COORDINATES:
+            return _manipulator_basis(system, stratum, degree)
     symbols = list(system.symbols)
     free = stratum.free(system.n)
     G = system.fields_on(stratum)  # n x m_active
@@ -194,8 +199,11 @@ def _is_manipulator(system: System) -> bool:
 def _manipulator_basis(system: System, stratum: Stratum, degree: int) -> LieBasis:
     """Closed-form fields of a physical manipulator (no sympy: cheap for long chains).
 
-    `g_j = e_j + A_j e_θ` and, since `A` does not depend on θ, `[g_i, g_j] = (∂A_j/∂q_i −
-    ∂A_i/∂q_j) e_θ` (the curvature of the connection), exact from `planar.connection`.
+    `g_j = e_j + A_j e_θ` and, since `A` does not depend on θ, `[g_i, g_j] = F_ij e_θ` with
+    `F_ij = ∂A_j/∂q_i − ∂A_i/∂q_j` (the curvature of the connection), exact from
+    `planar.connection`. Degree 3 (used only above `SYMBOLIC_MAX_COORDINATES` coordinates,
+    where the symbolic derivation takes minutes): `[g_k, F_ij e_θ] = ∂F_ij/∂q_k e_θ`, by
+    central differences (step 1e-5) of the closed-form `∂A/∂q`.
     """
     from .models.planar import connection, connection_A
 
@@ -214,14 +222,24 @@ def _manipulator_basis(system: System, stratum: Stratum, degree: int) -> LieBasi
             A, dA = connection(robot, q[..., :k])
         else:
             A = connection_A(robot, q[..., :k])
+        if degree >= 3:  # dAs[p]: ∂A/∂q at q + h e_p (p < k) and q - h e_p (p ≥ k)
+            shifts = STEP * np.concatenate([np.eye(k), -np.eye(k)])
+            joints = q[..., :k]
+            moved = joints[None] + shifts.reshape(2 * k, *([1] * (joints.ndim - 1)), k)
+            dAs = connection(robot, moved)[1]
         for c, h in enumerate(elements):
             if isinstance(h, int):
                 j = active[h]
                 out[..., free.index(j), c] = 1.0
                 out[..., theta_row, c] = A[..., j]
-            else:
+            elif isinstance(h[0], int) and isinstance(h[1], int):
                 i, j = active[h[0]], active[h[1]]
                 out[..., theta_row, c] = dA[..., j, i] - dA[..., i, j]
+            else:  # [g_p, [g_i, g_j]] or [[g_i, g_j], g_p]
+                sign, p, (a, b) = (1.0, h[0], h[1]) if isinstance(h[0], int) else (-1.0, *h[::-1])
+                p, i, j = active[p], active[a], active[b]
+                curl = dAs[..., j, i] - dAs[..., i, j]
+                out[..., theta_row, c] = sign * (curl[p] - curl[k + p]) / (2 * STEP)
         return out
 
     labels = [element_label(h, names) for h in elements]

@@ -7,7 +7,6 @@ evaluated as code (angles such as "pi/3" or "60deg" go through the safe expressi
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,7 +14,15 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 import sympy as sp
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    Strict,
+    ValidationError,
+    model_validator,
+)
 
 from . import tomlwrite
 from .controls import MAX_PERIODS_PER_LEG
@@ -34,6 +41,7 @@ from .settings import (
     PlannerSettings,
 )
 from .stratified import LegSpec, check_legs
+from .tomlread import parse_toml, read_scenario_text, reject_non_finite
 
 MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
 
@@ -79,36 +87,64 @@ class CustomModel(_Strict):
     strata: list[CustomStratum] = Field(min_length=1)
 
 
+# Physical ranges of planar-manipulator parameters (SI units). They bound every quantity so
+# that no product in the model overflows and no ratio underflows; real space robots sit well
+# inside them. At most MAX_LINKS links in total (the default strata grow as k²).
+MASS = {"ge": 1e-6, "le": 1e6}  # kg
+LENGTH = {"ge": 1e-6, "le": 1e3}  # m
+INERTIA = {"ge": 0, "le": 1e9}  # kg m²
+MOUNT = {"ge": -1e3, "le": 1e3}  # m, base frame
+MAX_LINKS = 24
+MAX_ARMS = 8
+
+Coordinate = Annotated[Number, Field(**MOUNT)]
+
+
 class LinkSpec(_Strict):
-    mass: float = Field(gt=0)
-    length: float = Field(gt=0)
-    com: float | None = Field(None, ge=0, description="CM offset from the proximal joint")
-    inertia: float | None = Field(None, ge=0, description="about the link's CM; rod if omitted")
+    mass: float = Field(**MASS, description="kg, in [1e-6, 1e6]")
+    length: float = Field(**LENGTH, description="m, in [1e-6, 1e3]")
+    com: float | None = Field(None, ge=0, le=1e3, description="CM offset from the proximal joint")
+    inertia: float | None = Field(
+        None, **INERTIA, description="about the link's CM, in [0, 1e9]; rod if omitted"
+    )
 
 
 class ArmSpec(_Strict):
-    mount: tuple[Number, Number]
-    zero_angle: Number = 0.0
+    mount: tuple[Coordinate, Coordinate]
+    zero_angle: Annotated[Number, Field(ge=-1e3, le=1e3)] = 0.0
     sense: Literal[1, -1] = 1
-    links: list[LinkSpec] = Field(min_length=1)
+    links: list[LinkSpec] = Field(min_length=1, max_length=MAX_LINKS)
 
 
 class BaseSpec(_Strict):
-    mass: float = Field(gt=0)
-    inertia: float | None = Field(None, gt=0)
-    a: float | None = Field(None, gt=0, description="rectangle width (inertia m(a²+b²)/12)")
-    b: float | None = Field(None, gt=0, description="rectangle height")
+    mass: float = Field(**MASS)
+    inertia: float | None = Field(None, gt=0, le=INERTIA["le"])
+    a: float | None = Field(None, **LENGTH, description="rectangle width (inertia m(a²+b²)/12)")
+    b: float | None = Field(None, **LENGTH, description="rectangle height")
 
 
 class PlanarModel(_Strict):
-    """A planar free-floating manipulator from physical parameters (MODELS.md)."""
+    """A planar free-floating manipulator from physical parameters (MODELS.md).
+
+    Masses in [1e-6, 1e6] kg, lengths and the base's a, b in [1e-6, 1e3] m, inertias in
+    [0, 1e9] kg m² (the base's > 0), mounts within ±1e3 m, at most 8 arms and 24 links.
+    """
 
     kind: Literal["planar-manipulator"]
     base: BaseSpec
-    arms: list[ArmSpec] = Field(min_length=1)
+    arms: list[ArmSpec] = Field(min_length=1, max_length=MAX_ARMS)
     strata: list[list[int]] | None = Field(
-        None, description="lock sets as joint numbers; default all single locks (+ pairs)"
+        None,
+        max_length=1000,
+        description="lock sets as joint numbers; default all single locks (+ pairs)",
     )
+
+    @model_validator(mode="after")
+    def _few_links(self) -> PlanarModel:
+        k = sum(len(a.links) for a in self.arms)
+        if k > MAX_LINKS:
+            raise ValueError(f"at most {MAX_LINKS} links in total, got {k}")
+        return self
 
 
 ModelSpec = Annotated[PresetModel | CustomModel | PlanarModel, Field(discriminator="kind")]
@@ -266,22 +302,20 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
     path = Path(source)
     where = name or str(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"cannot read scenario file: {exc.strerror}", where) from None
+        text = read_scenario_text(path)
+    except InputError as exc:
+        raise exc.with_source(where) from None
     return parse_scenario(text, where)
 
 
 def parse_scenario(text: str, source: str = "<scenario>") -> Task:
     """`load_scenario` for TOML text."""
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"not valid TOML: {exc}", source) from None
-    return _from_raw(raw, text, source)
+    return _from_raw(parse_toml(text, source), text, source)
 
 
 def _from_raw(raw: dict[str, Any], text: str | None, source: str) -> Task:
+    if non_finite := reject_non_finite(raw):
+        raise InputError(non_finite, source)
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
@@ -315,15 +349,13 @@ def _planar_system(spec: PlanarModel) -> System:
     problems = []
     if b.inertia is None and (b.a is None or b.b is None):
         problems.append(Problem("model.base", "give either inertia or the rectangle a and b"))
-    arms = [
-        Arm(
-            (a.mount[0], a.mount[1]),
-            a.zero_angle,
-            a.sense,
-            tuple(Link(x.mass, x.length, x.com, x.inertia) for x in a.links),
-        )
-        for a in spec.arms
-    ]
+    arms = []
+    for i, a in enumerate(spec.arms):
+        try:
+            links = tuple(Link(x.mass, x.length, x.com, x.inertia) for x in a.links)
+            arms.append(Arm((a.mount[0], a.mount[1]), a.zero_angle, a.sense, links))
+        except (ValueError, ArithmeticError) as exc:
+            raise InputError([Problem(f"model.arms[{i}]", str(exc))]) from None
     k = sum(len(a.links) for a in arms)
     lock_sets = None
     if spec.strata is not None:
@@ -340,17 +372,20 @@ def _planar_system(spec: PlanarModel) -> System:
             lock_sets.append(tuple(sorted({j - 1 for j in locks})))
     if problems:
         raise InputError(problems)
-    base = (
-        Base(b.mass, b.inertia, b.a, b.b)
-        if b.inertia is not None
-        else Base.rectangle(b.mass, b.a, b.b)
-    )
-    robot = PlanarManipulator(base, tuple(arms))
-    return ManipulatorSystem(
-        robot,
-        lock_sets=lock_sets,
-        description=f"planar manipulator, {k} joints on {len(arms)} arm(s)",
-    )
+    try:
+        base = (
+            Base(b.mass, b.inertia, b.a, b.b)
+            if b.inertia is not None
+            else Base.rectangle(b.mass, b.a, b.b)
+        )
+        robot = PlanarManipulator(base, tuple(arms))
+        return ManipulatorSystem(
+            robot,
+            lock_sets=lock_sets,
+            description=f"planar manipulator, {k} joints on {len(arms)} arm(s)",
+        )
+    except (ValueError, ArithmeticError) as exc:  # e.g. a zero total inertia
+        raise InputError([Problem("model", f"not a usable robot: {exc}")]) from None
 
 
 def _custom_system(spec: CustomModel) -> System:

@@ -6,10 +6,16 @@ leg-local times, and places the samples on the real time axis (leg k spans
 `[t0_k, t0_k + duration_k]`). Both ends of every leg are sampled, so a switch instant appears
 twice: once as the end of the leg before it and once as the start of the leg after it.
 Records (plots, MCAP) and `SequencePlan.sample` use it.
+
+Re-integration is bounded: a leg (or a piece of a Lie leg) gets at most `MAX_EVALUATIONS`
+evaluations of its vector field. A leg that exceeds them (e.g. `period = 1e-12` or a duration
+of 1e300 s), whose integration fails, or whose start or duration is not finite is not
+integrated further: its configurations are NaN and `Trajectory.notes` says so.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -25,6 +31,7 @@ __all__ = ["Trajectory", "integrate_leg", "sample"]
 
 RTOL = 1e-10
 ATOL = 1e-12
+MAX_EVALUATIONS = 50_000  # per leg or Lie piece; DOP853 takes 12 per step
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,6 +47,7 @@ class Trajectory:
     du : (N, m) time derivatives of the controls.
     leg : (N,) index of the leg each sample belongs to (0-based).
     strata : name of the stratum of each leg.
+    notes : what could not be re-integrated (those legs' `q` are NaN), empty when all were.
     """
 
     t: np.ndarray
@@ -48,6 +56,7 @@ class Trajectory:
     du: np.ndarray
     leg: np.ndarray
     strata: tuple[str, ...]
+    notes: tuple[str, ...] = ()
 
     def __iter__(self):
         return iter((self.t, self.q, self.u))
@@ -63,23 +72,57 @@ class Trajectory:
         return slice(int(idx[0]), int(idx[-1]) + 1) if idx.size else slice(0, 0)
 
 
-def _integrate(G, basis, L, q0, duration, t_eval, what: str) -> np.ndarray:
-    sol = solve_ivp(
-        lambda t, y: G(y) @ (L @ basis.values(t)),
-        (0.0, float(duration)),
-        np.asarray(q0, dtype=float),
-        method="DOP853",
-        t_eval=t_eval,
-        rtol=RTOL,
-        atol=ATOL,
-    )
-    if not sol.success:
-        raise RuntimeError(f"re-integration of {what} failed: {sol.message}")
-    return sol.y
+class _Budget(Exception):
+    """The vector field was evaluated more than MAX_EVALUATIONS times."""
+
+
+def _integrate(G, basis, L, q0, duration: float, t_eval: np.ndarray) -> np.ndarray | None:
+    """States at `t_eval` (len, n), or None when out of budget, failed or not finite."""
+    q0 = np.asarray(q0, dtype=float)
+    duration = float(duration)
+    if not (math.isfinite(duration) and duration >= 0 and np.all(np.isfinite(q0))):
+        return None
+    if duration == 0:
+        return np.repeat(q0[None], len(t_eval), axis=0)
+    calls = 0
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        nonlocal calls
+        calls += 1
+        if calls > MAX_EVALUATIONS:
+            raise _Budget
+        return G(y) @ (L @ basis.values(t))
+
+    try:
+        with np.errstate(all="ignore"):
+            sol = solve_ivp(
+                rhs, (0.0, duration), q0, method="DOP853", t_eval=t_eval, rtol=RTOL, atol=ATOL
+            )
+    except (_Budget, ArithmeticError, ValueError, np.linalg.LinAlgError):
+        return None
+    if not sol.success or sol.y.shape[1] != len(t_eval):
+        return None
+    return sol.y.T
 
 
 def integrate_leg(plan: SequencePlan, leg: LegPlan, tau: np.ndarray) -> np.ndarray:
-    """Configurations of `leg` at leg-local times `tau` (sorted, within [0, duration])."""
+    """Configurations of `leg` at leg-local times `tau` (sorted, within [0, duration]).
+
+    Parameters
+    ----------
+    plan : SequencePlan
+        The plan (its model is rebuilt if needed).
+    leg : LegPlan
+        One of its legs.
+    tau : ndarray
+        Leg-local times.
+
+    Returns
+    -------
+    ndarray
+        (len(tau), n) configurations; NaN where the integration failed or ran out of its
+        `MAX_EVALUATIONS` budget.
+    """
     system = plan.system
     G = system.compiled(leg.stratum).G
     tau = np.asarray(tau, dtype=float)
@@ -90,10 +133,11 @@ def integrate_leg(plan: SequencePlan, leg: LegPlan, tau: np.ndarray) -> np.ndarr
         inside = (tau >= piece.t0) & (True if last else (tau < piece.t0 + piece.duration))
         local = np.clip(tau[inside] - piece.t0, 0.0, piece.duration)
         t_eval = np.unique(np.append(local, float(piece.duration)))
-        what = f"leg {leg.index + 1}" + (f", piece {k + 1}" if len(leg.pieces) > 1 else "")
-        y = _integrate(G, leg.basis, piece.coefficients, q, piece.duration, t_eval, what)
-        out[inside] = y.T[np.searchsorted(t_eval, local)]
-        q = y[:, -1]
+        y = _integrate(G, leg.basis, piece.coefficients, q, piece.duration, t_eval)
+        if y is None:
+            y = np.full((t_eval.size, system.n), np.nan)
+        out[inside] = y[np.searchsorted(t_eval, local)]
+        q = y[-1]
     if not leg.pieces:
         out[:] = np.nan
     return out
@@ -109,11 +153,17 @@ def sample(plan: SequencePlan, samples_per_leg: int = 200) -> Trajectory:
         return Trajectory(
             empty, np.zeros((0, n)), np.zeros((0, m)), np.zeros((0, m)), np.zeros(0, int), ()
         )
-    ts, qs, us, dus, legs = [], [], [], [], []
+    ts, qs, us, dus, legs, notes = [], [], [], [], [], []
     for leg in plan.legs:
         tau = np.linspace(0.0, float(leg.duration), samples_per_leg)
         ts.append(leg.t0 + tau)
-        qs.append(integrate_leg(plan, leg, tau))
+        q = integrate_leg(plan, leg, tau)
+        if not np.all(np.isfinite(q)):
+            notes.append(
+                f"leg {leg.index + 1}: the trajectory could not be re-integrated (not finite, "
+                f"failed, or more than {MAX_EVALUATIONS} evaluations); its samples are NaN"
+            )
+        qs.append(q)
         us.append(leg.controls(tau))
         dus.append(leg.controls(tau, derivative=True))
         legs.append(np.full(tau.size, leg.index, dtype=int))
@@ -127,4 +177,5 @@ def sample(plan: SequencePlan, samples_per_leg: int = 200) -> Trajectory:
         du=np.concatenate(dus),
         leg=np.concatenate(legs),
         strata=tuple(leg.stratum for leg in plan.legs),
+        notes=tuple(notes),
     )

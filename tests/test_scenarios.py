@@ -22,11 +22,11 @@ def _plan(path, **changes):
 
         task.settings = replace(task.settings, **changes)
     if not task.legs:  # auto mode: re-integrate the sequence it chose
-        from stratcli.compare import default_jobs, plan_auto
+        from stratcli.api import plan_auto
 
-        result, comparison = plan_auto(task, jobs=default_jobs())
-        task.legs = list(comparison.best.candidate.legs)
-        return task, result_document(result, task.scenario.name, task.model_name)
+        outcome = plan_auto(task, check=False)
+        task.legs = list(outcome.comparison.best.candidate.legs)
+        return task, result_document(outcome.best.result, task.scenario.name, task.model_name)
     result = plan_sequence(task.system, task.start, task.legs, task.settings)
     return task, result_document(result, task.scenario.name, task.model_name)
 

@@ -21,6 +21,7 @@ from .planning import plan_run as plan_run
 from .runs import RegressReport as RegressReport
 from .runs import list_runs as list_runs
 from .runs import load_run as load_run
+from .runs import prepare_out as prepare_out
 from .runs import read_run as read_run
 from .runs import regress as regress
 from .runs import write_record as write_record

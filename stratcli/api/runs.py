@@ -92,6 +92,42 @@ def write_record(
     return run_files.write_record(Path(out), task, files, planned.started)
 
 
+def prepare_out(out: str | Path) -> Path:
+    """Make sure run records can be written under `out` (created if missing).
+
+    Parameters
+    ----------
+    out : str or Path
+        Directory of run records.
+
+    Returns
+    -------
+    Path
+        The directory.
+
+    Raises
+    ------
+    InputError
+        Naming the path when it is a file, cannot be created, or is not writable (also on a
+        read-only file system), so that nothing is planned for a record that cannot be kept.
+    """
+    import os
+    import tempfile
+
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise InputError(f"--out {out}: not writable")
+    return out
+
+
 def _outcome_of(plan: SequencePlan) -> PlanOutcome:
     """What a record needs of a plan value: its scenario (re-read from the plan's text)."""
     if not plan.scenario_text:

@@ -58,8 +58,9 @@ def plan(
     """Plan a scenario: every leg to tolerance, controls continuous across switches.
 
     Writes a run record under OUT and exits 0 (planned), 1 (a leg failed; the record is
-    still written, marked failed), 2 (bad input) or 3 (the controllability check failed: a
-    leg's stratum cannot steer what the leg asks for; nothing is planned or written).
+    still written, marked failed), 2 (bad input, including an OUT that is not a writable
+    directory), 3 (the controllability check failed: a leg's stratum cannot steer what the
+    leg asks for; nothing is planned or written) or 4 (the record could not be written).
 
     Auto mode: a scenario with a decompose table and no legs plans every candidate sequence
     (as compare-sequences does), records the best by the table's criterion and says why.
@@ -67,11 +68,14 @@ def plan(
     from .. import api  # start-up speed
 
     task = _load(file)
+    with render.reported():
+        api.prepare_out(out)  # before any planning: a bad --out is bad input
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto(task, file, out, json_output, quiet, animation, check)
     with render.reported(file):
         outcome = api.plan_run(task, check=check, time_scale=time_scale)
-    run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+    with render.reported():
+        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
     if json_output:
         render.print_json(outcome.document)
     elif not quiet:
@@ -88,7 +92,8 @@ def _plan_auto(task, file: Path, out: Path, json_output, quiet, animation, check
 
     with render.reported(file), render.progress_bar(_interactive(quiet, json_output)) as bar:
         outcome = api.plan_auto(task, check=check, progress=bar)
-    run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+    with render.reported():
+        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
     if json_output:
         render.print_json(outcome.best.document)
     elif not quiet:
@@ -132,10 +137,13 @@ def compare_sequences(
     from .. import api  # start-up speed
 
     task = _load(file)
+    with render.reported():
+        api.prepare_out(out)  # before any planning: a bad --out is bad input
     with render.reported(), render.progress_bar(_interactive(quiet, json_output)) as bar:
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(task, **options, jobs=jobs, progress=bar)
-    run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+    with render.reported():
+        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
     if json_output:
         render.print_json(outcome.document)
     elif not quiet:

@@ -14,7 +14,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..errors import InputError, NotControllableError
+from ..errors import InputError, NotControllableError, RecordError
 
 out_console = Console()
 err_console = Console(stderr=True)
@@ -36,7 +36,8 @@ def print_json(doc: Any) -> None:
 
 @contextmanager
 def reported(scenario: Path | None = None) -> Iterator[None]:
-    """Map errors to exit codes: bad input 2, not controllable 3 (naming `scenario`)."""
+    """Map errors to exit codes: bad input 2, not controllable 3 (naming `scenario`), a
+    record that could not be written 4."""
     try:
         yield
     except InputError as exc:
@@ -50,6 +51,9 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
                 f"{problem} (stratplan check {scenario} shows the ranks; --no-check skips this)",
             )
         raise typer.Exit(3) from None
+    except RecordError as exc:
+        error("cannot write the run record", str(exc))
+        raise typer.Exit(4) from None
 
 
 @contextmanager

@@ -4,6 +4,16 @@ Scenario files carry expressions (vector fields of custom models, angles such as
 They are parsed with Python's `ast` and translated node by node into sympy; only arithmetic,
 numbers, known symbols and a whitelist of functions are accepted. Nothing is ever evaluated as
 Python code, so ``__import__('os')`` or attribute access is rejected with a clear message.
+
+Work is bounded so that no text can hang sympy's exact arithmetic or exhaust memory:
+
+* at most `MAX_LENGTH` characters, `MAX_NODES` syntax nodes nested `MAX_DEPTH` deep;
+* a numeric exponent must be at most `MAX_EXPONENT` in magnitude (``x**2``, ``x**(-1/2)``; not
+  ``9**9**9**9`` or ``2**10**8``);
+* every constant sub-expression (``1e20``, ``exp(800)``, ``10**30``) must be finite and at most
+  `MAX_MAGNITUDE` in magnitude, and ``exp``/``sinh``/``cosh`` of a constant at most
+  `MAX_EXP_ARGUMENT` (in magnitude; ``exp(-40)`` is fine);
+* functions take their exact number of arguments.
 """
 
 from __future__ import annotations
@@ -31,6 +41,15 @@ FUNCTIONS = {
     "abs": sp.Abs,
 }
 CONSTANTS = {"pi": sp.pi, "π": sp.pi, "E": sp.E}
+ARITY = {name: 2 if name == "atan2" else 1 for name in FUNCTIONS}
+_GROWING = {"exp", "sinh", "cosh"}
+
+MAX_LENGTH = 2000
+MAX_NODES = 2000
+MAX_DEPTH = 100
+MAX_EXPONENT = 64
+MAX_MAGNITUDE = 1e15
+MAX_EXP_ARGUMENT = 30.0
 
 _BINOPS = {
     ast.Add: lambda a, b: a + b,
@@ -54,20 +73,82 @@ def parse_expression(text: str, symbols: dict[str, sp.Symbol] | None = None) -> 
     source = text.strip().replace("π", "pi")
     if not source:
         raise ExpressionError("empty expression")
+    if len(source) > MAX_LENGTH:
+        raise ExpressionError(f"expression longer than {MAX_LENGTH} characters")
+    shown = text if len(text) <= 60 else text[:57] + "..."
     try:
         tree = ast.parse(source, mode="eval")
     except SyntaxError as exc:
-        raise ExpressionError(f"cannot parse {text!r}: {exc.msg}") from None
+        raise ExpressionError(f"cannot parse {shown!r}: {exc.msg}") from None
+    except (RecursionError, MemoryError):
+        raise ExpressionError(f"{shown!r} is nested too deeply") from None
+    _check_size(tree.body, shown)
     allowed = ", ".join(sorted(symbols)) or "none"
-    return _translate(tree.body, symbols, text, allowed)
+    try:
+        expr = _translate(tree.body, symbols, shown, allowed)
+    except ExpressionError:
+        raise
+    except (ArithmeticError, TypeError, ValueError, RecursionError, MemoryError) as exc:
+        raise ExpressionError(f"in {shown!r}: cannot be evaluated ({type(exc).__name__})") from None
+    if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+        raise ExpressionError(f"in {shown!r}: the value is infinite or undefined")
+    return expr
+
+
+def _check_size(root: ast.AST, text: str) -> None:
+    """Refuse trees of more than MAX_NODES nodes or deeper than MAX_DEPTH (no recursion)."""
+    count = 0
+    stack = [(root, 1)]
+    while stack:
+        node, depth = stack.pop()
+        count += 1
+        if count > MAX_NODES:
+            raise ExpressionError(f"{text!r} has more than {MAX_NODES} terms")
+        if depth > MAX_DEPTH:
+            raise ExpressionError(f"{text!r} is nested more than {MAX_DEPTH} levels")
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+
+
+def _bounded(value: sp.Expr, text: str) -> sp.Expr:
+    """`value` itself, after checking that a constant one is finite and not huge."""
+    if not value.is_number:
+        return value
+    try:
+        number = complex(sp.N(value, 15))
+    except (ArithmeticError, TypeError, ValueError):
+        raise ExpressionError(f"in {text!r}: a constant cannot be evaluated") from None
+    if not (math.isfinite(number.real) and math.isfinite(number.imag)):
+        raise ExpressionError(f"in {text!r}: a constant is infinite or undefined")
+    if abs(number) > MAX_MAGNITUDE:
+        raise ExpressionError(
+            f"in {text!r}: constant {float(abs(number)):.3g} exceeds {MAX_MAGNITUDE:g} in magnitude"
+        )
+    return value
+
+
+def _power(base: sp.Expr, exponent: sp.Expr, text: str) -> sp.Expr:
+    """`base ** exponent`, refusing numeric exponents above MAX_EXPONENT in magnitude."""
+    if exponent.is_number:
+        e = complex(sp.N(exponent, 15))  # already bounded by _bounded
+        if abs(e) > MAX_EXPONENT:
+            raise ExpressionError(
+                f"in {text!r}: exponent {abs(e):.3g} is too large (at most {MAX_EXPONENT})"
+            )
+    return base**exponent
 
 
 def _translate(node: ast.AST, symbols: dict[str, sp.Symbol], text: str, allowed: str) -> sp.Expr:
     def rec(n: ast.AST) -> sp.Expr:
         return _translate(n, symbols, text, allowed)
 
+    return _bounded(_node(node, rec, symbols, text, allowed), text)
+
+
+def _node(node: ast.AST, rec, symbols: dict[str, sp.Symbol], text: str, allowed: str) -> sp.Expr:
     if isinstance(node, ast.Constant) and type(node.value) in (int, float):
         value = node.value
+        if not (math.isfinite(value) and abs(value) <= MAX_MAGNITUDE):
+            raise ExpressionError(f"in {text!r}: number {value:.3g} exceeds {MAX_MAGNITUDE:g}")
         return sp.Integer(value) if isinstance(value, int) else sp.Float(value)
     if isinstance(node, ast.Name):
         if node.id in symbols:
@@ -78,19 +159,37 @@ def _translate(node: ast.AST, symbols: dict[str, sp.Symbol], text: str, allowed:
             raise ExpressionError(f"in {text!r}: function {node.id!r} must be called")
         raise ExpressionError(f"in {text!r}: unknown name {node.id!r} (allowed names: {allowed})")
     if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
-        return _BINOPS[type(node.op)](rec(node.left), rec(node.right))
+        left, right = rec(node.left), rec(node.right)
+        if isinstance(node.op, ast.Pow | ast.BitXor):
+            return _power(left, right, text)
+        return _BINOPS[type(node.op)](left, right)
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
         operand = rec(node.operand)
         return -operand if isinstance(node.op, ast.USub) else operand
     if isinstance(node, ast.Call):
         name = node.func.id if isinstance(node.func, ast.Name) else None
-        if name not in FUNCTIONS or node.keywords:
+        if name in symbols or name in CONSTANTS:
+            raise ExpressionError(f"in {text!r}: {name!r} is a value, not a function")
+        if name in FUNCTIONS and node.keywords:
+            raise ExpressionError(f"in {text!r}: {name}() takes no keyword arguments")
+        if name in FUNCTIONS and len(node.args) != ARITY[name]:
+            raise ExpressionError(
+                f"in {text!r}: {name}() takes {ARITY[name]} argument(s), got {len(node.args)}"
+            )
+        if name not in FUNCTIONS:
             shown = name or ast.unparse(node.func)
             raise ExpressionError(
                 f"in {text!r}: call of {shown!r} is not allowed "
                 f"(functions: {', '.join(sorted(FUNCTIONS))})"
             )
-        return FUNCTIONS[name](*[rec(a) for a in node.args])
+        args = [rec(a) for a in node.args]
+        if name in _GROWING and args[0].is_number:
+            x = complex(sp.N(args[0], 15))
+            if (x.real if name == "exp" else abs(x)) > MAX_EXP_ARGUMENT:
+                raise ExpressionError(
+                    f"in {text!r}: {name}() of a constant above {MAX_EXP_ARGUMENT:g} is too large"
+                )
+        return FUNCTIONS[name](*args)
     raise ExpressionError(
         f"in {text!r}: {ast.unparse(node)!r} is not allowed "
         "(only numbers, names, + - * / ** and math functions)"
@@ -105,7 +204,10 @@ def parse_number(value: float | int | str) -> float:
     if isinstance(value, bool):
         raise ExpressionError(f"expected a number, got {value!r}")
     if isinstance(value, int | float):
-        return float(value)
+        number = float(value)
+        if not math.isfinite(number):
+            raise ExpressionError(f"must be a finite number (got {number})")
+        return number
     if not isinstance(value, str):
         raise ExpressionError(f"expected a number or an expression such as 'pi/3', got {value!r}")
     scale = 1.0
@@ -116,7 +218,10 @@ def parse_number(value: float | int | str) -> float:
     expr = parse_expression(text)
     if expr.free_symbols:
         raise ExpressionError(f"{value!r} is not a constant")
-    number = complex(sp.N(expr, 30))
+    try:
+        number = complex(sp.N(expr, 30))
+    except (ArithmeticError, TypeError, ValueError):
+        raise ExpressionError(f"{value!r} cannot be evaluated to a number") from None
     if abs(number.imag) > 0 or not math.isfinite(number.real):
         raise ExpressionError(f"{value!r} is not a finite real number")
     return number.real * scale

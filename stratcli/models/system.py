@@ -236,20 +236,37 @@ class System:
         """Numeric functions of a stratum, generated on first use and cached."""
         s = self.stratum(stratum) if isinstance(stratum, str) else stratum
         if s.name not in self._compiled:
-            self._compiled[s.name] = CompiledStratum(self, s, self.fields_on(s))
+            try:
+                self._compiled[s.name] = CompiledStratum(self, s, self.fields_on(s))
+            except ModelError:
+                raise
+            except _SYMBOLIC_FAILURES as exc:
+                raise ModelError(
+                    [Problem(f"model.strata.{s.name}", _cannot_compile(exc))]
+                ) from None
         return self._compiled[s.name]
 
     def check(self) -> None:
-        """Validate strata against the fields: a locked coordinate must not move."""
+        """Validate strata against the fields: a locked coordinate must not move.
+
+        Raises
+        ------
+        ModelError
+            A locked coordinate moves, a stratum has no inputs, or sympy cannot handle the
+            fields on a stratum (reported as a problem of that stratum, not a traceback).
+        """
         problems = []
         for s in self.strata.values():
-            G = self.fields_on(s)
-            for i in s.locked:
-                moving = [
-                    self.inputs[s.active[j]]
-                    for j in range(G.shape[1])
-                    if G[i, j].is_zero is not True
+            try:
+                G = self.fields_on(s)
+                nonzero = [
+                    [G[i, j].is_zero is not True for j in range(G.shape[1])] for i in s.locked
                 ]
+            except _SYMBOLIC_FAILURES as exc:
+                problems.append(Problem(f"strata.{s.name}", _cannot_compile(exc)))
+                continue
+            for i, row in zip(s.locked, nonzero, strict=True):
+                moving = [self.inputs[s.active[j]] for j, moves in enumerate(row) if moves]
                 if moving:
                     problems.append(
                         Problem(
@@ -262,6 +279,23 @@ class System:
                 problems.append(Problem(f"strata.{s.name}", "no active inputs"))
         if problems:
             raise ModelError(problems)
+
+
+_SYMBOLIC_FAILURES = (
+    ArithmeticError,
+    TypeError,
+    ValueError,
+    AttributeError,
+    RecursionError,
+    MemoryError,
+    SyntaxError,
+)
+
+
+def _cannot_compile(exc: BaseException) -> str:
+    detail = str(exc).splitlines()[0][:120] if str(exc) else ""
+    kind = f"{type(exc).__name__}: {detail}" if detail else type(exc).__name__
+    return f"the vector fields cannot be compiled ({kind})"
 
 
 def make_strata(

@@ -17,6 +17,10 @@ motion's own axis, and they never decrease along the file. The manifest is the m
 `"manifest"` (values that are not strings are JSON-encoded) and the scenario text is the
 attachment `scenario.toml`.
 
+Non-finite numbers (NaN or ±inf in the samples of a failed plan) are written as JSON `null`,
+and log times are clamped to the range of an unsigned 64-bit nanosecond stamp (a NaN time
+counts as the run's start), so a failed or extreme plan still gets a valid log.
+
 Frames for Foxglove's 3-D panel: `world` is the inertial frame with its origin at the fixed
 system CM; `base` sits at the base CM rotated by θ about z; each arm is a chain
 `base → link1 → link2 ...` whose frames sit at the link's proximal joint with x along the link,
@@ -37,6 +41,7 @@ from mcap.writer import Writer
 
 from .. import __version__
 from ..sequence import SequencePlan
+from .rundir import finite_or_none
 from .trajectory import Trajectory, base_extent, world_geometry
 
 __all__ = ["SCHEMA_NAMES", "epoch_ns", "mcap_bytes"]
@@ -308,7 +313,23 @@ def _stamp(ns: int) -> dict[str, int]:
 
 
 def _json(obj: Any) -> bytes:
-    return json.dumps(obj, separators=(",", ":"), allow_nan=False).encode("utf-8")
+    """Compact JSON; NaN and ±inf become null (the fast path assumes all values finite)."""
+    try:
+        text = json.dumps(obj, separators=(",", ":"), allow_nan=False)
+    except ValueError:
+        text = json.dumps(finite_or_none(obj), separators=(",", ":"), allow_nan=False)
+    return text.encode("utf-8")
+
+
+MAX_NS = 2**64 - 1
+
+
+def _log_time(epoch: int, t: Any) -> int:
+    """Log time in ns of motion time `t` (s), clamped to [epoch, 2**64 - 1]; NaN → epoch."""
+    ns = float(t) * 1e9
+    if not ns > 0:  # NaN, negative
+        return min(epoch, MAX_NS)
+    return min(epoch + round(min(ns, float(MAX_NS))), MAX_NS)
 
 
 def _named_values(names: tuple[str, ...], values: Any) -> dict[str, float | None]:
@@ -527,7 +548,7 @@ def mcap_bytes(
     epoch = epoch_ns(manifest)
 
     def at(t: float) -> int:
-        return epoch + max(0, round(float(t) * 1e9))
+        return _log_time(epoch, t)
 
     buf = io.BytesIO()
     writer = Writer(buf)
@@ -547,7 +568,7 @@ def mcap_bytes(
     writer.add_metadata(
         "manifest",
         {
-            str(k): v if isinstance(v, str) else json.dumps(v, allow_nan=False)
+            str(k): v if isinstance(v, str) else _json(v).decode("utf-8")
             for k, v in (manifest or {}).items()
         },
     )

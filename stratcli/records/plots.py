@@ -8,8 +8,13 @@
 * `motion.gif` (manipulators): the same motion, animated.
 
 In the time plots every leg is shaded and labelled with its stratum, and switch instants are
-dashed lines. Only matplotlib's object-oriented API is used (`Figure` + the Agg canvas), so the
-global pyplot state is never touched and no display is needed.
+dashed lines. Work is bounded for long plans: with more than `MAX_LABELLED_LEGS` legs the time
+plots are shaded but not labelled leg by leg (the title says so), each coordinate is one line
+instead of one per leg, and the stroboscope shows at most `MAX_PANELS` evenly spaced legs
+(named in its title). A plot that cannot be drawn (non-finite samples of a failed plan) is left
+out of the record rather than failing it. Only matplotlib's object-oriented API is used
+(`Figure` + the Agg canvas), so the global pyplot state is never touched and no display is
+needed.
 """
 
 from __future__ import annotations
@@ -43,6 +48,8 @@ GOAL_COLOR = "#c0392b"
 ARM_DARK = np.array([0.05, 0.16, 0.40])  # the last snapshot of a leg
 ARM_LIGHT = np.array([0.72, 0.80, 0.92])  # the first one
 BASE_FACE = "#9aa5b1"
+MAX_LABELLED_LEGS = 20  # more legs: no per-leg labels, goals or "off" marks
+MAX_PANELS = 12  # stroboscope panels
 
 
 # --------------------------------------------------------------------------------------------
@@ -77,9 +84,12 @@ def _leg_label(plan: SequencePlan, k: int) -> str:
 def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> None:
     """Shade the legs, label them with their stratum at the top, dash the switches."""
     total = plan.duration if plan.legs else 1.0
+    labelled = len(plan.legs) <= MAX_LABELLED_LEGS
     for k, leg in enumerate(plan.legs):
         for ax in axes:
             ax.axvspan(leg.t0, leg.t0 + leg.duration, color=SHADES[k % 2], zorder=0, lw=0)
+        if not labelled:
+            continue
         top = axes[0]
         trans = blended_transform_factory(top.transData, top.transAxes)
         top.text(
@@ -115,13 +125,19 @@ def _time_series(
     fig = Figure(figsize=(9.0, 1.05 + 1.25 * rows), layout="constrained")
     axes = list(np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]))
     colors = [f"C{i % 10}" for i in range(rows)]
+    labelled = len(plan.legs) <= MAX_LABELLED_LEGS
     for i, (ax, name) in enumerate(zip(axes, names, strict=True)):
-        for k in range(len(plan.legs)):
-            s = traj.leg_slice(k)
-            ax.plot(traj.t[s], values[s, i], color=colors[i], linewidth=1.6, zorder=3)
+        if labelled:
+            for k in range(len(plan.legs)):
+                s = traj.leg_slice(k)
+                ax.plot(traj.t[s], values[s, i], color=colors[i], linewidth=1.6, zorder=3)
+        else:  # one line; a switch instant is sampled twice, so jumps still show
+            ax.plot(traj.t, values[:, i], color=colors[i], linewidth=1.2, zorder=3)
         ax.set_ylabel(f"{name} [{unit}]" if unit else name, fontsize=9)
     _decorate_time_axes(axes, plan)
-    if kind == "configuration":
+    if not labelled:
+        title = f"{title} ({len(plan.legs)} legs; leg labels omitted above {MAX_LABELLED_LEGS})"
+    elif kind == "configuration":
         _mark_goals(plan, axes)
     else:
         _mark_off_inputs(plan, axes)
@@ -212,6 +228,9 @@ def _limits(geo: dict[str, np.ndarray], margin: float = 0.25) -> tuple[tuple, tu
             geo["distal"].reshape(-1, 2),
         ]
     )
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if not pts.size:
+        raise ValueError("no finite configuration to draw")
     lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
     return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
 
@@ -279,11 +298,18 @@ def _draw_poses(
 def stroboscope_figure(
     plan: SequencePlan, traj: Trajectory, title: str = "", snapshots: int = 10
 ) -> Figure:
-    """The manipulator at `snapshots` instants of each leg, light to dark, one panel per leg."""
+    """The manipulator at `snapshots` instants of each leg, light to dark, one panel per leg.
+
+    With more than `MAX_PANELS` legs, only `MAX_PANELS` evenly spaced legs (the first and the
+    last among them) get a panel; the title names how many are shown.
+    """
     robot = plan.system.robot
     geo = world_geometry(robot, traj.q)
     xlim, ylim = _limits(geo)
-    legs = len(plan.legs)
+    shown = np.unique(np.linspace(0, len(plan.legs) - 1, MAX_PANELS).round().astype(int))
+    if len(plan.legs) <= MAX_PANELS:
+        shown = np.arange(len(plan.legs))
+    legs = len(shown)
     cols = min(legs, 4)
     rows = -(-legs // cols)
     span = max(xlim[1] - xlim[0], 1e-9) / max(ylim[1] - ylim[0], 1e-9)
@@ -294,11 +320,12 @@ def stroboscope_figure(
     )
     axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
     tips = _tips(geo)
-    for k in range(rows * cols):
-        ax = axes[k // cols, k % cols]
-        if k >= legs:
+    for panel in range(rows * cols):
+        ax = axes[panel // cols, panel % cols]
+        if panel >= legs:
             ax.set_visible(False)
             continue
+        k = int(shown[panel])
         leg = plan.legs[k]
         s = traj.leg_slice(k)
         idx = np.unique(np.linspace(s.start, s.stop - 1, snapshots).round().astype(int))
@@ -322,9 +349,9 @@ def stroboscope_figure(
             + f"\nt = {leg.t0:g} to {leg.t0 + leg.duration:g} s",
             fontsize=9,
         )
-        if k % cols == 0:
+        if panel % cols == 0:
             ax.set_ylabel("y", fontsize=9)
-        if k // cols == rows - 1 or k + cols >= legs:
+        if panel // cols == rows - 1 or panel + cols >= legs:
             ax.set_xlabel("x", fontsize=9)
     handles = [
         Line2D([], [], color="0.3", lw=1.7, ls="--", marker="o", ms=3, label="start of leg"),
@@ -341,6 +368,8 @@ def stroboscope_figure(
         handlelength=3.2,
     )
     head = f"{title}: stroboscope" if title else "stroboscope"
+    if legs < len(plan.legs):
+        head += f", {legs} of {len(plan.legs)} legs"
     fig.suptitle(
         f"{head} ({snapshots} instants per leg, light to dark; inertial frame)",
         fontsize=11,
@@ -471,16 +500,24 @@ def render_plots(
     """All plots of a run as {file name: bytes}.
 
     `configuration.png` and `controls.png` always; `stroboscope.png` and (when `animation`)
-    `motion.gif` for manipulator models. A plan without legs gives no files.
+    `motion.gif` for manipulator models. A plan without legs gives no files, and a plot that
+    cannot be drawn (e.g. NaN samples of a failed plan) is left out.
     """
     if not plan.legs or traj.size == 0:
         return {}
-    files = {
-        "configuration.png": _png(configuration_figure(plan, traj, title)),
-        "controls.png": _png(controls_figure(plan, traj, title)),
+    makers = {
+        "configuration.png": lambda: _png(configuration_figure(plan, traj, title)),
+        "controls.png": lambda: _png(controls_figure(plan, traj, title)),
     }
     if _is_manipulator(plan):
-        files["stroboscope.png"] = _png(stroboscope_figure(plan, traj, title))
+        makers["stroboscope.png"] = lambda: _png(stroboscope_figure(plan, traj, title))
         if animation:
-            files["motion.gif"] = motion_gif(plan, traj, title)
+            makers["motion.gif"] = lambda: motion_gif(plan, traj, title)
+    files = {}
+    for name, make in makers.items():
+        try:
+            with np.errstate(all="ignore"):
+                files[name] = make()
+        except (ValueError, ArithmeticError):  # non-finite or absurd samples: no such plot
+            continue
     return files

@@ -1,0 +1,159 @@
+"""Guarded reading of scenario files: bounded size, UTF-8, bounded nesting, finite numbers.
+
+A scenario is a small hand-written file. These checks make anything else (``/dev/zero``, a
+FIFO, a file of hundreds of MB, binary bytes, a 100,000-deep nested array, ``nan`` or ``inf``
+values) end in one `InputError` line instead of a traceback, a hang or a memory blow-up.
+
+Limits
+------
+* `MAX_BYTES` (1 MB): at most `MAX_BYTES + 1` bytes are ever read.
+* `MAX_DEPTH` (64): arrays and inline tables nested deeper are refused before parsing.
+* Every float in the parsed document must be finite (TOML allows ``nan`` and ``inf``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import stat
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from .errors import InputError, Problem
+
+MAX_BYTES = 1_000_000
+MAX_DEPTH = 64
+
+__all__ = ["MAX_BYTES", "MAX_DEPTH", "parse_toml", "read_scenario_text", "reject_non_finite"]
+
+
+def read_scenario_text(path: str | Path, limit: int = MAX_BYTES) -> str:
+    """The text of a scenario file, read with bounded memory.
+
+    Parameters
+    ----------
+    path : file to read; must be a regular file.
+    limit : largest accepted size in bytes.
+
+    Returns
+    -------
+    The file decoded as UTF-8.
+
+    Raises
+    ------
+    InputError
+        Not a regular file, unreadable, larger than `limit`, or not UTF-8 (the offset of the
+        first bad byte is named).
+    """
+    source = str(path)
+    try:
+        # stat before opening: opening a FIFO would block until someone writes to it
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            raise InputError("not a regular file (a scenario must be a .toml file)", source)
+        with open(path, "rb") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                raise InputError("not a regular file (a scenario must be a .toml file)", source)
+            data = fh.read(limit + 1)
+    except OSError as exc:
+        raise InputError(f"cannot read scenario file: {exc.strerror or exc}", source) from None
+    if len(data) > limit:
+        raise InputError(f"file is larger than {limit} bytes; a scenario is a small file", source)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"not UTF-8 text: byte 0x{data[exc.start]:02x} at offset {exc.start}", source
+        ) from None
+
+
+def _nesting_depth(text: str) -> int:
+    """Deepest nesting of [ ] and { } outside strings and comments (an upper bound is enough).
+
+    Table headers (``[a]``, ``[[a]]``) count as depth 1 or 2 only, so they never trip the limit.
+    """
+    depth = deepest = 0
+    i, n = 0, len(text)
+    quote = ""
+    while i < n:
+        c = text[i]
+        if quote:
+            if c == "\\" and quote in ('"', '"""'):
+                i += 2
+                continue
+            if text.startswith(quote, i):
+                i += len(quote)
+                quote = ""
+                continue
+        elif c == "#":
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+            continue
+        elif c in "\"'":
+            quote = c * 3 if text.startswith(c * 3, i) else c
+            i += len(quote)
+            continue
+        elif c in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in "]}":
+            depth = max(0, depth - 1)
+        i += 1
+    return deepest
+
+
+def parse_toml(text: str, source: str = "<scenario>", max_depth: int = MAX_DEPTH) -> dict:
+    """Parse TOML text with bounded nesting.
+
+    Parameters
+    ----------
+    text : the document.
+    source : file name used in error messages.
+    max_depth : deepest accepted nesting of arrays and inline tables.
+
+    Returns
+    -------
+    The parsed document.
+
+    Raises
+    ------
+    InputError
+        Invalid TOML, nesting deeper than `max_depth`, or a document tomllib cannot handle.
+    """
+    brackets = text.count("[") + text.count("{")
+    if brackets > max_depth and _nesting_depth(text) > max_depth:
+        raise InputError(f"arrays or inline tables nested more than {max_depth} levels", source)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML: {exc}", source) from None
+    except (RecursionError, MemoryError):
+        raise InputError("arrays or inline tables nested too deeply to parse", source) from None
+
+
+def reject_non_finite(raw: Any, prefix: str = "") -> list[Problem]:
+    """Problems for every NaN or ±inf float anywhere in a parsed document.
+
+    Parameters
+    ----------
+    raw : parsed TOML (dicts, lists, scalars).
+    prefix : dotted path of `raw` in the document.
+
+    Returns
+    -------
+    One `Problem` per non-finite value, e.g. ``task.start[1]: must be a finite number
+    (got nan)``.
+    """
+    out: list[Problem] = []
+    stack: list[tuple[str, Any]] = [(prefix, raw)]
+    while stack:
+        where, value = stack.pop()
+        if isinstance(value, dict):
+            for key, item in reversed(value.items()):
+                stack.append((f"{where}.{key}" if where else str(key), item))
+        elif isinstance(value, list):
+            for i in reversed(range(len(value))):
+                stack.append((f"{where}[{i}]", value[i]))
+        elif isinstance(value, float) and not math.isfinite(value):
+            out.append(Problem(where, f"must be a finite number (got {value})"))
+    return out
