@@ -1,29 +1,267 @@
-"""Rebuilding a model from the reference a plan keeps (`results.ModelRef`).
+"""The `[model]` table of a scenario, and the model it describes.
 
-A plan refers to its model by name and, when it came from a scenario, by the scenario's
-`[model]` table. Building a model compiles sympy expressions (0.3–0.5 s for a preset), so
-models are cached by their reference: a plan loaded from a record, or unpickled in another
-process, finds the model already built.
+`PresetModel` (the paper's printed models), `CustomModel` (vector fields from expressions,
+parsed safely) and `PlanarModel` (a planar free-floating manipulator from physical
+parameters) are validated here and built by `build_system`. A plan refers to its model by
+this table (`results.ModelRef`); `system_from_ref` rebuilds it, once per process, e.g. for a
+plan loaded from a record or unpickled in another process.
 """
 
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Annotated, Any, Literal
 
+import sympy as sp
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, model_validator
+
+from ..errors import InputError, Problem
+from .expressions import ExpressionError, parse_expression, parse_number
+from .manipulator import ManipulatorSystem
+from .planar import Arm, Base, Link, PlanarManipulator
 from .presets import PRESETS, preset
-from .system import System
+from .system import Stratum, System
 
-__all__ = ["system_from_ref"]
+__all__ = [
+    "KINDS",
+    "STRICT",
+    "CustomModel",
+    "ModelSpec",
+    "Number",
+    "PlanarModel",
+    "PresetModel",
+    "build_system",
+    "system_from_ref",
+]
+
+Number = Annotated[float, BeforeValidator(parse_number)]  # also "pi/3", "60deg"
+Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
+
+
+STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class _Strict(BaseModel):
+    model_config = STRICT
+
+
+class PresetModel(_Strict):
+    """One of the paper's models, exactly as printed."""
+
+    kind: Literal["preset"]
+    name: Literal["one-arm", "two-arm"]
+
+
+class CustomStratum(_Strict):
+    name: Name
+    active: list[Name] = Field(min_length=1)
+    locked: list[Name] = []
+    parameters: dict[str, Number] = {}
+
+
+class CustomModel(_Strict):
+    """A driftless system from expressions: one vector field per input (DESIGN §7)."""
+
+    kind: Literal["custom"]
+    states: list[Name] = Field(min_length=1)
+    inputs: list[Name] = Field(min_length=1)
+    parameters: dict[Name, Number] = {}
+    fields: dict[str, list[str | float]]
+    strata: list[CustomStratum] = Field(min_length=1)
+
+
+# Physical ranges of planar-manipulator parameters (SI units). They bound every quantity so
+# that no product in the model overflows and no ratio underflows; real space robots sit well
+# inside them. At most MAX_LINKS links in total (the default strata grow as k²).
+MASS = {"ge": 1e-6, "le": 1e6}  # kg
+LENGTH = {"ge": 1e-6, "le": 1e3}  # m
+INERTIA = {"ge": 0, "le": 1e9}  # kg m²
+MOUNT = {"ge": -1e3, "le": 1e3}  # m, base frame
+MAX_LINKS = 24
+MAX_ARMS = 8
+
+MountCoordinate = Annotated[Number, Field(**MOUNT)]
+
+
+class LinkSpec(_Strict):
+    mass: float = Field(**MASS, strict=True, description="kg, in [1e-6, 1e6]")
+    length: float = Field(**LENGTH, strict=True, description="m, in [1e-6, 1e3]")
+    com: float | None = Field(
+        None, ge=0, le=1e3, strict=True, description="CM offset from the proximal joint"
+    )
+    inertia: float | None = Field(
+        None, **INERTIA, strict=True, description="about the link's CM, in [0, 1e9]; rod if omitted"
+    )
+
+
+class ArmSpec(_Strict):
+    mount: tuple[MountCoordinate, MountCoordinate]
+    zero_angle: Annotated[Number, Field(ge=-1e3, le=1e3)] = 0.0
+    sense: Literal[1, -1] = 1
+    links: list[LinkSpec] = Field(min_length=1, max_length=MAX_LINKS)
+
+
+class BaseSpec(_Strict):
+    mass: float = Field(**MASS, strict=True)
+    inertia: float | None = Field(None, gt=0, le=INERTIA["le"], strict=True)
+    a: float | None = Field(
+        None, **LENGTH, strict=True, description="rectangle width (inertia m(a²+b²)/12)"
+    )
+    b: float | None = Field(None, **LENGTH, strict=True, description="rectangle height")
+
+
+class PlanarModel(_Strict):
+    """A planar free-floating manipulator from physical parameters (MODELS.md).
+
+    Masses in [1e-6, 1e6] kg, lengths and the base's a, b in [1e-6, 1e3] m, inertias in
+    [0, 1e9] kg m² (the base's > 0), mounts within ±1e3 m, at most 8 arms and 24 links.
+    """
+
+    kind: Literal["planar-manipulator"]
+    base: BaseSpec
+    arms: list[ArmSpec] = Field(min_length=1, max_length=MAX_ARMS)
+    strata: list[list[int]] | None = Field(
+        None,
+        max_length=1000,
+        description="lock sets as joint numbers; default all single locks (+ pairs)",
+    )
+
+    @model_validator(mode="after")
+    def _few_links(self) -> PlanarModel:
+        k = sum(len(a.links) for a in self.arms)
+        if k > MAX_LINKS:
+            raise ValueError(f"at most {MAX_LINKS} links in total, got {k}")
+        return self
+
+
+ModelSpec = Annotated[PresetModel | CustomModel | PlanarModel, Field(discriminator="kind")]
+KINDS = ("preset", "custom", "planar-manipulator")
+
+_SPEC: TypeAdapter[Any] = TypeAdapter(ModelSpec)
+
+
+def build_system(spec: PresetModel | CustomModel | PlanarModel) -> System:
+    """The model named or described by the scenario's [model] table (which it keeps as
+    `spec`, the reference plans carry)."""
+    if spec.kind == "preset":
+        system = preset(spec.name)
+    elif spec.kind == "planar-manipulator":
+        system = _planar_system(spec)
+    else:
+        system = _custom_system(spec)
+    system.spec = spec
+    return system
+
+
+def _planar_system(spec: PlanarModel) -> System:
+    b = spec.base
+    problems = []
+    if b.inertia is None and (b.a is None or b.b is None):
+        problems.append(Problem("model.base", "give either inertia or the rectangle a and b"))
+    arms = []
+    for i, a in enumerate(spec.arms):
+        try:
+            links = tuple(Link(x.mass, x.length, x.com, x.inertia) for x in a.links)
+            arms.append(Arm((a.mount[0], a.mount[1]), a.zero_angle, a.sense, links))
+        except (ValueError, ArithmeticError) as exc:
+            raise InputError([Problem(f"model.arms[{i}]", str(exc))]) from None
+    k = sum(len(a.links) for a in arms)
+    lock_sets = None
+    if spec.strata is not None:
+        lock_sets = []
+        for i, locks in enumerate(spec.strata):
+            bad = [j for j in locks if not 1 <= j <= k]
+            if bad or not locks or len(set(locks)) == k:
+                problems.append(
+                    Problem(
+                        f"model.strata[{i}]",
+                        f"lock set {locks} must name 1..{k - 1} distinct joints out of 1..{k}",
+                    )
+                )
+            lock_sets.append(tuple(sorted({j - 1 for j in locks})))
+    if problems:
+        raise InputError(problems)
+    try:
+        base = (
+            Base(b.mass, b.inertia, b.a, b.b)
+            if b.inertia is not None
+            else Base.rectangle(b.mass, b.a, b.b)
+        )
+        robot = PlanarManipulator(base, tuple(arms))
+        return ManipulatorSystem(
+            robot,
+            lock_sets=lock_sets,
+            description=f"planar manipulator, {k} joints on {len(arms)} arm(s)",
+        )
+    except (ValueError, ArithmeticError) as exc:  # e.g. a zero total inertia
+        raise InputError([Problem("model", f"not a usable robot: {exc}")]) from None
+
+
+def _custom_system(spec: CustomModel) -> System:
+    problems: list[Problem] = []
+    states, inputs = tuple(spec.states), tuple(spec.inputs)
+    for what, names in (("states", states), ("inputs", inputs)):
+        dup = sorted({x for x in names if names.count(x) > 1})
+        if dup:
+            problems.append(Problem(f"model.{what}", f"duplicate names: {', '.join(dup)}"))
+    clash = set(states) & (set(inputs) | set(spec.parameters))
+    if clash:
+        problems.append(Problem("model", f"names used twice: {', '.join(sorted(clash))}"))
+    symbols = {s: sp.Symbol(s, real=True) for s in (*states, *spec.parameters)}
+    G = sp.zeros(len(states), len(inputs))
+    for name in spec.fields:
+        if name not in inputs:
+            problems.append(
+                Problem(f"model.fields.{name}", f"not an input (inputs: {', '.join(inputs)})")
+            )
+    for j, u in enumerate(inputs):
+        column = spec.fields.get(u)
+        if column is None:
+            problems.append(Problem(f"model.fields.{u}", "vector field of this input is missing"))
+            continue
+        if len(column) != len(states):
+            problems.append(
+                Problem(
+                    f"model.fields.{u}",
+                    f"needs {len(states)} entries (one per state), got {len(column)}",
+                )
+            )
+            continue
+        for i, entry in enumerate(column):
+            try:
+                G[i, j] = parse_expression(str(entry), symbols)
+            except ExpressionError as exc:
+                problems.append(Problem(f"model.fields.{u}[{i}]", str(exc)))
+    strata: dict[str, Stratum] = {}
+    for k, s in enumerate(spec.strata):
+        where = f"model.strata[{k}]"
+        bad = [x for x in s.active if x not in inputs]
+        bad += [x for x in s.locked if x not in states]
+        bad += [x for x in s.parameters if x not in spec.parameters]
+        if bad:
+            problems.append(Problem(where, f"unknown names: {', '.join(bad)}"))
+            continue
+        if s.name in strata:
+            problems.append(Problem(f"{where}.name", f"duplicate stratum {s.name!r}"))
+        strata[s.name] = Stratum(
+            s.name,
+            tuple(states.index(x) for x in s.locked),
+            tuple(inputs.index(x) for x in s.active),
+            tuple(sorted(s.parameters.items())),
+        )
+    if problems:
+        raise InputError(problems)
+    system = System("custom", states, inputs, G, strata, dict(spec.parameters))
+    try:
+        system.check()
+    except InputError as exc:
+        raise exc.prefixed("model") from None
+    return system
 
 
 @lru_cache(maxsize=16)
 def _from_json(kind: str, text: str) -> System:
-    from ..scenario import Scenario, build_system  # TODO(layers): move specs into models
-
-    spec = Scenario.model_fields["model"].annotation  # the discriminated union of [model]
-    from pydantic import TypeAdapter
-
-    return build_system(TypeAdapter(spec).validate_json(text))
+    return build_system(_SPEC.validate_json(text))
 
 
 def system_from_ref(ref) -> System:
