@@ -13,7 +13,7 @@ from conftest import ROOT
 from typer.testing import CliRunner
 
 import stratcli.cli as cli
-from stratcli.compare import build_trie, compare
+from stratcli.compare import compare
 from stratcli.decompose import (
     boundary_configurations,
     candidate_strata,
@@ -28,6 +28,7 @@ from stratcli.errors import InputError
 from stratcli.records.comparison import without_timings
 from stratcli.scenario import load_scenario, parse_scenario
 from stratcli.stratified import check_legs, plan_sequence
+from stratcli.trie import build_trie
 
 runner = CliRunner()
 AUTO = ROOT / "scenarios" / "sim4_auto.toml"

@@ -10,7 +10,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from ..compare import CRITERIA, Comparison, default_jobs
+from ..compare import CRITERIA, Comparison
 from ..decompose import STRATEGIES, Decomposition, pi_fraction
 from ..errors import InputError, Problem
 from ..records.comparison import comparison_document
@@ -19,6 +19,7 @@ from ..scenario import LegEntry, Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import DecomposeSettings
 from ..stratified import plan_sequence, time_scaled
+from ..trie import default_jobs
 from .auto import AutoSettings, auto_settings, compare_decomposition, decompose_task
 from .inspection import controllability_first
 

@@ -1,0 +1,258 @@
+"""The prefix trie of candidate sequences and the processes that plan it (DESIGN §5.5).
+
+Planning work is shared, not repeated. With the paper's Newton method legs are planned one
+after the other, and a leg's outcome depends only on what came before it (its start
+configuration and the previous leg's final controls), on its own stratum and goal, and on its
+boundary conditions at the end (the next stratum's active inputs under lr-continuity, full
+stop on the last leg). The candidates' legs therefore form a trie of prefixes: two sequences
+that agree on their first k legs *and on these end conditions* share those k planned legs
+exactly (the same seeds, the same numbers). Each node of the trie is planned once.
+
+Other objectives (e.g. the energy-optimal one) optimise all legs of a sequence together;
+there only identical sequences are shared, and `plan_sequence` is called as it is, with the
+planner settings passed through untouched.
+
+Sequences are independent, so whole sub-tries (all candidates with the same first leg) are
+planned in parallel processes. Workers are forked after the model's numeric functions are
+compiled, so no process compiles anything; results are assembled in the candidates' order and
+do not depend on the number of processes.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .models.system import System
+from .results import LegPlan
+from .sequence import SequencePlan
+from .settings import PlannerSettings
+from .stratified import LegSpec, LegStart, assemble, plan_next_leg, plan_sequence, planner_for
+
+__all__ = ["STATE", "build_trie", "compare_shared", "compare_whole", "default_jobs"]
+
+
+def default_jobs() -> int:
+    """Processes to use by default: every core this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+# ------------------------------------------------------------------------------------------
+# The trie of prefixes
+# ------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Node:
+    id: int
+    parent: int | None  # None: a first leg
+    depth: int
+    leg: LegSpec
+    next_leg: LegSpec | None  # what follows (its inputs enter the leg's end conditions)
+    children: list[int] = field(default_factory=list)
+
+
+def _end_key(system: System, settings: PlannerSettings, legs: Sequence[LegSpec], i: int):
+    """What of the next leg enters leg i's boundary conditions (and nothing else)."""
+    if i + 1 == len(legs):
+        return ("last", settings.full_stop)
+    if settings.continuity.startswith("lr"):
+        return ("next", system.stratum(legs[i + 1].stratum).active)
+    return ("next",)
+
+
+def _leg_key(leg: LegSpec) -> tuple:
+    goal = np.asarray(leg.goal, dtype=float)
+    return (leg.stratum, leg.method, float(leg.duration), goal.tobytes())
+
+
+def build_trie(
+    system: System, settings: PlannerSettings, sequences: Sequence[Sequence[LegSpec]]
+) -> tuple[list[_Node], list[list[int]]]:
+    """Nodes (each a leg to plan once) and, per sequence, the node ids of its legs."""
+    nodes: list[_Node] = []
+    index: dict[tuple, int] = {}
+    paths: list[list[int]] = []
+    for legs in sequences:
+        parent: int | None = None
+        path: list[int] = []
+        for i, leg in enumerate(legs):
+            key = (parent, _leg_key(leg), _end_key(system, settings, legs, i))
+            node = index.get(key)
+            if node is None:
+                node = len(nodes)
+                next_leg = legs[i + 1] if i + 1 < len(legs) else None
+                nodes.append(_Node(node, parent, i, leg, next_leg))
+                if parent is not None:
+                    nodes[parent].children.append(node)
+                index[key] = node
+            path.append(node)
+            parent = node
+        paths.append(path)
+    return nodes, paths
+
+
+@dataclass
+class _NodeResult:
+    leg: LegPlan | None
+    seconds: float
+    error: str = ""  # an exception while planning (reported, never raised)
+
+
+# Worker state: set in the parent before the pool forks, inherited by the workers.
+STATE: dict[str, Any] = {}
+
+
+def _plan_subtree(node_specs: list[tuple[int, int | None, LegSpec, Any]]) -> dict[int, Any]:
+    """Plan a sub-trie given in depth-first order (parents before children): each node is
+    one `stratified.plan_next_leg` from where its parent ended."""
+    system: System = STATE["system"]
+    settings: PlannerSettings = STATE["settings"]
+    start: np.ndarray = STATE["start"]
+    done: dict[int, _NodeResult] = {}
+    after: dict[int, LegStart] = {}  # where each converged node's children start
+    for node_id, parent, leg, next_leg in node_specs:
+        if parent is None:
+            at = LegStart(start)
+        elif parent in after:
+            at = after[parent]
+        else:  # the parent failed: nothing to plan after it
+            continue
+        clock = time.perf_counter()
+        try:
+            result = plan_next_leg(system, settings, leg, at, next_leg, planner_for(leg, settings))
+        except Exception as exc:  # a breakdown fails this sequence, not the comparison
+            done[node_id] = _NodeResult(None, time.perf_counter() - clock, f"{exc}")
+            continue
+        done[node_id] = _NodeResult(result, time.perf_counter() - clock)
+        if result.converged:
+            after[node_id] = LegStart(
+                result.end, result.end_controls(), at.t0 + result.duration, at.index + 1
+            )
+    return done
+
+
+def _plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
+    """Plan whole sequences with `plan_sequence` (objectives that couple all legs)."""
+    system: System = STATE["system"]
+    settings: PlannerSettings = STATE["settings"]
+    start: np.ndarray = STATE["start"]
+    out = {}
+    for key, legs in items:
+        clock = time.perf_counter()
+        try:
+            plan = plan_sequence(system, start, legs, settings)
+            out[key] = (plan, time.perf_counter() - clock, "")  # pickles without its model
+        except Exception as exc:
+            out[key] = (None, time.perf_counter() - clock, f"{exc}")
+    return out
+
+
+def _run(
+    func: Callable,
+    units: list[tuple[Any, int]],
+    jobs: int,
+    on_unit: Callable[[int], None],
+) -> list[Any]:
+    """Run `func(unit)` for every (unit, weight); in processes when jobs > 1."""
+    results: list[Any] = [None] * len(units)
+    if jobs <= 1 or len(units) <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        for k, (unit, weight) in enumerate(units):
+            results[k] = func(unit)
+            on_unit(weight)
+        return results
+    context = multiprocessing.get_context("fork")
+    order = sorted(range(len(units)), key=lambda k: -units[k][1])  # big sub-tries first
+    with ProcessPoolExecutor(max_workers=min(jobs, len(units)), mp_context=context) as pool:
+        futures = {pool.submit(func, units[k][0]): k for k in order}
+        for future in as_completed(futures):
+            k = futures[future]
+            results[k] = future.result()
+            on_unit(units[k][1])
+    return results
+
+
+def compare_shared(system, settings, start, candidates, valid, jobs, advance):
+    nodes, paths = build_trie(system, settings, [list(candidates[k].legs) for k in valid])
+    roots = [n.id for n in nodes if n.parent is None]
+    # The candidates finished with each sub-trie (for the progress bar).
+    per_root: dict[int, int] = {r: 0 for r in roots}
+    for path in paths:
+        per_root[path[0]] += 1
+    units = []
+    for r in roots:
+        specs, stack = [], [r]
+        while stack:  # depth first, parents before children, children in insertion order
+            n = nodes[stack.pop()]
+            specs.append((n.id, n.parent, n.leg, n.next_leg))
+            stack.extend(reversed(n.children))
+        units.append((specs, per_root[r]))
+    results = _run(_plan_subtree, units, jobs, advance)
+    done: dict[int, _NodeResult] = {}
+    for part in results:
+        done.update(part)
+    plans: dict[int, SequencePlan | str] = {}
+    times: dict[int, float] = {}
+    requested = 0
+    for k, path in zip(valid, paths, strict=True):
+        cand = candidates[k]
+        legs: list[LegPlan] = []
+        seconds = 0.0
+        error = ""
+        for node_id in path:
+            node = done.get(node_id)
+            if node is None:
+                break
+            seconds += node.seconds
+            if node.leg is None:
+                error = node.error
+                requested += 1
+                break
+            legs.append(node.leg)
+            requested += 1
+            if not node.leg.converged:
+                break
+        plans[k] = error or assemble(system, settings, start, list(cand.legs), legs)
+        times[k] = seconds
+    planned = len(done)
+    return planned, requested, plans, times
+
+
+def compare_whole(system, settings, candidates, valid, jobs, advance):
+    distinct: dict[tuple, int] = {}
+    owner: dict[int, int] = {}
+    for k in valid:
+        legs = candidates[k].legs
+        key = tuple(
+            (_leg_key(leg), _end_key(system, settings, legs, i)) for i, leg in enumerate(legs)
+        )
+        owner[k] = distinct.setdefault(key, k)
+    firsts = sorted(set(owner.values()))
+    weight = {f: sum(1 for k in valid if owner[k] == f) for f in firsts}
+    units = [([(f, list(candidates[f].legs))], weight[f]) for f in firsts]
+    results = _run(_plan_whole, units, jobs, advance)
+    done: dict[int, Any] = {}
+    for part in results:
+        done.update(part)
+    plans, times = {}, {}
+    requested = planned = 0
+    for k in valid:
+        plan, seconds, error = done[owner[k]]
+        if plan is not None:
+            plan = plan.with_system(system)
+            requested += len(plan.legs)
+            if owner[k] == k:
+                planned += len(plan.legs)
+        plans[k] = error or plan
+        times[k] = seconds
+    return planned, requested, plans, times
