@@ -100,6 +100,48 @@ BAD = {
         "leave 1 free coefficients for 3 goal coordinates: 2 missing",
     ),
     "missing field": (TASK_D.replace('name = "sim4_task_d"\n', ""), "name: required field"),
+    # strict types: nothing is coerced silently
+    "string for a bool": (
+        TASK_D.replace("tolerance = 1e-3", 'tolerance = 1e-3\nsoft_start = "yes"'),
+        "planner.soft_start: Input should be a valid boolean",
+    ),
+    "string for an int": (
+        TASK_D.replace("tolerance = 1e-3", 'tolerance = 1e-3\nbasis.harmonics = "3"'),
+        "planner.basis.harmonics: Input should be a valid integer",
+    ),
+    "string for an energy": (
+        TASK_D.replace("energy = 124.59", 'energy = "124"'),
+        "reference.energy: Input should be a valid number",
+    ),
+    # non-finite and out-of-range numbers name their field
+    "nan start": (
+        TASK_D.replace('start = [0, "pi/4", 0, 0]', "start = [0, nan, 0, 0]"),
+        "task.start[1]: must be a finite number",
+    ),
+    "nan goal": (
+        TASK_D.replace('goal = ["-pi/3", "pi/3", "pi/4", "-pi/12"]', "goal = [nan, 0, 0, 0]"),
+        "task.goal[0]: must be a finite number",
+    ),
+    "huge angle": (
+        TASK_D.replace('start = [0, "pi/4", 0, 0]', "start = [0, 1e38, 0, 0]"),
+        "task.start[1]: Input should be less than or equal to 10000",
+    ),
+    "huge time scale": (
+        TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-3\ntime_scale = 1e308"),
+        "planner.time_scale: Input should be less than or equal to 1000",
+    ),
+    "huge leg duration": (
+        TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-3\nleg_duration = 1e308"),
+        "planner.leg_duration: Input should be less than or equal to 1000",
+    ),
+    "infinite tolerance": (
+        TASK_D.replace("tolerance = 1e-3", "tolerance = inf"),
+        "planner.tolerance: must be a finite number",
+    ),
+    "tiny period": (
+        TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-3\nbasis.period = 1e-12"),
+        "spans 1e+12 basis periods",
+    ),
 }
 
 
@@ -157,3 +199,35 @@ def test_models_describes_a_scenario_model():
     assert result.exit_code == 0, result.output
     assert "x, y, theta, phi1, phi2" in result.output
     assert "S12" in result.output and "asks for the ode evaluator" in result.output
+
+
+EXP_EXP = """
+name = "exp_exp"
+[model]
+kind = "custom"
+states = ["x", "y"]
+inputs = ["u", "v"]
+fields = { u = ["exp(exp(x))", "0"], v = ["0", "1"] }
+[[model.strata]]
+name = "S"
+active = ["u", "v"]
+[task]
+start = [0, 0]
+goal = [5, 1]
+[planner]
+objective = "newton"
+[[legs]]
+stratum = "S"
+"""
+
+
+def test_numerical_failure_is_a_failed_leg_with_a_record_not_a_traceback(tmp_path):
+    """x' = exp(exp(x))·u overflows: the leg fails with its status, the record is written."""
+    result, _ = run(tmp_path, EXP_EXP, "--no-check", "--no-animation")
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    assert "leg 1 on S was stopped by a numerical failure" in result.stderr
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    doc = json.loads((run_dir / "result.json").read_text())
+    assert doc["status"] == "failed" and doc["legs"][0]["status"] == "numerical_failure"
+    assert "numerical failure" in doc["message"]
