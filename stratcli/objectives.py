@@ -15,6 +15,7 @@ import numpy as np
 
 from .errors import InputError
 from .models.system import System
+from .planners import PLANNERS
 from .planners.energy import optimise_energy
 from .sequence import SequencePlan
 from .settings import PlannerSettings
@@ -34,7 +35,7 @@ def plan_with_objective(
 ) -> SequencePlan:
     """Plan checked legs with `settings.objective`; `warm_start` (flat coefficients per leg,
     feasible) is tried as an extra first start of the energy search."""
-    lie_legs = [i + 1 for i, leg in enumerate(legs) if leg.method == "lie"]
+    lie_legs = [i + 1 for i, leg in enumerate(legs) if not PLANNERS[leg.method].joint_optimisation]
     if lie_legs and settings.objective != "newton":
         return _with_lie_legs(system, start, legs, settings, lie_legs)
     newton = chain_legs(system, start, legs, settings)
@@ -94,7 +95,7 @@ def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
     from where it ends; Lie legs are planned as usual). If that fails, the plain leg-by-leg
     plan (the paper's Newton method) is returned. A note says which.
     """
-    stand_in = [replace(leg, method="newton") if leg.method == "lie" else leg for leg in legs]
+    stand_in = [leg if leg.method == "newton" else replace(leg, method="newton") for leg in legs]
     which = ", ".join(map(str, lie_legs))
     objective = settings.objective
     if len(lie_legs) == len(legs):

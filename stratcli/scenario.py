@@ -10,7 +10,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 import numpy as np
 from pydantic import (
@@ -36,6 +36,7 @@ from .models.specs import (
     build_system,
 )
 from .models.system import System
+from .planners import PLANNERS
 from .settings import (
     MAX_DURATION,
     MIN_DURATION,
@@ -73,7 +74,7 @@ class TaskSpec(_Strict):
 
 class LegEntry(_Strict):
     stratum: str = Field(max_length=200)
-    method: Literal["newton", "lie"] = "newton"
+    method: str = Field("newton", max_length=64)  # a name in planners.PLANNERS
     goal: list[Target] | None = Field(None, max_length=1000)
     duration: Annotated[float, Strict(), Field(ge=MIN_DURATION, le=MAX_DURATION)] | None = None
     # method "lie": keys of [planner.lie] overridden for this leg (validated as LieSettings)
@@ -297,6 +298,10 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
             )
     for i, entry in enumerate(scenario.legs or []):
         where = f"legs[{i}]"
+        if entry.method not in PLANNERS:
+            known = " or ".join(repr(m) for m in PLANNERS)
+            problems.append(Problem(f"{where}.method", f"Input should be {known}"))
+            continue
         if entry.stratum not in system.strata:
             problems.append(
                 Problem(

@@ -18,7 +18,7 @@ import numpy as np
 from .controls import FourierBasis, energy
 from .errors import InputError, Problem
 from .models.system import System
-from .planners import PLANNERS, LegPlanner, LegProblem, NewtonPlanner
+from .planners import PLANNERS, LegPlanner, LegProblem
 from .results import LegPlan, ModelRef, Switch, make_leg
 from .sequence import SequencePlan
 from .settings import LieSettings, PlannerSettings
@@ -77,14 +77,10 @@ class LegStart:
     index: int = 0
 
 
-def planner_for(leg: LegSpec, settings: PlannerSettings, **newton) -> LegPlanner:
-    """The planner of `leg.method`; `newton` overrides NewtonPlanner's defaults."""
-    if leg.method == "lie":
-        return PLANNERS["lie"](leg.lie or settings.lie)
-    if leg.method == "newton":
-        options = {"max_iterations": settings.max_iterations, "restarts": settings.restarts}
-        return NewtonPlanner(**(options | newton))
-    return PLANNERS[leg.method]()
+def planner_for(leg: LegSpec, settings: PlannerSettings, **overrides) -> LegPlanner:
+    """The planner of `leg.method` (see `planners.PLANNERS`); `overrides` reach the Newton
+    planner (restarts, seed, spread of the energy objective's extra starts)."""
+    return PLANNERS[leg.method].from_settings(settings, leg, **overrides)
 
 
 def _targets(system: System, leg: LegSpec) -> tuple[int, ...]:
@@ -98,18 +94,18 @@ def leg_problem(
     leg: LegSpec,
     at: LegStart,
     next_leg: LegSpec | None,
+    planner: LegPlanner,
     initial: np.ndarray | None = None,
 ) -> LegProblem:
     """The `LegProblem` of `leg` started at `at`, followed by `next_leg` (None: last)."""
     next_active = None if next_leg is None else system.stratum(next_leg.stratum).active
-    lie = (leg.lie or settings.lie) if leg.method == "lie" else None
     return LegProblem(
         system=system,
         stratum=system.stratum(leg.stratum),
         start=np.asarray(at.q, dtype=float),
         goal=np.asarray(leg.goal, dtype=float),
         targets=_targets(system, leg),
-        duration=lie.step_duration if lie else leg.duration,
+        duration=planner.problem_duration(leg.duration),
         basis=settings.basis,
         continuity=settings.continuity,
         previous=at.previous,
@@ -134,7 +130,7 @@ def plan_next_leg(
     initial: np.ndarray | None = None,
 ) -> LegPlan:
     """Plan one leg; a numerical breakdown makes it a failed leg, never an exception."""
-    problem = leg_problem(system, settings, leg, at, next_leg, initial)
+    problem = leg_problem(system, settings, leg, at, next_leg, planner, initial)
     common = {
         "index": at.index,
         "stratum": leg.stratum,
@@ -198,7 +194,7 @@ def failure_message(leg: LegPlan, tolerance: float) -> str:
     where = f"leg {leg.index + 1} on {leg.stratum}"
     if leg.status is Status.NUMERICAL_FAILURE:
         return f"{where} was {head} ({leg.message}); {advice}"
-    if leg.method == "lie":
+    if leg.status is Status.LIE_NOT_CONVERGED:
         where += " (Lie-algebraic)"
         work = f"after {leg.iterations} steps"
     else:
@@ -305,32 +301,16 @@ def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings:
                 )
         at = LegStart(previous, None if i == 0 else zero, 0.0, i)
         next_leg = legs[i + 1] if i + 1 < len(legs) else None
-        problem = leg_problem(system, settings, leg, at, next_leg)
-        free, needed = planner_for(leg, settings).missing_coefficients(problem)
+        planner = planner_for(leg, settings)
+        problem = leg_problem(system, settings, leg, at, next_leg, planner)
+        free, needed = planner.missing_coefficients(problem)
         if free < needed:
-            problems.append(Problem(f"legs[{i}]", _too_few(leg, i, settings, free, needed)))
+            where = f"leg {i + 1} on {leg.stratum}"
+            problems.append(Problem(f"legs[{i}]", planner.shortfall(where, settings, free, needed)))
         unlocked = np.isin(np.arange(system.n), stratum.locked, invert=True)
         previous = np.where(unlocked, leg.goal, previous)
     if problems:
         raise InputError(problems)
-
-
-def _too_few(leg: LegSpec, i: int, settings: PlannerSettings, free: int, needed: int) -> str:
-    if leg.method == "lie":
-        lie = leg.lie or settings.lie
-        return (
-            f"leg {i + 1} on {leg.stratum} (method lie): the boundary conditions of a step "
-            f"leave {free} free coefficients for the {needed} coordinates of the Hall basis "
-            f"(degree {lie.degree}): {needed - free} missing; raise planner.basis.harmonics"
-        )
-    extras = (", soft start" if settings.soft_start else "") + (
-        ", full stop" if settings.full_stop else ""
-    )
-    return (
-        f"leg {i + 1} on {leg.stratum}: the boundary conditions ({settings.continuity}"
-        f"{extras}) leave {free} free coefficients for {needed} goal coordinates: "
-        f"{needed - free} missing; raise planner.basis.harmonics"
-    )
 
 
 def plan_sequence(

@@ -140,14 +140,37 @@ class LegOutcome:
 
 
 class LegPlanner(abc.ABC):
-    """A method that plans one leg. Subclasses set `method` and implement `plan`."""
+    """A method that plans one leg. Subclasses set `method` and implement `plan`,
+    `missing_coefficients` and `failure_hint`; they register themselves in `PLANNERS`, under
+    the name a scenario's ``method = "..."`` uses."""
 
     method: ClassVar[str]
+    joint_optimisation: ClassVar[bool] = False  # its legs can be optimised jointly (energy)
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
         if getattr(cls, "method", None):
             PLANNERS[cls.method] = cls
+
+    @classmethod
+    def from_settings(cls, settings, leg, **overrides) -> LegPlanner:
+        """The planner for `leg` under the planner `settings` (a `PlannerSettings`)."""
+        return cls(**overrides)
+
+    def problem_duration(self, leg_duration: float) -> float:
+        """The duration its `LegProblem` has (a Lie leg's problem is one step)."""
+        return leg_duration
+
+    def shortfall(self, where: str, settings, free: int, needed: int) -> str:
+        """The message when the boundary conditions leave too few free coefficients."""
+        extras = (", soft start" if settings.soft_start else "") + (
+            ", full stop" if settings.full_stop else ""
+        )
+        return (
+            f"{where}: the boundary conditions ({settings.continuity}{extras}) leave {free} "
+            f"free coefficients for {needed} goal coordinates: {needed - free} missing; raise "
+            "planner.basis.harmonics"
+        )
 
     @abc.abstractmethod
     def plan(self, problem: LegProblem) -> LegOutcome:

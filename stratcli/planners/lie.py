@@ -146,8 +146,23 @@ class LiePlanner(LegPlanner):
 
     method = "lie"
 
+    @classmethod
+    def from_settings(cls, settings, leg, **overrides) -> LiePlanner:
+        """The leg's own Lie settings, else the planner's (Newton overrides do not apply)."""
+        return cls(leg.lie or settings.lie)
+
     def __init__(self, settings: LieSettings | None = None):
         self.settings = settings or LieSettings()
+
+    def problem_duration(self, leg_duration: float) -> float:
+        return self.settings.step_duration
+
+    def shortfall(self, where: str, settings, free: int, needed: int) -> str:
+        return (
+            f"{where} (method lie): the boundary conditions of a step leave {free} free "
+            f"coefficients for the {needed} coordinates of the Hall basis (degree "
+            f"{self.settings.degree}): {needed - free} missing; raise planner.basis.harmonics"
+        )
 
     def failure_hint(self) -> Status:
         return Status.LIE_NOT_CONVERGED

@@ -55,6 +55,12 @@ class NewtonPlanner(LegPlanner):
     """
 
     method = "newton"
+    joint_optimisation = True
+
+    @classmethod
+    def from_settings(cls, settings, leg, **overrides) -> NewtonPlanner:
+        options = {"max_iterations": settings.max_iterations, "restarts": settings.restarts}
+        return cls(**(options | overrides))
 
     def __init__(
         self,
