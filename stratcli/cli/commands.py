@@ -1,7 +1,7 @@
 """One function per command: parse, call `stratcli.api`, render, exit with a code.
 
 Exit codes: 0 ok, 1 a leg or every sequence failed (the record is still written), 2 bad input,
-3 not controllable. The API is imported inside the commands, for start-up speed: `--help`
+3 not controllable, 4 the run record could not be written. The API is imported inside the commands, for start-up speed: `--help`
 needs none of the planner.
 """
 
@@ -40,7 +40,8 @@ def plan(
     time_scale: Annotated[
         float | None,
         typer.Option(
-            min=1e-6,
+            min=1e-3,
+            max=1e3,
             help="Run the planned path S times faster after planning (duration ÷ S, energy × S); "
             "overrides planner.time_scale.",
         ),
