@@ -201,11 +201,11 @@ def _manipulator_basis(system: System, stratum: Stratum, degree: int) -> LieBasi
 
     `g_j = e_j + A_j e_θ` and, since `A` does not depend on θ, `[g_i, g_j] = F_ij e_θ` with
     `F_ij = ∂A_j/∂q_i − ∂A_i/∂q_j` (the curvature of the connection), exact from
-    `planar.connection`. Degree 3 (used only above `SYMBOLIC_MAX_COORDINATES` coordinates,
+    `connection.connection`. Degree 3 (used only above `SYMBOLIC_MAX_COORDINATES` coordinates,
     where the symbolic derivation takes minutes): `[g_k, F_ij e_θ] = ∂F_ij/∂q_k e_θ`, by
     central differences (step 1e-5) of the closed-form `∂A/∂q`.
     """
-    from .models.planar import connection, connection_A
+    from .models.connection import connection, connection_A
 
     robot = system.robot
     k = system.n - 1

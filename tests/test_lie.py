@@ -18,7 +18,7 @@ from stratcli.controllability import check_document
 from stratcli.controls import FourierBasis
 from stratcli.endpoint import OdeEndpoint
 from stratcli.liealgebra import element_degree, flow, hall_basis, iterated_integrals, lie_basis
-from stratcli.models.planar import connection
+from stratcli.models.connection import connection
 from stratcli.models.presets import preset
 from stratcli.records.result import result_document
 from stratcli.scenario import load_scenario, parse_scenario
@@ -82,7 +82,7 @@ def test_unicycle_bracket_by_hand():
 @pytest.mark.parametrize("stratum", ["S1", "S2", "S3"])
 def test_one_arm_bracket_is_the_curvature_of_the_connection(stratum):
     """On a one-arm stratum [g_i, g_j] = (∂A_j/∂q_i − ∂A_i/∂q_j) e_θ; here A and dA come from
-    the physical derivation of the robot (planar.connection), independent of eq. 6's sympy."""
+    the physical derivation of the robot (models.connection), independent of eq. 6's sympy."""
     system = preset("one-arm")
     lb = lie_basis(system, stratum, 2)
     i, j = system.stratum(stratum).active

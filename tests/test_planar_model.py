@@ -1,4 +1,4 @@
-"""Planar free-floating manipulator models (stratcli.models.planar).
+"""Planar free-floating manipulator models (stratcli.models.planar and .connection).
 
 The tests check the module against three references:
 
@@ -16,16 +16,18 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from stratcli.models.planar import (
-    Arm,
-    Base,
-    Link,
-    PlanarManipulator,
+from stratcli.models.connection import (
     connection,
     connection_A,
     connection_symbolic,
     derive_symbolic,
     f_theta_and_f,
+)
+from stratcli.models.planar import (
+    Arm,
+    Base,
+    Link,
+    PlanarManipulator,
     link_geometry,
     paper_one_arm,
     paper_two_arm,

@@ -18,7 +18,8 @@ import pytest
 from mcap.reader import make_reader
 from PIL import Image
 
-from stratcli.records.mcap_log import SCHEMA_NAMES, epoch_ns, mcap_bytes
+from stratcli.records.mcap_log import epoch_ns, mcap_bytes
+from stratcli.records.mcap_schemas import SCHEMA_NAMES
 from stratcli.records.plots import render_plots
 from stratcli.records.result import result_document
 from stratcli.records.trajectory import base_extent, sample, world_geometry

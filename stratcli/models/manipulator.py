@@ -2,7 +2,7 @@
 
 `q = (q_1..q_k, θ)`, `q_j' = u_j`, `θ' = Σ A_j(q) u_j` with `A = f/f_θ` from angular-momentum
 conservation (MODELS.md §1-3). The numeric strata evaluate `A` and `∂A/∂q` with the vectorised
-closed forms of `planar.connection` (no sympy, so 20-link chains are cheap); the symbolic
+closed forms of `connection.connection` (no sympy, so 20-link chains are cheap); the symbolic
 fields are derived only when something asks for them (e.g. Lie brackets).
 """
 
@@ -14,7 +14,8 @@ from itertools import combinations
 import numpy as np
 import sympy as sp
 
-from .planar import PlanarManipulator, connection, connection_A, connection_symbolic
+from .connection import connection, connection_A, connection_symbolic
+from .planar import PlanarManipulator
 from .system import Stratum, System
 
 

@@ -21,10 +21,8 @@ Non-finite numbers (NaN or ±inf in the samples of a failed plan) are written as
 and log times are clamped to the range of an unsigned 64-bit nanosecond stamp (a NaN time
 counts as the run's start), so a failed or extreme plan still gets a valid log.
 
-Frames for Foxglove's 3-D panel: `world` is the inertial frame with its origin at the fixed
-system CM; `base` sits at the base CM rotated by θ about z; each arm is a chain
-`base → link1 → link2 ...` whose frames sit at the link's proximal joint with x along the link,
-so the geometry, sent once in link-local coordinates, moves with the transforms.
+The channels' JSON Schemas are in `mcap_schemas`; the frames of Foxglove's 3-D panel and the
+`/tf` and `/scene` messages are built by `mcap_scene`. This module writes the file.
 """
 
 from __future__ import annotations
@@ -36,256 +34,16 @@ from datetime import UTC, datetime
 from typing import Any
 
 import mcap
-import numpy as np
 from mcap.writer import Writer
 
 from .. import __version__
 from ..sequence import SequencePlan
+from .mcap_scene import frame_transforms, link_frames, scene_update
+from .mcap_schemas import FRAME_TRANSFORMS_SCHEMA, SCENE_UPDATE_SCHEMA, own_schemas
 from .rundir import finite_or_none
-from .trajectory import Trajectory, base_extent, world_geometry
+from .trajectory import Trajectory, world_geometry
 
-__all__ = ["SCHEMA_NAMES", "epoch_ns", "mcap_bytes"]
-
-SCHEMA_NAMES = {
-    "/state": "stratplan.State",
-    "/controls": "stratplan.Controls",
-    "/legs": "stratplan.Leg",
-    "/summary": "stratplan.Summary",
-    "/tf": "foxglove.FrameTransforms",
-    "/scene": "foxglove.SceneUpdate",
-}
-
-# --------------------------------------------------------------------------------------------
-# JSON Schemas
-# --------------------------------------------------------------------------------------------
-
-_NUMBER = {"type": "number"}
-_NULLABLE = {"type": ["number", "null"]}
-_STRING = {"type": "string"}
-_INTEGER = {"type": "integer"}
-
-
-def _named(names: tuple[str, ...], value: dict, description: str) -> dict:
-    return {
-        "type": "object",
-        "description": description,
-        "properties": {name: value for name in names},
-    }
-
-
-def _schema(title: str, description: str, properties: dict) -> dict:
-    return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": title,
-        "description": description,
-        "type": "object",
-        "properties": properties,
-    }
-
-
-def _own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, dict]:
-    sample = {
-        "t": {"type": "number", "description": "time [s] on the motion's axis"},
-        "leg": {"type": "integer", "description": "leg index (0-based, as in result.json)"},
-        "stratum": _STRING,
-    }
-    leg_fields = {
-        "kind": {"enum": ["leg", "switch"]},
-        "leg": {"type": "integer", "description": "kind leg: its index (0-based)"},
-        "stratum": _STRING,
-        "method": _STRING,
-        "evaluator": _STRING,
-        "active_inputs": {"type": "array", "items": _STRING},
-        "locked": {"type": "array", "items": _STRING},
-        "t0": _NUMBER,
-        "duration": _NUMBER,
-        "start": _named(states, _NUMBER, "configuration at the leg's start"),
-        "goal": _named(states, _NULLABLE, "goal of the leg (null: not prescribed)"),
-        "end": _named(states, _NUMBER, "configuration reached"),
-        "error": _NUMBER,
-        "converged": {"type": "boolean"},
-        "iterations": _INTEGER,
-        "attempts": _INTEGER,
-        "free_coefficients": _INTEGER,
-        "energy": _NUMBER,
-        "coefficients": _named(
-            inputs,
-            {"type": "array", "items": _NUMBER},
-            "Fourier coefficients per active input (λ0, sines, cosines)",
-        ),
-        "time": {"type": "number", "description": "kind switch: switch instant [s]"},
-        "after_leg": {"type": "integer", "description": "kind switch: the leg it ends"},
-        "jump": _named(inputs, _NUMBER, "u_next(0) − u_prev(T)"),
-        "jump_derivative": _named(inputs, _NUMBER, "u'_next(0) − u'_prev(T)"),
-        "max_jump": _NUMBER,
-    }
-    summary_fields = {
-        "scenario": _STRING,
-        "model": _STRING,
-        "status": {"enum": ["ok", "failed"]},
-        "message": _STRING,
-        "total_energy": _NUMBER,
-        "reference_energy": _NULLABLE,
-        "duration": _NUMBER,
-        "legs": _INTEGER,
-        "switches": _INTEGER,
-        "max_switch_jump": _NUMBER,
-        "continuity": _STRING,
-        "soft_start": {"type": "boolean"},
-        "full_stop": {"type": "boolean"},
-        "tolerance": _NUMBER,
-        "start": _named(states, _NUMBER, "start configuration"),
-        "goal": _named(states, _NULLABLE, "goal (null: not prescribed)"),
-        "end": _named(states, _NUMBER, "configuration reached"),
-    }
-    return {
-        "/state": _schema(
-            "stratplan.State",
-            "configuration of the system at one instant",
-            {**sample, "q": _named(states, _NUMBER, "coordinates (rad for manipulators)")},
-        ),
-        "/controls": _schema(
-            "stratplan.Controls",
-            "controls and their derivatives at one instant (inactive inputs are 0)",
-            {
-                **sample,
-                "u": _named(inputs, _NUMBER, "controls"),
-                "du": _named(inputs, _NUMBER, "time derivatives of the controls"),
-            },
-        ),
-        "/legs": _schema(
-            "stratplan.Leg",
-            "a leg (at its start time) or a switch between legs (at the switch time)",
-            leg_fields,
-        ),
-        "/summary": _schema("stratplan.Summary", "outcome of the run", summary_fields),
-    }
-
-
-# Foxglove well-known schemas, JSON encoding (docs.foxglove.dev message schemas; the
-# foxglove/schemas repository's jsonschema/FrameTransforms.json and SceneUpdate.json). Only the
-# fields written here are described.
-_TIME = {
-    "type": "object",
-    "title": "time",
-    "properties": {
-        "sec": {"type": "integer", "minimum": 0},
-        "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999},
-    },
-}
-_DURATION = {
-    "type": "object",
-    "title": "duration",
-    "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer", "minimum": 0}},
-}
-_VECTOR3 = {
-    "title": "foxglove.Vector3",
-    "type": "object",
-    "properties": {"x": _NUMBER, "y": _NUMBER, "z": _NUMBER},
-}
-_QUATERNION = {
-    "title": "foxglove.Quaternion",
-    "type": "object",
-    "properties": {"x": _NUMBER, "y": _NUMBER, "z": _NUMBER, "w": _NUMBER},
-}
-_POSE = {
-    "title": "foxglove.Pose",
-    "type": "object",
-    "properties": {"position": _VECTOR3, "orientation": _QUATERNION},
-}
-_COLOR = {
-    "title": "foxglove.Color",
-    "type": "object",
-    "properties": {"r": _NUMBER, "g": _NUMBER, "b": _NUMBER, "a": _NUMBER},
-}
-_SIZED = {
-    "type": "object",
-    "properties": {"pose": _POSE, "size": _VECTOR3, "color": _COLOR},
-}
-FRAME_TRANSFORMS_SCHEMA = {
-    "title": "foxglove.FrameTransforms",
-    "description": "An array of FrameTransform messages",
-    "type": "object",
-    "properties": {
-        "transforms": {
-            "type": "array",
-            "items": {
-                "title": "foxglove.FrameTransform",
-                "type": "object",
-                "properties": {
-                    "timestamp": _TIME,
-                    "parent_frame_id": _STRING,
-                    "child_frame_id": _STRING,
-                    "translation": _VECTOR3,
-                    "rotation": _QUATERNION,
-                },
-            },
-        }
-    },
-}
-SCENE_UPDATE_SCHEMA = {
-    "title": "foxglove.SceneUpdate",
-    "description": "An update to the entities displayed in a 3D scene",
-    "type": "object",
-    "properties": {
-        "deletions": {
-            "type": "array",
-            "items": {
-                "title": "foxglove.SceneEntityDeletion",
-                "type": "object",
-                "properties": {"timestamp": _TIME, "type": _INTEGER, "id": _STRING},
-            },
-        },
-        "entities": {
-            "type": "array",
-            "items": {
-                "title": "foxglove.SceneEntity",
-                "type": "object",
-                "properties": {
-                    "timestamp": _TIME,
-                    "frame_id": _STRING,
-                    "id": _STRING,
-                    "lifetime": _DURATION,
-                    "frame_locked": {"type": "boolean"},
-                    "metadata": {
-                        "type": "array",
-                        "items": {
-                            "title": "foxglove.KeyValuePair",
-                            "type": "object",
-                            "properties": {"key": _STRING, "value": _STRING},
-                        },
-                    },
-                    "cubes": {
-                        "type": "array",
-                        "items": {"title": "foxglove.CubePrimitive", **_SIZED},
-                    },
-                    "spheres": {
-                        "type": "array",
-                        "items": {"title": "foxglove.SpherePrimitive", **_SIZED},
-                    },
-                    "lines": {
-                        "type": "array",
-                        "items": {
-                            "title": "foxglove.LinePrimitive",
-                            "type": "object",
-                            "properties": {
-                                "type": _INTEGER,
-                                "pose": _POSE,
-                                "thickness": _NUMBER,
-                                "scale_invariant": {"type": "boolean"},
-                                "points": {"type": "array", "items": _VECTOR3},
-                                "color": _COLOR,
-                                "indices": {"type": "array", "items": _INTEGER},
-                            },
-                        },
-                    },
-                },
-            },
-        },
-    },
-}
-LINE_STRIP = 0  # foxglove.LineType
-
+__all__ = ["epoch_ns", "mcap_bytes"]
 
 # --------------------------------------------------------------------------------------------
 # Helpers
@@ -306,10 +64,6 @@ def epoch_ns(manifest: dict[str, Any] | None) -> int:
     delta = when - datetime(1970, 1, 1, tzinfo=UTC)
     ns = (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1_000
     return max(ns, 0)
-
-
-def _stamp(ns: int) -> dict[str, int]:
-    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
 
 
 def _json(obj: Any) -> bytes:
@@ -337,22 +91,6 @@ def _named_values(names: tuple[str, ...], values: Any) -> dict[str, float | None
     for name, v in zip(names, values, strict=True):
         out[name] = None if v is None or (isinstance(v, float) and math.isnan(v)) else float(v)
     return out
-
-
-def _quat_z(angle: float) -> dict[str, float]:
-    """Rotation by `angle` about z as a quaternion."""
-    return {"x": 0.0, "y": 0.0, "z": math.sin(angle / 2), "w": math.cos(angle / 2)}
-
-
-def _vec3(x: float, y: float, z: float = 0.0) -> dict[str, float]:
-    return {"x": float(x), "y": float(y), "z": float(z)}
-
-
-def _color(r: float, g: float, b: float, a: float = 1.0) -> dict[str, float]:
-    return {"r": r, "g": g, "b": b, "a": a}
-
-
-_IDENTITY = {"position": _vec3(0, 0), "orientation": _quat_z(0.0)}
 
 
 class _Log:
@@ -385,139 +123,6 @@ class _Log:
             sequence=self.sequence[topic],
         )
         self.sequence[topic] += 1
-
-
-# --------------------------------------------------------------------------------------------
-# Manipulator frames and geometry
-# --------------------------------------------------------------------------------------------
-
-
-def _link_frames(plan: SequencePlan) -> list[tuple[str, str]]:
-    """(frame, parent) of every link: each arm is a chain from the base."""
-    robot = plan.system.robot
-    out, j = [], 0
-    for arm in robot.arms:
-        parent = "base"
-        for _ in arm.links:
-            out.append((f"link{j + 1}", parent))
-            parent = f"link{j + 1}"
-            j += 1
-    return out
-
-
-def _transforms(geo: dict[str, np.ndarray], frames: list[tuple[str, str]], i: int, ns: int):
-    stamp = _stamp(ns)
-    centre, theta = geo["base_center"][i], float(geo["theta"][i])
-    out = [
-        {
-            "timestamp": stamp,
-            "parent_frame_id": "world",
-            "child_frame_id": "base",
-            "translation": _vec3(centre[0], centre[1]),
-            "rotation": _quat_z(theta),
-        }
-    ]
-    origin, angle = geo["base_proximal"][i], geo["link_angle"][i]  # base frame
-    index = {name: j for j, (name, _) in enumerate(frames)}
-    for j, (name, parent) in enumerate(frames):
-        if parent == "base":
-            offset, rel = origin[j], float(angle[j])
-        else:
-            p = index[parent]
-            d = origin[j] - origin[p]
-            c, s = math.cos(angle[p]), math.sin(angle[p])
-            offset = (c * d[0] + s * d[1], -s * d[0] + c * d[1])  # R(−β_parent) d
-            rel = float(angle[j] - angle[p])
-        out.append(
-            {
-                "timestamp": stamp,
-                "parent_frame_id": parent,
-                "child_frame_id": name,
-                "translation": _vec3(offset[0], offset[1]),
-                "rotation": _quat_z(rel),
-            }
-        )
-    return {"transforms": out}
-
-
-def _scene(plan: SequencePlan, geo: dict[str, np.ndarray], ns: int) -> dict:
-    robot = plan.system.robot
-    hx, hy = base_extent(robot)
-    lengths = [link.length for link in robot.links]
-    scale = max([*lengths, 2 * hx, 2 * hy])
-    width = 0.06 * scale
-    stamp = _stamp(ns)
-    zero = {"sec": 0, "nsec": 0}
-
-    def entity(frame: str, name: str, locked: bool = True, **primitives) -> dict:
-        return {
-            "timestamp": stamp,
-            "frame_id": frame,
-            "id": name,
-            "lifetime": zero,
-            "frame_locked": locked,
-            "metadata": [],
-            **primitives,
-        }
-
-    entities = [
-        entity(
-            "base",
-            "base",
-            cubes=[
-                {
-                    "pose": _IDENTITY,
-                    "size": _vec3(2 * hx, 2 * hy, 0.3 * min(2 * hx, 2 * hy)),
-                    "color": _color(0.60, 0.65, 0.70, 0.9),
-                }
-            ],
-        )
-    ]
-    for j, (name, _) in enumerate(_link_frames(plan)):
-        length = lengths[j]
-        entities.append(
-            entity(
-                name,
-                name,
-                cubes=[
-                    {
-                        "pose": {"position": _vec3(length / 2, 0.0), "orientation": _quat_z(0)},
-                        "size": _vec3(length, width, width),
-                        "color": _color(0.10, 0.22, 0.50),
-                    }
-                ],
-                spheres=[
-                    {
-                        "pose": _IDENTITY,
-                        "size": _vec3(1.6 * width, 1.6 * width, 1.6 * width),
-                        "color": _color(0.83, 0.33, 0.0),
-                    }
-                ],
-            )
-        )
-    arm = geo["arm_of_link"]
-    for a in range(int(arm.max()) + 1):
-        tip = int(np.flatnonzero(arm == a)[-1])
-        path = geo["distal"][:, tip]
-        entities.append(
-            entity(
-                "world",
-                f"path{a + 1}",
-                locked=False,
-                lines=[
-                    {
-                        "type": LINE_STRIP,
-                        "pose": _IDENTITY,
-                        "thickness": 2.0,
-                        "scale_invariant": True,
-                        "points": [_vec3(x, y) for x, y in path],
-                        "color": _color(0.83, 0.33, 0.0, 0.8),
-                        "indices": [],
-                    }
-                ],
-            )
-        )
-    return {"deletions": [], "entities": entities}
 
 
 # --------------------------------------------------------------------------------------------
@@ -554,7 +159,7 @@ def mcap_bytes(
     writer = Writer(buf)
     writer.start(profile="", library=f"stratplan {__version__}; mcap {mcap.__version__}")
     log = _Log(writer)
-    for topic, schema in _own_schemas(states, inputs).items():
+    for topic, schema in own_schemas(states, inputs).items():
         log.channel(topic, schema)
     manipulator = (
         system.robot is not None and system.n == system.robot.n_joints + 1 and traj.size > 0
@@ -563,7 +168,7 @@ def mcap_bytes(
         log.channel("/tf", FRAME_TRANSFORMS_SCHEMA)
         log.channel("/scene", SCENE_UPDATE_SCHEMA)
         geo = world_geometry(system.robot, traj.q)
-        frames = _link_frames(plan)
+        frames = link_frames(plan)
 
     writer.add_metadata(
         "manifest",
@@ -582,7 +187,7 @@ def mcap_bytes(
 
     t_first = float(traj.t[0]) if traj.size else 0.0
     if manipulator and traj.size:
-        log.write("/scene", at(t_first), _scene(plan, geo, at(t_first)))
+        log.write("/scene", at(t_first), scene_update(plan, geo, at(t_first)))
     legs_doc = result_doc.get("legs", [])
     switches = {sw["after_leg"]: sw for sw in result_doc.get("switches", [])}
     for k, leg in enumerate(plan.legs):
@@ -616,7 +221,7 @@ def mcap_bytes(
                 },
             )
             if manipulator:
-                log.write("/tf", ns, _transforms(geo, frames, i, ns))
+                log.write("/tf", ns, frame_transforms(geo, frames, i, ns))
         if leg.index in switches:
             sw = switches[leg.index]
             jumps = [abs(v) for v in sw["jump"].values()]

@@ -1,0 +1,265 @@
+"""The connection A(q) of a planar free-floating manipulator and its derivatives.
+
+Angular momentum conservation gives θ' = Σ_j A_j(q) q_j' with A_j = f_j / f_θ (paper sec. 3,
+eq. 5 and 10; the robot and its conventions are in `planar`). Two implementations are provided:
+
+* `connection` is a vectorised numpy evaluation of A and ∂A/∂q from the closed forms in
+  MODELS.md §3 (with `f_theta_and_f` and `connection_A`). It does not need sympy. Arrays follow
+  `planar`'s layout: per-link quantities (n, K), with the K evaluation points last.
+* `derive_symbolic` is an exact sympy derivation from the definitions of MODELS.md §1. It uses
+  positions, `sympy.diff` and cross products, and returns trigonometric polynomials in the
+  paper's form Σ c·cos(q_i + ... ) + const (`trig_canonical`); `connection_symbolic` divides
+  them into A.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from fractions import Fraction
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .planar import PlanarManipulator, Structure, kinematics, points_first, points_last, structure
+
+if TYPE_CHECKING:  # sympy is imported lazily: the numeric path must not pay for it
+    import sympy as sp
+
+__all__ = [
+    "connection",
+    "connection_A",
+    "connection_symbolic",
+    "derive_symbolic",
+    "f_theta_and_f",
+    "trig_canonical",
+]
+
+# --------------------------------------------------------------------------------------------
+# Numeric evaluation (MODELS.md §3), vectorised over leading axes of q
+# --------------------------------------------------------------------------------------------
+
+
+def _f_parts(st: Structure, o, p):
+    """p_c (each (K,)), S_j = Σ_{i∈D(j)} m_i (p_i − p_c), f_θ (K,) and f (n, K) (MODELS.md §3)."""
+    (ox, oy), (px, py) = o, p
+    pcx, pcy = (st.m @ px) / st.M, (st.m @ py) / st.M
+    mPx, mPy = st.m_col * (px - pcx), st.m_col * (py - pcy)
+    f_theta = (
+        st.sum_inertia + st.m0 * (pcx**2 + pcy**2) + (mPx * (px - pcx) + mPy * (py - pcy)).sum(0)
+    )
+    Sx, Sy = st.D @ mPx, st.D @ mPy
+    # −f_j = s_j Σ_{i∈D(j)} [I_i + m_i (p_i − p_c)·(p_i − o_j)]
+    neg_f = st.s * (st.DI + st.D @ (mPx * px + mPy * py) - ox * Sx - oy * Sy)
+    return (pcx, pcy), (Sx, Sy), f_theta, -neg_f
+
+
+def f_theta_and_f(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Physical f_θ(q) with shape (...) and f_j(q) with shape (..., n) (MODELS.md §3).
+
+    The paper prints 12·M times these values.
+    """
+    st = structure(robot)
+    qT, lead = points_last(robot, q)
+    _, _, o, p = kinematics(st, qT)
+    _, _, f_theta, f = _f_parts(st, o, p)
+    return f_theta.reshape(lead), points_first(f, lead)
+
+
+def connection_A(robot: PlanarManipulator, q: Any) -> np.ndarray:
+    """A(q) = f/f_θ with shape (..., n), so that θ' = A(q)·q' (paper eq. 5, 10)."""
+    f_theta, f = f_theta_and_f(robot, q)
+    return f / f_theta[..., None]
+
+
+def _connection_block(st: Structure, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A (n, K) and dA (n, n, K) for q of shape (n, K)."""
+    _, _, o, p = kinematics(st, q)
+    (pcx, pcy), (Sx, Sy), f_theta, f = _f_parts(st, o, p)
+    (ox, oy), (px, py) = o, p
+    M, n, K = st.M, q.shape[0], q.shape[1]
+    # ∂p_i/∂q_k = s_k rot90(p_i − o_k) for i ∈ D(k), and rot90(a)·b = a × b. Summing the
+    # MODELS.md §3 derivatives over the distal sets gives
+    #   c_k = Σ_{i∈D(k)} m_i (p_i − o_k) / M              so that ∂p_c/∂q_k = s_k rot90(c_k)
+    #   ∂f_θ/∂q_k    = 2 s_k M c_k × (o_k − p_c)
+    #   ∂(−f_j)/∂q_k = s_j s_k [W_jk × (2 o_k − o_j − p_c) + μ_jk o_k × (o_j + p_c)
+    #                           − M c_k × c_j − [k strictly proximal to j] (o_j − o_k) × S_j]
+    # with E_jki = D_ji D_ki m_i, W_jk = Σ_i E_jki p_i, μ_jk = Σ_i E_jki, S_j = Σ_{i∈D(j)} m_i P_i.
+    cx = (st.D @ (st.m_col * px) - st.mu * ox) / M
+    cy = (st.D @ (st.m_col * py) - st.mu * oy) / M
+    d_f_theta = 2.0 * M * st.s * (cx * (oy - pcy) - cy * (ox - pcx))  # [k, K]
+
+    Wx = (st.E @ px).reshape(n, n, K)
+    Wy = (st.E @ py).reshape(n, n, K)
+    ojx, ojy, okx, oky = ox[:, None], oy[:, None], ox[None], oy[None]  # rows j, columns k
+    gx, gy = ojx + pcx, ojy + pcy  # o_j + p_c
+    term = Wx * (2.0 * oky - gy) - Wy * (2.0 * okx - gx)
+    term += st.mu2 * (okx * gy - oky * gx)
+    term -= M * (cx[None] * cy[:, None] - cy[None] * cx[:, None])
+    term -= st.DsT3 * ((ojx - okx) * Sy[:, None] - (ojy - oky) * Sx[:, None])
+    df = -st.ss * term  # [j, k, K]
+
+    A = f / f_theta
+    dA = (df - A[:, None] * d_f_theta[None]) / f_theta
+    return A, dA
+
+
+def connection(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:
+    """A(q) (shape (..., n)) and dA (shape (..., n, n)), with dA[..., j, k] = ∂A_j/∂q_k.
+
+    The closed forms of MODELS.md §3, vectorised over the leading axes of q, with no sympy.
+    Points are processed in blocks of about 2.5e4 / n² columns. This keeps the (n, n, block)
+    temporaries cache-sized, which is about 2x faster for K = 1000, n = 10.
+    """
+    st = structure(robot)
+    qT, lead = points_last(robot, q)
+    n, K = qT.shape
+    block = max(64, 25_000 // (n * n))
+    if K <= block:
+        A, dA = _connection_block(st, qT)
+        return points_first(A, lead), points_first(dA, lead)
+    A, dA = np.empty((K, n)), np.empty((K, n, n))
+    for k0 in range(0, K, block):
+        a, d = _connection_block(st, qT[:, k0 : k0 + block])
+        A[k0 : k0 + block] = a.T
+        dA[k0 : k0 + block] = np.moveaxis(d, -1, 0)
+    return A.reshape(*lead, n), dA.reshape(*lead, n, n)
+
+
+# --------------------------------------------------------------------------------------------
+# Exact symbolic derivation (MODELS.md §1)
+# --------------------------------------------------------------------------------------------
+
+
+def _exact(x: float, max_denominator: int = 10_000) -> sp.Expr:
+    """Exact sympy number for a float parameter.
+
+    Returns a small-denominator rational if one lies within 1e-13 (relative) of x, and
+    otherwise the exact binary value of x.
+    """
+    import sympy as sp
+
+    frac = Fraction(x).limit_denominator(max_denominator)
+    if abs(float(frac) - x) <= 1e-13 * max(1.0, abs(x)):
+        return sp.Rational(frac.numerator, frac.denominator)
+    return sp.Rational(x)
+
+
+def _exact_angle(x: float) -> sp.Expr:
+    """Exact angle: a rational multiple of π when x is one (denominator <= 360)."""
+    import sympy as sp
+
+    frac = Fraction(x / math.pi).limit_denominator(360)
+    if abs(float(frac) * math.pi - x) <= 1e-13 * max(1.0, abs(x)):
+        return sp.Rational(frac.numerator, frac.denominator) * sp.pi
+    return _exact(x)
+
+
+def _cross_sym(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+def trig_canonical(expr: sp.Expr, q_symbols: Sequence[sp.Symbol]) -> sp.Expr:
+    """Rewrite a trigonometric polynomial in q as Σ a_k cos(k·q) + b_k sin(k·q) + c, exactly.
+
+    Every sin/cos argument must be affine in q with integer coefficients. The method substitutes
+    e^{i k·q} = Π z_j^{k_j} and expands the result as a Laurent polynomial, which is a canonical
+    form, so equal functions give identical output. Each frequency k is written with its first
+    nonzero entry positive. This gives the paper's form, e.g. cos(q1 + q2 + q3).
+    """
+    import sympy as sp
+
+    q = list(q_symbols)
+    z = [sp.Dummy(f"z{j}") for j in range(len(q))]
+    rep = {}
+    for atom in sp.sympify(expr).atoms(sp.cos, sp.sin):
+        arg = atom.args[0]
+        if not arg.has(*q):
+            continue
+        k = [arg.diff(qj) for qj in q]
+        if not all(kj.is_Integer for kj in k):
+            raise ValueError(f"argument {arg} is not affine in q with integer coefficients")
+        c0 = sp.expand(arg - sum(kj * qj for kj, qj in zip(k, q, strict=True)))
+        if c0.has(*q):
+            raise ValueError(f"argument {arg} is not affine in q")
+        e = sp.exp(sp.I * c0) * sp.Mul(*(zj ** int(kj) for zj, kj in zip(z, k, strict=True)))
+        rep[atom] = (e + 1 / e) / 2 if atom.func == sp.cos else (e - 1 / e) / (2 * sp.I)
+    laurent = sp.expand(sp.sympify(expr).xreplace(rep))
+
+    coeffs: dict[tuple[int, ...], sp.Expr] = {}
+    for term in sp.Add.make_args(laurent):
+        c, rest = term.as_independent(*z, as_Add=False)
+        powers = rest.as_powers_dict()
+        k = tuple(int(powers.get(zj, 0)) for zj in z)
+        coeffs[k] = coeffs.get(k, sp.S.Zero) + c
+
+    def real(x: sp.Expr) -> sp.Expr:
+        return x if x.is_Rational else sp.expand(sp.expand_complex(x))
+
+    zero = (0,) * len(q)
+    out = real(coeffs.pop(zero, sp.S.Zero))
+
+    def neg(k: tuple[int, ...]) -> tuple[int, ...]:
+        return tuple(-kj for kj in k)
+
+    canonical = {k if next(kj for kj in k if kj != 0) > 0 else neg(k) for k in coeffs}
+    for k in sorted(canonical):
+        ck, cm = coeffs.get(k, sp.S.Zero), coeffs.get(neg(k), sp.S.Zero)
+        arg = sum(kj * qj for kj, qj in zip(k, q, strict=True))
+        out += real(ck + cm) * sp.cos(arg) + real(sp.I * (ck - cm)) * sp.sin(arg)
+    return out
+
+
+def derive_symbolic(
+    robot: PlanarManipulator, q_symbols: Sequence[sp.Symbol]
+) -> tuple[sp.Expr, list[sp.Expr]]:
+    """Exact physical f_θ(q) and [f_1(q), ..., f_n(q)] from angular momentum (MODELS.md §1).
+
+    The derivation uses only the definitions::
+
+        f_θ = Σ_k I_k + m_k |p_k − p_c|²
+        f_j = −Σ_k I_k ∂β_k/∂q_j + m_k (p_k − p_c) × ∂p_k/∂q_j
+
+    where k runs over all bodies, base included. Float parameters are converted to exact numbers
+    first (small-denominator rationals, and multiples of π for angles). For the paper's robots
+    the result is a polynomial in cosines with rational coefficients, 1/(12·M) times eq. 6 and
+    eq. 11. The output is in `trig_canonical` form, and A_j = f_j / f_θ.
+    """
+    import sympy as sp
+
+    q = list(q_symbols)
+    if len(q) != robot.n_joints:
+        raise ValueError(f"need {robot.n_joints} symbols, got {len(q)}")
+    bodies = []  # (m, I, p, β) of the links; the base has p = 0, β = 0
+    j = 0
+    for arm in robot.arms:
+        o = sp.Matrix([_exact(arm.mount[0]), _exact(arm.mount[1])])
+        beta = _exact_angle(arm.zero_angle)
+        for link in arm.links:
+            beta = beta + arm.sense * q[j]
+            u = sp.Matrix([sp.cos(beta), sp.sin(beta)])
+            p = o + _exact(link.com) * u
+            bodies.append((_exact(link.mass), _exact(link.inertia), p, beta))
+            o = o + _exact(link.length) * u
+            j += 1
+    m0, I0 = _exact(robot.base.mass), _exact(robot.base.inertia)
+    M = m0 + sum(b[0] for b in bodies)
+    pc = sum((m * p for m, _, p, _ in bodies), sp.zeros(2, 1)) / M
+
+    f_theta = I0 + m0 * pc.dot(pc)
+    for m, inertia, p, _ in bodies:
+        r = p - pc
+        f_theta += inertia + m * r.dot(r)
+    f = []
+    for qj in q:
+        fj = sp.S.Zero  # base: ∂β_0 = 0 and ∂p_0 = 0
+        for m, inertia, p, beta in bodies:
+            fj -= inertia * sp.diff(beta, qj) + m * _cross_sym(p - pc, sp.diff(p, qj))
+        f.append(trig_canonical(fj, q))
+    return trig_canonical(f_theta, q), f
+
+
+def connection_symbolic(robot: PlanarManipulator, q_symbols: Sequence[sp.Symbol]) -> list:
+    """[A_1, ..., A_n] with A_j = f_j / f_θ as exact sympy expressions (paper eq. 5, 10)."""
+    f_theta, f = derive_symbolic(robot, q_symbols)
+    return [fj / f_theta for fj in f]
