@@ -1,8 +1,8 @@
 """One function per command: parse, call `stratcli.api`, render, exit with a code.
 
 Exit codes: 0 ok, 1 a leg or every sequence failed (the record is still written), 2 bad input,
-3 not controllable, 4 the run record could not be written. The API is imported inside the commands, for start-up speed: `--help`
-needs none of the planner.
+3 not controllable, 4 the run record could not be written. The API is imported inside the
+commands, for start-up speed: `--help` needs none of the planner.
 """
 
 from __future__ import annotations
