@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stratcli.controllability import check_document
+from stratcli.api.check import check_document
 from stratcli.liealgebra import iterated_integrals, lie_basis
 from stratcli.models.presets import PRESETS
 from stratcli.scenario import load_scenario

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import stratcli.liealgebra as lie
-from stratcli.controllability import check_document
+from stratcli.api.check import check_document
 from stratcli.errors import InputError
 from stratcli.models.presets import preset
 from stratcli.scenario import parse_scenario

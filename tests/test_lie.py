@@ -12,9 +12,9 @@ import sympy as sp
 from scipy.integrate import cumulative_trapezoid
 from typer.testing import CliRunner
 
+from stratcli.api.check import check_document
 from stratcli.cli import app
 from stratcli.continuity import mode_order
-from stratcli.controllability import check_document
 from stratcli.controls import FourierBasis
 from stratcli.endpoint import OdeEndpoint
 from stratcli.liealgebra import element_degree, flow, hall_basis, iterated_integrals, lie_basis

@@ -8,12 +8,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..controllability import check_document
 from ..errors import InputError, NotControllableError, Problem
 from ..models.expressions import parse_number
 from ..models.presets import PRESETS, preset
 from ..models.system import System
 from ..scenario import Task, load_scenario
+from .check import check_document
 
 
 @dataclass(frozen=True)
