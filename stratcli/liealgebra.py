@@ -30,6 +30,8 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from .controls import FourierBasis
+from .models.connection import connection, connection_A
+from .models.manipulator import ManipulatorSystem
 from .models.system import Stratum, System, _ArrayFunction
 
 MAX_DEGREE = 3
@@ -191,8 +193,6 @@ def _build(system: System, stratum: Stratum, degree: int) -> LieBasis:
 
 
 def _is_manipulator(system: System) -> bool:
-    from .models.manipulator import ManipulatorSystem
-
     return isinstance(system, ManipulatorSystem)
 
 
@@ -205,8 +205,6 @@ def _manipulator_basis(system: System, stratum: Stratum, degree: int) -> LieBasi
     where the symbolic derivation takes minutes): `[g_k, F_ij e_θ] = ∂F_ij/∂q_k e_θ`, by
     central differences (step 1e-5) of the closed-form `∂A/∂q`.
     """
-    from .models.connection import connection, connection_A
-
     robot = system.robot
     k = system.n - 1
     free = stratum.free(system.n)

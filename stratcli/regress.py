@@ -6,6 +6,7 @@ replaying itself is `stratcli.api.regress`.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,8 +55,6 @@ def compare(
 
 
 def load_baseline(path: Path) -> tuple[dict[str, dict], dict[str, float]]:
-    import json
-
     try:
         doc = json.loads(path.read_text())
     except FileNotFoundError:

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
+import tempfile
+import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
@@ -111,9 +114,6 @@ def prepare_out(out: str | Path) -> Path:
         Naming the path when it is a file, cannot be created, or is not writable (also on a
         read-only file system), so that nothing is planned for a record that cannot be kept.
     """
-    import os
-    import tempfile
-
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: not a directory")
@@ -166,8 +166,6 @@ def load_run(path: str | Path) -> SequencePlan:
     InputError
         When the record is missing, incomplete or damaged.
     """
-    import tomllib
-
     path = Path(path)
     if path.is_file():
         path = path.parent

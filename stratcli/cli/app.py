@@ -6,6 +6,7 @@ from typing import Annotated
 
 import typer
 
+from .. import __version__
 from . import commands
 
 app = typer.Typer(
@@ -19,8 +20,6 @@ app = typer.Typer(
 
 def _version(value: bool) -> None:
     if value:
-        from .. import __version__
-
         print(f"stratplan {__version__}")
         raise typer.Exit()
 
