@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -69,7 +69,7 @@ def controllability_first(task: Task, degree: int = 2, samples: int = 100) -> fl
 
 
 def check_controllability(
-    target: str | Path | Task,
+    target: str | Path | Mapping[str, Any] | Task,
     at: str | Sequence[float] | None = None,
     samples: int = 100,
     degree: int = 2,
@@ -79,8 +79,8 @@ def check_controllability(
 
     Parameters
     ----------
-    target : str, Path or Task
-        A preset model name, a scenario file or a loaded scenario.
+    target : str, Path, Mapping or Task
+        A preset model name, or a scenario: a loaded one, or what `load_scenario` takes.
     at : str or sequence of float, optional
         The configuration, e.g. ``"0, pi/3, 0, 0"`` (default: the scenario start, or zeros
         for a preset).
@@ -96,6 +96,7 @@ def check_controllability(
     CheckReport
         The check document (`.controllable`, `.problems`), a title and the time taken.
     """
+    task = None
     if isinstance(target, str) and target in PRESETS and not Path(target).exists():
         system, legs, title = preset(target), None, f"preset {target}"
         strata, q = list(system.strata), [0.0] * system.n
@@ -108,7 +109,7 @@ def check_controllability(
     clock = time.perf_counter()
     doc = check_document(system, strata, q, samples=samples, degree=degree, seed=seed, legs=legs)
     seconds = time.perf_counter() - clock
-    doc["target"] = target.source if isinstance(target, Task) else str(target)
+    doc["target"] = task.source if task is not None else str(target)
     return CheckReport(doc, title, seconds)
 
 

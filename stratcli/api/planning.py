@@ -24,6 +24,14 @@ from .auto import AutoSettings, auto_settings, compare_decomposition, decompose_
 from .inspection import controllability_first
 
 Progress = Callable[[int, int], None]  # (sequences planned so far, sequences in all)
+ScenarioLike = (
+    Task | str | Path | Mapping[str, Any]
+)  # a loaded scenario or what load_scenario takes
+
+
+def as_task(scenario: ScenarioLike) -> Task:
+    """A loaded scenario: `scenario` itself, or `load_scenario(scenario)`."""
+    return scenario if isinstance(scenario, Task) else load_scenario(scenario)
 
 
 @dataclass(frozen=True)
@@ -110,7 +118,7 @@ def plan(
     NotControllableError
         When `check` finds a stratum that cannot do its leg; nothing is planned.
     """
-    task = scenario if isinstance(scenario, Task) else load_scenario(scenario)
+    task = as_task(scenario)
     if not task.legs:
         return plan_auto(task, check=check, jobs=jobs).best.result
     return plan_run(task, check=check, time_scale=time_scale).result
@@ -158,14 +166,19 @@ def plan_run(task: Task, *, check: bool = True, time_scale: float | None = None)
 
 
 def plan_auto(
-    task: Task, *, check: bool = True, jobs: int | None = None, progress: Progress | None = None
+    scenario: ScenarioLike,
+    *,
+    check: bool = True,
+    jobs: int | None = None,
+    progress: Progress | None = None,
 ) -> ComparisonOutcome:
     """Auto mode: plan every candidate sequence of the [decompose] table, keep the best.
 
     Parameters
     ----------
-    task : Task
-        A loaded scenario without legs; its start, goal and [decompose] table are used.
+    scenario : Task, str, Path or Mapping
+        A scenario without legs (loaded, or what `load_scenario` takes); its start, goal and
+        [decompose] table are used.
     check : bool
         First check that the candidate strata together reach every direction.
     jobs : int, optional
@@ -185,13 +198,14 @@ def plan_auto(
     InputError
         When no candidate sequence could even be planned.
     """
+    task = as_task(scenario)
     if check:
         controllability_first(task)
     return compare_sequences(task, jobs=jobs, progress=progress)
 
 
 def compare_sequences(
-    task: Task,
+    scenario: ScenarioLike,
     *,
     max_length: int | None = None,
     strategy: str | None = None,
@@ -203,8 +217,8 @@ def compare_sequences(
 
     Parameters
     ----------
-    task : Task
-        A loaded scenario; its start and goal are decomposed.
+    scenario : Task, str, Path or Mapping
+        A scenario (loaded, or what `load_scenario` takes); its start and goal are decomposed.
     max_length : int, optional
         Longest sequence of strata (default: decompose table, else 3; at most 8).
     strategy : str, optional
@@ -221,6 +235,7 @@ def compare_sequences(
     ComparisonOutcome
         Outcomes, ranking, comparison.json and the best sequence's plan.
     """
+    task = as_task(scenario)
     auto, dec = _decomposition(task, max_length, strategy, criterion)
     started = datetime.now(UTC)
     total, done = len(dec.candidates), 0
@@ -262,14 +277,14 @@ def compare_sequences(
 
 
 def decompose(
-    task: Task, *, max_length: int | None = None, strategy: str | None = None
+    scenario: ScenarioLike, *, max_length: int | None = None, strategy: str | None = None
 ) -> DecompositionOutcome:
     """The candidate sequences of strata and their via configurations, without planning.
 
     Parameters
     ----------
-    task : Task
-        A loaded scenario; its start and goal are decomposed.
+    scenario : Task, str, Path or Mapping
+        A scenario (loaded, or what `load_scenario` takes); its start and goal are decomposed.
     max_length : int, optional
         Longest sequence of strata (default: decompose table, else 3; at most 8).
     strategy : str, optional
@@ -280,6 +295,7 @@ def decompose(
     DecompositionOutcome
         The decomposition and its JSON document.
     """
+    task = as_task(scenario)
     auto, dec = _decomposition(task, max_length, strategy)
     system = task.system
     rows = [
