@@ -24,9 +24,8 @@ from .auto import AutoSettings, auto_settings, compare_decomposition, decompose_
 from .inspection import controllability_first
 
 Progress = Callable[[int, int], None]  # (sequences planned so far, sequences in all)
-ScenarioLike = (
-    Task | str | Path | Mapping[str, Any]
-)  # a loaded scenario or what load_scenario takes
+# a loaded scenario, or what load_scenario takes (a path, TOML text or a dict)
+ScenarioLike = Task | str | Path | Mapping[str, Any]
 
 
 def as_task(scenario: ScenarioLike) -> Task:
