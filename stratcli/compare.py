@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -32,7 +32,7 @@ CRITERION_LABELS = {
 SAMPLES_PER_LEG = 1001  # for peak |u| and joint excursions
 
 
-@dataclass
+@dataclass(frozen=True)
 class Outcome:
     """One candidate, planned (or not), with the quantities it is ranked by."""
 
@@ -62,7 +62,7 @@ class Outcome:
         }[criterion]
 
 
-@dataclass
+@dataclass(frozen=True)
 class Comparison:
     """All outcomes, their ranking and what sharing and parallelism did."""
 
@@ -180,7 +180,7 @@ def compare(
     wall = time.perf_counter() - clock
     ranking = rank([o for o in outcomes if o is not None], criterion)
     for r, k in enumerate(ranking):
-        outcomes[k].rank = r + 1
+        outcomes[k] = replace(outcomes[k], rank=r + 1)
     return Comparison(
         outcomes=list(outcomes),
         ranking=ranking,
@@ -196,20 +196,29 @@ def compare(
 def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
     if isinstance(plan, str):  # an exception while planning
         return Outcome(k, cand, None, "failed", plan, plan, planning_time=seconds)
-    out = Outcome(k, cand, plan, "ok" if plan.ok else "failed", "", "", planning_time=seconds)
-    out.energy = plan.total_energy
-    out.duration = plan.duration
-    out.peak_control, out.excursion = _peak_and_excursion(plan, system, settings)
+    peak, excursion = _peak_and_excursion(plan, system, settings)
+    reason = ""
     if not plan.ok:
-        out.message = plan.message
         last = plan.legs[-1] if plan.legs else None
-        out.reason = (
+        reason = (
             f"leg {last.index + 1} on {last.stratum}: error {last.error:.2g} > "
             f"tolerance {settings.tolerance:g}"
             if last is not None and not last.converged
             else plan.message.split(";")[0]
         )
-    return out
+    return Outcome(
+        k,
+        cand,
+        plan,
+        "ok" if plan.ok else "failed",
+        reason,
+        plan.message if not plan.ok else "",
+        energy=plan.total_energy,
+        peak_control=peak,
+        excursion=excursion,
+        duration=plan.duration,
+        planning_time=seconds,
+    )
 
 
 def joint_coordinates(system: System, strata: Sequence[str]) -> tuple[int, ...]:

@@ -205,6 +205,13 @@ class System:
     spec: Any = None  # the scenario's [model] table it was built from (a plan's reference)
     _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False)
 
+    def __getstate__(self) -> dict:
+        """Pickled without its compiled functions (lambdified code does not pickle); they
+        are generated again on first use where the system is unpickled."""
+        state = dict(self.__dict__)
+        state["_compiled"] = {}
+        return state
+
     @cached_property
     def symbols(self) -> tuple[sp.Symbol, ...]:
         return tuple(sp.Symbol(s, real=True) for s in self.states)
