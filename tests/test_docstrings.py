@@ -1,0 +1,86 @@
+"""Every public function documents its parameters (numpydoc; python-control's
+`docstrings_test.py` pattern): the functions of `stratcli.__all__` and of `stratcli.api`."""
+
+from __future__ import annotations
+
+import inspect
+
+import pytest
+
+import stratcli
+from stratcli import api
+
+
+def _functions() -> dict[str, object]:
+    found = {}
+    for name in stratcli.__all__:
+        if name == "__version__":
+            continue
+        obj = getattr(stratcli, name)
+        if inspect.isfunction(obj):  # classes, enums and errors are not checked here
+            found[f"stratcli.{name}"] = obj
+    for name in dir(api):
+        obj = getattr(api, name)
+        if not name.startswith("_") and inspect.isfunction(obj):
+            found[f"stratcli.api.{name}"] = obj
+    return found
+
+
+FUNCTIONS = _functions()
+# Known gaps, reported (tests may not edit stratcli/): strict, so a fix makes this list shrink.
+UNDOCUMENTED = {
+    "stratcli.time_scaled": "no Parameters or Returns section (plan, s)",
+}
+
+
+def _section(doc: str, title: str) -> str | None:
+    """The body of a numpydoc section (up to the next underlined title), or None."""
+    lines = doc.splitlines()
+    for i, line in enumerate(lines[:-1]):
+        if line.strip() == title and set(lines[i + 1].strip()) == {"-"}:
+            body = []
+            for j in range(i + 2, len(lines)):
+                nxt = lines[j + 1].strip() if j + 1 < len(lines) else ""
+                if lines[j].strip() and nxt and set(nxt) == {"-"}:
+                    break
+                body.append(lines[j])
+            return "\n".join(body)
+    return None
+
+
+def test_the_public_api_has_functions_to_check():
+    assert {"stratcli.plan", "stratcli.load_scenario", "stratcli.api.plan_run"} <= set(FUNCTIONS)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.xfail(reason=UNDOCUMENTED[n], strict=True))
+        if n in UNDOCUMENTED
+        else n
+        for n in sorted(FUNCTIONS)
+    ],
+)
+def test_public_functions_document_their_parameters(name):
+    obj = FUNCTIONS[name]
+    doc = inspect.getdoc(obj) or ""
+    signature = inspect.signature(obj)
+    parameters = [
+        p
+        for p in signature.parameters.values()
+        if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or p.name not in ("args", "kwargs")
+    ]
+    if parameters:
+        section = _section(doc, "Parameters")
+        assert section is not None, f"{name}: no Parameters section"
+        documented = {
+            part.strip().lstrip("*")
+            for line in section.splitlines()
+            if line and not line[0].isspace() and " :" in line
+            for part in line.split(" :")[0].split(",")
+        }
+        missing = [p.name for p in parameters if p.name not in documented]
+        assert not missing, f"{name}: parameters not documented: {missing}"
+    returns_none = signature.return_annotation in (None, "None")
+    if not returns_none:
+        assert _section(doc, "Returns") is not None, f"{name}: no Returns section"
