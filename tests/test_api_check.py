@@ -1,0 +1,35 @@
+"""The controllability check's document: presets, a 20-link chain."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from conftest import (
+    chain_scenario,
+)
+
+from stratcli.api.check import check_document
+from stratcli.models.presets import preset
+from stratcli.scenario import parse_scenario
+
+
+def test_presets_are_strongly_controllable():
+    for name in ("one-arm", "two-arm"):
+        system = preset(name)
+        doc = check_document(system, list(system.strata), np.zeros(system.n), samples=20)
+        assert doc["strongly_controllable"] and doc["stratified_controllable"], name
+        assert doc["controllable"] and not doc["problems"]
+        # at q = 0 every first derivative of A vanishes: third-order brackets are needed there
+        assert all(s["rank_at_requested_degree"] < s["dimension"] for s in doc["strata"])
+        assert all(s["degree_at"] == 3 for s in doc["strata"])
+
+
+def test_check_of_a_20_link_chain_is_quick_and_right():
+    task = parse_scenario(chain_scenario(20))
+    t0 = time.perf_counter()
+    doc = check_document(task.system, ["S1"], task.start, legs=task.legs)
+    assert time.perf_counter() - t0 < 30
+    (stratum,) = doc["strata"]
+    assert stratum["rank_at_requested_degree"] == 19 and stratum["degree_at"] == 3
+    assert doc["controllable"] and stratum["strong"]

@@ -1,0 +1,58 @@
+"""Planning use cases: every shipped scenario, unsteerable legs, decompositions."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import (
+    ROOT,
+    SCENARIOS,
+)
+from reintegrate import verify
+
+from stratcli import api
+from stratcli.errors import InputError, NotControllableError
+from stratcli.scenario import load_scenario, parse_scenario
+
+TURN_ONLY = """
+name = "turn-only"
+[model]
+kind = "custom"
+states = ["x", "y", "theta"]
+inputs = ["v", "w"]
+[model.fields]
+v = ["cos(theta)", "sin(theta)", 0]
+w = [0, 0, 1]
+[[model.strata]]
+name = "turn"
+active = ["w"]
+[task]
+start = [0, 0, 0]
+goal = [1, 0, 0]
+[[legs]]
+stratum = "turn"
+"""
+
+
+def test_a_leg_its_stratum_cannot_steer_raises_before_planning():
+    task = parse_scenario(TURN_ONLY)
+    with pytest.raises(NotControllableError) as caught:
+        api.plan_run(task)
+    assert any("leg 1 on turn" in p for p in caught.value.problems)
+    report = api.check_controllability(task, samples=3)
+    assert not report.controllable and report.problems == caught.value.problems
+
+
+def test_decompose_lists_the_candidates_without_planning():
+    task = load_scenario(ROOT / "scenarios" / "sim4_auto.toml")
+    outcome = api.decompose(task, max_length=2, strategy="both")
+    assert outcome.document["strategies"] == ["conservative", "postponed"]
+    assert len(outcome.document["sequences"]) == len(outcome.decomposition.candidates)
+    with pytest.raises(InputError, match="--strategy"):
+        api.decompose(task, strategy="eager")
+
+
+@pytest.mark.parametrize("stem", [p.stem for p in SCENARIOS])
+def test_shipped_scenario_plans_and_reintegrates(shipped_plans, stem):
+    """Every shipped scenario, planned once per session as `stratplan regress` plans it."""
+    task, outcome = shipped_plans[stem]
+    verify(task, outcome.document)

@@ -1,0 +1,22 @@
+"""Run-record use cases: writing, listing and reading records back."""
+
+from __future__ import annotations
+
+import json
+
+from conftest import ROOT
+
+from stratcli import api
+from stratcli.scenario import load_scenario
+
+
+def test_plan_returns_the_result_document_and_write_record_writes_it(tmp_path):
+    outcome = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml"))
+    assert outcome.ok and outcome.document["status"] == "ok"
+    assert outcome.planning_time > 0 and outcome.compile_time > 0
+    run_dir = api.write_record(tmp_path, outcome, animation=False, argv=["notebook"])
+    assert json.loads((run_dir / "result.json").read_text()) == outcome.document
+    assert json.loads((run_dir / "manifest.json").read_text())["command"] == ["notebook"]
+    assert api.list_runs(tmp_path)[0]["run"] == run_dir.name
+    record, _ = api.read_run(run_dir)
+    assert record.result == outcome.document

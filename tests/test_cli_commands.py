@@ -1,0 +1,488 @@
+"""The command line: exit codes, one clear line per problem naming file and field, every
+command (plan, check, models, show, runs, decompose, compare-sequences)."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+from conftest import (
+    ROOT,
+    newton_objective,
+)
+from typer.testing import CliRunner
+
+import stratcli.cli as cli
+from stratcli.cli import app
+from stratcli.records.comparison import without_timings
+from stratcli.records.store import read_record
+from stratcli.scenario import load_scenario
+
+runner = CliRunner()
+
+
+TASK_D = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+
+
+def run(tmp_path, text: str, *args: str):
+    path = tmp_path / "scenario.toml"
+    path.write_text(text)
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs"), *args])
+    return result, path
+
+
+def _one_line_errors(result, path) -> list[str]:
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    lines = [x for x in result.output.splitlines() if x.startswith("error:")]
+    assert lines and all(str(path) in x for x in lines)
+    return lines
+
+
+def test_plan_writes_a_record_and_prints_the_table(tmp_path):
+    result, _ = run(tmp_path, TASK_D)
+    assert result.exit_code == 0, result.output
+    assert "total energy" in result.output and "paper: 124.59" in result.output
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    assert re.fullmatch(r"\d{8}T\d{6}Z-sim4_task_d-[0-9a-f]{8}", run_dir.name)
+    doc = json.loads((run_dir / "result.json").read_text())
+    assert doc["schema"] == "stratplan.result/1" and doc["status"] == "ok"
+    assert doc["coordinates"] == ["q1", "q2", "q3", "theta"]
+    assert (run_dir / "scenario.toml").read_text() == TASK_D
+    assert json.loads((run_dir / "manifest.json").read_text())["exit_code"] == 0
+
+
+def test_time_scaled_plan_is_compared_with_the_paper_at_its_own_speed(tmp_path):
+    """--time-scale 2 doubles the energy; the paper's value is for 1 s legs, so the ratio is
+    taken at time scale 1, and the table's energies are the scaled ones."""
+    result, _ = run(tmp_path, TASK_D, "--time-scale", "2", "--no-animation")
+    assert result.exit_code == 0, result.output
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    doc = json.loads((run_dir / "result.json").read_text())
+    own = doc["total_energy"] / 2
+    text = " ".join(result.output.split())
+    assert f"at time scale 1: {own:,.2f}; paper: 124.59, ratio {own / 124.59:.2f}" in text
+    assert "before time scaling" in text
+
+
+def test_json_output_is_the_result_document(tmp_path):
+    result, _ = run(tmp_path, TASK_D, "--json")
+    assert result.exit_code == 0
+    doc = json.loads(result.stdout)
+    assert [leg["stratum"] for leg in doc["legs"]] == ["S3", "S1"]
+
+
+BAD = {
+    "malformed TOML": (TASK_D.replace('name = "one-arm"', 'name = "one-arm'), "not valid TOML"),
+    "unknown key": (
+        TASK_D.replace("tolerance = 1e-3", "tolerence = 1e-3"),
+        "planner.tolerence: unknown key (allowed: continuity",
+    ),
+    "wrong type": (
+        TASK_D.replace("tolerance = 1e-3", 'tolerance = "small"'),
+        "planner.tolerance: ",
+    ),
+    "bad angle": (
+        TASK_D.replace('start = [0, "pi/4", 0, 0]', 'start = [0, "pi/4x", 0, 0]'),
+        "task.start[1]",
+    ),
+    "wrong vector length": (
+        TASK_D.replace('start = [0, "pi/4", 0, 0]', 'start = [0, "pi/4", 0]'),
+        "task.start: needs 4 values (q1, q2, q3, theta), got 3",
+    ),
+    "unknown preset": (
+        TASK_D.replace('name = "one-arm"', 'name = "three-arm"'),
+        "model.name: Input should be 'one-arm' or 'two-arm'",
+    ),
+    "unknown stratum": (
+        TASK_D.replace('stratum = "S3"', 'stratum = "S5"'),
+        "legs[0].stratum: unknown stratum 'S5' (this model has: S1, S2, S3)",
+    ),
+    "locked coordinate moved": (
+        TASK_D.replace('stratum = "S3"', 'stratum = "S1"'),
+        "legs[0].goal: leg 1 on S1: q1 is locked at 0",
+    ),
+    "too few coefficients": (
+        TASK_D.replace(
+            "tolerance = 1e-3", "tolerance = 1e-3\nsoft_start = true\nbasis.harmonics = 1"
+        ),
+        "leave 1 free coefficients for 3 goal coordinates: 2 missing",
+    ),
+    "missing field": (TASK_D.replace('name = "sim4_task_d"\n', ""), "name: required field"),
+    # strict types: nothing is coerced silently
+    "string for a bool": (
+        TASK_D.replace("tolerance = 1e-3", 'tolerance = 1e-3\nsoft_start = "yes"'),
+        "planner.soft_start: Input should be a valid boolean",
+    ),
+    "string for an int": (
+        TASK_D.replace("tolerance = 1e-3", 'tolerance = 1e-3\nbasis.harmonics = "3"'),
+        "planner.basis.harmonics: Input should be a valid integer",
+    ),
+    "string for an energy": (
+        TASK_D.replace("energy = 124.59", 'energy = "124"'),
+        "reference.energy: Input should be a valid number",
+    ),
+    # non-finite and out-of-range numbers name their field
+    "nan start": (
+        TASK_D.replace('start = [0, "pi/4", 0, 0]', "start = [0, nan, 0, 0]"),
+        "task.start[1]: must be a finite number",
+    ),
+    "nan goal": (
+        TASK_D.replace('goal = ["-pi/3", "pi/3", "pi/4", "-pi/12"]', "goal = [nan, 0, 0, 0]"),
+        "task.goal[0]: must be a finite number",
+    ),
+    "huge angle": (
+        TASK_D.replace('start = [0, "pi/4", 0, 0]', "start = [0, 1e38, 0, 0]"),
+        "task.start[1]: Input should be less than or equal to 10000",
+    ),
+    "huge time scale": (
+        TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-3\ntime_scale = 1e308"),
+        "planner.time_scale: Input should be less than or equal to 1000",
+    ),
+    "huge leg duration": (
+        TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-3\nleg_duration = 1e308"),
+        "planner.leg_duration: Input should be less than or equal to 1000",
+    ),
+    "infinite tolerance": (
+        TASK_D.replace("tolerance = 1e-3", "tolerance = inf"),
+        "planner.tolerance: must be a finite number",
+    ),
+    "tiny period": (
+        TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-3\nbasis.period = 1e-12"),
+        "spans 1e+12 basis periods",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_bad_input_exits_2_naming_the_field(tmp_path, case):
+    text, expected = BAD[case]
+    result, path = run(tmp_path, text)
+    lines = _one_line_errors(result, path)
+    assert any(expected in line for line in lines), lines
+    assert not (tmp_path / "runs").exists()  # nothing written for bad input
+
+
+def test_missing_file_exits_2(tmp_path):
+    result = runner.invoke(app, ["plan", str(tmp_path / "nope.toml")])
+    assert result.exit_code == 2 and "cannot read scenario file" in result.output
+
+
+UNSAFE = [
+    "__import__('os').system('true')",
+    "theta.__class__",
+    "open('/etc/passwd')",
+    "(lambda: 1)()",
+    "[1][0]",
+]
+
+
+@pytest.mark.parametrize("expression", UNSAFE)
+def test_expressions_are_never_evaluated(tmp_path, expression):
+    text = (ROOT / "scenarios" / "biped.toml").read_text()
+    text = text.replace('"alpha1*cos(theta)"', json.dumps(expression))
+    result, path = run(tmp_path, text)
+    lines = _one_line_errors(result, path)
+    assert any("model.fields.u1[0]" in line and "not allowed" in line for line in lines), lines
+
+
+def test_failed_leg_exits_1_and_still_writes_a_failed_record(tmp_path):
+    text = TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-12\nmax_iterations = 1\nrestarts = 0")
+    result, _ = run(tmp_path, text)
+    assert result.exit_code == 1
+    assert "leg 1 on S3 did not reach its goal" in result.output and "try" in result.output
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    doc = json.loads((run_dir / "result.json").read_text())
+    assert doc["status"] == "failed" and "leg 1 on S3" in doc["message"]
+    assert json.loads((run_dir / "manifest.json").read_text())["exit_code"] == 1
+
+
+def test_models_lists_presets():
+    result = runner.invoke(app, ["models"])
+    assert result.exit_code == 0
+    assert "one-arm" in result.output and "S24" in result.output
+
+
+def test_models_describes_a_scenario_model():
+    result = runner.invoke(app, ["models", str(ROOT / "scenarios" / "biped.toml")])
+    assert result.exit_code == 0, result.output
+    assert "x, y, theta, phi1, phi2" in result.output
+    assert "S12" in result.output and "asks for the ode evaluator" in result.output
+
+
+EXP_EXP = """
+name = "exp_exp"
+[model]
+kind = "custom"
+states = ["x", "y"]
+inputs = ["u", "v"]
+fields = { u = ["exp(exp(x))", "0"], v = ["0", "1"] }
+[[model.strata]]
+name = "S"
+active = ["u", "v"]
+[task]
+start = [0, 0]
+goal = [5, 1]
+[planner]
+objective = "newton"
+[[legs]]
+stratum = "S"
+"""
+
+
+def test_numerical_failure_is_a_failed_leg_with_a_record_not_a_traceback(tmp_path):
+    """x' = exp(exp(x))·u overflows: the leg fails with its status, the record is written."""
+    result, _ = run(tmp_path, EXP_EXP, "--no-check", "--no-animation")
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    assert "leg 1 on S was stopped by a numerical failure" in result.stderr
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    doc = json.loads((run_dir / "result.json").read_text())
+    assert doc["status"] == "failed" and doc["legs"][0]["status"] == "numerical_failure"
+    assert "numerical failure" in doc["message"]
+
+
+TASK_C = ROOT / "scenarios" / "sim4_task_c.toml"
+
+
+def _plan(tmp_path, scenario=TASK_C, *args):
+    result = runner.invoke(
+        app, ["plan", str(scenario), "--out", str(tmp_path), "--quiet", "--no-animation", *args]
+    )
+    assert result.exit_code == 0, result.output
+    (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
+    return run
+
+
+def test_show_reads_the_record_back(tmp_path):
+    run = _plan(tmp_path)
+    shown = runner.invoke(app, ["show", str(run)])
+    assert shown.exit_code == 0
+    assert "sim4_task_c" in shown.output and "S3" in shown.output and "total energy" in shown.output
+    data = json.loads(runner.invoke(app, ["show", str(run), "--json"]).stdout)
+    assert data["result"]["total_energy"] == read_record(run).result["total_energy"]
+    assert data["mcap"]["topics"]["/state"] >= 200 * 3  # read back from run.mcap
+    assert "run.mcap:" in shown.output
+    listed = json.loads(runner.invoke(app, ["runs", "--out", str(tmp_path), "--json"]).stdout)
+    assert [r["run"] for r in listed] == [run.name]
+
+
+def test_show_refuses_missing_and_incomplete_records(tmp_path):
+    missing = runner.invoke(app, ["show", str(tmp_path / "nope")])
+    assert missing.exit_code == 2 and "no run record" in missing.output
+    run = _plan(tmp_path)
+    (run / "result.json").unlink()
+    broken = runner.invoke(app, ["show", str(run)])
+    assert broken.exit_code == 2 and "missing result.json" in broken.output
+    partial = tmp_path / ".x.partial"
+    partial.mkdir()
+    assert runner.invoke(app, ["show", str(partial)]).exit_code == 2
+    assert json.loads(runner.invoke(app, ["runs", "--out", str(tmp_path), "--json"]).stdout) == []
+
+
+UNICYCLE = """
+name = "uni"
+[model]
+kind = "custom"
+states = ["x", "y", "theta"]
+inputs = ["v", "w"]
+[model.fields]
+v = ["cos(theta)", "sin(theta)", 0]
+w = [0, 0, 1]
+[[model.strata]]
+name = "drive"
+active = ["v", "w"]
+[task]
+start = [0, 0, 0]
+goal = [0, 0.1, 0]
+[[legs]]
+stratum = "drive"
+"""
+
+
+def test_biped_is_not_controllable_on_its_strata_but_is_stratified_controllable(scenarios_dir):
+    result = runner.invoke(app, ["check", str(scenarios_dir / "biped.toml"), "--json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    strong = {s["stratum"]: s["strong"] for s in doc["strata"]}
+    # the paper: not controllable on S1, S2, S12 (each reaches only 2 of 5 directions) ...
+    assert strong == {"S1": False, "S2": False, "S12": False}
+    assert doc["eq2"]["sum_min_rank"] == 4  # each stratum's closure alone: not enough
+    # ... but stratified controllable by switching between them
+    assert doc["eq2"]["by_switching"] and doc["stratified_controllable"]
+    assert all(leg["ok"] for leg in doc["legs"])
+
+
+TURN = 'active = ["v", "w"]\n[[model.strata]]\nname = "turn"\nactive = ["w"]'
+
+
+def test_check_exit_code_3_names_the_stratum_and_configuration(tmp_path):
+    scenario = tmp_path / "bad.toml"
+    scenario.write_text(
+        UNICYCLE.replace("goal = [0, 0.1, 0]", "goal = [1, 0, 0]")
+        .replace('active = ["v", "w"]', TURN)
+        .replace('stratum = "drive"', 'stratum = "turn"')
+    )
+    result = runner.invoke(app, ["check", str(scenario)])
+    assert result.exit_code == 3
+    assert "leg 1 on turn" in result.stderr and "q = (0, 0, 0)" in result.stderr
+    planned = runner.invoke(app, ["plan", str(scenario), "--out", str(tmp_path / "runs")])
+    assert planned.exit_code == 3 and "not controllable" in planned.stderr
+    assert not any((tmp_path / "runs").iterdir())  # the directory is made, no record in it
+
+
+def test_check_command_on_a_preset_prints_ranks_and_spanning_brackets():
+    result = runner.invoke(app, ["check", "one-arm", "--at", "0, pi/3, 0, 0", "--samples", "5"])
+    assert result.exit_code == 0, result.output
+    assert "strongly controllable on every stratum" in result.output
+    assert "[u2,u3]" in result.output
+    bad = runner.invoke(app, ["check", "one-arm", "--at", "0, 1"])
+    assert bad.exit_code == 2
+
+
+AUTO = ROOT / "scenarios" / "sim4_auto.toml"
+
+
+AUTO_TEXT = AUTO.read_text()
+
+
+@pytest.fixture
+def newton(monkeypatch):
+    """Make the command line plan with the Newton objective whatever the default is."""
+
+    def load(path):
+        task = load_scenario(path)
+        task.settings = newton_objective(task.settings)
+        return task
+
+    monkeypatch.setattr(cli, "load_scenario", load)
+
+
+def test_decompose_command_lists_the_papers_sequences(tmp_path):
+    result = runner.invoke(cli.app, ["decompose", str(AUTO)])
+    assert result.exit_code == 0, result.output
+    assert "essential coordinates: q1, q2, q3, theta" in result.output
+    out = result.output
+    assert "S3 → S2 → S1" in out and "-π/12" in out and "-0.2618" in out  # π and radians
+    doc = json.loads(runner.invoke(cli.app, ["decompose", str(AUTO), "--json"]).stdout)
+    rows = {tuple(r["sequence"]): r for r in doc["sequences"]}
+    assert rows[("S3", "S2", "S1")]["vias_pi"] == [
+        ["-π/3", "π/3", "0", "-π/12"],
+        ["-π/3", "π/3", "π/4", "-π/12"],
+    ]
+    assert rows[("S1", "S2")]["vias_pi"] == [["0", "π/3", "π/4", "-π/12"]]
+    both = json.loads(
+        runner.invoke(
+            cli.app, ["decompose", str(AUTO), "--json", "--strategy", "both", "--max-length", "2"]
+        ).stdout
+    )
+    assert len(both["sequences"]) == 12 and both["strategies"] == ["conservative", "postponed"]
+
+
+def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, newton):
+    docs, results = [], []
+    for jobs in ("1", "2"):
+        out = tmp_path / jobs
+        args = ["compare-sequences", str(AUTO), "--max-length", "2", "--strategy", "both"]
+        result = runner.invoke(
+            cli.app, [*args, "--jobs", jobs, "--out", str(out), "--no-animation"]
+        )
+        assert result.exit_code == 0, result.output
+        assert "best: (" in result.output and "legs planned" in result.output
+        (run_dir,) = out.iterdir()
+        names = {p.name for p in run_dir.iterdir()}
+        assert {"comparison.json", "comparison.csv", "ranking.png", "result.json"} <= names
+        assert {"manifest.json", "scenario.toml", "resolved.json"} <= names
+        assert (run_dir / "ranking.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        doc = json.loads((run_dir / "comparison.json").read_text())
+        csv = (run_dir / "comparison.csv").read_text().splitlines()
+        assert len(csv) == 1 + len(doc["rows"]) == 13 and csv[0].startswith("rank,sequence")
+        best = json.loads((run_dir / "result.json").read_text())
+        assert [leg["stratum"] for leg in best["legs"]] == doc["rows"][0]["sequence"]
+        assert best["total_energy"] == doc["rows"][0]["energy"]
+        resolved = json.loads((run_dir / "resolved.json").read_text())
+        assert [leg["stratum"] for leg in resolved["legs"]] == doc["rows"][0]["sequence"]
+        assert runner.invoke(cli.app, ["show", str(run_dir)]).exit_code == 0
+        docs.append(doc)
+        results.append(best)
+    assert docs[0]["jobs"] == 1 and docs[1]["jobs"] == 2
+    assert without_timings(docs[0]) == without_timings(docs[1])
+    assert results[0] == results[1]
+
+
+def test_plan_in_auto_mode_chooses_and_says_why(tmp_path, newton):
+    result = runner.invoke(cli.app, ["plan", str(AUTO), "--out", str(tmp_path), "--no-animation"])
+    assert result.exit_code == 0, result.output
+    assert "auto mode: 18 candidate sequences" in result.output
+    assert "lowest total energy" in result.output and "total energy" in result.output
+    (run_dir,) = tmp_path.iterdir()
+    doc = json.loads((run_dir / "result.json").read_text())
+    comparison = json.loads((run_dir / "comparison.json").read_text())
+    assert doc["status"] == "ok" and doc["scenario"] == "sim4_auto"
+    ok = [r["energy"] for r in comparison["rows"] if r["status"] == "ok"]
+    assert doc["total_energy"] == min(ok)
+    assert [leg["stratum"] for leg in doc["legs"]] == comparison["rows"][0]["sequence"]
+
+
+BAD_DECOMPOSE = {
+    "max_length": ("max_length = 3", "max_length = 0", "decompose.max_length: Input should be"),
+    "strategy": (
+        'strategy = "conservative"',
+        'strategy = "eager"',
+        "decompose.strategy: Input should be 'conservative', 'postponed' or 'both'",
+    ),
+    "criterion": (
+        'criterion = "energy"',
+        'criterion = "cost"',
+        "decompose.criterion: Input should be",
+    ),
+    "unknown key": (
+        "max_length = 3",
+        "max_len = 3",
+        "decompose.max_len: unknown key (allowed: max_length, strategy, criterion, strata)",
+    ),
+    "strata": (
+        "max_length = 3",
+        'max_length = 3\nstrata = ["S1", "S9"]',
+        "decompose.strata[1]: unknown stratum 'S9' (this model has: S1, S2, S3)",
+    ),
+    "neither": ("[decompose]", "[other]", "legs: give either [[legs]]"),
+    "too short": (
+        "max_length = 3",
+        "max_length = 1",
+        "decompose.max_length: no sequence of at most 1 strata",
+    ),
+    "strata move too little": (
+        "max_length = 3",
+        'max_length = 3\nstrata = ["S1"]',
+        "decompose.strata: none of the strata listed moves q1",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_DECOMPOSE), ids=list(BAD_DECOMPOSE))
+def test_bad_decompose_values_exit_2_naming_the_field(tmp_path, case):
+    old, new, message = BAD_DECOMPOSE[case]
+    text = AUTO_TEXT.replace(old, new, 1)
+    if case == "neither":
+        text = text.split("[other]")[0]
+    path = tmp_path / "auto.toml"
+    path.write_text(text)
+    result = runner.invoke(cli.app, ["decompose", str(path)])
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    lines = [x for x in result.output.splitlines() if x.startswith("error:")]
+    assert lines and all(str(path) in x for x in lines)
+    assert any(message in x for x in lines), result.output
+
+
+def test_bad_options_exit_2_naming_the_option():
+    result = runner.invoke(cli.app, ["compare-sequences", str(AUTO), "--strategy", "eager"])
+    assert result.exit_code == 2 and "--strategy: must be conservative, postponed or both" in (
+        result.output
+    )
+    result = runner.invoke(cli.app, ["decompose", str(AUTO), "--max-length", "1"])
+    assert result.exit_code == 2 and "--max-length: no sequence of at most 1 strata" in (
+        result.output
+    )

@@ -1,0 +1,93 @@
+"""Comparing candidate sequences: shared prefixes, ranking, failed sequences kept."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from conftest import (
+    newton_objective,
+)
+
+from stratcli.compare import compare
+from stratcli.decompose import (
+    decompose,
+    moved_coordinates,
+)
+from stratcli.scenario import parse_scenario
+from stratcli.stratified import plan_sequence
+from stratcli.trie import build_trie
+
+PI = math.pi
+
+
+UNICYCLE = """
+name = "unicycle_turns"
+[model]
+kind = "custom"
+states = ["x", "y", "theta"]
+inputs = ["v", "w"]
+[model.fields]
+v = ["cos(theta)", "sin(theta)", 0]
+w = [0, 0, 1]
+[[model.strata]]
+name = "drive"
+active = ["v"]
+locked = ["theta"]
+[[model.strata]]
+name = "turn"
+active = ["w"]
+locked = ["x", "y"]
+[task]
+start = [0, 0, 0]
+goal = [1, 0, "pi/2"]
+[planner]
+continuity = "lr-C1"
+[decompose]
+max_length = 2
+"""
+
+
+def test_custom_model_and_a_failed_sequence_stays_in_the_table():
+    task = parse_scenario(UNICYCLE)
+    system = task.system
+    assert moved_coordinates(system, "drive") == (0, 1)
+    assert moved_coordinates(system, "turn") == (2,)
+    dec = decompose(system, task.start, task.goal, max_length=2)
+    assert dec.sequences == (("drive", "turn"), ("turn", "drive"))
+    turn_first = dec.candidates[1]
+    np.testing.assert_allclose(turn_first.vias[0], (0, 0, PI / 2))
+    result = compare(system, task.start, dec.candidates, newton_objective(task.settings))
+    best, other = (result.outcomes[k] for k in result.ranking)
+    assert best.candidate.sequence == ("drive", "turn") and best.ok
+    # heading π/2 first, the car can no longer reach x = 1: failed, with its reason
+    assert not other.ok and other.rank == 2
+    assert "leg 2 on drive" in other.reason and "did not reach its goal" in other.message
+
+
+def test_shared_prefixes_give_exactly_the_plans_of_plan_sequence(sim4):
+    dec = decompose(
+        sim4.system, sim4.start, sim4.goal, max_length=3, strategies=("conservative", "postponed")
+    )
+    result = compare(sim4.system, sim4.start, dec.candidates, sim4.settings)
+    nodes, _ = build_trie(sim4.system, sim4.settings, [list(c.legs) for c in dec.candidates])
+    assert result.legs_requested == sum(len(c.legs) for c in dec.candidates) == 96
+    assert result.legs_planned == len(nodes) < result.legs_requested  # shared, not repeated
+    for o in result.outcomes:
+        again = plan_sequence(sim4.system, sim4.start, list(o.candidate.legs), sim4.settings)
+        assert o.status == ("ok" if again.ok else "failed")
+        assert o.energy == again.total_energy  # exactly: same seeds, same numbers
+        assert o.plan.message == again.message
+        for a, b in zip(o.plan.legs, again.legs, strict=True):
+            np.testing.assert_array_equal(a.coefficients, b.coefficients)
+            np.testing.assert_array_equal(a.end, b.end)
+        for a, b in zip(o.plan.switches, again.switches, strict=True):
+            np.testing.assert_array_equal(a.jump_derivative, b.jump_derivative)
+    energies = [result.outcomes[k].energy for k in result.ranking if result.outcomes[k].ok]
+    assert energies == sorted(energies)
+    assert "lowest total energy" in result.choice()
+    by_peak = compare(
+        sim4.system, sim4.start, dec.candidates[:6], sim4.settings, criterion="peak-control"
+    )
+    peaks = [by_peak.outcomes[k].peak_control for k in by_peak.ranking]
+    assert peaks == sorted(peaks)

@@ -1,0 +1,105 @@
+"""The Lie-algebraic leg planner: Lie legs among Newton legs, local and cheap."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from reintegrate import controls, verify
+from scipy.integrate import cumulative_trapezoid
+
+from stratcli.continuity import mode_order
+from stratcli.models.presets import preset
+from stratcli.records.result import result_document
+from stratcli.scenario import load_scenario
+from stratcli.stratified import LegSpec, PlannerSettings, plan_sequence
+
+PI = np.pi
+
+
+def _pieces_join(doc, leg, order):
+    """Values (and derivatives) of consecutive pieces of a leg agree at their joints."""
+
+    inputs = doc["inputs"]
+    worst = 0.0
+    for a, b in zip(leg["pieces"], leg["pieces"][1:], strict=False):
+        for d in range(order + 1):
+            end = controls(a, inputs, a["duration"], bool(d))
+            start = controls(b, inputs, 0.0, bool(d))
+            worst = max(worst, float(np.abs(end - start).max()))
+    return worst
+
+
+@pytest.mark.parametrize(("degree", "rest"), [(3, True), (2, False)])
+def test_hybrid_newton_lie_newton_keeps_continuity_and_reaches_every_goal(degree, rest):
+    """A Lie leg between two Newton legs: its steps are pieces, each piece joins the next
+    with C1, the first continues the Newton leg before it, the next Newton leg continues the
+    last piece; every goal is reached, checked by re-integrating result.json independently."""
+    system = preset("one-arm")
+    q0 = np.array([0.0, PI / 4, 0.0, 0.0])
+    via1 = np.array([0.0, PI / 3, 0.3, -0.05])
+    via2 = via1 + np.array([0.0, 0.1, -0.05, 0.04])
+    goal = np.array([-0.2, PI / 3 + 0.1, 0.25, np.nan])
+    settings = PlannerSettings(objective="newton")
+    lie = replace(settings.lie, degree=degree, rest=rest)
+    legs = [
+        LegSpec("S1", via1),
+        LegSpec("S1", via2, method="lie", lie=lie),
+        LegSpec("S3", goal),
+    ]
+    plan = plan_sequence(system, q0, legs, settings)
+    assert plan.ok, plan.message
+    doc = result_document(plan, "hybrid", "one-arm")
+    lie_leg = doc["legs"][1]
+    assert lie_leg["method"] == "lie" and len(lie_leg["pieces"]) >= 2
+    assert lie_leg["duration"] == pytest.approx(0.51 * len(lie_leg["pieces"]))
+    assert [p["t0"] for p in lie_leg["pieces"]] == pytest.approx(
+        [0.51 * k for k in range(len(lie_leg["pieces"]))]
+    )
+    assert _pieces_join(doc, lie_leg, 1) <= 1e-9
+    # u1 is unused on the Lie leg's S1 and u2 on the next leg's S3 (lr-C1): both end at zero
+    for sw in doc["switches"]:
+        assert max(abs(v) for v in sw["jump"].values()) <= 1e-9
+        assert max(abs(v) for v in sw["jump_derivative"].values()) <= 1e-9
+
+    verify(SimpleNamespace(legs=legs, text=""), doc)  # what verify() needs from a task
+    if rest:  # time scaling scales every piece of the Lie leg: same path, energy x s
+        from stratcli.stratified import time_scaled
+
+        fast = time_scaled(plan, 2.0)
+        assert fast.total_energy == pytest.approx(2.0 * plan.total_energy, rel=1e-9)
+        verify(SimpleNamespace(legs=legs, text=""), result_document(fast, "hybrid", "one-arm"))
+    # the trajectory sampler integrates the Lie leg piece by piece to the same end point
+    from stratcli.records.trajectory import sample
+
+    traj = sample(plan, samples_per_leg=100)
+    np.testing.assert_allclose(traj.q[traj.leg_slice(1)][-1], plan.legs[1].end, atol=1e-8)
+    assert mode_order(doc["continuity"]) == 1
+
+
+def test_sim3_lie_leg_is_local_and_cheap(scenarios_dir):
+    task = load_scenario(scenarios_dir / "sim3_hybrid.toml")
+    assert [leg.method for leg in task.legs] == ["newton", "newton", "lie"]
+    assert task.settings.lie.degree == 3
+    # the Lie leg alone, from the configuration and the controls the Newton legs leave
+    start = np.array([-PI / 3, -PI / 3, PI / 6, PI / 12])
+    previous = (np.array([0.0, 0.0, -1.25]), np.array([0.0, 0.0, 19.6]))
+    from stratcli.stratified import LegStart, plan_next_leg, planner_for
+
+    lie_leg = task.legs[2]
+    at = LegStart(start, previous, 2.0, 2)
+    planner = planner_for(lie_leg, task.settings)
+    leg = plan_next_leg(task.system, task.settings, lie_leg, at, None, planner)
+    assert leg.converged and leg.error <= 1e-3
+    assert leg.energy < 20.0  # small loops (the Newton legs cost ~10² here)
+    # local: small periodic motions of the joints (the Newton legs sweep them by ~3 rad)
+    t = np.linspace(0.0, leg.duration, 4001)
+    u = leg.controls(t)
+    joints = cumulative_trapezoid(u[:, 1:], t, axis=0, initial=0.0)
+    assert np.ptp(joints, axis=0).max() < 0.5
+    u0 = leg.controls(np.array([0.0]))[0]
+    du0 = leg.controls(np.array([0.0]), True)[0]
+    np.testing.assert_allclose(u0, previous[0], atol=1e-9)
+    np.testing.assert_allclose(du0, previous[1], atol=1e-9)

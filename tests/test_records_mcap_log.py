@@ -1,0 +1,192 @@
+"""The MCAP log (read back with mcap's reader): channels, schemas, messages, metadata."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+
+import numpy as np
+import pytest
+from conftest import (
+    EPOCH,
+    ROOT,
+    STARTED,
+    mcap_messages,
+)
+from mcap.reader import make_reader
+
+import stratcli.simulate as simulate
+from stratcli.records.mcap_log import _json, _log_time, epoch_ns, mcap_bytes
+from stratcli.records.mcap_schemas import SCHEMA_NAMES
+from stratcli.records.plots import render_plots
+from stratcli.records.result import result_document
+from stratcli.records.trajectory import sample
+from stratcli.scenario import load_scenario
+from stratcli.stratified import plan_sequence
+
+
+def _conforms(value, schema: dict, path: str = "") -> None:
+    """Every field written is declared in the channel's JSON Schema, with a matching type."""
+    kinds = schema.get("type")
+    kinds = [kinds] if isinstance(kinds, str) else kinds or []
+    python = {
+        "object": dict,
+        "array": list,
+        "string": str,
+        "boolean": bool,
+        "integer": int,
+        "number": (int, float),
+        "null": type(None),
+    }
+    if kinds:
+        assert any(isinstance(value, python[k]) for k in kinds), (path, value, kinds)
+        if isinstance(value, bool):
+            assert "boolean" in kinds, path
+    if "enum" in schema:
+        assert value in schema["enum"], path
+    if isinstance(value, dict) and "properties" in schema:
+        for key, item in value.items():
+            assert key in schema["properties"], f"{path}.{key} is not in the schema"
+            _conforms(item, schema["properties"][key], f"{path}.{key}")
+    if isinstance(value, list) and "items" in schema:
+        for item in value:
+            _conforms(item, schema["items"], f"{path}[]")
+
+
+def test_mcap_channels_schemas_and_counts(any_run):
+    reader = make_reader(io.BytesIO(any_run.data))
+    summary = reader.get_summary()
+    topics = {ch.topic: ch for ch in summary.channels.values()}
+    manipulator = any_run.plan.system.robot is not None
+    expected = {"/state", "/controls", "/legs", "/summary"}
+    if manipulator:
+        expected |= {"/tf", "/scene"}
+    assert set(topics) == expected
+    counts = {
+        ch.topic: summary.statistics.channel_message_counts.get(ch.id, 0) for ch in topics.values()
+    }
+    legs = len(any_run.plan.legs)
+    for topic, ch in topics.items():
+        schema = summary.schemas[ch.schema_id]
+        assert (schema.name, schema.encoding, ch.message_encoding) == (
+            SCHEMA_NAMES[topic],
+            "jsonschema",
+            "json",
+        )
+        assert json.loads(schema.data)["title"] == schema.name
+    assert counts["/state"] == counts["/controls"] == any_run.traj.size >= 200 * legs
+    assert counts["/legs"] == legs + len(any_run.plan.switches)
+    assert counts["/summary"] == 1
+    if manipulator:
+        assert counts["/tf"] == counts["/state"]
+        assert counts["/scene"] == 1
+    for schema, channel, message in reader.iter_messages():
+        _conforms(json.loads(message.data), json.loads(schema.data), channel.topic)
+    times = [m.log_time for _, _, m in reader.iter_messages(log_time_order=False)]
+    assert times == sorted(times)  # in file order, not only after sorting by the reader
+    assert times[0] == EPOCH and times[-1] == EPOCH + round(any_run.plan.duration * 1e9)
+
+
+def test_mcap_metadata_and_attachment(one_arm):
+    reader = make_reader(io.BytesIO(one_arm.data))
+    metadata = {m.name: m.metadata for m in reader.iter_metadata()}
+    assert metadata["manifest"]["started"] == STARTED
+    assert json.loads(metadata["manifest"]["seeds"]) == {"planner": 0}
+    attachments = {a.name: a for a in reader.iter_attachments()}
+    scenario = attachments["scenario.toml"]
+    assert scenario.media_type == "application/toml"
+    assert scenario.data.decode("utf-8") == one_arm.task.text
+    assert epoch_ns({"started": STARTED}) == EPOCH
+    assert epoch_ns({}) == epoch_ns(None) == 0
+
+
+def test_mcap_state_reproduces_result(any_run):
+    doc, names = any_run.doc, any_run.doc["coordinates"]
+    states = mcap_messages(any_run.data, "/state")
+    for log_time, msg in states:
+        assert abs(log_time - EPOCH - msg["t"] * 1e9) <= 1
+    q = np.array([[msg["q"][c] for c in names] for _, msg in states])
+    leg = np.array([msg["leg"] for _, msg in states])
+    np.testing.assert_allclose(q[0], doc["start"], rtol=0, atol=1e-8)
+    np.testing.assert_allclose(q[-1], doc["end"], rtol=0, atol=1e-8)
+    for k, leg_doc in enumerate(doc["legs"]):
+        rows = np.flatnonzero(leg == k)
+        assert {states[i][1]["stratum"] for i in rows} == {leg_doc["stratum"]}
+        np.testing.assert_allclose(q[rows[0]], leg_doc["start"], rtol=0, atol=1e-8)
+        np.testing.assert_allclose(q[rows[-1]], leg_doc["end"], rtol=0, atol=1e-8)
+        assert states[rows[0]][1]["t"] == leg_doc["t0"]
+        assert states[rows[-1]][1]["t"] == pytest.approx(leg_doc["t0"] + leg_doc["duration"])
+
+
+def test_mcap_locked_input_is_exactly_zero(any_run):
+    doc = any_run.doc
+    seen_off = 0
+    for _, msg in mcap_messages(any_run.data, "/controls"):
+        active = doc["legs"][msg["leg"]]["active_inputs"]
+        for name in doc["inputs"]:
+            if name not in active:
+                assert msg["u"][name] == 0.0 and msg["du"][name] == 0.0
+                seen_off += 1
+    assert seen_off > 0 or all(
+        len(leg["active_inputs"]) == len(doc["inputs"]) for leg in doc["legs"]
+    )
+
+
+def test_mcap_legs_and_summary(any_run):
+    doc = any_run.doc
+    events = mcap_messages(any_run.data, "/legs")
+    legs = [msg for _, msg in events if msg["kind"] == "leg"]
+    switches = [(t, msg) for t, msg in events if msg["kind"] == "switch"]
+    assert [m["stratum"] for m in legs] == [leg["stratum"] for leg in doc["legs"]]
+    for msg, leg_doc in zip(legs, doc["legs"], strict=True):
+        assert msg["energy"] == leg_doc["energy"] and msg["error"] == leg_doc["error"]
+        assert [msg["goal"][c] for c in doc["coordinates"]] == leg_doc["goal"]  # null kept
+    for (t, msg), sw in zip(switches, doc["switches"], strict=True):
+        assert t == EPOCH + round(sw["time"] * 1e9)
+        assert msg["jump"] == sw["jump"] and msg["after_leg"] == sw["after_leg"]
+    ((_, summary),) = mcap_messages(any_run.data, "/summary")
+    assert summary["status"] == "ok" and summary["total_energy"] == doc["total_energy"]
+    assert [summary["end"][c] for c in doc["coordinates"]] == doc["end"]
+
+
+def test_failed_run_is_logged_up_to_the_failing_leg():
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_c.toml")
+    changes = {"max_iterations": 1, "restarts": 0}
+    if "objective" in {f.name for f in dataclasses.fields(task.settings)}:
+        changes["objective"] = "newton"
+    plan = plan_sequence(
+        task.system, task.start, task.legs, dataclasses.replace(task.settings, **changes)
+    )
+    assert not plan.ok and len(plan.legs) == 1
+    traj = sample(plan)
+    doc = result_document(plan, "failed", task.model_name)
+    data = mcap_bytes(plan, traj, doc, None, task.text, "failed")
+    ((log_time, summary),) = mcap_messages(data, "/summary")
+    assert summary["status"] == "failed" and "leg 1" in summary["message"]
+    assert log_time == round(plan.legs[0].duration * 1e9)  # no manifest: the epoch is 0
+    assert len(mcap_messages(data, "/state")) == len(mcap_messages(data, "/tf")) == traj.size
+
+
+def test_nan_samples_still_give_a_valid_log_and_plots(unicycle_plan, monkeypatch):
+    task, plan = unicycle_plan
+    monkeypatch.setattr(simulate, "MAX_EVALUATIONS", 20)
+    traj = simulate.sample(plan, 50)
+    doc = result_document(plan, task.scenario.name, task.model_name, None)
+    data = mcap_bytes(plan, traj, doc, {}, task.text, task.scenario.name)
+    messages = list(make_reader(io.BytesIO(data)).iter_messages())
+    state = next(json.loads(m.data) for _, c, m in messages if c.topic == "/state")
+    assert set(state["q"].values()) == {None}  # NaN written as null
+    files = render_plots(plan, traj, "nan")  # plots that cannot be drawn are left out
+    assert set(files) <= {"configuration.png", "controls.png"}
+    assert "controls.png" in files
+
+
+def test_json_and_log_times_of_non_finite_values():
+    assert json.loads(_json({"a": [1.0, float("nan"), float("inf")], "b": -np.inf})) == {
+        "a": [1.0, None, None],
+        "b": None,
+    }
+    assert _log_time(5, float("nan")) == 5
+    assert _log_time(5, 1e308) == 2**64 - 1
+    assert _log_time(5, 1.0) == 5 + 10**9

@@ -1,0 +1,73 @@
+"""Frames and scene of the MCAP log: /tf moves the manipulator, /scene draws it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from conftest import (
+    mcap_messages,
+)
+
+from stratcli.records.trajectory import base_extent, world_geometry
+
+
+def _compose(transforms: list[dict]) -> dict[str, tuple[np.ndarray, float]]:
+    """World pose (origin, yaw) of every frame from planar FrameTransforms."""
+    by_child = {tf["child_frame_id"]: tf for tf in transforms}
+    poses: dict[str, tuple[np.ndarray, float]] = {"world": (np.zeros(2), 0.0)}
+
+    def pose(frame: str) -> tuple[np.ndarray, float]:
+        if frame not in poses:
+            tf = by_child[frame]
+            origin, yaw = pose(tf["parent_frame_id"])
+            rot = tf["rotation"]
+            assert rot["x"] == rot["y"] == 0.0 and tf["translation"]["z"] == 0.0
+            assert math.isclose(rot["z"] ** 2 + rot["w"] ** 2, 1.0)
+            t = np.array([tf["translation"]["x"], tf["translation"]["y"]])
+            c, s = math.cos(yaw), math.sin(yaw)
+            poses[frame] = (
+                origin + np.array([c * t[0] - s * t[1], s * t[0] + c * t[1]]),
+                yaw + 2 * math.atan2(rot["z"], rot["w"]),
+            )
+        return poses[frame]
+
+    for child in by_child:
+        pose(child)
+    return poses
+
+
+def test_mcap_frames_move_the_manipulator(arm_run):
+    """Composing /tf reproduces the drawn geometry; /scene hangs link geometry on the frames."""
+    robot, names = arm_run.plan.system.robot, arm_run.doc["coordinates"]
+    states = mcap_messages(arm_run.data, "/state")
+    tfs = mcap_messages(arm_run.data, "/tf")
+    pick = range(0, len(states), 37)
+    q = np.array([[states[i][1]["q"][c] for c in names] for i in pick])
+    geo = world_geometry(robot, q)
+    lengths = [link.length for link in robot.links]
+    for row, i in enumerate(pick):
+        assert tfs[i][0] == states[i][0]
+        tf_time = tfs[i][1]["transforms"][0]["timestamp"]
+        assert tf_time["sec"] * 10**9 + tf_time["nsec"] == tfs[i][0]
+        poses = _compose(tfs[i][1]["transforms"])
+        np.testing.assert_allclose(poses["base"][0], geo["base_center"][row], atol=1e-12)
+        assert math.isclose(
+            math.remainder(poses["base"][1] - geo["theta"][row], 2 * math.pi), 0, abs_tol=1e-12
+        )
+        for j in range(robot.n_joints):
+            origin, yaw = poses[f"link{j + 1}"]
+            tip = origin + lengths[j] * np.array([math.cos(yaw), math.sin(yaw)])
+            np.testing.assert_allclose(origin, geo["proximal"][row, j], atol=1e-12)
+            np.testing.assert_allclose(tip, geo["distal"][row, j], atol=1e-12)
+    ((_, scene),) = mcap_messages(arm_run.data, "/scene")
+    entities = {e["id"]: e for e in scene["entities"]}
+    hx, hy = base_extent(robot)
+    base = entities["base"]
+    assert base["frame_id"] == "base" and base["frame_locked"] is True
+    assert (base["cubes"][0]["size"]["x"], base["cubes"][0]["size"]["y"]) == (2 * hx, 2 * hy)
+    for j in range(robot.n_joints):
+        link = entities[f"link{j + 1}"]
+        assert link["frame_id"] == f"link{j + 1}"
+        cube = link["cubes"][0]
+        assert cube["size"]["x"] == lengths[j] and cube["pose"]["position"]["x"] == lengths[j] / 2

@@ -1,0 +1,60 @@
+"""Regression against a baseline: the shipped plans against `scenarios/baseline.json`, and the
+`stratplan regress` command on a small directory of its own."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+from conftest import ROOT, SCENARIOS, summary_of
+from typer.testing import CliRunner
+
+from stratcli.api.runs import summarise
+from stratcli.cli import app
+from stratcli.regress import compare, load_baseline
+
+runner = CliRunner()
+
+
+def test_shipped_baseline_matches(shipped_plans):
+    """What `stratplan regress scenarios --baseline scenarios/baseline.json` checks, on the
+    plans of this session (planned once, as regress plans them): no difference at all."""
+    baseline, tolerances = load_baseline(ROOT / "scenarios" / "baseline.json")
+    now = {stem: summary_of(outcome.result) for stem, (_, outcome) in shipped_plans.items()}
+    assert set(now) == {p.stem for p in SCENARIOS}
+    differences = compare(now, baseline, tolerances)
+    assert not differences, "\n".join(
+        f"{d.scenario}: {d.quantity}: {d.baseline} -> {d.now}"
+        + (" (regression)" if d.regression else "")
+        for d in differences
+    )
+
+
+def test_summary_of_a_plan_is_what_regress_keeps(shipped_plans):
+    """summary_of(plan) is `summarise` without its planning (on the cheapest scenario: the
+    others are not planned twice)."""
+    _, outcome = shipped_plans["unicycle"]
+    assert summary_of(outcome.result) == summarise(ROOT / "scenarios" / "unicycle.toml")
+
+
+def test_regress_detects_a_regression(tmp_path):
+    scen = tmp_path / "scen"
+    scen.mkdir()
+    shutil.copy(ROOT / "scenarios" / "unicycle.toml", scen / "d.toml")
+    base = tmp_path / "baseline.json"
+    assert (
+        runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--update"]).exit_code
+        == 0
+    )
+    same = runner.invoke(app, ["regress", str(scen), "--baseline", str(base)])
+    assert same.exit_code == 0 and "no regressions" in same.output
+    doc = json.loads(base.read_text())
+    doc["scenarios"]["d"]["total_energy"] *= 0.5  # the baseline was cheaper: now a regression
+    base.write_text(json.dumps(doc))
+    worse = runner.invoke(app, ["regress", str(scen), "--baseline", str(base)])
+    assert worse.exit_code == 1 and "regression" in worse.output
+    doc["scenarios"]["d"]["total_energy"] *= 4.0  # the baseline was dearer: changed, not failed
+    doc["scenarios"]["gone"] = doc["scenarios"]["d"]
+    base.write_text(json.dumps(doc))
+    out = runner.invoke(app, ["regress", str(scen), "--baseline", str(base)])
+    assert out.exit_code == 1 and "missing" in out.output  # a scenario vanished

@@ -1,0 +1,226 @@
+"""Loading scenarios: Lie-leg validation, and a seeded fuzz of scenario inputs.
+
+The fuzz mutates the shipped scenarios in the families of issue 12 item 5 (physical parameters,
+custom-model expressions, bytes and encodings, size and nesting of the TOML, names) and loads
+them with `load_scenario`; a few go through the CLI as well. Nothing but `InputError` may
+escape loading, the CLI exits 0-3 and never prints a traceback.
+"""
+
+from __future__ import annotations
+
+import random
+import re
+import time
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+from typer.testing import CliRunner
+
+from stratcli.cli import app
+from stratcli.errors import InputError
+from stratcli.scenario import load_scenario, parse_scenario
+
+
+def test_scenario_validation_of_lie_legs(tmp_path):
+    base = (
+        'name = "x"\n[model]\nkind = "preset"\nname = "one-arm"\n[task]\nstart = [0, 0, 0, 0]\n'
+        "goal = [0, 0.1, 0.1, 0]\n"
+    )
+    good = base + '[[legs]]\nstratum = "S1"\nmethod = "lie"\nlie = { gamma = 0.3 }\n'
+    task = parse_scenario(good)
+    assert task.legs[0].lie.gamma == 0.3 and task.legs[0].lie.step_duration == 0.51
+    with pytest.raises(Exception, match="duration"):
+        parse_scenario(good.replace("lie = {", "duration = 2.0\nlie = {"))
+    with pytest.raises(Exception, match="lie"):
+        parse_scenario(base + '[[legs]]\nstratum = "S1"\nlie = { degree = 3 }\n')
+    with pytest.raises(Exception, match="degree"):
+        parse_scenario(base + '[planner]\nlie = { degree = 4 }\n[[legs]]\nstratum = "S1"\n')
+
+
+SEED = 12
+
+
+SCENARIOS = {p.name: p.read_text() for p in sorted((ROOT / "scenarios").glob("*.toml"))}
+
+
+PLANAR = [n for n, t in SCENARIOS.items() if 'kind = "planar-manipulator"' in t]
+
+
+CUSTOM = [n for n, t in SCENARIOS.items() if 'kind = "custom"' in t]
+
+
+BAD_NUMBERS = [
+    "0", "-1", "-0.0", "nan", "inf", "-inf", "1e300", "1e38", "1e-320", "5e-324",
+    '"nan"', '"1e400"', '"9**9**9**9"', '"2**10**8"', '"exp(exp(exp(1e15)))"', '"pi/0"',
+    '"x"', '"sin"', "true", '"1e38"', "[]", "{}", "9223372036854775807",
+]  # fmt: skip
+
+
+BAD_EXPRESSIONS = [
+    "9**9**9**9", "2**10**8", "x(1)", "sin", "sin(1,2)", "sin(x=1)", "foo(1)",
+    "exp(exp(exp(1e15)))",
+    "(" * 300 + "1" + ")" * 300, "-" * 1500 + "1", "+".join(["1"] * 700), "1/0", "log(0)",
+    "__import__('os')", "().__class__", "lambda: 1", "[1]", "1 if 1 else 2", "1j", "'s'",
+    "x" * 3000, "", "   ", "sqrt(-1)", "atan2(1)", "abs()", "10**30", "1e308*1e308", "pi(2)",
+]  # fmt: skip
+
+
+NUMBER = re.compile(r"(?<![\w.\"'])-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?(?![\w.\"'])")
+
+
+STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"')
+
+
+def _load(path: Path, what: str) -> None:
+    """load_scenario must return or raise InputError; anything else fails with `what`."""
+    t0 = time.perf_counter()
+    try:
+        load_scenario(path)
+    except InputError as exc:
+        assert "Traceback" not in str(exc)
+    except Exception as exc:  # the point of the test
+        pytest.fail(f"{what}: {type(exc).__name__}: {exc}"[:400])
+    assert time.perf_counter() - t0 < 20, f"{what}: took {time.perf_counter() - t0:.1f} s"
+
+
+def _replace_nth(pattern: re.Pattern, text: str, rng: random.Random, new: str) -> str:
+    spans = [m.span() for m in pattern.finditer(text)]
+    if not spans:
+        return text
+    a, b = rng.choice(spans)
+    return text[:a] + new + text[b:]
+
+
+def _write(tmp_path: Path, k: int, data: str | bytes) -> Path:
+    path = tmp_path / f"m{k}.toml"
+    path.write_bytes(data if isinstance(data, bytes) else data.encode("utf-8"))
+    return path
+
+
+def test_physical_parameters(tmp_path):
+    rng = random.Random(SEED)
+    for k in range(60):
+        name = rng.choice(PLANAR)
+        text = SCENARIOS[name]
+        # mutate a number of the [model] section only (masses, lengths, mounts, ...)
+        head, sep, rest = text.partition("[task]")
+        head = _replace_nth(NUMBER, head, rng, rng.choice(BAD_NUMBERS))
+        if rng.random() < 0.3:  # a second one
+            head = _replace_nth(NUMBER, head, rng, rng.choice(BAD_NUMBERS))
+        _load(_write(tmp_path, k, head + sep + rest), f"{name} #{k}")
+
+
+def test_many_links_are_refused_or_loaded(tmp_path):
+    link = "{ mass = 1.0, length = 0.5 }"
+    for links in (24, 25, 200):
+        text = SCENARIOS["rods_three_link.toml"]
+        text = re.sub(r"links = \[[^\]]*\]", f"links = [{', '.join([link] * links)}]", text)
+        _load(_write(tmp_path, links, text), f"{links} links")
+
+
+def test_custom_expressions(tmp_path):
+    rng = random.Random(SEED + 1)
+    for k in range(60):
+        name = rng.choice(CUSTOM)
+        text = SCENARIOS[name]
+        head, sep, rest = text.partition("[task]")
+        bad = rng.choice(BAD_EXPRESSIONS).replace("\\", "\\\\").replace('"', '\\"')
+        if rng.random() < 0.6:  # an expression of the vector fields
+            before, mark, fields = head.partition("[model.fields]")
+            fields, nxt, after = fields.partition("[[")
+            fields = _replace_nth(STRING, fields, rng, f'"{bad}"')
+            head = before + mark + fields + nxt + after
+        else:  # an angle of the task
+            rest = _replace_nth(NUMBER, rest, rng, f'"{bad}"')
+        _load(_write(tmp_path, k, head + sep + rest), f"{name} #{k}: {bad[:40]}")
+
+
+def test_bytes_size_and_nesting(tmp_path):
+    rng = random.Random(SEED + 2)
+    cases: list[tuple[str, bytes]] = []
+    for k in range(30):
+        name = rng.choice(list(SCENARIOS))
+        data = bytearray(SCENARIOS[name].encode())
+        op = k % 5
+        if op == 0:
+            data.insert(rng.randrange(len(data)), rng.choice([0xFF, 0xC3, 0x80, 0xFE]))
+        elif op == 1:
+            data.insert(rng.randrange(len(data)), 0)
+        elif op == 2:
+            del data[rng.randrange(len(data)) :]
+        elif op == 3:
+            data = bytearray(b"\xef\xbb\xbf") + data  # a byte-order mark
+        else:
+            i = rng.randrange(len(data))
+            data[i] = rng.randrange(256)
+        cases.append((f"{name} bytes #{k}", bytes(data)))
+    deep = 100_000
+    cases += [
+        ("deep array", b"name = 'x'\na = " + b"[" * deep + b"]" * deep + b"\n"),
+        ("deep table", b"name = 'x'\na = " + b"{b = " * deep + b"1" + b"}" * deep + b"\n"),
+        ("deep unclosed", b"a = " + b"[" * deep),
+        ("2 MB", b"# " + b"x" * 2_000_000 + b"\n"),
+        ("utf-16", SCENARIOS["unicycle.toml"].encode("utf-16")),
+        ("empty", b""),
+    ]
+    for k, (what, data) in enumerate(cases):
+        _load(_write(tmp_path, k, data), what)
+    _load(Path("/dev/zero"), "/dev/zero")
+    _load(tmp_path, "a directory")
+    _load(tmp_path / "missing.toml", "a missing file")
+
+
+def test_error_lines_name_the_problem(tmp_path):
+    unicycle = SCENARIOS["unicycle.toml"]
+    expected = {
+        unicycle.replace("start = [0, 0, 0]", "start = [0, nan, 0]"): (
+            "task.start[1]: must be a finite number (got nan)"
+        ),
+        unicycle.replace('"cos(theta)"', '"9**9**9**9"'): "exponent",
+        unicycle.replace('"cos(theta)"', '"sin(1, 2)"'): "sin() takes 1 argument(s), got 2",
+        unicycle.replace('"cos(theta)"', '"theta(1)"'): "'theta' is a value, not a function",
+        "a = " + "[" * 1000 + "]" * 1000: "nested more than 64 levels",
+    }
+    for k, (text, needle) in enumerate(expected.items()):
+        path = _write(tmp_path, k, text)
+        with pytest.raises(InputError) as info:
+            load_scenario(path)
+        assert needle in str(info.value)
+        assert str(info.value).startswith(str(path))
+    with pytest.raises(InputError, match=r"not UTF-8 text: byte 0xff at offset 3"):
+        load_scenario(_write(tmp_path, 99, b"a =\xff 1"))
+    with pytest.raises(InputError, match="not a regular file"):
+        load_scenario("/dev/zero")
+
+
+@pytest.mark.parametrize(
+    "mutation",
+    [
+        pytest.param(lambda t: t.replace('name = "unicycle"', f'name = "{"n" * 300}"'), id="name"),
+        pytest.param(lambda t: t.replace('"cos(theta)"', '"9**9**9**9"'), id="exponent"),
+        pytest.param(lambda t: t.encode().replace(b"\n", b"\xff\n", 1), id="bytes"),
+        pytest.param(lambda t: t + "\nx = " + "[" * 100_000, id="deep"),
+        pytest.param(lambda t: t.replace("goal = [0, 1, 0]", "goal = [0, inf, 0]"), id="inf"),
+    ],
+)
+def test_cli_never_shows_a_traceback(tmp_path, mutation):
+    text = mutation(SCENARIOS["unicycle.toml"])
+    path = tmp_path / "s.toml"
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    args = ["plan", str(path), "--no-animation", "--no-check", "--out", str(tmp_path / "runs")]
+    result = CliRunner().invoke(app, args)
+    output = result.output + (result.stderr if result.stderr_bytes is not None else "")
+    assert result.exit_code in (0, 1, 2, 3), output
+    assert "Traceback" not in output
+    if result.exception is not None and not isinstance(result.exception, SystemExit):
+        pytest.fail(f"{type(result.exception).__name__}: {result.exception}")
+
+
+def test_huge_configurations_load_cleanly(tmp_path):
+    rng = random.Random(SEED + 3)
+    for k in range(20):
+        name = rng.choice(list(SCENARIOS))
+        head, sep, rest = SCENARIOS[name].partition("[task]")
+        rest = _replace_nth(NUMBER, rest, rng, rng.choice(["1e38", "-1e300", "1e308"]))
+        _load(_write(tmp_path, k, head + sep + rest), f"{name} #{k}")

@@ -1,0 +1,73 @@
+"""Sequences of legs: tolerances, determinism, time scaling, planners × continuity modes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import (
+    plan_document,
+)
+from reintegrate import PRINTED, reintegrate, verify
+
+from stratcli.continuity import mode_order
+from stratcli.records.result import result_document
+from stratcli.stratified import time_scaled
+
+
+@pytest.mark.parametrize("name", ["sim4_task_d", "sim4_task_b", "sim2"])
+def test_tight_tolerance_1e9(scenarios_dir, name):
+    task, doc = plan_document(scenarios_dir / f"{name}.toml", tolerance=1e-9)
+    assert all(leg["error"] <= 1e-9 for leg in doc["legs"])
+    verify(task, doc)
+
+
+def test_planning_is_deterministic(scenarios_dir):
+    _, a = plan_document(scenarios_dir / "sim4_task_a.toml")
+    _, b = plan_document(scenarios_dir / "sim4_task_a.toml")
+    assert a["total_energy"] == b["total_energy"]
+    assert a["legs"][1]["pieces"] == b["legs"][1]["pieces"]
+
+
+def test_time_scaling_keeps_the_path(task_d):
+    _, _, optimal = task_d
+    s = 2.5
+    fast = time_scaled(optimal, s)
+    assert fast.duration == pytest.approx(optimal.duration / s)
+    assert fast.total_energy == pytest.approx(optimal.total_energy * s, rel=1e-12)
+    doc = result_document(fast, "d", "one-arm")
+    assert doc["time_scale"] == s
+    replay = reintegrate(doc, lambda stratum, q, u: PRINTED["one-arm"](q, u))
+    for leg, again in zip(optimal.legs, replay, strict=True):
+        np.testing.assert_allclose(again["end"], leg.end, atol=1e-8)  # same end points
+        assert again["energy"] == pytest.approx(leg.energy * s, rel=1e-8)
+
+
+def test_every_planner_and_continuity_mode_reaches_its_goals(small_plan):
+    """Newton legs and a Lie leg among Newton legs, under every continuity mode: every goal
+    is reached on independent re-integration, legs chain, switches keep what the mode
+    promises (`verify`)."""
+    assert small_plan.plan.ok, small_plan.plan.message
+    doc = small_plan.doc
+    assert doc["continuity"] == small_plan.continuity
+    assert [leg["method"] for leg in doc["legs"]] == [leg.method for leg in small_plan.legs]
+    verify(small_plan.task, doc)
+
+
+def test_switch_jumps_follow_the_continuity_mode(small_plan):
+    """C0 modes make the promised inputs continuous at every switch, C1 modes their
+    derivatives too; the Lie leg's steps join each other like the switches do."""
+    doc = small_plan.doc
+    order = mode_order(small_plan.continuity)
+    for sw in doc["switches"]:
+        nxt = doc["legs"][sw["after_leg"] + 1]["active_inputs"]
+        promised = doc["inputs"] if small_plan.continuity.startswith("lr") else nxt
+        jump = max(abs(sw["jump"][u]) for u in promised)
+        slope = max(abs(sw["jump_derivative"][u]) for u in promised)
+        assert jump <= 1e-9 or order < 0, (sw, jump)
+        assert slope <= 1e-9 or order < 1, (sw, slope)
+    if small_plan.planner == "lie" and order >= 0:
+        from test_planners_lie import _pieces_join
+
+        (lie_leg,) = [leg for leg in doc["legs"] if leg["method"] == "lie"]
+        assert len(lie_leg["pieces"]) >= 2
+        assert _pieces_join(doc, lie_leg, order) <= 1e-9
