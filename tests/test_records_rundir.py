@@ -142,6 +142,7 @@ def test_record_holds_every_file_and_never_overwrites(tmp_path):
     assert (first / "result.json").read_bytes() == before
 
 
+@pytest.mark.slow  # five real processes killed at up to 3 s: ~9 s per signal
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
 def test_a_killed_run_never_leaves_a_record_that_looks_complete(tmp_path, sig):
     """Kill `stratplan plan` at several moments; every directory left is complete or partial."""
