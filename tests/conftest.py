@@ -14,6 +14,16 @@ from typing import Any
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
+
+from stratcli.api import plan_auto, plan_run
+from stratcli.models.presets import preset
+from stratcli.records.mcap_log import mcap_bytes
+from stratcli.records.result import result_document
+from stratcli.records.trajectory import sample
+from stratcli.scenario import load_scenario
+from stratcli.settings import PlannerSettings
+from stratcli.stratified import LegSpec, plan_sequence
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -38,11 +48,6 @@ def plan_document(path, **changes):
 
     In auto mode the task gets the legs of the sequence chosen, so that `verify` can judge it.
     """
-    from stratcli.api import plan_auto
-    from stratcli.records.result import result_document
-    from stratcli.scenario import load_scenario
-    from stratcli.stratified import plan_sequence
-
     task = load_scenario(path)
     if changes:
         task.settings = dataclasses.replace(task.settings, **changes)
@@ -64,9 +69,6 @@ def shipped_plans() -> dict[str, tuple[Any, Any]]:
     """Every `scenarios/*.toml`, planned once as `stratplan regress` plans it: stem → (task,
     PlanOutcome). Unchecked, at time scale 1; in auto mode the best candidate sequence, and
     the task is the scenario with that sequence's legs."""
-    from stratcli.api import plan_auto, plan_run
-    from stratcli.scenario import load_scenario
-
     plans = {}
     for path in SCENARIOS:
         task = load_scenario(path)
@@ -108,11 +110,6 @@ def small_plan(request) -> SimpleNamespace:
     them). Gives planner, continuity, legs, the plan, its result.json document and `task`
     (what `verify` needs of a scenario).
     """
-    from stratcli.models.presets import preset
-    from stratcli.records.result import result_document
-    from stratcli.settings import PlannerSettings
-    from stratcli.stratified import LegSpec, plan_sequence
-
     planner, continuity = request.param
     pi = np.pi
     start = np.array([0.0, pi / 4, 0.0, 0.0])
@@ -148,8 +145,6 @@ def small_plan(request) -> SimpleNamespace:
 @pytest.fixture(scope="module")
 def sim4():
     """Sim 4's auto scenario, with the Newton objective."""
-    from stratcli.scenario import load_scenario
-
     task = load_scenario(ROOT / "scenarios" / "sim4_auto.toml")
     task.settings = newton_objective(task.settings)
     return task
@@ -158,9 +153,6 @@ def sim4():
 @pytest.fixture(scope="session")
 def task_d():
     """Sim 4 task D planned with the Newton and with the energy objective."""
-    from stratcli.scenario import load_scenario
-    from stratcli.stratified import plan_sequence
-
     task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
     newton = plan_sequence(
         task.system, task.start, task.legs, dataclasses.replace(task.settings, objective="newton")
@@ -171,8 +163,6 @@ def task_d():
 
 @pytest.fixture(scope="session")
 def unicycle_plan():
-    from stratcli.scenario import load_scenario
-    from stratcli.stratified import plan_sequence
 
     task = load_scenario(ROOT / "scenarios" / "unicycle.toml")
     return task, plan_sequence(task.system, task.start, task.legs, task.settings)
@@ -217,12 +207,6 @@ class Run:
 
 
 def _run(name: str, evaluator: str | None = None) -> Run:
-    from stratcli.records.mcap_log import mcap_bytes
-    from stratcli.records.result import result_document
-    from stratcli.records.trajectory import sample
-    from stratcli.scenario import load_scenario
-    from stratcli.stratified import plan_sequence
-
     task = load_scenario(ROOT / "scenarios" / f"{name}.toml")
     changes = {"evaluator": evaluator} if evaluator else {}
     if "objective" in {f.name for f in dataclasses.fields(task.settings)}:
@@ -267,7 +251,5 @@ def arm_run(request) -> Run:
 
 def mcap_messages(data: bytes, topic: str) -> list[tuple[int, dict]]:
     """(log time, decoded JSON) of every message on `topic` of an MCAP file in memory."""
-    from mcap.reader import make_reader
-
     reader = make_reader(io.BytesIO(data))
     return [(m.log_time, json.loads(m.data)) for _, _, m in reader.iter_messages(topics=[topic])]

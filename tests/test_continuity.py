@@ -49,8 +49,8 @@ def test_lr_mode_ends_unused_inputs_at_zero_and_l_mode_lets_them_jump(scenarios_
     assert abs(left["switches"][1]["jump"]["u1"]) > 1e-6
 
 
-def test_soft_start_and_full_stop_hold(scenarios_dir):
-    _, doc = plan_document(scenarios_dir / "sim2_soft.toml")
+def test_soft_start_and_full_stop_hold(shipped_plans):
+    doc = shipped_plans["sim2_soft"][1].document  # planned once per session
 
     first, last = doc["legs"][0]["pieces"][0], doc["legs"][-1]["pieces"][-1]
     for d in (False, True):
