@@ -24,7 +24,8 @@ import numpy as np
 
 from stratcli.models.manipulator import ManipulatorSystem
 from stratcli.models.planar import Arm, Base, Link, PlanarManipulator
-from stratcli.stratified import LegSpec, PlannerSettings, plan_sequence
+from stratcli.objectives import plan_sequence
+from stratcli.stratified import LegSpec, PlannerSettings
 
 
 def chain(n: int) -> ManipulatorSystem:

@@ -34,8 +34,8 @@ from pathlib import Path
 
 from stratcli.compare import compare, compile_strata
 from stratcli.decompose import decompose
+from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
-from stratcli.stratified import plan_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "sim4_auto.toml"

@@ -42,8 +42,8 @@ from casadi_baseline import (
 )
 
 from stratcli.controls import FourierBasis, embed
+from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
-from stratcli.stratified import plan_sequence
 
 MORE_HARMONICS = 8
 MORE_STARTS = 12  # the richer basis has more minima: twice the default starts

@@ -29,8 +29,9 @@ import numpy as np
 from stratcli.api.check import check_document
 from stratcli.liealgebra import iterated_integrals, lie_basis
 from stratcli.models.presets import PRESETS
+from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
-from stratcli.stratified import LegStart, plan_next_leg, plan_sequence, planner_for
+from stratcli.stratified import LegStart, plan_next_leg, planner_for
 
 ROOT = Path(__file__).resolve().parents[1]
 

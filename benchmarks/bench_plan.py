@@ -21,8 +21,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
-from stratcli.stratified import plan_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
 

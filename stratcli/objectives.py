@@ -21,9 +21,46 @@ from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
 
-__all__ = ["plan_with_objective"]
+__all__ = ["plan_sequence", "plan_with_objective"]
 
 SEED_RESTARTS = 2  # Newton restarts allowed for the extra starts of the energy objective
+
+
+def plan_sequence(
+    system: System,
+    start: np.ndarray,
+    legs: list[LegSpec],
+    settings: PlannerSettings,
+    warm_start: list[np.ndarray] | None = None,
+) -> SequencePlan:
+    """Check the legs, then plan them with `settings.objective`.
+
+    Parameters
+    ----------
+    system : System
+        The model.
+    start : ndarray
+        The start configuration.
+    legs : list of LegSpec
+        The legs in order (stratum, goal, method, duration).
+    settings : PlannerSettings
+        How to plan; `objective` is "newton" (leg by leg) or "energy" (all legs together).
+    warm_start : list of ndarray, optional
+        Feasible flat coefficients per leg, tried as an extra first start of the energy search.
+
+    Returns
+    -------
+    SequencePlan
+        The plan; `.ok` is False (with `.message`) when a leg did not reach its goal.
+
+    Raises
+    ------
+    InputError
+        When a leg cannot be planned as given (`stratified.check_legs`).
+    """
+    start = np.asarray(start, dtype=float)
+    check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
+    return plan_with_objective(system, start, legs, settings, warm_start)
 
 
 def plan_with_objective(

@@ -1,7 +1,7 @@
 """Compare replayed scenarios with a committed baseline (for users' CI).
 
 Pure functions over summaries (status, total energy, each leg's error and energy); the
-replaying itself is `stratcli.api.regress`.
+replaying itself is `stratcli.api.runs.regress`.
 """
 
 from __future__ import annotations
@@ -15,6 +15,17 @@ from .errors import InputError
 
 SCHEMA = "stratplan.baseline/1"
 DEFAULT_TOLERANCES = {"energy_rel": 1e-6, "error_abs": 1e-6}
+
+
+def summary_of(plan) -> dict[str, Any]:
+    """What a baseline keeps of a plan (a `SequencePlan`): status, total energy, and each
+    leg's error and energy."""
+    return {
+        "status": "ok" if plan.ok else "failed",
+        "total_energy": plan.total_energy,
+        "errors": [leg.error for leg in plan.legs],
+        "energies": [leg.energy for leg in plan.legs],
+    }
 
 
 @dataclass

@@ -4,8 +4,7 @@
 one actually reached, and its boundary conditions take the previous leg's final control
 values (DESIGN §3). `plan_next_leg` is its body, also used by the comparison trie (which plans
 shared prefixes once); `assemble` builds the plan value from planned legs (switches, status,
-message). `plan_sequence` applies the objective: the paper's Newton method leg by leg, or the
-minimum-energy controls over all legs together (`planners.energy`).
+message). `objectives.plan_sequence` applies the objective over a whole sequence.
 """
 
 from __future__ import annotations
@@ -32,7 +31,6 @@ __all__ = [
     "check_legs",
     "leg_problem",
     "plan_next_leg",
-    "plan_sequence",
     "time_scaled",
 ]
 
@@ -313,27 +311,24 @@ def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings:
         raise InputError(problems)
 
 
-def plan_sequence(
-    system: System,
-    start: np.ndarray,
-    legs: list[LegSpec],
-    settings: PlannerSettings,
-    warm_start: list[np.ndarray] | None = None,
-) -> SequencePlan:
-    """Plan a sequence of legs with the settings' objective (see `objectives`)."""
-    from .objectives import plan_with_objective
-
-    start = np.asarray(start, dtype=float)
-    check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
-    return plan_with_objective(system, start, legs, settings, warm_start)
-
-
 def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
     """The same path run `s` times faster (paper §6): `u(t) → s·u(s·t)`.
 
     Durations and switch times are divided by `s`, the basis period too (so every piece is
     still a Fourier series of the documented form), coefficients are multiplied by `s`;
     energies grow by `s`, value jumps by `s` and derivative jumps by `s²`.
+
+    Parameters
+    ----------
+    plan : SequencePlan
+        A plan (at any time scale).
+    s : float
+        The speed-up (> 0); below 1 the path runs slower.
+
+    Returns
+    -------
+    SequencePlan
+        The same path in 1/s of the time; `time_scale` multiplied by `s`.
     """
     old = plan.settings.basis
     basis = FourierBasis(old.harmonics, old.period / s)

@@ -31,10 +31,11 @@ from typing import Any
 import numpy as np
 
 from .models.system import System
+from .objectives import plan_sequence
 from .results import LegPlan
 from .sequence import SequencePlan
 from .settings import PlannerSettings
-from .stratified import LegSpec, LegStart, assemble, plan_next_leg, plan_sequence, planner_for
+from .stratified import LegSpec, LegStart, assemble, plan_next_leg, planner_for
 
 __all__ = ["STATE", "build_trie", "compare_shared", "compare_whole", "default_jobs"]
 

@@ -18,12 +18,13 @@ from mcap.reader import make_reader
 
 from stratcli.api import plan_auto, plan_run
 from stratcli.models.presets import preset
+from stratcli.objectives import plan_sequence
 from stratcli.records.mcap_log import mcap_bytes
 from stratcli.records.result import result_document
 from stratcli.records.trajectory import sample
 from stratcli.scenario import load_scenario
 from stratcli.settings import PlannerSettings
-from stratcli.stratified import LegSpec, plan_sequence
+from stratcli.stratified import LegSpec
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -78,16 +79,6 @@ def shipped_plans() -> dict[str, tuple[Any, Any]]:
             outcome = plan_auto(task, check=False).best
         plans[path.stem] = (outcome.task, outcome)
     return plans
-
-
-def summary_of(result) -> dict[str, Any]:
-    """What the baseline keeps of a plan: `stratcli.api.runs.summarise` without planning."""
-    return {
-        "status": "ok" if result.ok else "failed",
-        "total_energy": result.total_energy,
-        "errors": [leg.error for leg in result.legs],
-        "energies": [leg.energy for leg in result.legs],
-    }
 
 
 # ------------------------------------------------------------------------------------------

@@ -9,7 +9,6 @@ import re
 import pytest
 from conftest import (
     ROOT,
-    newton_objective,
 )
 from typer.testing import CliRunner
 
@@ -17,7 +16,6 @@ import stratcli.cli as cli
 from stratcli.cli import app
 from stratcli.records.comparison import without_timings
 from stratcli.records.store import read_record
-from stratcli.scenario import load_scenario
 
 runner = CliRunner()
 
@@ -348,15 +346,12 @@ AUTO_TEXT = AUTO.read_text()
 
 
 @pytest.fixture
-def newton(monkeypatch):
-    """Make the command line plan with the Newton objective whatever the default is."""
-
-    def load(path):
-        task = load_scenario(path)
-        task.settings = newton_objective(task.settings)
-        return task
-
-    monkeypatch.setattr(cli, "load_scenario", load)
+def newton(tmp_path):
+    """The auto-mode scenario with the Newton objective (fast), as a file the CLI reads."""
+    path = tmp_path / "scenario" / "sim4_auto.toml"
+    path.parent.mkdir()
+    path.write_text(AUTO_TEXT.replace("[planner]", '[planner]\nobjective = "newton"', 1))
+    return path
 
 
 def test_decompose_command_lists_the_papers_sequences(tmp_path):
@@ -384,7 +379,7 @@ def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, ne
     docs, results = [], []
     for jobs in ("1", "2"):
         out = tmp_path / jobs
-        args = ["compare-sequences", str(AUTO), "--max-length", "2", "--strategy", "both"]
+        args = ["compare-sequences", str(newton), "--max-length", "2", "--strategy", "both"]
         result = runner.invoke(
             cli.app, [*args, "--jobs", jobs, "--out", str(out), "--no-animation"]
         )
@@ -412,14 +407,15 @@ def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, ne
 
 
 def test_plan_in_auto_mode_chooses_and_says_why(tmp_path, newton):
-    result = runner.invoke(cli.app, ["plan", str(AUTO), "--out", str(tmp_path), "--no-animation"])
+    out = tmp_path / "runs"
+    result = runner.invoke(cli.app, ["plan", str(newton), "--out", str(out), "--no-animation"])
     assert result.exit_code == 0, result.output
     assert "auto mode: 18 candidate sequences" in result.output
     assert "lowest total energy" in result.output and "total energy" in result.output
-    (run_dir,) = tmp_path.iterdir()
+    (run_dir,) = out.iterdir()
     doc = json.loads((run_dir / "result.json").read_text())
     comparison = json.loads((run_dir / "comparison.json").read_text())
-    assert doc["status"] == "ok" and doc["scenario"] == "sim4_auto"
+    assert doc["status"] == "ok" and doc["scenario"] == "sim4_auto" and doc["objective"] == "newton"
     ok = [r["energy"] for r in comparison["rows"] if r["status"] == "ok"]
     assert doc["total_energy"] == min(ok)
     assert [leg["stratum"] for leg in doc["legs"]] == comparison["rows"][0]["sequence"]

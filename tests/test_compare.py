@@ -14,8 +14,8 @@ from stratcli.decompose import (
     decompose,
     moved_coordinates,
 )
+from stratcli.objectives import plan_sequence
 from stratcli.scenario import parse_scenario
-from stratcli.stratified import plan_sequence
 from stratcli.trie import build_trie
 
 PI = math.pi

@@ -24,8 +24,9 @@ from stratcli.decompose import (
     pi_fraction,
 )
 from stratcli.errors import InputError
+from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
-from stratcli.stratified import check_legs, plan_sequence
+from stratcli.stratified import check_legs
 
 PI = math.pi
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from stratcli.controls import FourierBasis, embed
-from stratcli.stratified import chain_legs, plan_sequence
+from stratcli.objectives import plan_sequence
+from stratcli.stratified import chain_legs
 
 
 def test_energy_objective_beats_newton_and_the_paper(task_d):

@@ -12,9 +12,10 @@ from scipy.integrate import cumulative_trapezoid
 
 from stratcli.continuity import mode_order
 from stratcli.models.presets import preset
+from stratcli.objectives import plan_sequence
 from stratcli.records.result import result_document
 from stratcli.scenario import load_scenario
-from stratcli.stratified import LegSpec, PlannerSettings, plan_sequence
+from stratcli.stratified import LegSpec, PlannerSettings
 
 PI = np.pi
 

@@ -17,13 +17,13 @@ from conftest import (
 from mcap.reader import make_reader
 
 import stratcli.simulate as simulate
+from stratcli.objectives import plan_sequence
 from stratcli.records.mcap_log import _json, _log_time, epoch_ns, mcap_bytes
 from stratcli.records.mcap_schemas import SCHEMA_NAMES
 from stratcli.records.plots import render_plots
 from stratcli.records.result import result_document
 from stratcli.records.trajectory import sample
 from stratcli.scenario import load_scenario
-from stratcli.stratified import plan_sequence
 
 
 def _conforms(value, schema: dict, path: str = "") -> None:

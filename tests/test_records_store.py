@@ -7,9 +7,9 @@ from conftest import ROOT
 from typer.testing import CliRunner
 
 from stratcli.cli import app
+from stratcli.objectives import plan_sequence
 from stratcli.records.store import read_record
 from stratcli.scenario import load_scenario
-from stratcli.stratified import plan_sequence
 
 runner = CliRunner()
 

@@ -6,12 +6,12 @@ from __future__ import annotations
 import json
 import shutil
 
-from conftest import ROOT, SCENARIOS, summary_of
+from conftest import ROOT, SCENARIOS
 from typer.testing import CliRunner
 
 from stratcli.api.runs import summarise
 from stratcli.cli import app
-from stratcli.regress import compare, load_baseline
+from stratcli.regress import compare, load_baseline, summary_of
 
 runner = CliRunner()
 

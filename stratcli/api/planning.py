@@ -13,12 +13,13 @@ from typing import Any
 from ..compare import CRITERIA, Comparison
 from ..decompose import STRATEGIES, Decomposition, pi_fraction
 from ..errors import InputError, Problem
+from ..objectives import plan_sequence
 from ..records.comparison import comparison_document
 from ..results import Timings
 from ..scenario import LegEntry, Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import DecomposeSettings
-from ..stratified import plan_sequence, time_scaled
+from ..stratified import time_scaled
 from ..trie import default_jobs
 from .auto import AutoSettings, auto_settings, compare_decomposition, decompose_task
 from .inspection import controllability_first

@@ -18,7 +18,7 @@ from ..records import run as run_files
 from ..records.comparison import comparison_csv, ranking_png
 from ..records.manifest import manifest
 from ..records.store import Record, list_records, mcap_summary, read_record
-from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline
+from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
 from ..results import ModelRef, Timings
 from ..scenario import Scenario, load_scenario
@@ -291,9 +291,4 @@ def summarise(path: Path) -> dict[str, Any]:
         result = plan_run(task, check=False, time_scale=1.0).result
     else:  # auto mode ([decompose], no [[legs]]): the best candidate sequence
         result = plan_auto(task, check=False).best.result
-    return {
-        "status": "ok" if result.ok else "failed",
-        "total_energy": result.total_energy,
-        "errors": [leg.error for leg in result.legs],
-        "energies": [leg.energy for leg in result.legs],
-    }
+    return summary_of(result)

@@ -20,10 +20,10 @@ from .render_analysis import check_report, decomposition
 
 def _load(path: Path):
     """The scenario file, or exit 2 naming every problem."""
-    from .. import cli  # `cli.load_scenario` at call time: tests may substitute it
+    from ..scenario import load_scenario  # start-up speed: --help needs no model code
 
     with render.reported():
-        return cli.load_scenario(path)
+        return load_scenario(path)
 
 
 def _argv() -> list[str]:

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mcap.reader import make_reader
+
 from ..errors import InputError
 
 REQUIRED = ("scenario.toml", "result.json", "manifest.json")
@@ -50,8 +52,6 @@ def read_record(path: Path) -> Record:
 def mcap_summary(path: Path) -> dict[str, Any] | None:
     """Topics of a record's run.mcap with message counts and time span, read back from the
     file's summary section (no re-planning); None when the record has no MCAP."""
-    from mcap.reader import make_reader
-
     file = path / "run.mcap"
     if not file.is_file():
         return None
