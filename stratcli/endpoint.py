@@ -164,19 +164,36 @@ class QuadratureEndpoint(_Endpoint):
         return J
 
 
+class _OutOfBudget(Exception):
+    """The integration needed more evaluations than `OdeEndpoint.max_evaluations`."""
+
+
 class OdeEndpoint(_Endpoint):
-    """General path: integrate `q' = G(q)u` and `S' = ∂(Gu)/∂q S + G ∂u/∂λ` (eq. 16-17)."""
+    """General path: integrate `q' = G(q)u` and `S' = ∂(Gu)/∂q S + G ∂u/∂λ` (eq. 16-17).
+
+    The work of one call is bounded: an integration that needs more than `max_evaluations`
+    evaluations of the right-hand side (a stiff model, huge controls) or that fails returns
+    NaN, which the planners treat as a step that does not reach the goal (it is rejected,
+    and a leg that never gets a finite end point fails with a numerical-failure status).
+    """
 
     kind = "ode"
     rtol = 1e-12
     atol = 1e-12
+    max_evaluations = 20_000  # DOP853 takes 12 per step; the biped's legs need at most ~300
 
     def __call__(self, lam: np.ndarray, jacobian: bool = True):
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
         n, p = self.q0.size, self.n_coefficients
         G, dG, basis = self.cs.G, self.cs.dG, self.basis
 
+        calls = 0
+
         def rhs(t, y):
+            nonlocal calls
+            calls += 1
+            if calls > self.max_evaluations:
+                raise _OutOfBudget
             q = y[:n]
             phi = basis.values(t)
             u = L @ phi
@@ -190,12 +207,14 @@ class OdeEndpoint(_Endpoint):
             return np.concatenate([dq, dS.ravel()])
 
         y0 = np.concatenate([self.q0, np.zeros(n * p)]) if jacobian else self.q0
-        sol = solve_ivp(
-            rhs, (0.0, self.duration), y0, method="DOP853", rtol=self.rtol, atol=self.atol
-        )
-        if not sol.success:
-            raise RuntimeError(f"ODE integration failed: {sol.message}")
-        y = sol.y[:, -1]
+        try:
+            sol = solve_ivp(
+                rhs, (0.0, self.duration), y0, method="DOP853", rtol=self.rtol, atol=self.atol
+            )
+            ok = sol.success
+        except _OutOfBudget:
+            ok = False
+        y = sol.y[:, -1] if ok else np.full(y0.size, np.nan)
         return (y[:n], y[n:].reshape(n, p)) if jacobian else (y[:n], None)
 
 

@@ -160,9 +160,10 @@ def plan_next_leg(
             status=Status.NUMERICAL_FAILURE,
             message=f"{type(exc).__name__}: {exc}"[:300],
         )
-    status = out.status
-    if status.ok and not (np.all(np.isfinite(out.end)) and np.isfinite(out.error)):
+    status, message = out.status, out.message
+    if not (np.all(np.isfinite(out.end)) and np.isfinite(out.error)):
         status = Status.NUMERICAL_FAILURE
+        message = message or "the end point could not be computed (not finite)"
     return make_leg(
         **common,
         evaluator=out.evaluator,
@@ -174,7 +175,7 @@ def plan_next_leg(
         attempts=out.attempts,
         free_coefficients=out.free_coefficients,
         status=status,
-        message=out.message,
+        message=message,
     )
 
 

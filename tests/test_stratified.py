@@ -10,8 +10,13 @@ from conftest import (
 from reintegrate import PRINTED, reintegrate, verify
 
 from stratcli.continuity import mode_order
+from stratcli.models.presets import preset
+from stratcli.planners import PLANNERS, LegPlanner
 from stratcli.records.result import result_document
-from stratcli.stratified import time_scaled
+from stratcli.sequence import SequencePlan
+from stratcli.settings import PlannerSettings
+from stratcli.status import Status
+from stratcli.stratified import LegSpec, chain_legs, time_scaled
 
 
 @pytest.mark.parametrize("name", ["sim4_task_d", "sim4_task_b", "sim2"])
@@ -71,3 +76,47 @@ def test_switch_jumps_follow_the_continuity_mode(small_plan):
         (lie_leg,) = [leg for leg in doc["legs"] if leg["method"] == "lie"]
         assert len(lie_leg["pieces"]) >= 2
         assert _pieces_join(doc, lie_leg, order) <= 1e-9
+
+
+# ---------------------------------------------------------------------------------------------
+# Status, not tracebacks: a planner that breaks down numerically fails its leg
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def breaking_planner():
+    """A third planner, one class that registers itself: it raises what numerical code
+    raises. Unregistered after the test."""
+
+    class Breaking(LegPlanner):
+        method = "breaking-test"
+
+        def plan(self, problem):
+            raise np.linalg.LinAlgError("Singular matrix")
+
+        def missing_coefficients(self, problem):
+            return 1, 0
+
+        def failure_hint(self):
+            return Status.NUMERICAL_FAILURE
+
+    yield Breaking
+    PLANNERS.pop(Breaking.method)
+
+
+def test_a_numerical_breakdown_is_a_failed_leg_with_its_status(breaking_planner):
+    system = preset("one-arm")
+    start = np.zeros(4)
+    legs = [
+        LegSpec("S3", np.array([0.1, 0.2, 0.0, np.nan])),
+        LegSpec("S1", np.array([0.0, 0.3, 0.2, np.nan]), method="breaking-test"),
+    ]
+    plan = chain_legs(system, start, legs, PlannerSettings(objective="newton"))
+    assert [leg.status for leg in plan.legs] == [Status.SUCCESS, Status.NUMERICAL_FAILURE]
+    assert not plan.ok and plan.status is Status.NUMERICAL_FAILURE
+    assert plan.message.startswith("leg 2 on S1 was stopped by a numerical failure")
+    assert "LinAlgError: Singular matrix" in plan.message
+    doc = plan.to_dict()  # a record can still be written: nothing non-finite in the JSON
+    assert doc["status"] == "failed" and doc["legs"][1]["status"] == "numerical_failure"
+    assert doc["legs"][1]["error"] is None and doc["legs"][1]["pieces"] == []
+    assert SequencePlan.from_dict(doc).to_dict() == doc

@@ -24,6 +24,7 @@ __all__ = ["NewtonPlanner"]
 DAMPING = (1e-2, 1e-4, 1e-10)  # initial relative damping, cycled over attempts
 STALL_WINDOW = 10  # iterations over which the error must fall ...
 STALL_RATIO = 0.5  # ... at least by this factor, or the attempt restarts
+BROKEN_STARTS = 3  # attempts whose very start cannot be evaluated before the leg gives up
 
 
 def _initial_coefficients(endpoint, goal: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -37,6 +38,11 @@ def _initial_coefficients(endpoint, goal: np.ndarray, targets: np.ndarray) -> np
         delta = goal[E] - endpoint.q0[E]
         L[:, 0] = np.linalg.lstsq(C, delta / endpoint.duration, rcond=None)[0]
     return L.ravel()
+
+
+def _rank(error: float) -> float:
+    """Errors compared with NaN (an end point that could not be computed) as the worst."""
+    return error if np.isfinite(error) else np.inf
 
 
 class NewtonPlanner(LegPlanner):
@@ -99,6 +105,7 @@ class NewtonPlanner(LegPlanner):
         scale = 1.0 + float(np.abs(goal[targets] - endpoint.q0[targets]).max(initial=0.0))
         best = None
         total = 0
+        broken = 0
         for attempt in range(self.restarts + 1):
             rng = np.random.default_rng([seed, problem.index, attempt])
             cycle, mu0 = divmod(attempt, len(DAMPING))
@@ -116,10 +123,13 @@ class NewtonPlanner(LegPlanner):
                 stall_ratio=STALL_RATIO,
             )
             total += result.iterations
-            if best is None or result.error < best.error:
+            if best is None or _rank(result.error) < _rank(best.error):
                 best = result
             if result.error <= problem.tolerance:
                 break
+            broken = broken + 1 if not np.isfinite(result.error) else 0
+            if broken >= BROKEN_STARTS:
+                break  # the model cannot even be evaluated here: more starts will not help
         lam, end = best.extra
         ok = best.error <= problem.tolerance
         return LegOutcome(
