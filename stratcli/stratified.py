@@ -55,7 +55,7 @@ class LegSpec:
     stratum: str
     goal: np.ndarray
     method: str = "newton"
-    duration: float = 1.0
+    duration: float = PlannerSettings().leg_duration
     lie: LieSettings | None = None
 
     @property

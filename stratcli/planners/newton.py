@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..results import Piece
+from ..settings import PlannerSettings
 from ..status import Status
 from .base import LegOutcome, LegPlanner, LegProblem, damped_gauss_newton
 
@@ -24,6 +25,7 @@ __all__ = ["NewtonPlanner"]
 DAMPING = (1e-2, 1e-4, 1e-10)  # initial relative damping, cycled over attempts
 STALL_WINDOW = 10  # iterations over which the error must fall ...
 STALL_RATIO = 0.5  # ... at least by this factor, or the attempt restarts
+_DEFAULTS = PlannerSettings()  # the one place defaults live
 BROKEN_STARTS = 3  # attempts whose very start cannot be evaluated before the leg gives up
 
 
@@ -70,8 +72,8 @@ class NewtonPlanner(LegPlanner):
 
     def __init__(
         self,
-        max_iterations: int = 100,
-        restarts: int = 11,
+        max_iterations: int = _DEFAULTS.max_iterations,
+        restarts: int = _DEFAULTS.restarts,
         spread: float = 0.02,
         seed: int | None = None,
     ):
