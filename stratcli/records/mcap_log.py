@@ -14,8 +14,9 @@ Every channel is JSON-encoded with a JSON Schema:
 Samples are those of a `Trajectory` (both ends of every leg, so a switch instant appears twice).
 Log times are nanoseconds: the run's start (`manifest["started"]`, else 0) plus the time on the
 motion's own axis, and they never decrease along the file. The manifest is the metadata record
-`"manifest"` (values that are not strings are JSON-encoded) and the scenario text is the
-attachment `scenario.toml`.
+`"manifest"` (values that are not strings are JSON-encoded); the scenario text is the
+attachment `scenario.toml` and the Foxglove layout (`foxglove_layout`) the attachment
+`layout.json`.
 
 A value that is not there is left out of its message, never written as `null`: a non-finite
 number (NaN or ±inf in the samples of a failed plan) and a goal coordinate that is not
@@ -41,11 +42,12 @@ from mcap.writer import Writer
 
 from .. import __version__
 from ..sequence import SequencePlan
+from .foxglove_layout import run_layout, shows_robot
 from .mcap_scene import frame_transforms, link_frames, scene_update
 from .mcap_schemas import FRAME_TRANSFORMS_SCHEMA, SCENE_UPDATE_SCHEMA, own_schemas
 from .trajectory import Trajectory, world_geometry
 
-__all__ = ["epoch_ns", "mcap_bytes"]
+__all__ = ["epoch_ns", "layout_bytes", "mcap_bytes"]
 
 # --------------------------------------------------------------------------------------------
 # Helpers
@@ -91,6 +93,11 @@ def _json(obj: Any) -> bytes:
     except ValueError:
         text = json.dumps(_present(obj), separators=(",", ":"), allow_nan=False)
     return text.encode("utf-8")
+
+
+def layout_bytes(layout: dict[str, Any]) -> bytes:
+    """`layout.json` as written beside `run.mcap` (indented, a final newline)."""
+    return (json.dumps(layout, indent=2, allow_nan=False) + "\n").encode("utf-8")
 
 
 MAX_NS = 2**64 - 1
@@ -157,6 +164,7 @@ def mcap_bytes(
     manifest: dict[str, Any] | None,
     scenario_text: str,
     scenario_name: str,
+    layout: dict[str, Any] | None = None,
 ) -> bytes:
     """The run as an MCAP file (bytes), ready for `write_run`.
 
@@ -167,6 +175,7 @@ def mcap_bytes(
     manifest : `manifest.json`'s content: stored as the metadata record "manifest"; its
         `started` time (ISO 8601) is the epoch of the log times.
     scenario_text, scenario_name : the scenario file, attached as `scenario.toml`.
+    layout : the Foxglove layout attached as `layout.json` (default: `run_layout(plan, traj)`).
     """
     system = plan.system
     states, inputs = tuple(system.states), tuple(system.inputs)
@@ -181,9 +190,7 @@ def mcap_bytes(
     log = _Log(writer)
     for topic, schema in own_schemas(states, inputs).items():
         log.channel(topic, schema)
-    manipulator = (
-        system.robot is not None and system.n == system.robot.n_joints + 1 and traj.size > 0
-    )
+    manipulator = shows_robot(plan, traj)
     if manipulator:
         log.channel("/tf", FRAME_TRANSFORMS_SCHEMA)
         log.channel("/scene", SCENE_UPDATE_SCHEMA)
@@ -203,6 +210,13 @@ def mcap_bytes(
         name="scenario.toml",
         media_type="application/toml",
         data=scenario_text.encode("utf-8"),
+    )
+    writer.add_attachment(
+        create_time=epoch,
+        log_time=epoch,
+        name="layout.json",
+        media_type="application/json",
+        data=layout_bytes(run_layout(plan, traj) if layout is None else layout),
     )
 
     t_first = float(traj.t[0]) if traj.size else 0.0
