@@ -244,3 +244,10 @@ def test_failed_and_nan_runs_validate_against_their_schemas(unicycle_plan, monke
     doc = result_document(plan, task.scenario.name, task.model_name, None)
     data = mcap_bytes(plan, traj, doc, {}, task.text, task.scenario.name)
     assert np.isnan(traj.q).all() and _schema_errors(data) == []
+
+
+def test_layout_is_attached_as_json(arm_run):
+    attachments = {a.name: a for a in make_reader(io.BytesIO(arm_run.data)).iter_attachments()}
+    layout = attachments["layout.json"]
+    assert layout.media_type == "application/json" and layout.log_time == EPOCH
+    assert "3D!motion" in json.loads(layout.data)["configById"]
