@@ -41,7 +41,17 @@ LAYOUT_PANELS = (THREE_D, CONTROLS, CONFIGURATION, STRATUM)
 
 
 def shows_robot(plan: SequencePlan, traj: Trajectory) -> bool:
-    """True when `run.mcap` has the `/tf` and `/scene` channels: a drawn manipulator, samples."""
+    """Whether `run.mcap` has the `/tf` and `/scene` channels (and the layout a 3-D panel).
+
+    Parameters
+    ----------
+    plan : the planned sequence; `traj` : its samples.
+
+    Returns
+    -------
+    bool
+        True for a planar manipulator (coordinates: joints, then θ) with at least one sample.
+    """
     system = plan.system
     return system.robot is not None and system.n == system.robot.n_joints + 1 and traj.size > 0
 
@@ -185,7 +195,17 @@ def run_layout(
 
 
 def message_paths(layout: dict[str, Any]) -> dict[str, list[str]]:
-    """Panel id → the message paths (`/topic.field...`) and topics its settings name."""
+    """The message paths (`/topic.field...`) and topics each panel of `layout` names.
+
+    Parameters
+    ----------
+    layout : a layout of `foxglove_layout`.
+
+    Returns
+    -------
+    dict
+        Panel id → its plotted paths, then the topics of its `topics` setting (3-D panel).
+    """
     out: dict[str, list[str]] = {}
     for panel, config in layout["configById"].items():
         out[panel] = [p["value"] for p in config.get("paths", [])] + list(config.get("topics", {}))

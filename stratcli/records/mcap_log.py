@@ -96,7 +96,17 @@ def _json(obj: Any) -> bytes:
 
 
 def layout_bytes(layout: dict[str, Any]) -> bytes:
-    """`layout.json` as written beside `run.mcap` (indented, a final newline)."""
+    """`layout.json`'s bytes, as `write_run` writes a dict (indented, a final newline).
+
+    Parameters
+    ----------
+    layout : a Foxglove layout (`foxglove_layout.run_layout`).
+
+    Returns
+    -------
+    bytes
+        UTF-8 JSON, the content of the `layout.json` attachment and file.
+    """
     return (json.dumps(layout, indent=2, allow_nan=False) + "\n").encode("utf-8")
 
 
