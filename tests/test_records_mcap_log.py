@@ -141,7 +141,8 @@ def test_mcap_legs_and_summary(any_run):
     assert [m["stratum"] for m in legs] == [leg["stratum"] for leg in doc["legs"]]
     for msg, leg_doc in zip(legs, doc["legs"], strict=True):
         assert msg["energy"] == leg_doc["energy"] and msg["error"] == leg_doc["error"]
-        assert [msg["goal"][c] for c in doc["coordinates"]] == leg_doc["goal"]  # null kept
+        goal = [msg["goal"].get(c) for c in doc["coordinates"]]  # not prescribed: left out
+        assert goal == leg_doc["goal"]
     for (t, msg), sw in zip(switches, doc["switches"], strict=True):
         assert t == EPOCH + round(sw["time"] * 1e9)
         assert msg["jump"] == sw["jump"] and msg["after_leg"] == sw["after_leg"]
@@ -176,7 +177,7 @@ def test_nan_samples_still_give_a_valid_log_and_plots(unicycle_plan, monkeypatch
     data = mcap_bytes(plan, traj, doc, {}, task.text, task.scenario.name)
     messages = list(make_reader(io.BytesIO(data)).iter_messages())
     state = next(json.loads(m.data) for _, c, m in messages if c.topic == "/state")
-    assert set(state["q"].values()) == {None}  # NaN written as null
+    assert state["q"] == {}  # NaN left out, never null
     files = render_plots(plan, traj, "nan")  # plots that cannot be drawn are left out
     assert set(files) <= {"configuration.png", "controls.png"}
     assert "controls.png" in files
@@ -184,9 +185,69 @@ def test_nan_samples_still_give_a_valid_log_and_plots(unicycle_plan, monkeypatch
 
 def test_json_and_log_times_of_non_finite_values():
     assert json.loads(_json({"a": [1.0, float("nan"), float("inf")], "b": -np.inf})) == {
-        "a": [1.0, None, None],
-        "b": None,
+        "a": [1.0, None, None],  # a list keeps its indices; a mapping leaves the value out
     }
     assert _log_time(5, float("nan")) == 5
     assert _log_time(5, 1e308) == 2**64 - 1
     assert _log_time(5, 1.0) == 5 + 10**9
+
+
+# ------------------------------------------------------------------------------------------
+# Every message against its channel's JSON Schema, with the reference validator
+# ------------------------------------------------------------------------------------------
+
+
+def _schema_errors(data: bytes) -> list[str]:
+    """Every message of an MCAP file validated against the JSON Schema its channel declares."""
+    jsonschema = pytest.importorskip("jsonschema")
+    errors, validators = [], {}
+    for schema, channel, message in make_reader(io.BytesIO(data)).iter_messages():
+        if schema.id not in validators:
+            document = json.loads(schema.data)
+            cls = jsonschema.validators.validator_for(document)
+            cls.check_schema(document)
+            validators[schema.id] = cls(document)
+        for e in validators[schema.id].iter_errors(json.loads(message.data)):
+            errors.append(f"{channel.topic} {list(e.absolute_path)}: {e.message}")
+    return errors
+
+
+def _foxglove_readable(schema: dict, path: str = "") -> None:
+    """Foxglove reads a JSON Schema field by field: one type each, objects with properties."""
+    assert schema.get("type") == "object" and "properties" in schema, path
+    for name, field in schema["properties"].items():
+        assert isinstance(field.get("type"), str), f"{path}.{name}: {field.get('type')!r}"
+        if field["type"] == "object":
+            _foxglove_readable(field, f"{path}.{name}")
+        if field["type"] == "array":
+            assert isinstance(field["items"].get("type"), str), f"{path}.{name}[]"
+            if field["items"]["type"] == "object":
+                _foxglove_readable(field["items"], f"{path}.{name}[]")
+
+
+def test_every_message_validates_against_its_schema(any_run):
+    assert _schema_errors(any_run.data) == []
+    for schema in make_reader(io.BytesIO(any_run.data)).get_summary().schemas.values():
+        _foxglove_readable(json.loads(schema.data), schema.name)
+
+
+def test_failed_and_nan_runs_validate_against_their_schemas(unicycle_plan, monkeypatch):
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_c.toml")
+    settings = dataclasses.replace(task.settings, max_iterations=1, restarts=0)
+    plan = plan_sequence(task.system, task.start, task.legs, settings)
+    assert not plan.ok
+    doc = result_document(plan, "failed", task.model_name)
+    assert _schema_errors(mcap_bytes(plan, sample(plan), doc, None, task.text, "failed")) == []
+    task, plan = unicycle_plan  # the custom model, its samples NaN from the first step
+    monkeypatch.setattr(simulate, "MAX_EVALUATIONS", 20)
+    traj = simulate.sample(plan, 50)
+    doc = result_document(plan, task.scenario.name, task.model_name, None)
+    data = mcap_bytes(plan, traj, doc, {}, task.text, task.scenario.name)
+    assert np.isnan(traj.q).all() and _schema_errors(data) == []
+
+
+def test_layout_is_attached_as_json(arm_run):
+    attachments = {a.name: a for a in make_reader(io.BytesIO(arm_run.data)).iter_attachments()}
+    layout = attachments["layout.json"]
+    assert layout.media_type == "application/json" and layout.log_time == EPOCH
+    assert "3D!motion" in json.loads(layout.data)["configById"]

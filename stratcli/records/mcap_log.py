@@ -14,12 +14,16 @@ Every channel is JSON-encoded with a JSON Schema:
 Samples are those of a `Trajectory` (both ends of every leg, so a switch instant appears twice).
 Log times are nanoseconds: the run's start (`manifest["started"]`, else 0) plus the time on the
 motion's own axis, and they never decrease along the file. The manifest is the metadata record
-`"manifest"` (values that are not strings are JSON-encoded) and the scenario text is the
-attachment `scenario.toml`.
+`"manifest"` (values that are not strings are JSON-encoded); the scenario text is the
+attachment `scenario.toml` and the Foxglove layout (`foxglove_layout`) the attachment
+`layout.json`.
 
-Non-finite numbers (NaN or ±inf in the samples of a failed plan) are written as JSON `null`,
-and log times are clamped to the range of an unsigned 64-bit nanosecond stamp (a NaN time
-counts as the run's start), so a failed or extreme plan still gets a valid log.
+A value that is not there is left out of its message, never written as `null`: a non-finite
+number (NaN or ±inf in the samples of a failed plan) and a goal coordinate that is not
+prescribed are absent keys (inside a list, where a key cannot be left out, it is `null`). Every
+field of the schemas then has one JSON type, as Foxglove's JSON Schema reader requires (see
+`mcap_schemas`). Log times are clamped to the range of an unsigned 64-bit nanosecond stamp (a
+NaN time counts as the run's start), so a failed or extreme plan still gets a valid log.
 
 The channels' JSON Schemas are in `mcap_schemas`; the frames of Foxglove's 3-D panel and the
 `/tf` and `/scene` messages are built by `mcap_scene`. This module writes the file.
@@ -38,12 +42,12 @@ from mcap.writer import Writer
 
 from .. import __version__
 from ..sequence import SequencePlan
+from .foxglove_layout import run_layout, shows_robot
 from .mcap_scene import frame_transforms, link_frames, scene_update
 from .mcap_schemas import FRAME_TRANSFORMS_SCHEMA, SCENE_UPDATE_SCHEMA, own_schemas
-from .rundir import finite_or_none
 from .trajectory import Trajectory, world_geometry
 
-__all__ = ["epoch_ns", "mcap_bytes"]
+__all__ = ["epoch_ns", "layout_bytes", "mcap_bytes"]
 
 # --------------------------------------------------------------------------------------------
 # Helpers
@@ -66,13 +70,44 @@ def epoch_ns(manifest: dict[str, Any] | None) -> int:
     return max(ns, 0)
 
 
+def _present(obj: Any) -> Any:
+    """`obj` without None and non-finite numbers: left out of mappings, `None` in lists."""
+    if isinstance(obj, dict):
+        out = {}
+        for k, v in obj.items():
+            v = _present(v)
+            if v is not None:
+                out[k] = v
+        return out
+    if isinstance(obj, list | tuple):
+        return [_present(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
 def _json(obj: Any) -> bytes:
-    """Compact JSON; NaN and ±inf become null (the fast path assumes all values finite)."""
+    """Compact JSON; a NaN or ±inf is left out (`_present`; the fast path assumes none)."""
     try:
         text = json.dumps(obj, separators=(",", ":"), allow_nan=False)
     except ValueError:
-        text = json.dumps(finite_or_none(obj), separators=(",", ":"), allow_nan=False)
+        text = json.dumps(_present(obj), separators=(",", ":"), allow_nan=False)
     return text.encode("utf-8")
+
+
+def layout_bytes(layout: dict[str, Any]) -> bytes:
+    """`layout.json`'s bytes, as `write_run` writes a dict (indented, a final newline).
+
+    Parameters
+    ----------
+    layout : a Foxglove layout (`foxglove_layout.run_layout`).
+
+    Returns
+    -------
+    bytes
+        UTF-8 JSON, the content of the `layout.json` attachment and file.
+    """
+    return (json.dumps(layout, indent=2, allow_nan=False) + "\n").encode("utf-8")
 
 
 MAX_NS = 2**64 - 1
@@ -86,10 +121,12 @@ def _log_time(epoch: int, t: Any) -> int:
     return min(epoch + round(min(ns, float(MAX_NS))), MAX_NS)
 
 
-def _named_values(names: tuple[str, ...], values: Any) -> dict[str, float | None]:
-    out: dict[str, float | None] = {}
+def _named_values(names: tuple[str, ...], values: Any) -> dict[str, float]:
+    """{name: value} of the finite values (None, NaN and ±inf are left out)."""
+    out: dict[str, float] = {}
     for name, v in zip(names, values, strict=True):
-        out[name] = None if v is None or (isinstance(v, float) and math.isnan(v)) else float(v)
+        if v is not None and math.isfinite(v):
+            out[name] = float(v)
     return out
 
 
@@ -137,6 +174,7 @@ def mcap_bytes(
     manifest: dict[str, Any] | None,
     scenario_text: str,
     scenario_name: str,
+    layout: dict[str, Any] | None = None,
 ) -> bytes:
     """The run as an MCAP file (bytes), ready for `write_run`.
 
@@ -147,6 +185,7 @@ def mcap_bytes(
     manifest : `manifest.json`'s content: stored as the metadata record "manifest"; its
         `started` time (ISO 8601) is the epoch of the log times.
     scenario_text, scenario_name : the scenario file, attached as `scenario.toml`.
+    layout : the Foxglove layout attached as `layout.json` (default: `run_layout(plan, traj)`).
     """
     system = plan.system
     states, inputs = tuple(system.states), tuple(system.inputs)
@@ -161,9 +200,7 @@ def mcap_bytes(
     log = _Log(writer)
     for topic, schema in own_schemas(states, inputs).items():
         log.channel(topic, schema)
-    manipulator = (
-        system.robot is not None and system.n == system.robot.n_joints + 1 and traj.size > 0
-    )
+    manipulator = shows_robot(plan, traj)
     if manipulator:
         log.channel("/tf", FRAME_TRANSFORMS_SCHEMA)
         log.channel("/scene", SCENE_UPDATE_SCHEMA)
@@ -184,6 +221,13 @@ def mcap_bytes(
         media_type="application/toml",
         data=scenario_text.encode("utf-8"),
     )
+    writer.add_attachment(
+        create_time=epoch,
+        log_time=epoch,
+        name="layout.json",
+        media_type="application/json",
+        data=layout_bytes(run_layout(plan, traj) if layout is None else layout),
+    )
 
     t_first = float(traj.t[0]) if traj.size else 0.0
     if manipulator and traj.size:
@@ -196,15 +240,17 @@ def mcap_bytes(
         log.write(
             "/legs",
             at(leg.t0),
-            {
-                "kind": "leg",
-                "leg": k,
-                **{key: doc[key] for key in _LEG_KEYS if key in doc},
-                "start": _named_values(states, doc["start"]),
-                "goal": _named_values(states, doc["goal"]),
-                "end": _named_values(states, doc["end"]),
-                "coefficients": piece["coefficients"],
-            },
+            _present(
+                {
+                    "kind": "leg",
+                    "leg": k,
+                    **{key: doc[key] for key in _LEG_KEYS if key in doc},
+                    "start": _named_values(states, doc["start"]),
+                    "goal": _named_values(states, doc["goal"]),
+                    "end": _named_values(states, doc["end"]),
+                    "coefficients": piece["coefficients"],
+                }
+            ),
         )
         s = traj.leg_slice(k)
         for i in range(s.start, s.stop):
@@ -228,29 +274,33 @@ def mcap_bytes(
             log.write(
                 "/legs",
                 at(max(sw["time"], float(traj.t[s.stop - 1]))),
-                {
-                    "kind": "switch",
-                    "time": sw["time"],
-                    "after_leg": sw["after_leg"],
-                    "jump": sw["jump"],
-                    "jump_derivative": sw["jump_derivative"],
-                    "max_jump": max(jumps, default=0.0),
-                },
+                _present(
+                    {
+                        "kind": "switch",
+                        "time": sw["time"],
+                        "after_leg": sw["after_leg"],
+                        "jump": sw["jump"],
+                        "jump_derivative": sw["jump_derivative"],
+                        "max_jump": max(jumps, default=0.0),
+                    }
+                ),
             )
     all_jumps = [abs(v) for sw in result_doc.get("switches", []) for v in sw["jump"].values()]
     log.write(
         "/summary",
         max(log.last, at(traj.t[-1] if traj.size else 0.0)),
-        {
-            **{key: result_doc.get(key) for key in _SUMMARY_KEYS},
-            "scenario": result_doc.get("scenario", scenario_name),
-            "legs": len(plan.legs),
-            "switches": len(plan.switches),
-            "max_switch_jump": max(all_jumps, default=0.0),
-            "start": _named_values(states, result_doc["start"]),
-            "goal": _named_values(states, result_doc["goal"]),
-            "end": _named_values(states, result_doc["end"] or [None] * len(states)),
-        },
+        _present(
+            {
+                **{key: result_doc.get(key) for key in _SUMMARY_KEYS},
+                "scenario": result_doc.get("scenario", scenario_name),
+                "legs": len(plan.legs),
+                "switches": len(plan.switches),
+                "max_switch_jump": max(all_jumps, default=0.0),
+                "start": _named_values(states, result_doc["start"]),
+                "goal": _named_values(states, result_doc["goal"]),
+                "end": _named_values(states, result_doc["end"] or [None] * len(states)),
+            }
+        ),
     )
     writer.finish()
     return buf.getvalue()

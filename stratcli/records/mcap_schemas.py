@@ -5,6 +5,12 @@ holds them: `SCHEMA_NAMES` (topic → schema name), `own_schemas` for stratplan'
 (`/state`, `/controls`, `/legs`, `/summary`, whose properties are named after the model's
 coordinates and inputs) and the subsets of Foxglove's well-known `FrameTransforms` and
 `SceneUpdate` schemas that `/tf` and `/scene` use. The writer is `mcap_log`.
+
+Every field has exactly one JSON type (`"type": "number"`, never `["number", "null"]`, and an
+`enum` always with its `type`): Foxglove's JSON Schema reader turns a channel schema into
+datatypes field by field and rejects a type list or a missing type, which would leave the whole
+channel undecodable. A value that is not there (a goal coordinate that is not prescribed, a NaN
+of a failed plan) is therefore left out of its message, never written as `null`.
 """
 
 from __future__ import annotations
@@ -25,7 +31,6 @@ SCHEMA_NAMES = {
 # --------------------------------------------------------------------------------------------
 
 _NUMBER = {"type": "number"}
-_NULLABLE = {"type": ["number", "null"]}
 _STRING = {"type": "string"}
 _INTEGER = {"type": "integer"}
 
@@ -55,7 +60,7 @@ def own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, d
         "stratum": _STRING,
     }
     leg_fields = {
-        "kind": {"enum": ["leg", "switch"]},
+        "kind": {"type": "string", "enum": ["leg", "switch"]},
         "leg": {"type": "integer", "description": "kind leg: its index (0-based)"},
         "stratum": _STRING,
         "method": _STRING,
@@ -65,7 +70,7 @@ def own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, d
         "t0": _NUMBER,
         "duration": _NUMBER,
         "start": _named(states, _NUMBER, "configuration at the leg's start"),
-        "goal": _named(states, _NULLABLE, "goal of the leg (null: not prescribed)"),
+        "goal": _named(states, _NUMBER, "goal of the leg (a coordinate left out: not prescribed)"),
         "end": _named(states, _NUMBER, "configuration reached"),
         "error": _NUMBER,
         "converged": {"type": "boolean"},
@@ -87,10 +92,10 @@ def own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, d
     summary_fields = {
         "scenario": _STRING,
         "model": _STRING,
-        "status": {"enum": ["ok", "failed"]},
+        "status": {"type": "string", "enum": ["ok", "failed"]},
         "message": _STRING,
         "total_energy": _NUMBER,
-        "reference_energy": _NULLABLE,
+        "reference_energy": _NUMBER,
         "duration": _NUMBER,
         "legs": _INTEGER,
         "switches": _INTEGER,
@@ -100,7 +105,7 @@ def own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, d
         "full_stop": {"type": "boolean"},
         "tolerance": _NUMBER,
         "start": _named(states, _NUMBER, "start configuration"),
-        "goal": _named(states, _NULLABLE, "goal (null: not prescribed)"),
+        "goal": _named(states, _NUMBER, "goal (a coordinate left out: not prescribed)"),
         "end": _named(states, _NUMBER, "configuration reached"),
     }
     return {

@@ -8,6 +8,7 @@ from typing import Any
 
 from ..scenario import Task
 from ..sequence import SequencePlan
+from .foxglove_layout import run_layout
 from .mcap_log import mcap_bytes
 from .plots import render_plots
 from .rundir import run_name, write_run
@@ -39,12 +40,14 @@ def record_files(
     plots; both are built in memory so the run directory can be written atomically.
     """
     traj = sample(plan)
+    layout = run_layout(plan, traj)
     files: dict[str, Any] = {
         "scenario.toml": task.text,
         "resolved.json": resolved_scenario(task),
         "result.json": doc,
         "manifest.json": manifest,
-        "run.mcap": mcap_bytes(plan, traj, doc, manifest, task.text, task.scenario.name),
+        "run.mcap": mcap_bytes(plan, traj, doc, manifest, task.text, task.scenario.name, layout),
+        "layout.json": layout,
     }
     files.update(render_plots(plan, traj, task.scenario.name, animation=animation))
     return files

@@ -1,0 +1,212 @@
+"""`layout.json`: a Foxglove layout that opens `run.mcap` arranged (no I/O).
+
+A layout is the JSON that Foxglove's "Import from file…" of the layout menu reads (the format
+of an exported layout): `configById` maps panel ids (`"Plot!controls"`: panel type, `!`, a
+name unique in the layout) to their settings, and `layout` is the tree of splits that places
+them (`{"direction", "first", "second", "splitPercentage"}`; a leaf is a panel id). The panels:
+
+| panel | id | shows |
+|---|---|---|
+| 3-D | `3D!motion` | `/tf` and `/scene` from above, following `world` (or `base`) |
+| Plot | `Plot!controls` | `/controls.u.<input>` for every input |
+| Plot | `Plot!configuration` | `/state.q.<coordinate>` for every coordinate |
+| State Transitions | `StateTransitions!stratum` | `/state.stratum` and `/state.leg` |
+
+The 3-D panel is left out when the log has no `/tf` (a model without a robot drawing). Message
+paths are `topic.field.field` in the field names of `mcap_schemas`; every time axis is the log
+time, so the plots and the 3-D view move together with Foxglove's playback bar. Built as plain
+JSON: `foxglove-sdk`'s `foxglove.layouts` writes a different document (`{"version": 1,
+"content": ...}`) and would bring a 50 MB native dependency for four dictionaries.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+
+from ..sequence import SequencePlan
+from .trajectory import Trajectory, world_geometry
+
+__all__ = ["LAYOUT_PANELS", "foxglove_layout", "message_paths", "run_layout", "shows_robot"]
+
+THREE_D, CONTROLS, CONFIGURATION, STRATUM = (
+    "3D!motion",
+    "Plot!controls",
+    "Plot!configuration",
+    "StateTransitions!stratum",
+)
+LAYOUT_PANELS = (THREE_D, CONTROLS, CONFIGURATION, STRATUM)
+
+
+def shows_robot(plan: SequencePlan, traj: Trajectory) -> bool:
+    """Whether `run.mcap` has the `/tf` and `/scene` channels (and the layout a 3-D panel).
+
+    Parameters
+    ----------
+    plan : the planned sequence; `traj` : its samples.
+
+    Returns
+    -------
+    bool
+        True for a planar manipulator (coordinates: joints, then θ) with at least one sample.
+    """
+    system = plan.system
+    return system.robot is not None and system.n == system.robot.n_joints + 1 and traj.size > 0
+
+
+def _series(path: str, label: str) -> dict[str, Any]:
+    return {"value": path, "label": label, "enabled": True, "timestampMethod": "receiveTime"}
+
+
+def _plot(title: str, series: list[dict[str, Any]]) -> dict[str, Any]:
+    return {
+        "foxglovePanelTitle": title,
+        "paths": series,
+        "xAxisVal": "timestamp",
+        "showXAxisLabels": True,
+        "showYAxisLabels": True,
+        "showLegend": True,
+        "legendDisplay": "floating",
+        "showPlotValuesInLegend": True,
+        "isSynced": True,
+        "sidebarDimension": 240,
+    }
+
+
+def _three_d(follow: Literal["world", "base"], distance: float) -> dict[str, Any]:
+    return {
+        "foxglovePanelTitle": "Motion (world frame at the system CM)",
+        "followTf": follow,
+        # following the base: its position only, so the view does not spin with the base
+        "followMode": "follow-pose" if follow == "world" else "follow-position",
+        "cameraState": {
+            "perspective": False,  # a planar robot, seen from above (+z)
+            "distance": distance,
+            "phi": 0,
+            "thetaOffset": 0,
+            "target": [0, 0, 0],
+            "targetOffset": [0, 0, 0],
+            "targetOrientation": [0, 0, 0, 1],
+            "fovy": 45,
+            "near": 0.01,
+            "far": 5000,
+        },
+        "scene": {"transforms": {"showLabel": True, "axisScale": distance / 20}},
+        "transforms": {},
+        "topics": {"/tf": {"visible": True}, "/scene": {"visible": True}},
+        "layers": {
+            "grid": {
+                "visible": True,
+                "label": "Grid",
+                "instanceId": "grid",
+                "layerId": "foxglove.Grid",
+                "frameId": "world",
+                "size": round(2 * distance, 3),
+                "divisions": 10,
+                "order": 1,
+            }
+        },
+    }
+
+
+def _split(
+    direction: Literal["row", "column"], first: Any, second: Any, percent: float
+) -> dict[str, Any]:
+    return {"direction": direction, "first": first, "second": second, "splitPercentage": percent}
+
+
+def foxglove_layout(
+    states: tuple[str, ...],
+    inputs: tuple[str, ...],
+    robot: bool,
+    follow: Literal["world", "base"] = "world",
+    distance: float = 5.0,
+) -> dict[str, Any]:
+    """The Foxglove layout of a run (a JSON-ready dict).
+
+    Parameters
+    ----------
+    states, inputs : names of the model's coordinates and inputs (the fields of `/state.q`
+        and `/controls.u`).
+    robot : whether the log has `/tf` and `/scene` (`shows_robot`); without, no 3-D panel.
+    follow : the frame the 3-D view follows: `"world"` (fixed view) or `"base"` (its position).
+    distance : the 3-D camera's distance (zoom), in the model's length unit.
+
+    Returns
+    -------
+    dict
+        `configById`, `globalVariables`, `userNodes`, `linkedGlobalVariables`,
+        `playbackConfig` and the split tree `layout`.
+    """
+    config: dict[str, Any] = {
+        CONTROLS: _plot("Controls u", [_series(f"/controls.u.{u}", u) for u in inputs]),
+        CONFIGURATION: _plot("Configuration q", [_series(f"/state.q.{q}", q) for q in states]),
+        STRATUM: {
+            "foxglovePanelTitle": "Stratum and leg",
+            "paths": [
+                {"value": "/state.stratum", "label": "stratum", "timestampMethod": "receiveTime"},
+                {"value": "/state.leg", "label": "leg", "timestampMethod": "receiveTime"},
+            ],
+            "isSynced": True,
+        },
+    }
+    charts = _split("column", CONTROLS, _split("column", CONFIGURATION, STRATUM, 70), 38)
+    tree: Any = charts
+    if robot:
+        config[THREE_D] = _three_d(follow, distance)
+        tree = _split("row", THREE_D, charts, 55)
+    return {
+        "configById": config,
+        "globalVariables": {},
+        "userNodes": {},
+        "linkedGlobalVariables": [],
+        "playbackConfig": {"speed": 1.0},
+        "layout": tree,
+    }
+
+
+def run_layout(
+    plan: SequencePlan, traj: Trajectory, follow: Literal["world", "base"] = "world"
+) -> dict[str, Any]:
+    """`foxglove_layout` of a planned run; the 3-D camera frames the robot's first pose.
+
+    Parameters
+    ----------
+    plan : the planned sequence; `traj` : its samples, as written to `run.mcap`.
+    follow : the frame the 3-D view follows (`"world"` or `"base"`).
+
+    Returns
+    -------
+    dict
+        The layout, written as `layout.json` and attached to `run.mcap`.
+    """
+    system = plan.system
+    robot = shows_robot(plan, traj)
+    distance = 5.0
+    if robot:
+        geo = world_geometry(system.robot, traj.q[:1])
+        points = np.concatenate([geo["base_corners"][0], geo["distal"][0], geo["proximal"][0]])
+        reach = float(np.nanmax(np.abs(points))) if np.isfinite(points).any() else math.nan
+        if math.isfinite(reach) and reach > 0:
+            distance = round(4.0 * reach, 3)
+    return foxglove_layout(tuple(system.states), tuple(system.inputs), robot, follow, distance)
+
+
+def message_paths(layout: dict[str, Any]) -> dict[str, list[str]]:
+    """The message paths (`/topic.field...`) and topics each panel of `layout` names.
+
+    Parameters
+    ----------
+    layout : a layout of `foxglove_layout`.
+
+    Returns
+    -------
+    dict
+        Panel id → its plotted paths, then the topics of its `topics` setting (3-D panel).
+    """
+    out: dict[str, list[str]] = {}
+    for panel, config in layout["configById"].items():
+        out[panel] = [p["value"] for p in config.get("paths", [])] + list(config.get("topics", {}))
+    return out
