@@ -19,7 +19,12 @@ from stratcli.models.presets import preset
 from stratcli.objectives import plan_sequence
 from stratcli.records.comparison import ranking_figure, ranking_png
 from stratcli.records.plots import render_plots
-from stratcli.records.robot_figures import HOLD_MS, frame_schedule, stroboscope_figure
+from stratcli.records.robot_figures import (
+    HOLD_MS,
+    frame_schedule,
+    motion_gif,
+    stroboscope_figure,
+)
 from stratcli.scenario import load_scenario
 from stratcli.settings import PlannerSettings
 from stratcli.stratified import LegSpec
@@ -171,7 +176,7 @@ def test_a_failed_plan_is_stamped_failed(failed_plan):
 
 
 def test_the_gif_plays_in_real_time(one_arm):
-    gif = Image.open(io.BytesIO(render_plots(one_arm.plan, one_arm.traj, "t")["motion.gif"]))
+    gif = Image.open(io.BytesIO(motion_gif(one_arm.plan, one_arm.traj, "t")))
     durations = []
     for i in range(gif.n_frames):
         gif.seek(i)

@@ -15,6 +15,7 @@ import math
 from typing import Any
 
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, LogLocator
 
 from ..compare import CRITERION_LABELS, Comparison, Outcome
 from ..decompose import Decomposition, pi_fraction
@@ -212,6 +213,12 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
             ax.text(floor, i, reason, va="center", fontsize=7.5, color=FAILED_COLOR)
     if log:
         ax.set_xscale("log")
+        plain = FuncFormatter(lambda x, _: f"{x:,.10g}")
+        ax.xaxis.set_major_formatter(plain)
+        if ratio < 1000:  # labels at 2 and 5 too: a bar's length can be read off the axis
+            ax.xaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+            ax.xaxis.set_minor_formatter(plain)
+            ax.tick_params(axis="x", which="minor", labelsize=8)
     ax.set_yticks(range(len(rows)), labels, fontsize=7.5)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_xlabel(_axis_label(doc) + (" — log scale" if log else ""), fontsize=9)
@@ -221,7 +228,7 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     )
     ax.grid(axis="x", alpha=0.3)
     if values:
-        ax.set_xlim(floor if log else 0.0, max(shown) * (3.0 if log else 1.18))
+        ax.set_xlim(floor if log else 0.0, max(shown) * (1.7 if log else 1.18))
     handles = []
     if best is not None:
         handles.append(bars[ok.index(best)])

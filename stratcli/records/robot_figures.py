@@ -296,7 +296,7 @@ def motion_gif(
     fig.legend(
         handles=[
             Line2D([], [], color="0.7", ls="--", label="start"),
-            Line2D([], [], color="#7fb3d5", ls=":", label="goal"),
+            Line2D([], [], color="#7fb3d5", ls=":", label="goal" if plan.ok else "end (failed)"),
             Line2D([], [], color="#d35400", label="end effector"),
         ],
         loc="outside lower center",
