@@ -5,6 +5,9 @@ dark, one panel per leg (as the paper's Fig. 7; at most `MAX_PANELS` evenly spac
 `motion_gif` animates the same motion, returned as GIF bytes. Both draw poses in the inertial
 frame with `_draw_poses` (base, links and joints as batched collections) from
 `trajectory.world_geometry`. `render_plots` in `plots` puts them in a run record.
+
+Positions are in metres: a robot (a preset, the paper's robots, or a `planar-manipulator`
+model) is given in metres. The GIF plays in real time, or at a speed-up its title states.
 """
 
 from __future__ import annotations
