@@ -2,13 +2,32 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 
 import numpy as np
+import pytest
+from conftest import ROOT
+from matplotlib.collections import LineCollection
 from PIL import Image
+from typer.testing import CliRunner
 
+import stratcli.records.plots as plots
 import stratcli.simulate as simulate
+from stratcli.cli import app
+from stratcli.models.presets import preset
+from stratcli.objectives import plan_sequence
+from stratcli.records.comparison import ranking_figure, ranking_png
 from stratcli.records.plots import render_plots
+from stratcli.records.robot_figures import (
+    HOLD_MS,
+    frame_schedule,
+    motion_gif,
+    stroboscope_figure,
+)
+from stratcli.scenario import load_scenario
+from stratcli.settings import PlannerSettings
+from stratcli.stratified import LegSpec
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -44,11 +63,190 @@ def test_plots_of_a_custom_model(biped):
 
 
 def test_long_plans_are_plotted_without_per_leg_labels(unicycle_plan, monkeypatch):
-    import stratcli.records.plots as plots
-
     _, plan = unicycle_plan
     traj = simulate.sample(plan, 20)
     monkeypatch.setattr(plots, "MAX_LABELLED_LEGS", 0)
     fig = plots.configuration_figure(plan, traj, "t")
     assert "leg labels omitted" in fig._suptitle.get_text()
     assert len(fig.axes[0].texts) == 0
+
+
+# --------------------------------------------------------------------------------------------
+# What a paper needs: units, leg methods, Lie steps, a FAILED stamp, the ranking's scale rule
+# --------------------------------------------------------------------------------------------
+
+
+def _texts(fig) -> list[str]:
+    """Every text of a figure: its own, its axes' and their titles and labels."""
+    out = [t.get_text() for t in fig.texts]
+    if fig._suptitle is not None:
+        out.append(fig._suptitle.get_text())
+    for ax in fig.axes:
+        out += [t.get_text() for t in ax.texts]
+        out += [ax.get_title(loc) for loc in ("left", "center", "right")]
+    return out
+
+
+@pytest.fixture(scope="module")
+def lie_plan():
+    """Newton → Lie → Newton on the one-arm robot (the Lie leg on S1 takes several steps)."""
+    pi = np.pi
+    settings = PlannerSettings(objective="newton")
+    via1 = np.array([0.0, pi / 3, 0.3, -0.05])
+    legs = [
+        LegSpec("S1", via1),
+        LegSpec("S1", via1 + np.array([0.0, 0.1, -0.05, 0.04]), method="lie", lie=settings.lie),
+        LegSpec("S3", np.array([-0.2, pi / 3 + 0.1, 0.25, np.nan])),
+    ]
+    plan = plan_sequence(preset("one-arm"), np.array([0.0, pi / 4, 0.0, 0.0]), legs, settings)
+    assert plan.ok and len(plan.legs[1].pieces) > 1
+    return plan, simulate.sample(plan, 60)
+
+
+@pytest.fixture(scope="module")
+def failed_plan():
+    """sim4_task_c with one Newton iteration: leg 1 does not reach its goal."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_c.toml")
+    settings = dataclasses.replace(task.settings, objective="newton", max_iterations=1, restarts=0)
+    plan = plan_sequence(task.system, task.start, task.legs, settings)
+    assert not plan.ok and plan.message
+    return plan, simulate.sample(plan, 60)
+
+
+def test_every_axis_has_a_unit(one_arm):
+    conf = plots.configuration_figure(one_arm.plan, one_arm.traj, "t")
+    ctrl = plots.controls_figure(one_arm.plan, one_arm.traj, "t")
+    strobo = stroboscope_figure(one_arm.plan, one_arm.traj, "t")
+    assert all(ax.get_ylabel().endswith("[rad]") for ax in conf.axes)
+    assert all(ax.get_ylabel().endswith("[rad/s]") for ax in ctrl.axes)
+    assert conf.axes[-1].get_xlabel() == ctrl.axes[-1].get_xlabel() == "time [s]"
+    shown = [ax for ax in strobo.axes if ax.get_visible()]
+    assert any(ax.get_xlabel() == "x [m]" for ax in shown)
+    assert any(ax.get_ylabel() == "y [m]" for ax in shown)
+
+
+def test_custom_model_says_its_units_are_its_own(biped):
+    fig = plots.configuration_figure(biped.plan, biped.traj, "t")
+    assert "own units" in fig._suptitle.get_text()
+    assert fig.axes[-1].get_xlabel() == "time [s]"
+
+
+def test_the_last_goal_marker_is_not_clipped(one_arm):
+    fig = plots.configuration_figure(one_arm.plan, one_arm.traj, "t")
+    end = one_arm.plan.duration
+    goals = [
+        line
+        for ax in fig.axes
+        for line in ax.lines
+        if line.get_marker() == "o" and np.isclose(line.get_xdata()[-1], end)
+    ]
+    assert goals and not any(line.get_clip_on() for line in goals)
+
+
+def test_legs_are_labelled_with_method_and_lie_steps_are_drawn(lie_plan):
+    plan, traj = lie_plan
+    steps = len(plan.legs[1].pieces)
+    for make in (plots.configuration_figure, plots.controls_figure):
+        fig = make(plan, traj, "t")
+        texts = "\n".join(_texts(fig)) + (fig._supxlabel.get_text() if fig._supxlabel else "")
+        assert "S1 · newton" in texts and "S3 · newton" in texts
+        assert f"S1 · lie ({steps} steps)" in texts
+        assert "Lie step" in texts
+        lines = [c for c in fig.axes[0].collections if isinstance(c, LineCollection)]
+        assert sum(len(c.get_segments()) for c in lines) == (steps - 1) + len(plan.switches)
+        assert "FAILED" not in texts
+    strobo = stroboscope_figure(plan, traj, "t")
+    assert any(f"lie ({steps} steps)" in t for t in _texts(strobo))
+
+
+def test_a_failed_plan_is_stamped_failed(failed_plan):
+    plan, traj = failed_plan
+    figures = [
+        plots.configuration_figure(plan, traj, "t"),
+        plots.controls_figure(plan, traj, "t"),
+        stroboscope_figure(plan, traj, "t"),
+    ]
+    for fig in figures:
+        texts = _texts(fig)
+        assert "FAILED" in texts  # the diagonal stamp
+        assert any(plan.message[:30] in t.replace("\n", " ") for t in texts)
+        assert fig._suptitle.get_text().endswith("FAILED")
+    files = render_plots(plan, traj, "t", animation=False)
+    assert set(files) == {"configuration.png", "controls.png", "stroboscope.png"}
+
+
+def test_the_gif_plays_in_real_time(one_arm):
+    gif = Image.open(io.BytesIO(motion_gif(one_arm.plan, one_arm.traj, "t")))
+    durations = []
+    for i in range(gif.n_frames):
+        gif.seek(i)
+        durations.append(gif.info["duration"])
+    motion = sum(durations[:-1])  # the last frame holds the final pose
+    assert abs(motion - 1000 * one_arm.plan.duration) <= 20
+    assert durations[-1] == HOLD_MS
+
+
+def test_a_long_gif_states_its_speed_up():
+    times, durations, speed = frame_schedule(0.0, 16.3, max_frames=120, frame_ms=50)
+    assert speed == 4 and len(times) <= 120 and times[-1] == 16.3
+    assert abs(sum(durations[:-1]) - 16.3 / 4 * 1000) <= 20
+    assert frame_schedule(0.0, 3.0)[2] == 1  # real time
+
+
+def _ranking_doc(values: list[float | None]) -> dict:
+    rows = [
+        {
+            "rank": i + 1,
+            "sequence": ["S1", f"S{i + 2}"],
+            "strategy": "conservative",
+            "status": "ok" if v is not None else "failed",
+            "reason": None if v is not None else "leg 2 did not converge",
+            "energy": v,
+        }
+        for i, v in enumerate(values)
+    ]
+    return {"criterion": "energy", "rows": rows, "best": 0, "scenario": "s", "model": "one-arm"}
+
+
+@pytest.mark.parametrize(
+    ("values", "log"),
+    [
+        ([60.0, 70.0, 590.0], False),  # 9.8x
+        ([60.0, 70.0, 610.0], True),  # 10.2x
+        ([60.0, None, *[62.0 + i for i in range(15)], 2400.0], True),  # one 40x the rest
+        ([0.0, 1.0, 2.0], True),  # from 0: an infinite range
+    ],
+)
+def test_ranking_uses_a_log_axis_iff_the_values_span_more_than_10x(values, log):
+    fig = ranking_figure(_ranking_doc(values))
+    (ax,) = fig.axes
+    assert (ax.get_xscale() == "log") is log
+    assert ax.get_xlabel().startswith("total energy") and "[rad²/s]" in ax.get_xlabel()
+    (legend,) = fig.legends
+    assert legend.get_title().get_text().startswith("log scale" if log else "linear scale")
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels[0] == "best: S1→S2 · cons."
+
+
+@pytest.mark.parametrize(("fmt", "magic"), [("svg", (b"<?xml", b"<svg")), ("pdf", (b"%PDF",))])
+def test_plots_in_svg_and_pdf(one_arm, fmt, magic):
+    files = render_plots(one_arm.plan, one_arm.traj, "t", animation=False, fmt=fmt)
+    assert set(files) == {f"configuration.{fmt}", f"controls.{fmt}", f"stroboscope.{fmt}"}
+    assert all(data.startswith(magic) for data in files.values())
+    assert ranking_png(_ranking_doc([1.0, 2.0]), fmt).startswith(magic)
+    with pytest.raises(ValueError, match="png, svg, pdf"):
+        render_plots(one_arm.plan, one_arm.traj, "t", fmt="gif")
+
+
+def test_plan_format_svg_writes_svg_files(tmp_path):
+    out = tmp_path / "runs"
+    args = ["plan", str(ROOT / "scenarios" / "sim4_task_c.toml"), "--out", str(out)]
+    result = CliRunner().invoke(app, [*args, "-q", "--no-animation", "--format", "svg"])
+    assert result.exit_code == 0, result.output
+    (run,) = out.iterdir()
+    names = {p.name for p in run.iterdir()}
+    assert {"configuration.svg", "controls.svg", "stroboscope.svg"} <= names
+    assert not any(name.endswith(".png") for name in names)
+    assert (run / "configuration.svg").read_bytes().startswith((b"<?xml", b"<svg"))
+    bad = CliRunner().invoke(app, [*args, "--format", "gif"])
+    assert bad.exit_code == 2

@@ -54,6 +54,7 @@ def write_record(
     *,
     animation: bool = True,
     argv: Sequence[str] | None = None,
+    fmt: str = "png",
 ) -> Path:
     """Write a run record (result, manifest, scenario, MCAP log, plots) atomically.
 
@@ -68,6 +69,8 @@ def write_record(
         Also write motion.gif.
     argv : sequence of str, optional
         The command recorded in manifest.json (default: this process's `sys.argv`).
+    fmt : str
+        Format of the plots: "png", "svg" or "pdf" (configuration.svg, ...; motion.gif stays).
 
     Returns
     -------
@@ -87,11 +90,11 @@ def write_record(
     command = list(sys.argv if argv is None else argv)
     code = 0 if planned.ok else 1
     info = manifest(task.text, command, task.settings.seed, timings, code)
-    files = run_files.record_files(task, planned.result, planned.document, info, animation)
+    files = run_files.record_files(task, planned.result, planned.document, info, animation, fmt)
     if isinstance(outcome, ComparisonOutcome):
         files["comparison.json"] = outcome.document
         files["comparison.csv"] = comparison_csv(outcome.document)
-        files["ranking.png"] = ranking_png(outcome.document)
+        files[f"ranking.{fmt}"] = ranking_png(outcome.document, fmt)
     return run_files.write_record(Path(out), task, files, planned.started)
 
 

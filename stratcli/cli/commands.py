@@ -9,13 +9,18 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import typer
 
 from . import render
 from .options import Animation, Json, MaxLength, Out, Quiet, Scenario, Strategy, TaskScenario
 from .render_analysis import check_report, decomposition
+
+Format = Annotated[
+    Literal["png", "svg", "pdf"],
+    typer.Option("--format", help="Format of the plots (motion.gif stays a GIF)."),
+]
 
 
 def _load(path: Path):
@@ -55,6 +60,7 @@ def plan(
             "paper eq. 4; as `stratplan check`).",
         ),
     ] = True,
+    fmt: Format = "png",
 ) -> None:
     """Plan a scenario: every leg to tolerance, controls continuous across switches.
 
@@ -72,11 +78,11 @@ def plan(
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
-        _plan_auto(task, file, out, json_output, quiet, animation, check)
+        _plan_auto(task, file, out, json_output, quiet, animation, check, fmt)
     with render.reported(file):
         outcome = api.plan_run(task, check=check, time_scale=time_scale)
     with render.reported():
-        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
     if json_output:
         render.print_json(outcome.document)
     elif not quiet:
@@ -87,14 +93,14 @@ def plan(
     raise typer.Exit(0 if outcome.ok else 1)
 
 
-def _plan_auto(task, file: Path, out: Path, json_output, quiet, animation, check) -> None:
+def _plan_auto(task, file: Path, out: Path, json_output, quiet, animation, check, fmt) -> None:
     """`plan` on a scenario without legs: compare the candidates, record and show the best."""
     from .. import api  # start-up speed
 
     with render.reported(file), render.progress_bar(_interactive(quiet, json_output)) as bar:
         outcome = api.plan_auto(task, check=check, progress=bar)
     with render.reported():
-        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
     if json_output:
         render.print_json(outcome.best.document)
     elif not quiet:
@@ -127,6 +133,7 @@ def compare_sequences(
     json_output: Json = False,
     quiet: Quiet = False,
     animation: Animation = True,
+    fmt: Format = "png",
 ) -> None:
     """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
 
@@ -144,7 +151,7 @@ def compare_sequences(
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(task, **options, jobs=jobs, progress=bar)
     with render.reported():
-        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv())
+        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
     if json_output:
         render.print_json(outcome.document)
     elif not quiet:

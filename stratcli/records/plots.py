@@ -1,17 +1,23 @@
-"""PNG plots and an animated GIF of a planned motion, returned as bytes.
+"""Plots (PNG, SVG or PDF) and an animated GIF of a planned motion, returned as bytes.
 
 * `configuration.png`: every coordinate against time.
 * `controls.png`: every input against time; an input that is off on a leg is drawn at zero
   there and labelled "off".
 * `stroboscope.png` (manipulators): the robot drawn at regular instants of each leg, fading
   from light to dark, one panel per leg (as the paper's Fig. 7).
-* `motion.gif` (manipulators): the same motion, animated.
+* `motion.gif` (manipulators): the same motion, animated in real time (or at a stated speed-up).
 
-In the time plots every leg is shaded and labelled with its stratum, and switch instants are
-dashed lines. Work is bounded for long plans: with more than `MAX_LABELLED_LEGS` legs the time
-plots are shaded but not labelled leg by leg (the title says so), each coordinate is one line
-instead of one per leg, and the stroboscope shows at most `MAX_PANELS` evenly spaced legs
-(named in its title). A plot that cannot be drawn (non-finite samples of a failed plan) is left
+In the time plots every leg is shaded and labelled with its stratum and method ("leg 2: S1 ·
+lie (8 steps)"; a leg too narrow for its label gets "L2" and the full label in a footnote),
+switch instants are dashed lines and the steps of a Lie leg thin lines. Axes carry units
+(time in s; rad and rad/s for manipulators; a custom model's own units are not known, so its
+coordinates are unlabelled and the title says so). A failed plan's figures are stamped FAILED
+with the plan's message. Goal markers are not clipped at the axes' edges.
+
+Work is bounded for long plans: with more than `MAX_LABELLED_LEGS` legs the time plots are
+shaded but not labelled leg by leg (the title says so), each coordinate is one line instead of
+one per leg, and the stroboscope shows at most `MAX_PANELS` evenly spaced legs (named in its
+title). A plot that cannot be drawn (non-finite samples of a failed plan) is left
 out of the record rather than failing it. Only matplotlib's object-oriented API is used
 (`Figure` + the Agg canvas), so the global pyplot state is never touched and no display is
 needed. This module draws the time plots and assembles the record (`render_plots`); the
@@ -20,36 +26,39 @@ stroboscope and the GIF are drawn by `robot_figures`.
 
 from __future__ import annotations
 
-import io
+import textwrap
 from typing import Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.transforms import blended_transform_factory
 
 from ..sequence import SequencePlan
-from .robot_figures import DPI, locked_names, motion_gif, stroboscope_figure
+from .figure_common import (
+    FAILED_COLOR,
+    FORMATS,
+    leg_method,
+    locked_names,
+    save_figure,
+    stamp_failed,
+)
+from .robot_figures import motion_gif, stroboscope_figure
 from .trajectory import Trajectory
 
-__all__ = ["configuration_figure", "controls_figure", "render_plots"]
+__all__ = ["FORMATS", "configuration_figure", "controls_figure", "render_plots", "save_figure"]
 
 SHADES = ("#e8eef8", "#f8efe2")  # alternate leg backgrounds
 SWITCH = {"color": "0.35", "linestyle": "--", "linewidth": 0.9}
+LIE_STEP = {"color": "0.55", "linestyle": "-", "linewidth": 0.5}
 GOAL_COLOR = "#c0392b"
 MAX_LABELLED_LEGS = 20  # more legs: no per-leg labels, goals or "off" marks
+WIDTH = 9.0  # in, of the time plots
+LABEL_SIZE = 8.5  # pt, of the leg labels
 
 
 # --------------------------------------------------------------------------------------------
 # Helpers
 # --------------------------------------------------------------------------------------------
-
-
-def _png(fig: Figure) -> bytes:
-    buf = io.BytesIO()
-    FigureCanvasAgg(fig)
-    fig.savefig(buf, format="png", dpi=DPI)
-    return buf.getvalue()
 
 
 def _is_manipulator(plan: SequencePlan) -> bool:
@@ -58,42 +67,64 @@ def _is_manipulator(plan: SequencePlan) -> bool:
 
 
 def _leg_label(plan: SequencePlan, k: int) -> str:
+    """ "leg 2: S1 · lie (8 steps)", and the locked coordinates on a second line."""
     locked = locked_names(plan, k)
-    head = f"leg {k + 1}: {plan.legs[k].stratum}"
-    if not locked:
-        return head
-    return f"{head}\n{', '.join(locked)} locked"
+    head = f"leg {k + 1}: {leg_method(plan, k)}"
+    return f"{head}\n{', '.join(locked)} locked" if locked else head
 
 
-def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> None:
-    """Shade the legs, label them with their stratum at the top, dash the switches."""
-    total = plan.duration if plan.legs else 1.0
-    labelled = len(plan.legs) <= MAX_LABELLED_LEGS
+def _fits(text: str, duration: float, total: float) -> bool:
+    """Whether a leg label fits over its leg (DejaVu Sans: about 0.6 em per character)."""
+    width = max(len(line) for line in text.split("\n")) * LABEL_SIZE * 0.6 / 72
+    return width <= duration / total * (WIDTH - 1.1)
+
+
+def _label_legs(fig: Figure, top: Any, plan: SequencePlan) -> None:
+    """Each leg's label above it; too narrow a leg gets "L<k>" and a footnote."""
+    total = plan.duration or 1.0
+    trans = blended_transform_factory(top.transData, top.transAxes)
+    notes = []
     for k, leg in enumerate(plan.legs):
-        for ax in axes:
-            ax.axvspan(leg.t0, leg.t0 + leg.duration, color=SHADES[k % 2], zorder=0, lw=0)
-        if not labelled:
-            continue
-        top = axes[0]
-        trans = blended_transform_factory(top.transData, top.transAxes)
+        label = _leg_label(plan, k)
+        if not _fits(label, leg.duration, total):
+            notes.append(f"L{k + 1} = {label.replace(chr(10), ', ')}")
+            label = f"L{k + 1}"
         top.text(
             leg.t0 + leg.duration / 2,
             1.04,
-            _leg_label(plan, k),
+            label,
             transform=trans,
             ha="center",
             va="bottom",
-            fontsize=8.5,
+            fontsize=LABEL_SIZE,
             color="0.15",
         )
-    for sw in plan.switches:
-        for ax in axes:
-            ax.axvline(sw.time, **SWITCH, zorder=1)
+    if notes:
+        fig.supxlabel("\n".join(textwrap.wrap("; ".join(notes), 150)), fontsize=8, color="0.25")
+
+
+def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> None:
+    """Shade the legs, label them with stratum and method, dash switches, mark Lie steps."""
+    total = plan.duration if plan.legs else 1.0
+    steps = [leg.t0 + p.t0 for leg in plan.legs for p in leg.pieces[1:]]
+    switches = [sw.time for sw in plan.switches]
     for ax in axes:
+        for k, leg in enumerate(plan.legs):
+            ax.axvspan(leg.t0, leg.t0 + leg.duration, color=SHADES[k % 2], zorder=0, lw=0)
+        x_axis = ax.get_xaxis_transform()
+        if steps:
+            ax.vlines(steps, 0, 1, transform=x_axis, zorder=1, **LIE_STEP)
+        if switches:
+            ax.vlines(switches, 0, 1, transform=x_axis, zorder=1, **SWITCH)
         ax.set_xlim(0.0, total)
         ax.grid(True, axis="y", color="0.85", linewidth=0.6)
         ax.tick_params(labelsize=8)
+    if len(plan.legs) <= MAX_LABELLED_LEGS:
+        _label_legs(axes[0].figure, axes[0], plan)
     axes[-1].set_xlabel("time [s]")
+    keys = (["- - switch"] if switches else []) + (["│ Lie step"] if steps else [])
+    if keys:
+        axes[0].figure.text(0.005, 0.995, "   ".join(keys), color="0.3", va="top", fontsize=8)
 
 
 def _time_series(
@@ -106,7 +137,7 @@ def _time_series(
     kind: str,
 ) -> Figure:
     rows = len(names)
-    fig = Figure(figsize=(9.0, 1.05 + 1.25 * rows), layout="constrained")
+    fig = Figure(figsize=(WIDTH, 1.05 + 1.25 * rows), layout="constrained")
     axes = list(np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]))
     colors = [f"C{i % 10}" for i in range(rows)]
     labelled = len(plan.legs) <= MAX_LABELLED_LEGS
@@ -119,36 +150,45 @@ def _time_series(
             ax.plot(traj.t, values[:, i], color=colors[i], linewidth=1.2, zorder=3)
         ax.set_ylabel(f"{name} [{unit}]" if unit else name, fontsize=9)
     _decorate_time_axes(axes, plan)
+    if unit is None:
+        title += " (custom model: values in its own units)"
     if not labelled:
         title = f"{title} ({len(plan.legs)} legs; leg labels omitted above {MAX_LABELLED_LEGS})"
     elif kind == "configuration":
         _mark_goals(plan, axes)
     else:
         _mark_off_inputs(plan, axes)
-    fig.suptitle(title, fontsize=11, fontweight="bold")
+    if not plan.ok:
+        title += " — FAILED"
+    fig.suptitle(title, fontsize=11, fontweight="bold", color="k" if plan.ok else FAILED_COLOR)
+    stamp_failed(fig, plan)
     return fig
 
 
 def _mark_goals(plan: SequencePlan, axes: list[Any]) -> None:
-    """The value each leg was asked to reach, at the leg's end time."""
-    shown = False
+    """The value each leg was asked to reach, at the leg's end time (never clipped)."""
+    ends = [[] for _ in axes]
     for leg in plan.legs:
         for i in leg.targets:
-            if np.isnan(leg.goal[i]):
-                continue
-            axes[i].plot(
-                leg.t0 + leg.duration,
-                leg.goal[i],
-                marker="o",
-                markersize=6,
-                markerfacecolor="none",
-                markeredgecolor=GOAL_COLOR,
-                markeredgewidth=1.3,
-                linestyle="none",
-                zorder=4,
-            )
-            shown = True
-    if shown:
+            if not np.isnan(leg.goal[i]):
+                ends[i].append((leg.t0 + leg.duration, leg.goal[i]))
+    for ax, points in zip(axes, ends, strict=True):
+        if not points:
+            continue
+        t, q = np.array(points).T
+        ax.plot(
+            t,
+            q,
+            marker="o",
+            markersize=6,
+            markerfacecolor="none",
+            markeredgecolor=GOAL_COLOR,
+            markeredgewidth=1.3,
+            linestyle="none",
+            zorder=4,
+            clip_on=False,  # the last leg's goal sits on the right edge
+        )
+    if any(ends):
         axes[0].figure.text(
             0.995, 0.995, "○ goal of the leg", color=GOAL_COLOR, ha="right", va="top", fontsize=8
         )
@@ -205,22 +245,31 @@ def controls_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Fi
 
 
 def render_plots(
-    plan: SequencePlan, traj: Trajectory, title: str = "", animation: bool = True
+    plan: SequencePlan,
+    traj: Trajectory,
+    title: str = "",
+    animation: bool = True,
+    fmt: str = "png",
 ) -> dict[str, bytes]:
     """All plots of a run as {file name: bytes}.
 
-    `configuration.png` and `controls.png` always; `stroboscope.png` and (when `animation`)
-    `motion.gif` for manipulator models. A plan without legs gives no files, and a plot that
-    cannot be drawn (e.g. NaN samples of a failed plan) is left out.
+    `configuration.<fmt>` and `controls.<fmt>` always; `stroboscope.<fmt>` and (when
+    `animation`) `motion.gif` for manipulator models. `fmt` is png, svg or pdf (the animation
+    is a GIF whatever it is). A plan without legs gives no files, and a plot that cannot be
+    drawn (e.g. NaN samples of a failed plan) is left out.
     """
+    if fmt not in FORMATS:
+        raise ValueError(f"figure format must be one of {', '.join(FORMATS)}, not {fmt!r}")
     if not plan.legs or traj.size == 0:
         return {}
     makers = {
-        "configuration.png": lambda: _png(configuration_figure(plan, traj, title)),
-        "controls.png": lambda: _png(controls_figure(plan, traj, title)),
+        f"configuration.{fmt}": lambda: save_figure(configuration_figure(plan, traj, title), fmt),
+        f"controls.{fmt}": lambda: save_figure(controls_figure(plan, traj, title), fmt),
     }
     if _is_manipulator(plan):
-        makers["stroboscope.png"] = lambda: _png(stroboscope_figure(plan, traj, title))
+        makers[f"stroboscope.{fmt}"] = lambda: save_figure(
+            stroboscope_figure(plan, traj, title), fmt
+        )
         if animation:
             makers["motion.gif"] = lambda: motion_gif(plan, traj, title)
     files = {}

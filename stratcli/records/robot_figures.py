@@ -5,6 +5,9 @@ dark, one panel per leg (as the paper's Fig. 7; at most `MAX_PANELS` evenly spac
 `motion_gif` animates the same motion, returned as GIF bytes. Both draw poses in the inertial
 frame with `_draw_poses` (base, links and joints as batched collections) from
 `trajectory.world_geometry`. `render_plots` in `plots` puts them in a run record.
+
+Positions are in metres: a robot (a preset, the paper's robots, or a `planar-manipulator`
+model) is given in metres. The GIF plays in real time, or at a speed-up its title states.
 """
 
 from __future__ import annotations
@@ -19,20 +22,15 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..sequence import SequencePlan
+from .figure_common import DPI, FAILED_COLOR, leg_method, locked_names, stamp_failed
 from .trajectory import Trajectory, world_geometry
 
-__all__ = ["DPI", "locked_names", "motion_gif", "stroboscope_figure"]
+__all__ = ["DPI", "frame_schedule", "locked_names", "motion_gif", "stroboscope_figure"]
 
-DPI = 110
 ARM_DARK = np.array([0.05, 0.16, 0.40])  # the last snapshot of a leg
 ARM_LIGHT = np.array([0.72, 0.80, 0.92])  # the first one
 BASE_FACE = "#9aa5b1"
 MAX_PANELS = 12  # stroboscope panels
-
-
-def locked_names(plan: SequencePlan, k: int) -> list[str]:
-    """Names of the coordinates locked on leg `k`."""
-    return [plan.system.states[i] for i in plan.legs[k].locked]
 
 
 def _limits(geo: dict[str, np.ndarray], margin: float = 0.25) -> tuple[tuple, tuple]:
@@ -131,7 +129,9 @@ def stroboscope_figure(
     panel_w = min(4.0, 11.0 / cols) if span < 1.6 else min(5.5, 11.0 / cols)
     panel_h = float(np.clip(panel_w / span, 2.0, 4.5))
     fig = Figure(
-        figsize=(panel_w * cols + 0.4, panel_h * rows + 1.4), layout="constrained", dpi=DPI
+        figsize=(max(panel_w * cols + 0.4, 7.5), panel_h * rows + 1.4),  # room for the title
+        layout="constrained",
+        dpi=DPI,
     )
     axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
     tips = _tips(geo)
@@ -159,15 +159,15 @@ def stroboscope_figure(
         ax.grid(True, color="0.9", linewidth=0.5)
         locked = ", ".join(locked_names(plan, k))
         ax.set_title(
-            f"leg {k + 1}: {leg.stratum}"
+            f"leg {k + 1}: {leg_method(plan, k)}"
             + (f" ({locked} locked)" if locked else "")
             + f"\nt = {leg.t0:g} to {leg.t0 + leg.duration:g} s",
             fontsize=9,
         )
         if panel % cols == 0:
-            ax.set_ylabel("y", fontsize=9)
+            ax.set_ylabel("y [m]", fontsize=9)
         if panel // cols == rows - 1 or panel + cols >= legs:
-            ax.set_xlabel("x", fontsize=9)
+            ax.set_xlabel("x [m]", fontsize=9)
     handles = [
         Line2D([], [], color="0.3", lw=1.7, ls="--", marker="o", ms=3, label="start of leg"),
         Line2D([], [], color=tuple(ARM_DARK), lw=2.4, marker="o", ms=4, label="end of leg"),
@@ -186,50 +186,90 @@ def stroboscope_figure(
     if legs < len(plan.legs):
         head += f", {legs} of {len(plan.legs)} legs"
     fig.suptitle(
-        f"{head} ({snapshots} instants per leg, light to dark; inertial frame)",
+        f"{head} ({snapshots} instants per leg, light to dark; inertial frame)"
+        + ("" if plan.ok else " — FAILED"),
         fontsize=11,
         fontweight="bold",
+        color="k" if plan.ok else FAILED_COLOR,
     )
+    stamp_failed(fig, plan)
     return fig
 
 
-def motion_gif(
-    plan: SequencePlan, traj: Trajectory, title: str = "", max_frames: int = 120, fps: int = 25
-) -> bytes:
-    """An animated GIF of the motion: at most `max_frames` frames at `fps`, looping.
+SPEEDS = (1, 2, 4, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000)  # of a GIF too long for real time
+HOLD_MS = 1000  # the final pose stays this long before the loop restarts
 
-    The static parts (axes, start and goal ghosts) are drawn once and every frame only redraws
-    the moving artists over that background (blitting), then Pillow (matplotlib's own image
-    dependency) encodes the frames with one shared palette. matplotlib's `PillowWriter` would
-    redraw and re-lay-out the whole figure for every frame (about 0.2 s each here, 15 s for a
-    3-leg run); this takes well under a second.
+
+def frame_schedule(
+    t0: float, t1: float, max_frames: int = 120, frame_ms: int = 50
+) -> tuple[np.ndarray, list[int], int]:
+    """Plan times of the GIF's frames, their durations (ms) and the speed-up.
+
+    Frames are `frame_ms` apart on the screen and `speed × frame_ms` apart in plan time, with
+    the smallest speed-up of `SPEEDS` that fits `max_frames` (1: real time). GIF durations are
+    whole centiseconds and browsers show a frame under 20 ms for 100 ms, so the last, shorter
+    interval is kept only when it lasts ≥ 20 ms (otherwise the last frame moves to the end,
+    < 20 ms early). The final frame is held `HOLD_MS`.
+    """
+    total = max(t1 - t0, 0.0)
+    speed = next((s for s in SPEEDS if total / (s * frame_ms / 1000) + 2 <= max_frames), 0)
+    speed = speed or int(np.ceil(total / (frame_ms / 1000) / (max_frames - 2)))
+    step = speed * frame_ms / 1000
+    times = t0 + step * np.arange(int(np.floor(total / step + 1e-9)) + 1)
+    durations = [frame_ms] * len(times)
+    rest_ms = round((t1 - times[-1]) / speed * 1000, -1)
+    if rest_ms >= 20:
+        times = np.append(times, t1)
+        durations[-1] = int(rest_ms)
+        durations.append(HOLD_MS)
+    else:
+        times[-1] = t1
+        durations[-1] = HOLD_MS
+    if len(times) == 1:  # a plan of zero duration: still an animation of two frames
+        times, durations = np.array([t0, t1]), [frame_ms, HOLD_MS]
+    return times, durations, speed
+
+
+def motion_gif(
+    plan: SequencePlan,
+    traj: Trajectory,
+    title: str = "",
+    max_frames: int = 120,
+    frame_ms: int = 50,
+) -> bytes:
+    """An animated GIF of the motion, looping: real time, or a speed-up its title states.
+
+    Frames are `frame_ms` apart (at most `max_frames`; see `frame_schedule`); text is at
+    least 9 pt at 100 dpi (12 px). The static parts (axes, start and goal ghosts) are drawn
+    once and every frame only redraws the moving artists over that background (blitting),
+    then Pillow (matplotlib's own image dependency) encodes the frames with one shared
+    palette. matplotlib's `PillowWriter` would redraw and re-lay-out the whole figure for
+    every frame (about 0.2 s each here, 15 s for a 3-leg run); this takes well under a second.
     """
     from PIL import Image  # a dependency of matplotlib
 
     robot = plan.system.robot
     geo = world_geometry(robot, traj.q)
     xlim, ylim = _limits(geo)
-    total = float(traj.t[-1] - traj.t[0])
-    hold = 8  # frames showing the final pose before the loop restarts
-    frames = int(np.clip(round(fps * total), 2, max_frames - hold))
-    times = np.linspace(traj.t[0], traj.t[-1], frames)
+    times, durations, speed = frame_schedule(traj.t[0], traj.t[-1], max_frames, frame_ms)
     # the sample at (or just after) each frame time; a switch instant shows the later leg
     index = np.minimum(np.searchsorted(traj.t, times, side="left"), traj.size - 1)
-    index = np.concatenate([index, np.full(hold, traj.size - 1)])
-    times = np.concatenate([times, np.full(hold, traj.t[-1])])
 
     span = max(xlim[1] - xlim[0], 1e-9) / max(ylim[1] - ylim[0], 1e-9)
-    fig = Figure(figsize=(4.4, 4.4 / span + 0.8), dpi=80, layout="constrained")
+    fig = Figure(figsize=(5.0, float(np.clip(4.2 / span, 2.6, 6.0)) + 1.3), dpi=100)
+    fig.set_layout_engine("constrained")
     canvas = FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     ax.set_xlim(*xlim)
     ax.set_ylim(*ylim)
     ax.set_aspect("equal")
-    ax.tick_params(labelsize=7)
+    ax.tick_params(labelsize=9)
+    ax.set_xlabel("x [m]", fontsize=9, labelpad=1)
+    ax.set_ylabel("y [m]", fontsize=9, labelpad=1)
     ax.grid(True, color="0.9", linewidth=0.5)
     _draw_poses(ax, geo, np.array([0]), ["0.7"], lw=1.3, zorder=1, linestyle="--")
     _draw_poses(ax, geo, np.array([traj.size - 1]), ["#7fb3d5"], lw=1.3, zorder=1, linestyle=":")
-    (centre,) = ax.plot(0, 0, "+", color="k", markersize=6, zorder=7)
+    (centre,) = ax.plot(0, 0, "+", color="k", markersize=7, zorder=7)
     tips = _tips(geo)
     trails = [
         ax.plot([], [], "-", color="#d35400", lw=1.0, alpha=0.8, zorder=2)[0]
@@ -240,25 +280,31 @@ def motion_gif(
     )
     ax.add_collection(base)
     links = LineCollection(
-        _segments(geo, np.array([0])), colors=tuple(ARM_DARK), linewidths=2.6, zorder=4
+        _segments(geo, np.array([0])), colors=tuple(ARM_DARK), linewidths=2.8, zorder=4
     )
     ax.add_collection(links)
-    (joints,) = ax.plot([], [], "o", color=tuple(ARM_DARK), markersize=4, zorder=5)
+    (joints,) = ax.plot([], [], "o", color=tuple(ARM_DARK), markersize=4.5, zorder=5)
     legs = len(plan.legs)
-    if title:
-        fig.suptitle(title, fontsize=9, fontweight="bold")
-    widest = max((leg.stratum for leg in plan.legs), key=len)
-    heading = ax.set_title(f"leg {legs}/{legs} on {widest}", fontsize=9, loc="left")
-    clock = ax.set_title("t = 00.00 s", fontsize=9, loc="right")
+    pace = "real time" if speed == 1 else f"played ×{speed}"
+    status = "" if plan.ok else " — FAILED"
+    fig.suptitle(
+        f"{title + ': ' if title else ''}{pace}{status}",
+        fontsize=11,
+        fontweight="bold",
+        color="k" if plan.ok else FAILED_COLOR,
+    )
+    widest = max((leg_method(plan, k) for k in range(legs)), key=len)
+    heading = ax.set_title(f"leg {legs}/{legs}: {widest}", fontsize=10, loc="left")
+    clock = ax.set_title("t = 00.00 s", fontsize=10, loc="right")
     fig.legend(
         handles=[
             Line2D([], [], color="0.7", ls="--", label="start"),
-            Line2D([], [], color="#7fb3d5", ls=":", label="goal"),
+            Line2D([], [], color="#7fb3d5", ls=":", label="goal" if plan.ok else "end (failed)"),
             Line2D([], [], color="#d35400", label="end effector"),
         ],
         loc="outside lower center",
         ncols=3,
-        fontsize=7,
+        fontsize=9,
         frameon=False,
     )
     moving = [*trails, base, links, joints, centre, clock]
@@ -268,9 +314,9 @@ def motion_gif(
     fig.set_layout_engine("none")
     clean = canvas.copy_from_bbox(fig.bbox)
     backgrounds = []  # per leg: the static figure with that leg's heading
-    for k, leg in enumerate(plan.legs):
+    for k in range(legs):
         canvas.restore_region(clean)
-        heading.set_text(f"leg {k + 1}/{legs} on {leg.stratum}")
+        heading.set_text(f"leg {k + 1}/{legs}: {leg_method(plan, k)}")
         fig.draw_artist(heading)
         backgrounds.append(canvas.copy_from_bbox(fig.bbox))
 
@@ -297,7 +343,7 @@ def motion_gif(
         format="GIF",
         save_all=True,
         append_images=frames_p[1:],
-        duration=round(1000 / fps),
+        duration=durations,
         loop=0,
         optimize=False,
     )

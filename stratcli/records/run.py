@@ -32,9 +32,14 @@ def resolved_scenario(task: Task) -> dict[str, Any]:
 
 
 def record_files(
-    task: Task, plan: SequencePlan, doc: dict, manifest: dict, animation: bool = True
+    task: Task,
+    plan: SequencePlan,
+    doc: dict,
+    manifest: dict,
+    animation: bool = True,
+    fmt: str = "png",
 ) -> dict[str, Any]:
-    """Name → content of every file of the run directory.
+    """Name → content of every file of the run directory (plots as `fmt`: png, svg or pdf).
 
     The trajectory is re-integrated densely (≥ 200 samples per leg) for the MCAP log and the
     plots; both are built in memory so the run directory can be written atomically.
@@ -49,7 +54,7 @@ def record_files(
         "run.mcap": mcap_bytes(plan, traj, doc, manifest, task.text, task.scenario.name, layout),
         "layout.json": layout,
     }
-    files.update(render_plots(plan, traj, task.scenario.name, animation=animation))
+    files.update(render_plots(plan, traj, task.scenario.name, animation=animation, fmt=fmt))
     return files
 
 

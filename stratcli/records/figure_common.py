@@ -1,0 +1,82 @@
+"""What every figure of a record shares: formats and saving, leg names, the FAILED stamp."""
+
+from __future__ import annotations
+
+import io
+import textwrap
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ..sequence import SequencePlan
+
+__all__ = [
+    "DPI",
+    "FAILED_COLOR",
+    "FORMATS",
+    "leg_method",
+    "locked_names",
+    "save_figure",
+    "stamp_failed",
+]
+
+DPI = 110
+FORMATS = ("png", "svg", "pdf")  # of the figures; the animation is always a GIF
+FAILED_COLOR = "#c0392b"  # a failed plan's stamp and title
+# no creation dates: the same plan gives the same bytes
+_METADATA = {"png": {}, "svg": {"Date": None}, "pdf": {"CreationDate": None}}
+
+
+def locked_names(plan: SequencePlan, k: int) -> list[str]:
+    """Names of the coordinates locked on leg `k`."""
+    return [plan.system.states[i] for i in plan.legs[k].locked]
+
+
+def leg_method(plan: SequencePlan, k: int) -> str:
+    """Stratum and method of leg `k`: "S1 · newton", "S1 · lie (8 steps)"."""
+    leg = plan.legs[k]
+    steps = len(leg.pieces)
+    if leg.method == "lie":
+        return f"{leg.stratum} · lie ({steps} step{'s' if steps != 1 else ''})"
+    return f"{leg.stratum} · {leg.method}"
+
+
+def save_figure(fig: Figure, fmt: str = "png") -> bytes:
+    """The figure as PNG, SVG or PDF bytes (no creation date in the file)."""
+    if fmt not in FORMATS:
+        raise ValueError(f"figure format must be one of {', '.join(FORMATS)}, not {fmt!r}")
+    buf = io.BytesIO()
+    FigureCanvasAgg(fig)
+    fig.savefig(buf, format=fmt, dpi=DPI, metadata=_METADATA[fmt])
+    return buf.getvalue()
+
+
+def stamp_failed(fig: Figure, plan: SequencePlan) -> None:
+    """A failed plan: a red diagonal FAILED across the figure and the plan's message."""
+    if plan.ok:
+        return
+    fig.text(
+        0.5,
+        0.5,
+        "FAILED",
+        rotation=24,
+        fontsize=64,
+        fontweight="bold",
+        color=FAILED_COLOR,
+        alpha=0.28,
+        ha="center",
+        va="center",
+        zorder=100,
+    )
+    message = textwrap.shorten(plan.message or "the plan did not reach its goal", 300)
+    fig.text(
+        0.5,
+        0.36,
+        "\n".join(textwrap.wrap(message, int(fig.get_figwidth() * 11))),
+        fontsize=9,
+        color=FAILED_COLOR,
+        ha="center",
+        va="top",
+        zorder=100,
+        bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": FAILED_COLOR, "lw": 0.8},
+    )
