@@ -172,7 +172,8 @@ class OdeEndpoint(_Endpoint):
     """General path: integrate `q' = G(q)u` and `S' = ∂(Gu)/∂q S + G ∂u/∂λ` (eq. 16-17).
 
     The work of one call is bounded: an integration that needs more than `max_evaluations`
-    evaluations of the right-hand side (a stiff model, huge controls) or that fails returns
+    evaluations of the right-hand side, or more than `growth` times what the last finished
+    call needed (a trial step into a stiff region, huge controls), or that fails, returns
     NaN, which the planners treat as a step that does not reach the goal (it is rejected,
     and a leg that never gets a finite end point fails with a numerical-failure status).
     """
@@ -181,6 +182,8 @@ class OdeEndpoint(_Endpoint):
     rtol = 1e-12
     atol = 1e-12
     max_evaluations = 20_000  # DOP853 takes 12 per step; the biped's legs need at most ~300
+    growth = 20  # a call may take at most this many times the evaluations of the last good one
+    _last = 0  # evaluations of the last call that finished (per end-point map: per leg)
 
     def __call__(self, lam: np.ndarray, jacobian: bool = True):
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
@@ -188,11 +191,12 @@ class OdeEndpoint(_Endpoint):
         G, dG, basis = self.cs.G, self.cs.dG, self.basis
 
         calls = 0
+        budget = min(self.max_evaluations, max(2_000, self.growth * self._last))
 
         def rhs(t, y):
             nonlocal calls
             calls += 1
-            if calls > self.max_evaluations:
+            if calls > budget:
                 raise _OutOfBudget
             q = y[:n]
             phi = basis.values(t)
@@ -214,6 +218,8 @@ class OdeEndpoint(_Endpoint):
             ok = sol.success
         except _OutOfBudget:
             ok = False
+        if ok:
+            self._last = calls
         y = sol.y[:, -1] if ok else np.full(y0.size, np.nan)
         return (y[:n], y[n:].reshape(n, p)) if jacobian else (y[:n], None)
 

@@ -224,6 +224,8 @@ start = [0, 0]
 goal = [5, 1]
 [planner]
 objective = "newton"
+restarts = 0           # the search grinds (see issue 14): one short attempt shows it
+max_iterations = 5
 [[legs]]
 stratum = "S"
 """
