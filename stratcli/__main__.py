@@ -7,7 +7,8 @@ every `finally` (a half-written run directory is removed, worker processes are s
 then `main` prints one line, `interrupted` (SIGINT) or `terminated` (SIGTERM), and exits
 128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM. A record this process finished
 before the signal gets `"interrupted": true` and that exit code in its manifest.json. A second
-signal while unwinding leaves at once, with the same line and code.
+signal while unwinding leaves at once, with the same line and code. A signal the process
+was started ignoring (`nohup`, `cmd &` in a script) stays ignored.
 """
 
 import os
@@ -73,7 +74,8 @@ def _finish_interrupted(signum: int) -> None:
 def main() -> None:
     """Run the `stratplan` command line, exiting 128 + signal number on SIGINT or SIGTERM."""
     for sig in HANDLED:
-        signal.signal(sig, _on_signal)
+        if signal.getsignal(sig) is not signal.SIG_IGN:  # e.g. `nohup`, or `cmd &` in a script
+            signal.signal(sig, _on_signal)
     try:
         single_threaded_blas()
         from .cli import app
