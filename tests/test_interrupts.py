@@ -256,6 +256,7 @@ DAMAGE = {
     "missing key": ("result.json", lambda d: d.pop("legs"), "legs is missing"),
     "string energy": ("result.json", lambda d: d.update(total_energy="12"), "total_energy"),
     "leg energy": ("result.json", lambda d: d["legs"][0].update(energy=[1]), "legs[0].energy"),
+    "basis": ("result.json", lambda d: d["legs"][0]["pieces"][0]["basis"].pop("period"), "period"),
     "null manifest": ("manifest.json", None, "not a JSON object"),
     "string time": ("manifest.json", lambda d: d.update(planning_time_s="1"), "planning_time_s"),
     "not JSON": ("result.json", "{", "damaged record"),

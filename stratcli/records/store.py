@@ -71,6 +71,7 @@ LEG_FIELDS = {
     "pieces": "list",
 }
 PIECE_FIELDS = {"duration": "num", "basis": "dict"}
+BASIS_FIELDS = {"harmonics": "int", "period": "num"}
 START_FIELDS = {"index": "int", "energy": "num?", "iterations": "int", "projected_gradient": "num"}
 MANIFEST_FIELDS = {
     "started": "str-",
@@ -113,10 +114,16 @@ def check_result(doc: Any) -> None:
     _check_list(doc["legs"], LEG_FIELDS, "legs")
     for i, leg in enumerate(doc["legs"]):
         _check_list(leg["pieces"], PIECE_FIELDS, f"legs[{i}].pieces")
+        for j, piece in enumerate(leg["pieces"]):
+            _check(piece["basis"], BASIS_FIELDS, f"legs[{i}].pieces[{j}].basis.")
     for i, switch in enumerate(doc["switches"]):
         jump = switch.get("jump") if isinstance(switch, dict) else None
-        if not isinstance(jump, dict) or not all(_KINDS["num"][1](v) for v in jump.values()):
+        number = _KINDS["num"][1]  # null: a numerical failure left no value (nan_to_none)
+        numbers = isinstance(jump, dict) and all(v is None or number(v) for v in jump.values())
+        if not numbers or not jump:
             raise ValueError(f"switches[{i}].jump is not an object of numbers")
+    if not all(isinstance(note, str) for note in doc.get("notes") or []):
+        raise ValueError("notes holds something other than text")
     opt = doc.get("optimisation") or {}
     if opt.get("best") is not None:
         _check(opt, {"best": "int", "starts": "list", "newton_energy": "num?"}, "optimisation.")
