@@ -1,6 +1,19 @@
-"""Entry point of `stratplan` and `python -m stratcli`."""
+"""Entry point of `stratplan` and `python -m stratcli`.
+
+Interrupts. SIGINT (Ctrl-C) and SIGTERM are taken over on the first line of `main`, before
+any heavy import: the handler raises `Interrupted`, a `BaseException` that no
+`except Exception` swallows and that typer does not turn into a silent exit. It unwinds
+every `finally` (a half-written run directory is removed, worker processes are stopped),
+then `main` prints one line, `interrupted` (SIGINT) or `terminated` (SIGTERM), and exits
+128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM. A record this process finished
+before the signal gets `"interrupted": true` and that exit code in its manifest.json. A second
+signal while unwinding leaves at once, with the same line and code. A signal the process
+was started ignoring (`nohup`, `cmd &` in a script) stays ignored.
+"""
 
 import os
+import signal
+import sys
 
 # Planning multiplies matrices of a few dozen rows, where BLAS threads only add overhead and
 # take the cores that compare-sequences' worker processes need (Sim 4 energy comparison on 2
@@ -8,17 +21,72 @@ import os
 # The variables only work before numpy is first imported; a value the user set wins.
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
+HANDLED = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
+
+
+class Interrupted(BaseException):
+    """A handled signal arrived (`signum`); unwinds to `main`."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+_state = {"raised": False, "done": False}
+
+
+def _on_signal(signum: int, frame) -> None:
+    if _state["done"]:  # the command has finished (exit, atexit): no stack left to unwind
+        _finish_interrupted(signum)
+    if _state["raised"]:  # a second signal while unwinding: stop now
+        _leave(signum)
+    _state["raised"] = True
+    raise Interrupted(signum)
+
+
+def _leave(signum: int) -> None:
+    try:
+        os.write(2, f"{HANDLED.get(signum, 'interrupted')}\n".encode())
+    finally:
+        os._exit(128 + signum)
+
 
 def single_threaded_blas() -> None:
     for var in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(var, "1")
 
 
-def main() -> None:
-    single_threaded_blas()
-    from .cli import app
+def _finish_interrupted(signum: int) -> None:
+    """Mark the records already written as interrupted, print one line, exit 128 + signum."""
+    for sig in HANDLED:  # nothing below may be interrupted again
+        signal.signal(sig, signal.SIG_IGN)
+    rundir = sys.modules.get("stratcli.records.rundir")  # not imported: nothing was written
+    mark = getattr(rundir, "mark_interrupted", None)
+    if mark is not None:
+        mark(128 + signum, signal.Signals(signum).name)
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError):
+        pass
+    _leave(signum)
 
-    app(prog_name="stratplan")
+
+def main() -> None:
+    """Run the `stratplan` command line, exiting 128 + signal number on SIGINT or SIGTERM."""
+    for sig in HANDLED:
+        if signal.getsignal(sig) is not signal.SIG_IGN:  # e.g. `nohup`, or `cmd &` in a script
+            signal.signal(sig, _on_signal)
+    try:
+        single_threaded_blas()
+        from .cli import app
+
+        app(prog_name="stratplan")
+    except Interrupted as exc:
+        _finish_interrupted(exc.signum)
+    except KeyboardInterrupt:  # raised by hand somewhere (or a handler reset by a library)
+        _finish_interrupted(signal.SIGINT)
+    finally:
+        _state["done"] = True
 
 
 if __name__ == "__main__":

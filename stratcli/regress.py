@@ -7,6 +7,7 @@ replaying itself is `stratcli.api.runs.regress`.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,27 +55,101 @@ def compare(
         if b["status"] != n["status"]:
             out.append(Difference(name, "status", b["status"], n["status"], n["status"] != "ok"))
         eb, en = b["total_energy"], n["total_energy"]
-        if abs(en - eb) > rel * max(abs(eb), 1e-12):
+        if not (_finite(eb) and _finite(en)):  # a failed plan's energy: compared by status
+            if _finite(eb) != _finite(en):
+                out.append(Difference(name, "total energy", eb, en, not _finite(en)))
+        elif abs(en - eb) > rel * max(abs(eb), 1e-12):
             out.append(Difference(name, "total energy", eb, en, en > eb))
         if len(b["errors"]) != len(n["errors"]):
             out.append(Difference(name, "legs planned", len(b["errors"]), len(n["errors"]), True))
             continue
         for i, (xb, xn) in enumerate(zip(b["errors"], n["errors"], strict=True)):
-            if xn > xb + abs_err:
+            lost = _finite(xb) and not _finite(xn)  # a numerical failure now
+            if lost or (_finite(xb) and _finite(xn) and xn > xb + abs_err):
                 out.append(Difference(name, f"leg {i + 1} error", xb, xn, True))
     return out
 
 
+def _finite(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _check_summary(name: str, entry: Any) -> None:
+    """Raise ValueError naming what is wrong with one scenario's entry of a baseline."""
+    where = f"scenarios.{name}"
+    if not isinstance(entry, dict):
+        raise ValueError(f"{where} is not an object")
+    for key in ("status", "total_energy", "errors", "energies"):
+        if key not in entry:
+            raise ValueError(f"{where}.{key} is missing")
+    if entry["status"] not in ("ok", "failed"):
+        raise ValueError(f"{where}.status is {entry['status']!r}, not 'ok' or 'failed'")
+    failed = entry["status"] == "failed"  # a failed plan may have no energy or error (null)
+    if not (_finite(entry["total_energy"]) or (failed and entry["total_energy"] is None)):
+        raise ValueError(f"{where}.total_energy is {entry['total_energy']!r}, not a number")
+    for key in ("errors", "energies"):
+        values = entry[key]
+        if not isinstance(values, list):
+            raise ValueError(f"{where}.{key} is not a list")
+        for i, x in enumerate(values):
+            if not (_finite(x) or (failed and x is None)):
+                raise ValueError(f"{where}.{key}[{i}] is {x!r}, not a number")
+    if len(entry["errors"]) != len(entry["energies"]):
+        raise ValueError(f"{where}: errors and energies differ in length")
+
+
+def _check_tolerances(tolerances: Any) -> dict[str, float]:
+    if not isinstance(tolerances, dict):
+        raise ValueError("tolerances is not an object")
+    for key, value in tolerances.items():
+        if key not in DEFAULT_TOLERANCES:
+            raise ValueError(f"tolerances.{key}: unknown (known: {', '.join(DEFAULT_TOLERANCES)})")
+        if not _finite(value) or value < 0:
+            raise ValueError(f"tolerances.{key} is {value!r}, not a number >= 0")
+    return DEFAULT_TOLERANCES | tolerances
+
+
 def load_baseline(path: Path) -> tuple[dict[str, dict], dict[str, float]]:
+    """The scenarios and tolerances of a baseline file, checked entry by entry.
+
+    Parameters
+    ----------
+    path : Path
+        Baseline JSON file (schema ``stratplan.baseline/1``).
+
+    Returns
+    -------
+    tuple
+        Scenario name → summary (as `summary_of`), and the tolerances (defaults filled in).
+
+    Raises
+    ------
+    InputError
+        One line naming the file and what is wrong: missing, not JSON, not an object, a
+        missing key, a value of the wrong type, NaN or infinity, a negative tolerance.
+    """
     try:
-        doc = json.loads(path.read_text())
+        doc = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise InputError(f"baseline file {path} does not exist (create it with --update)") from None
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"baseline file {path}: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"baseline file {path}: unreadable ({exc})") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"baseline file {path}: not JSON ({exc})") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"baseline file {path}: not a JSON object but a {type(doc).__name__}")
     if doc.get("schema") != SCHEMA:
         raise InputError(f"baseline file {path}: schema must be {SCHEMA!r}")
-    return doc["scenarios"], DEFAULT_TOLERANCES | doc.get("tolerances", {})
+    try:
+        scenarios = doc.get("scenarios")
+        if not isinstance(scenarios, dict):
+            raise ValueError("scenarios is missing or not an object")
+        for name, entry in scenarios.items():
+            _check_summary(name, entry)
+        tolerances = _check_tolerances(doc.get("tolerances", {}))
+    except ValueError as exc:
+        raise InputError(f"baseline file {path}: {exc}") from None
+    return scenarios, tolerances
 
 
 def baseline_document(now: dict[str, dict], tolerances: dict[str, float]) -> dict[str, Any]:

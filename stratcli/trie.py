@@ -16,12 +16,20 @@ Sequences are independent, so whole sub-tries (all candidates with the same firs
 planned in parallel processes. Workers are forked after the model's numeric functions are
 compiled, so no process compiles anything; results are assembled in the candidates' order and
 do not depend on the number of processes.
+
+Workers never outlive the command: on Linux each asks the kernel for SIGKILL when its parent
+dies (`prctl(PR_SET_PDEATHSIG)`), so even a SIGKILL of the parent takes them along; they
+ignore SIGINT (a Ctrl-C reaches the whole process group: the parent alone decides); and when
+the parent stops waiting for any reason (an interrupt, a worker's error), it cancels what is
+queued and terminates the workers instead of waiting for them.
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
+import sys
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -159,6 +167,36 @@ def _plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
     return out
 
 
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def _worker_init(parent: int) -> None:
+    """In each worker: die with the parent, leave SIGINT to it, default SIGTERM."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
+
+
+def _stop(pool: ProcessPoolExecutor, futures) -> None:
+    """Cancel what is queued and end the workers now (not after their current unit)."""
+    for future in futures:
+        future.cancel()
+    workers = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for worker in workers:
+        worker.terminate()
+    for worker in workers:
+        worker.join(timeout=2.0)
+        if worker.is_alive():  # pragma: no cover - SIGTERM is not ignored by workers
+            worker.kill()
+
+
 def _run(
     func: Callable,
     units: list[tuple[Any, int]],
@@ -174,12 +212,24 @@ def _run(
         return results
     context = multiprocessing.get_context("fork")
     order = sorted(range(len(units)), key=lambda k: -units[k][1])  # big sub-tries first
-    with ProcessPoolExecutor(max_workers=min(jobs, len(units)), mp_context=context) as pool:
-        futures = {pool.submit(func, units[k][0]): k for k in order}
+    pool = ProcessPoolExecutor(
+        max_workers=min(jobs, len(units)),
+        mp_context=context,
+        initializer=_worker_init,
+        initargs=(os.getpid(),),
+    )
+    futures: dict = {}
+    try:
+        for k in order:
+            futures[pool.submit(func, units[k][0])] = k
         for future in as_completed(futures):
             k = futures[future]
             results[k] = future.result()
             on_unit(units[k][1])
+    except BaseException:  # an interrupt, or a worker's error: stop the workers, re-raise
+        _stop(pool, futures)
+        raise
+    pool.shutdown(wait=True)
     return results
 
 

@@ -29,7 +29,11 @@ from stratcli.records.store import REQUIRED, is_partial, list_records, read_reco
 
 FILES = {
     "scenario.toml": 'name = "x"\n',
-    "result.json": {"schema": "stratplan.result/1"},
+    "result.json": {  # the least `read_record` accepts: every field `show` and `runs` read
+        "schema": "stratplan.result/1",
+        **{"scenario": "x", "model": "m", "continuity": "lr", "tolerance": 1e-6},
+        **{"status": "ok", "total_energy": 1.0, "legs": [], "switches": []},
+    },
     "manifest.json": {"started": "2026-01-01T00:00:00Z"},
     "run.mcap": b"\x89MCAP",
 }

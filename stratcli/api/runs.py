@@ -7,7 +7,7 @@ import os
 import sys
 import tempfile
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -17,6 +17,7 @@ from ..errors import InputError
 from ..records import run as run_files
 from ..records.comparison import comparison_csv, ranking_png
 from ..records.manifest import manifest
+from ..records.rundir import clean_partials
 from ..records.store import Record, list_records, mcap_summary, read_record
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
@@ -210,13 +211,16 @@ def read_run(path: Path) -> tuple[Record, dict[str, Any] | None]:
     return record, mcap_summary(record.path)
 
 
-def list_runs(out: Path) -> list[dict[str, Any]]:
+def list_runs(out: Path, on_damaged: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
     """The run records in `out`, newest first.
 
     Parameters
     ----------
     out : Path
         Directory of run records.
+    on_damaged : callable, optional
+        Called with one line (naming the file and what is wrong) for each damaged record,
+        which is left out of the list.
 
     Returns
     -------
@@ -231,8 +235,25 @@ def list_runs(out: Path) -> list[dict[str, Any]]:
             "status": r.result.get("status"),
             "total_energy": r.result.get("total_energy"),
         }
-        for r in list_records(out)
+        for r in list_records(out, on_damaged)
     ]
+
+
+def clean_runs(out: Path) -> list[Path]:
+    """Remove the hidden partial directories that killed runs left in `out`.
+
+    Parameters
+    ----------
+    out : Path
+        Directory of run records.
+
+    Returns
+    -------
+    list of Path
+        The directories removed: those whose writer on this host has died, and any older than
+        an hour. A run still writing its record keeps its directory.
+    """
+    return clean_partials(Path(out))
 
 
 # ------------------------------------------------------------------------------------------

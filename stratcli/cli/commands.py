@@ -239,11 +239,30 @@ def show(
         render.run_record(record, log)
 
 
-def runs(out: Out = Path("runs"), json_output: Json = False) -> None:
-    """List run records, newest first: time, scenario, status, energy."""
-    from .. import api  # start-up speed
+def runs(
+    out: Out = Path("runs"),
+    json_output: Json = False,
+    clean: Annotated[
+        bool,
+        typer.Option(
+            "--clean",
+            metavar="",
+            help="First remove the hidden partial directories of killed runs (those of runs "
+            "still writing are kept).",
+        ),
+    ] = False,
+) -> None:
+    """List run records, newest first: time, scenario, status, energy.
 
-    rows = api.list_runs(out)
+    A damaged record is skipped with a note on stderr naming the file and what is wrong.
+    """
+    from .. import api  # start-up speed
+    from ..api.runs import clean_runs
+
+    if clean:
+        for path in clean_runs(out):
+            typer.echo(f"removed {path} (left by a killed run)", err=True)
+    rows = api.list_runs(out, on_damaged=lambda line: typer.echo(f"skipped: {line}", err=True))
     if json_output:
         render.print_json(rows)
     else:

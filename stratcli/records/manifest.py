@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import os
 import platform
 import subprocess
 import sys
@@ -15,14 +16,20 @@ import scipy
 from .. import __version__
 
 
-def _git(*args: str) -> str | None:
+def _git(*args: str, cwd: Path | None = None) -> str | None:
+    """Output of a read-only git query in the installed checkout (None outside one).
+
+    `--no-optional-locks` (and GIT_OPTIONAL_LOCKS=0 for older gits): `git status` would
+    otherwise refresh the index and take `.git/index.lock` in the source tree.
+    """
     try:
         out = subprocess.run(
-            ["git", *args],
-            cwd=Path(__file__).resolve().parent,
+            ["git", "--no-optional-locks", *args],
+            cwd=cwd or Path(__file__).resolve().parent,
             capture_output=True,
             text=True,
             timeout=5,
+            env={**os.environ, "GIT_OPTIONAL_LOCKS": "0"},
         )
     except (OSError, subprocess.SubprocessError):
         return None

@@ -9,6 +9,14 @@ keeps truncated names distinct), so every name fits the usual 255-byte file-name
 room for the temporary prefix and suffix. Any `OSError` while writing becomes a `RecordError`
 after the temporary directory has been removed. JSON files are strict JSON: a NaN or ±inf
 (e.g. the energy of a plan whose legs overflowed) is written as `null`.
+
+The temporary name carries the writer's pid and a tag of its host
+(`.<name>.<pid>@<host>.<random>.partial`), so that the partial directories of killed runs can
+be told from those of runs still writing: `clean_partials` (called before every write and by
+`stratplan runs --clean`) removes the ones whose writer on this host is dead, and any older
+than `STALE_AFTER_S`. The directories this process completed are remembered, so that
+`mark_interrupted` can say in their manifest.json that the command was interrupted after
+writing them.
 """
 
 from __future__ import annotations
@@ -17,8 +25,15 @@ import hashlib
 import json
 import math
 import os
+import re
 import shutil
+import signal
+import socket
 import tempfile
+import time
+from collections import deque
+from collections.abc import Iterator
+from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -26,6 +41,118 @@ from typing import Any
 from ..errors import RecordError
 
 MAX_NAME_BYTES = 100
+STALE_AFTER_S = 3600.0  # a partial directory older than this is a killed run's, whoever wrote it
+_PARTIAL = re.compile(r"^\..+\.(?P<pid>\d+)@(?P<host>[0-9a-f]{6})\.[^.]+\.partial$")
+WRITTEN: deque[Path] = deque(maxlen=16)  # run directories this process completed, newest last
+
+
+def _host_tag() -> str:
+    return hashlib.sha256(socket.gethostname().encode("utf-8", "replace")).hexdigest()[:6]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # e.g. another user's process
+        return True
+    return True
+
+
+def _stale(path: Path, now: float, max_age: float) -> bool:
+    """A partial directory left by a killed run (never one a running writer is filling)."""
+    try:
+        age = now - path.lstat().st_mtime
+    except OSError:
+        return False
+    if age > max_age:
+        return True
+    m = _PARTIAL.match(path.name)
+    return bool(m) and m["host"] == _host_tag() and not _alive(int(m["pid"]))
+
+
+def clean_partials(out: Path, max_age: float = STALE_AFTER_S) -> list[Path]:
+    """Remove the hidden `.partial` directories that killed runs left in `out`.
+
+    Parameters
+    ----------
+    out : Path
+        Directory of run records.
+    max_age : float
+        Seconds after which a partial directory is removed whatever its writer.
+
+    Returns
+    -------
+    list of Path
+        The directories removed. Those of writers still running on this host are kept.
+    """
+    removed: list[Path] = []
+    try:
+        entries = list(out.iterdir())
+    except OSError:
+        return removed
+    now = time.time()
+    for path in entries:
+        hidden_partial = path.name.startswith(".") and path.name.endswith(".partial")
+        if not hidden_partial or path.is_symlink() or not path.is_dir():
+            continue
+        if _stale(path, now, max_age):
+            shutil.rmtree(path, ignore_errors=True)
+            if not path.exists():
+                removed.append(path)
+    return removed
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM wait until the block is done (delivered right after it)."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not on POSIX
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def mark_interrupted(exit_code: int, signal_name: str) -> list[Path]:
+    """Say in the manifest.json of every record this process completed that the command
+    was interrupted afterwards (`interrupted`, `signal`, `exit_code`); each file is replaced
+    atomically.
+
+    Parameters
+    ----------
+    exit_code : int
+        The exit code of the interrupted command (130 for SIGINT).
+    signal_name : str
+        E.g. "SIGINT".
+
+    Returns
+    -------
+    list of Path
+        The manifests rewritten (a record that cannot be updated is left as it is).
+    """
+    done = []
+    for run in WRITTEN:
+        path = run / "manifest.json"
+        tmp = run / f".manifest.json.{os.getpid()}.tmp"
+        try:
+            doc = json.loads(path.read_text())
+            if not isinstance(doc, dict):
+                continue
+            doc.update(interrupted=True, signal=signal_name, exit_code=exit_code)
+            with open(tmp, "wb") as fh:
+                fh.write(_json_bytes(doc))
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+            done.append(path)
+        except (OSError, ValueError):
+            tmp.unlink(missing_ok=True)
+    return done
 
 
 def run_name(scenario: str, text: str, when: datetime | None = None) -> str:
@@ -96,7 +223,9 @@ def write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
 
 def _write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
     out.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".partial", dir=out))
+    clean_partials(out)
+    writer = f"{os.getpid()}@{_host_tag()}"
+    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.{writer}.", suffix=".partial", dir=out))
     try:
         for filename, content in files.items():
             if isinstance(content, dict | list):
@@ -113,7 +242,9 @@ def _write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
         for k in range(1, 1000):
             final = out / (name if k == 1 else f"{name}-{k}")
             try:
-                os.rename(tmp, final)  # fails if `final` exists and is not empty
+                with _signals_held():  # a completed record is always known to mark_interrupted
+                    os.rename(tmp, final)  # fails if `final` exists and is not empty
+                    WRITTEN.append(final)
                 return final
             except OSError:
                 if not final.exists():

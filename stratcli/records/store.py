@@ -1,13 +1,19 @@
-"""Reading run records back: find, validate and list run directories (no re-planning)."""
+"""Reading run records back: find, validate and list run directories (no re-planning).
+
+A record is checked before anything is shown of it: result.json and manifest.json must be
+JSON objects, and every field `show` and `runs` read must have its type (`check_result`,
+`check_manifest`), so a damaged record is one `InputError` naming the file and the field,
+never a traceback half-way through a table.
+"""
 
 from __future__ import annotations
 
 import json
+import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-
-from mcap.reader import make_reader
 
 from ..errors import InputError
 
@@ -30,8 +36,128 @@ def is_partial(path: Path) -> bool:
     return path.name.startswith(".") or path.name.endswith(".partial")
 
 
+_KINDS: dict[str, tuple[str, Callable[[Any], bool]]] = {
+    "str": ("a string", lambda x: isinstance(x, str)),
+    "int": ("an integer", lambda x: isinstance(x, int) and not isinstance(x, bool)),
+    "num": ("a number", lambda x: isinstance(x, int | float) and not isinstance(x, bool)),
+    "bool": ("true or false", lambda x: isinstance(x, bool)),
+    "list": ("a list", lambda x: isinstance(x, list)),
+    "dict": ("an object", lambda x: isinstance(x, dict)),
+}
+RESULT_FIELDS = {
+    "scenario": "str",
+    "model": "str",
+    "continuity": "str",
+    "tolerance": "num",
+    "status": "str",
+    "total_energy": "num?",
+    "legs": "list",
+    "switches": "list",
+    "time_scale": "num-",  # "-": may be absent
+    "reference_energy": "num?-",
+    "notes": "list?-",
+    "optimisation": "dict?-",
+}
+LEG_FIELDS = {
+    "stratum": "str",
+    "method": "str",
+    "evaluator": "str",
+    "iterations": "int",
+    "attempts": "int",
+    "error": "num?",
+    "energy": "num?",
+    "converged": "bool",
+    "duration": "num",
+    "pieces": "list",
+}
+PIECE_FIELDS = {"duration": "num", "basis": "dict"}
+BASIS_FIELDS = {"harmonics": "int", "period": "num"}
+START_FIELDS = {"index": "int", "energy": "num?", "iterations": "int", "projected_gradient": "num"}
+MANIFEST_FIELDS = {
+    "started": "str-",
+    "planning_time_s": "num-",
+    "compile_time_s": "num-",
+    "exit_code": "int?-",
+}
+
+
+def _check(doc: dict, fields: dict[str, str], where: str) -> None:
+    for key, spec in fields.items():
+        kind = spec.rstrip("?-")
+        if key not in doc:
+            if not spec.endswith("-"):
+                raise ValueError(f"{where}{key} is missing")
+            continue
+        value = doc[key]
+        if value is None and "?" in spec:
+            continue
+        what, ok = _KINDS[kind]
+        if not ok(value):
+            raise ValueError(f"{where}{key} is {json.dumps(value)[:40]}, not {what}")
+
+
+def _check_list(items: list, fields: dict[str, str], where: str) -> None:
+    for i, item in enumerate(items):
+        if not isinstance(item, dict):
+            raise ValueError(f"{where}[{i}] is not an object")
+        _check(item, fields, f"{where}[{i}].")
+
+
+def check_result(doc: Any) -> None:
+    """Raise ValueError naming the first field of a result.json that `show` or `runs` could
+    not read (missing, or of the wrong type)."""
+    if not isinstance(doc, dict):
+        raise ValueError(f"not a JSON object but {json.dumps(doc)[:40]}")
+    if doc.get("schema") != "stratplan.result/1":
+        raise ValueError(f"unknown schema {doc.get('schema')!r}")
+    _check(doc, RESULT_FIELDS, "")
+    _check_list(doc["legs"], LEG_FIELDS, "legs")
+    for i, leg in enumerate(doc["legs"]):
+        _check_list(leg["pieces"], PIECE_FIELDS, f"legs[{i}].pieces")
+        for j, piece in enumerate(leg["pieces"]):
+            _check(piece["basis"], BASIS_FIELDS, f"legs[{i}].pieces[{j}].basis.")
+    for i, switch in enumerate(doc["switches"]):
+        jump = switch.get("jump") if isinstance(switch, dict) else None
+        number = _KINDS["num"][1]  # null: a numerical failure left no value (nan_to_none)
+        numbers = isinstance(jump, dict) and all(v is None or number(v) for v in jump.values())
+        if not numbers or not jump:
+            raise ValueError(f"switches[{i}].jump is not an object of numbers")
+    if not all(isinstance(note, str) for note in doc.get("notes") or []):
+        raise ValueError("notes holds something other than text")
+    opt = doc.get("optimisation") or {}
+    if opt.get("best") is not None:
+        _check(opt, {"best": "int", "starts": "list", "newton_energy": "num?"}, "optimisation.")
+        _check_list(opt["starts"], START_FIELDS, "optimisation.starts")
+        if not 0 <= opt["best"] < len(opt["starts"]):
+            raise ValueError("optimisation.best is not the index of a start")
+
+
+def check_manifest(doc: Any) -> None:
+    """Raise ValueError naming the first field of a manifest.json that `show` could not read."""
+    if not isinstance(doc, dict):
+        raise ValueError(f"not a JSON object but {json.dumps(doc)[:40]}")
+    _check(doc, MANIFEST_FIELDS, "")
+
+
 def read_record(path: Path) -> Record:
-    """The record in `path`; InputError when it is missing, incomplete or unreadable."""
+    """The record in `path`, checked field by field.
+
+    Parameters
+    ----------
+    path : Path
+        A run directory.
+
+    Returns
+    -------
+    Record
+        Its result.json and manifest.json as dicts.
+
+    Raises
+    ------
+    InputError
+        One line naming the file and what is wrong, when the record is missing, incomplete,
+        unreadable or damaged.
+    """
     if not path.is_dir():
         raise InputError(f"no run record at {path}")
     if is_partial(path):
@@ -39,24 +165,34 @@ def read_record(path: Path) -> Record:
     missing = [f for f in REQUIRED if not (path / f).is_file()]
     if missing:
         raise InputError(f"{path} is not a complete run record: missing {', '.join(missing)}")
-    try:
-        result = json.loads((path / "result.json").read_text())
-        manifest = json.loads((path / "manifest.json").read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: unreadable record ({exc})") from None
-    if result.get("schema") != "stratplan.result/1":
-        raise InputError(f"{path}/result.json: unknown schema {result.get('schema')!r}")
-    return Record(path, result, manifest)
+    docs = []
+    for name, check in (("result.json", check_result), ("manifest.json", check_manifest)):
+        try:
+            doc = json.loads((path / name).read_text(encoding="utf-8"))
+            check(doc)
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(f"{path / name}: unreadable ({exc})") from None
+        except ValueError as exc:  # also json.JSONDecodeError
+            raise InputError(f"{path / name}: damaged record: {exc}") from None
+        docs.append(doc)
+    return Record(path, *docs)
 
 
 def mcap_summary(path: Path) -> dict[str, Any] | None:
     """Topics of a record's run.mcap with message counts and time span, read back from the
-    file's summary section (no re-planning); None when the record has no MCAP."""
+    file's summary section (no re-planning); None when the record has no MCAP; InputError
+    naming the file when it cannot be read."""
+    from mcap.exceptions import McapError  # here: `runs` needs no MCAP reader
+    from mcap.reader import make_reader
+
     file = path / "run.mcap"
     if not file.is_file():
         return None
-    with open(file, "rb") as fh:
-        summary = make_reader(fh).get_summary()
+    try:
+        with open(file, "rb") as fh:
+            summary = make_reader(fh).get_summary()
+    except (OSError, ValueError, KeyError, struct.error, McapError) as exc:
+        raise InputError(f"{file}: damaged MCAP log ({type(exc).__name__}: {exc})") from None
     if summary is None or summary.statistics is None:
         return None
     stats = summary.statistics
@@ -70,8 +206,21 @@ def mcap_summary(path: Path) -> dict[str, Any] | None:
     }
 
 
-def list_records(out: Path) -> list[Record]:
-    """Complete records under `out`, newest first."""
+def list_records(out: Path, on_damaged: Callable[[str], None] | None = None) -> list[Record]:
+    """Complete records under `out`, newest first.
+
+    Parameters
+    ----------
+    out : Path
+        Directory of run records.
+    on_damaged : callable, optional
+        Called with one line for each directory skipped as a damaged or incomplete record
+        (partial directories of runs still writing, or killed, are skipped silently).
+
+    Returns
+    -------
+    list of Record
+    """
     if not out.is_dir():
         return []
     records = []
@@ -79,6 +228,7 @@ def list_records(out: Path) -> list[Record]:
         if path.is_dir() and not is_partial(path):
             try:
                 records.append(read_record(path))
-            except InputError:
-                continue
+            except InputError as exc:
+                if on_damaged is not None:
+                    on_damaged(str(exc))
     return sorted(records, key=lambda r: (r.started, r.path.name), reverse=True)
