@@ -191,7 +191,9 @@ class OdeEndpoint(_Endpoint):
         G, dG, basis = self.cs.G, self.cs.dG, self.basis
 
         calls = 0
-        budget = min(self.max_evaluations, max(2_000, self.growth * self._last))
+        budget = self.max_evaluations
+        if self._last:  # after a finished call: a trial step may not cost far more
+            budget = min(budget, max(2_000, self.growth * self._last))
 
         def rhs(t, y):
             nonlocal calls
