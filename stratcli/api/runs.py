@@ -11,21 +11,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
-from ..records import run as run_files
-from ..records.comparison import comparison_csv, ranking_png
-from ..records.manifest import manifest
 from ..records.store import Record, list_records, mcap_summary, read_record
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
-from ..results import ModelRef, Timings
-from ..scenario import Scenario, load_scenario
-from ..sequence import SequencePlan
-from ..stratified import LegSpec
-from .auto import auto_settings
-from .planning import ComparisonOutcome, PlanOutcome, plan_auto, plan_run, with_legs
+
+# The planner (scipy, sympy, matplotlib) is imported by the functions that write, load or
+# replay records, not here: `stratplan runs` and `show` only read JSON (start-up speed).
+if TYPE_CHECKING:
+    from ..sequence import SequencePlan
+    from .planning import ComparisonOutcome, PlanOutcome
 
 
 @dataclass(frozen=True)
@@ -74,6 +71,12 @@ def write_record(
     Path
         The run directory.
     """
+    from ..records import run as run_files  # start-up speed (module comment)
+    from ..records.comparison import comparison_csv, ranking_png
+    from ..records.manifest import manifest
+    from ..sequence import SequencePlan
+    from .planning import ComparisonOutcome
+
     if isinstance(outcome, SequencePlan):
         outcome = _outcome_of(outcome)
     planned = outcome.best if isinstance(outcome, ComparisonOutcome) else outcome
@@ -130,6 +133,11 @@ def prepare_out(out: str | Path) -> Path:
 
 def _outcome_of(plan: SequencePlan) -> PlanOutcome:
     """What a record needs of a plan value: its scenario (re-read from the plan's text)."""
+    from ..scenario import load_scenario  # start-up speed (module comment)
+    from ..stratified import LegSpec
+    from .auto import auto_settings
+    from .planning import PlanOutcome, with_legs
+
     if not plan.scenario_text:
         raise InputError(
             "the plan has no scenario to record (it was not planned from one): plan it with "
@@ -166,6 +174,10 @@ def load_run(path: str | Path) -> SequencePlan:
     InputError
         When the record is missing, incomplete or damaged.
     """
+    from ..results import ModelRef, Timings  # start-up speed (module comment)
+    from ..scenario import Scenario
+    from ..sequence import SequencePlan
+
     path = Path(path)
     if path.is_file():
         path = path.parent
@@ -286,6 +298,9 @@ def summarise(path: Path) -> dict[str, Any]:
     dict
         status, total_energy, errors and energies (one per leg).
     """
+    from ..scenario import load_scenario  # start-up speed (module comment)
+    from .planning import plan_auto, plan_run
+
     task = load_scenario(path)
     if task.legs:
         result = plan_run(task, check=False, time_scale=1.0).result

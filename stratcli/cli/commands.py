@@ -253,11 +253,13 @@ def models(
     For a scenario: coordinates, inputs and every stratum with its locked coordinates, active
     inputs, dimension and the end-point evaluator `auto` will use on it.
     """
+    if file is None:  # the static table: listing presets builds no sympy model
+        from ..models.presets import PRESET_TABLE  # start-up speed
+
+        render.presets_table(PRESET_TABLE)
+        return
     from .. import api  # start-up speed
 
-    if file is None:
-        render.presets_table(api.preset_models())
-        return
     task = _load(file)
     render.model(task, api.strata_table(task.system))
 
