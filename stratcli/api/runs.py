@@ -49,7 +49,7 @@ def write_record(
     out: str | Path,
     outcome: SequencePlan | PlanOutcome | ComparisonOutcome,
     *,
-    animation: bool = True,
+    animation: bool = False,
     argv: Sequence[str] | None = None,
 ) -> Path:
     """Write a run record (result, manifest, scenario, MCAP log, plots) atomically.
@@ -62,7 +62,7 @@ def write_record(
         A plan (from `plan`, or a run of the CLI's use cases); for a comparison, the best
         sequence's record plus comparison.json, comparison.csv and ranking.png.
     animation : bool
-        Also write motion.gif.
+        Also write motion.gif (off by default: drawing it costs more than planning).
     argv : sequence of str, optional
         The command recorded in manifest.json (default: this process's `sys.argv`).
 

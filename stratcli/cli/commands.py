@@ -36,7 +36,7 @@ def plan(
     out: Out = Path("runs"),
     json_output: Json = False,
     quiet: Quiet = False,
-    animation: Animation = True,
+    animation: Animation = False,
     time_scale: Annotated[
         float | None,
         typer.Option(
@@ -126,7 +126,7 @@ def compare_sequences(
     out: Out = Path("runs"),
     json_output: Json = False,
     quiet: Quiet = False,
-    animation: Animation = True,
+    animation: Animation = False,
 ) -> None:
     """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
 

@@ -31,7 +31,7 @@ def resolved_scenario(task: Task) -> dict[str, Any]:
 
 
 def record_files(
-    task: Task, plan: SequencePlan, doc: dict, manifest: dict, animation: bool = True
+    task: Task, plan: SequencePlan, doc: dict, manifest: dict, animation: bool = False
 ) -> dict[str, Any]:
     """Name → content of every file of the run directory.
 
