@@ -69,11 +69,12 @@ def write_record(
     Returns
     -------
     Path
-        The run directory.
+        The run directory. The outcome's `phases` (a `PlanOutcome`'s, or the best's) gain
+        the record's parts, `write` and `total` (see `stratcli.records.manifest`).
     """
     from ..records import run as run_files  # start-up speed (module comment)
     from ..records.comparison import comparison_csv, ranking_png
-    from ..records.manifest import manifest
+    from ..records.manifest import manifest, phase, since_start
     from ..sequence import SequencePlan
     from .planning import ComparisonOutcome
 
@@ -89,13 +90,18 @@ def write_record(
     }
     command = list(sys.argv if argv is None else argv)
     code = 0 if planned.ok else 1
-    info = manifest(task.text, command, task.settings.seed, timings, code)
+    info = manifest(task.text, command, task.settings.seed, timings, code, planned.phases)
     files = run_files.record_files(task, planned.result, planned.document, info, animation)
+    phases = info["phases"]
     if isinstance(outcome, ComparisonOutcome):
-        files["comparison.json"] = outcome.document
-        files["comparison.csv"] = comparison_csv(outcome.document)
-        files["ranking.png"] = ranking_png(outcome.document)
-    return run_files.write_record(Path(out), task, files, planned.started)
+        with phase(phases, "comparison files"):
+            files["comparison.json"] = outcome.document
+            files["comparison.csv"] = comparison_csv(outcome.document)
+            files["ranking.png"] = ranking_png(outcome.document)
+    with phase(phases, "write"):  # after manifest.json is written: in the outcome only
+        run_dir = run_files.write_record(Path(out), task, files, planned.started)
+    planned.phases.update(phases, total=since_start())
+    return run_dir
 
 
 def prepare_out(out: str | Path) -> Path:
