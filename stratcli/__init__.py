@@ -21,10 +21,12 @@ Use cases: `load_scenario`, `plan`, `plan_auto`, `decompose`, `compare_sequences
 
 from __future__ import annotations
 
+import time
 from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
+_STARTED = time.perf_counter()  # the wall clock's zero of a run's phases (manifest "phases")
 
 # Where each public name lives. Names are imported on first use (PEP 562): `import stratcli`
 # is what the `stratplan` command does first, and `stratplan --help` must not pay for scipy,

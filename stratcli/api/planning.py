@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
-import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -15,6 +14,7 @@ from ..decompose import STRATEGIES, Decomposition, pi_fraction
 from ..errors import InputError, Problem
 from ..objectives import plan_sequence
 from ..records.comparison import comparison_document
+from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
 from ..scenario import LegEntry, Task, load_scenario
 from ..sequence import SequencePlan
@@ -24,6 +24,7 @@ from ..trie import default_jobs
 from .auto import AutoSettings, auto_settings, compare_decomposition, decompose_task
 from .inspection import controllability_first
 
+IMPORTED = since_start()  # the end of the planner's imports: the "import" phase of a run
 Progress = Callable[[int, int], None]  # (sequences planned so far, sequences in all)
 # a loaded scenario, or what load_scenario takes (a path, TOML text or a dict)
 ScenarioLike = Task | str | Path | Mapping[str, Any]
@@ -44,6 +45,9 @@ class PlanOutcome:
     started: datetime  # UTC, when planning started
     compile_time: float  # seconds generating numeric functions (and checking controllability)
     planning_time: float  # seconds planning
+    # wall and CPU seconds per phase: import, check, compile, planning; write_record adds the
+    # record's parts, "write" and "total" (since `import stratcli`); see records.manifest
+    phases: Phases = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -149,20 +153,23 @@ def plan_run(task: Task, *, check: bool = True, time_scale: float | None = None)
     """
     if not task.legs:
         raise InputError("the scenario has no legs: plan it in auto mode (plan_auto)", task.source)
-    check_time = controllability_first(task) if check else 0.0
+    phases: Phases = {"import": dict(IMPORTED)}
+    with phase(phases, "check"):
+        check_time = controllability_first(task) if check else 0.0
     started = datetime.now(UTC)
-    clock = time.perf_counter()
-    for leg in task.legs:  # generate the numeric functions first: start-up, not planning
-        task.system.compiled(leg.stratum)
-    compile_time = time.perf_counter() - clock + check_time  # incl. the brackets of the check
-    clock = time.perf_counter()
-    result = plan_sequence(task.system, task.start, task.legs, task.settings)
-    planning_time = time.perf_counter() - clock
+    with phase(phases, "compile"):  # generate the numeric functions first: not planning
+        for leg in task.legs:
+            task.system.compiled(leg.stratum)
+    compile_time = phases["compile"]["wall_s"] + check_time  # incl. the brackets of the check
+    with phase(phases, "planning"):
+        result = plan_sequence(task.system, task.start, task.legs, task.settings)
+    planning_time = phases["planning"]["wall_s"]
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale != 1.0:
         result = time_scaled(result, scale)
     result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
-    return PlanOutcome(task, result, result.to_dict(), started, compile_time, planning_time)
+    doc = result.to_dict()
+    return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases)
 
 
 def plan_auto(
@@ -273,6 +280,7 @@ def compare_sequences(
     plan = PlanOutcome(
         best_task, result, result.to_dict(), started, compile_time, comparison.wall_time
     )
+    plan.phases["import"] = dict(IMPORTED)
     return ComparisonOutcome(task, auto, dec, comparison, doc, plan)
 
 

@@ -11,22 +11,19 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
-from ..records import run as run_files
-from ..records.comparison import comparison_csv, ranking_png
-from ..records.manifest import manifest
-from ..records.rundir import clean_partials
+from ..records.rundir import clean_partials  # stdlib only: light
 from ..records.store import Record, list_records, mcap_summary, read_record
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
-from ..results import ModelRef, Timings
-from ..scenario import Scenario, load_scenario
-from ..sequence import SequencePlan
-from ..stratified import LegSpec
-from .auto import auto_settings
-from .planning import ComparisonOutcome, PlanOutcome, plan_auto, plan_run, with_legs
+
+# The planner (scipy, sympy, matplotlib) is imported by the functions that write, load or
+# replay records, not here: `stratplan runs` and `show` only read JSON (start-up speed).
+if TYPE_CHECKING:
+    from ..sequence import SequencePlan
+    from .planning import ComparisonOutcome, PlanOutcome
 
 
 @dataclass(frozen=True)
@@ -53,7 +50,7 @@ def write_record(
     out: str | Path,
     outcome: SequencePlan | PlanOutcome | ComparisonOutcome,
     *,
-    animation: bool = True,
+    animation: bool = False,
     argv: Sequence[str] | None = None,
     fmt: str = "png",
 ) -> Path:
@@ -67,7 +64,7 @@ def write_record(
         A plan (from `plan`, or a run of the CLI's use cases); for a comparison, the best
         sequence's record plus comparison.json, comparison.csv and ranking.png.
     animation : bool
-        Also write motion.gif.
+        Also write motion.gif (off by default: drawing it costs more than planning).
     argv : sequence of str, optional
         The command recorded in manifest.json (default: this process's `sys.argv`).
     fmt : str
@@ -76,8 +73,15 @@ def write_record(
     Returns
     -------
     Path
-        The run directory.
+        The run directory. The outcome's `phases` (a `PlanOutcome`'s, or the best's) gain
+        the record's parts, `write` and `total` (see `stratcli.records.manifest`).
     """
+    from ..records import run as run_files  # start-up speed (module comment)
+    from ..records.comparison import comparison_csv, ranking_png
+    from ..records.manifest import manifest, phase, since_start
+    from ..sequence import SequencePlan
+    from .planning import ComparisonOutcome
+
     if isinstance(outcome, SequencePlan):
         outcome = _outcome_of(outcome)
     planned = outcome.best if isinstance(outcome, ComparisonOutcome) else outcome
@@ -90,13 +94,18 @@ def write_record(
     }
     command = list(sys.argv if argv is None else argv)
     code = 0 if planned.ok else 1
-    info = manifest(task.text, command, task.settings.seed, timings, code)
+    info = manifest(task.text, command, task.settings.seed, timings, code, planned.phases)
     files = run_files.record_files(task, planned.result, planned.document, info, animation, fmt)
+    phases = info["phases"]
     if isinstance(outcome, ComparisonOutcome):
-        files["comparison.json"] = outcome.document
-        files["comparison.csv"] = comparison_csv(outcome.document)
-        files[f"ranking.{fmt}"] = ranking_png(outcome.document, fmt)
-    return run_files.write_record(Path(out), task, files, planned.started)
+        with phase(phases, "comparison files"):
+            files["comparison.json"] = outcome.document
+            files["comparison.csv"] = comparison_csv(outcome.document)
+            files[f"ranking.{fmt}"] = ranking_png(outcome.document, fmt)
+    with phase(phases, "write"):  # after manifest.json is written: in the outcome only
+        run_dir = run_files.write_record(Path(out), task, files, planned.started)
+    planned.phases.update(phases, total=since_start())
+    return run_dir
 
 
 def prepare_out(out: str | Path) -> Path:
@@ -134,6 +143,11 @@ def prepare_out(out: str | Path) -> Path:
 
 def _outcome_of(plan: SequencePlan) -> PlanOutcome:
     """What a record needs of a plan value: its scenario (re-read from the plan's text)."""
+    from ..scenario import load_scenario  # start-up speed (module comment)
+    from ..stratified import LegSpec
+    from .auto import auto_settings
+    from .planning import PlanOutcome, with_legs
+
     if not plan.scenario_text:
         raise InputError(
             "the plan has no scenario to record (it was not planned from one): plan it with "
@@ -170,6 +184,10 @@ def load_run(path: str | Path) -> SequencePlan:
     InputError
         When the record is missing, incomplete or damaged.
     """
+    from ..results import ModelRef, Timings  # start-up speed (module comment)
+    from ..scenario import Scenario
+    from ..sequence import SequencePlan
+
     path = Path(path)
     if path.is_file():
         path = path.parent
@@ -310,6 +328,9 @@ def summarise(path: Path) -> dict[str, Any]:
     dict
         status, total_energy, errors and energies (one per leg).
     """
+    from ..scenario import load_scenario  # start-up speed (module comment)
+    from .planning import plan_auto, plan_run
+
     task = load_scenario(path)
     if task.legs:
         result = plan_run(task, check=False, time_scale=1.0).result

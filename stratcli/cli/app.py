@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import atexit
+import gc
 from typing import Annotated
 
 import typer
 
 from .. import __version__
 from . import commands
+
+# Start-up speed: a command is a short process whose heap is mostly the module graphs of sympy,
+# scipy and matplotlib, alive until it exits. The cyclic collector's default threshold (700
+# allocations) walks them over and over while they are imported, and once more at exit; here it
+# runs 14x less often and the heap is frozen at exit (plan: 0.25 s CPU of 1.9 s; memory is
+# returned by the OS, and cyclic garbage left at exit is not finalised, as Python allows).
+gc.set_threshold(10_000, 10, 10)
+atexit.register(gc.freeze)
 
 app = typer.Typer(
     name="stratplan",

@@ -41,7 +41,7 @@ def plan(
     out: Out = Path("runs"),
     json_output: Json = False,
     quiet: Quiet = False,
-    animation: Animation = True,
+    animation: Animation = False,
     time_scale: Annotated[
         float | None,
         typer.Option(
@@ -132,7 +132,7 @@ def compare_sequences(
     out: Out = Path("runs"),
     json_output: Json = False,
     quiet: Quiet = False,
-    animation: Animation = True,
+    animation: Animation = False,
     fmt: Format = "png",
 ) -> None:
     """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
@@ -279,11 +279,13 @@ def models(
     For a scenario: coordinates, inputs and every stratum with its locked coordinates, active
     inputs, dimension and the end-point evaluator `auto` will use on it.
     """
+    if file is None:  # the static table: listing presets builds no sympy model
+        from ..models.presets import PRESET_TABLE  # start-up speed
+
+        render.presets_table(PRESET_TABLE)
+        return
     from .. import api  # start-up speed
 
-    if file is None:
-        render.presets_table(api.preset_models())
-        return
     task = _load(file)
     render.model(task, api.strata_table(task.system))
 

@@ -22,7 +22,10 @@ Out = Annotated[Path, typer.Option(help="Directory of run records.")]
 Animation = Annotated[
     bool,
     typer.Option(
-        "--animation/--no-animation", metavar="", help="Write motion.gif (comparing: the best's)."
+        "--animation/--no-animation",
+        metavar="",
+        help="Also write motion.gif (comparing: the best's); off by default, it takes longer "
+        "than the planning.",
     ),
 ]
 Scenario = Annotated[Path, typer.Argument(help="Scenario file (TOML).")]

@@ -170,9 +170,11 @@ def plan_summary(doc: dict) -> None:
 
 
 def plan_footer(outcome, run_dir: Path) -> None:
+    total = outcome.phases.get("total", {}).get("wall_s")  # since stratplan started
     say(
         f"planned in {outcome.planning_time * 1e3:.0f} ms (model compiled in "
-        f"{outcome.compile_time * 1e3:.0f} ms) · record: {run_dir}"
+        f"{outcome.compile_time * 1e3:.0f} ms)"
+        f"{'' if total is None else f' · {total:.2f} s in all'} · record: {run_dir}"
     )
 
 

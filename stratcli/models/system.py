@@ -6,6 +6,8 @@ whose rows of `G` are constant so that `q_E(t) = q_E(0) + C_E ∫u`, and *quadra
 coordinates, whose rows depend on explicit coordinates only, so that their end value is a
 plain integral. Vectorised numpy functions are generated once: the quadrature rows with their
 first and second derivatives (fused, `_FusedRows`), and `G(q)`, `∂G/∂q` for the ODE path.
+Their source is kept in a disk cache (`codecache`), so a model is differentiated and
+compiled once, not on every run.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError, Problem
+from . import codecache
 from .planar import PlanarManipulator
 
 
@@ -39,31 +42,36 @@ class Stratum:
         return tuple(i for i in range(n) if i not in self.locked)
 
 
-def _vectorised(exprs: list[sp.Expr], symbols: list[sp.Symbol]) -> Callable:
-    """Compile `exprs` to one numpy function of the columns of q (shape (..., n))."""
-    if not exprs:
-        return lambda q: []
-    func = sp.lambdify(symbols, exprs, modules="numpy", cse=True)
-
-    def evaluate(q: np.ndarray) -> list:
-        return func(*np.moveaxis(q, -1, 0))
-
-    return evaluate
-
-
 class _ArrayFunction:
-    """Evaluate a sympy array of shape `shape` at many points, filling only nonzero entries."""
+    """Evaluate a sympy array of shape `shape` at many points, filling only nonzero entries.
 
-    def __init__(self, array: sp.NDimArray | sp.Matrix, symbols: list[sp.Symbol]):
-        self.shape = tuple(array.shape)
-        flat = [array[idx] for idx in np.ndindex(*self.shape)]
-        self.index = [i for i, e in enumerate(flat) if sp.sympify(e).is_zero is not True]
-        self._func = _vectorised([flat[i] for i in self.index], symbols)
+    Made from `saved` (what `saved()` returned, kept in the disk cache) no sympy is needed.
+    """
+
+    def __init__(self, array: Any, symbols: list[sp.Symbol], saved: dict | None = None):
+        if saved is None:
+            self.shape = tuple(array.shape)
+            flat = [array[idx] for idx in np.ndindex(*self.shape)]
+            self.index = [i for i, e in enumerate(flat) if sp.sympify(e).is_zero is not True]
+            exprs = [flat[i] for i in self.index]
+            self._func = sp.lambdify(symbols, exprs, modules="numpy", cse=True) if exprs else None
+        else:
+            self.shape, self.index = tuple(saved["shape"]), list(saved["index"])
+            self._func = codecache.function(saved["source"]) if self.index else None
+        self._n = len(symbols)
+
+    def saved(self) -> dict | None:
+        """What the disk cache keeps of it, or None when its source cannot be kept."""
+        source = codecache.source_of(self._func, self._n) if self._func else None
+        if self._func and source is None:
+            return None
+        return {"shape": list(self.shape), "index": self.index, "source": source}
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
         lead = q.shape[:-1]
         out = np.zeros((*lead, int(np.prod(self.shape))))
-        for i, value in zip(self.index, self._func(q), strict=True):
+        values = self._func(*np.moveaxis(q, -1, 0)) if self._func else []
+        for i, value in zip(self.index, values, strict=True):
             out[..., i] = value
         return out.reshape(*lead, *self.shape)
 
@@ -96,6 +104,22 @@ class _FusedRows:
         self._symbols = symbols
         self._flats = (flat0, flat0 + flat1, flat0 + flat1 + flat2)
         self._funcs: list[Callable | None] = [None, None, None]
+
+    @classmethod
+    def restored(cls, sizes: tuple[int, int, int], sources: list[str]) -> _FusedRows:
+        """The three functions again from their cached source, nothing differentiated."""
+        self = cls.__new__(cls)
+        self._sizes = tuple(sizes)
+        nE = self._sizes[2]
+        self._pairs = [(e, f) for e in range(nE) for f in range(e, nE)]
+        self._funcs = [codecache.function(source) for source in sources]
+        return self
+
+    def sources(self) -> list[str] | None:
+        """The source of the three compiled functions, or None if one cannot be kept."""
+        self.compile(2)
+        found = [codecache.source_of(f, len(self._symbols)) for f in self._funcs]
+        return None if None in found else found
 
     def _func(self, order: int) -> Callable:
         if self._funcs[order] is None:
@@ -146,8 +170,46 @@ class CompiledStratum:
     quadrature: tuple[int, ...] = field(init=False)
     C_explicit: np.ndarray = field(init=False)  # |E| x m_active constant rows
     quadrature_terms: _FusedRows | None = field(init=False)  # None: no quadrature path
+    _key: str = field(init=False, repr=False)  # of the disk cache (codecache)
+    _entry: dict = field(init=False, repr=False)  # what the cache holds of this stratum
 
     def __post_init__(self) -> None:
+        system, G = self.system, self.G_sym
+        self._key = codecache.key(system.name, system.states, self.stratum.name, G)
+        self._entry = codecache.load(self._key) or {}
+        if self._entry:
+            try:
+                self._restore(self._entry)
+                return
+            except Exception:  # a damaged entry: generate the functions again
+                self._entry = {}
+        self._generate()
+        rows = self.quadrature_terms.sources() if self.quadrature_terms else None
+        self._entry.update(
+            explicit=self.explicit,
+            quadrature=self.quadrature,
+            C_explicit=self.C_explicit.tolist(),
+            rows=rows,
+            sizes=self.quadrature_terms._sizes if self.quadrature_terms else None,
+        )
+        for name in ("G", "dG"):  # generated already when the ODE path is the only one
+            if name in self.__dict__:
+                self._entry[name] = self.__dict__[name].saved()
+        if rows is not None or self.quadrature_terms is None:
+            codecache.store(self._key, self._entry)
+
+    def _restore(self, entry: dict) -> None:
+        self.explicit = tuple(entry["explicit"])
+        self.quadrature = tuple(entry["quadrature"])
+        m = self.G_sym.shape[1]
+        self.C_explicit = np.array(entry["C_explicit"], dtype=float).reshape(len(self.explicit), m)
+        self.quadrature_terms = None
+        if entry["sizes"] is not None:
+            self.quadrature_terms = _FusedRows.restored(entry["sizes"], entry["rows"])
+        else:
+            _ = self.G, self.dG  # the ODE path is the only one: compile now
+
+    def _generate(self) -> None:
         q = list(self.system.symbols)
         G = self.G_sym
         n, m = G.shape
@@ -171,18 +233,33 @@ class CompiledStratum:
 
     @cached_property
     def G(self) -> _ArrayFunction:  # (..., n) -> (..., n, m_active)
-        return _ArrayFunction(self.G_sym, list(self.system.symbols))
+        return self._array("G", lambda: self.G_sym)
 
     @cached_property
     def dG(self) -> _ArrayFunction:  # (..., n) -> (..., n, m_active, n)
-        q = list(self.system.symbols)
-        n, m = self.G_sym.shape
-        dG = sp.MutableDenseNDimArray.zeros(n, m, n)
-        for i in range(n):
-            for j in range(m):
-                for k in range(n):
-                    dG[i, j, k] = sp.diff(self.G_sym[i, j], q[k])
-        return _ArrayFunction(dG, q)
+        return self._array("dG", self._dG_sym)
+
+    def _dG_sym(self) -> sp.NDimArray:
+        q, (n, m) = list(self.system.symbols), self.G_sym.shape
+        flat = [
+            sp.diff(self.G_sym[i, j], q[k]) for i in range(n) for j in range(m) for k in range(n)
+        ]
+        return sp.MutableDenseNDimArray(flat, (n, m, n))
+
+    def _array(self, name: str, build: Callable[[], Any]) -> _ArrayFunction:
+        """`G` or `dG` from the disk cache, else generated (and then cached)."""
+        symbols = list(self.system.symbols)
+        if self._entry.get(name):
+            try:
+                return _ArrayFunction(None, symbols, saved=self._entry[name])
+            except Exception:  # a damaged entry: generate it again
+                pass
+        func = _ArrayFunction(build(), symbols)
+        saved = func.saved() if "explicit" in self._entry else None  # else: __post_init__
+        if saved is not None:
+            self._entry[name] = saved
+            codecache.store(self._key, self._entry)
+        return func
 
     @property
     def supports_quadrature(self) -> bool:

@@ -1,4 +1,13 @@
-"""`manifest.json`: what produced a run (versions, command, scenario hash, timings)."""
+"""`manifest.json`: what produced a run (versions, command, scenario hash, timings).
+
+`phases` holds the wall and CPU seconds of each phase of the run, in order: `import` (from
+`import stratcli` to the planner imported; its CPU counts from the interpreter's start; on the
+command line it includes reading the scenario), `check`, `compile`, `planning`, then the
+record's parts: `sample` (the re-integration the log and plots draw), `plots` (every PNG and
+the GIF), `run.mcap` and, comparing, `comparison files`. The MCAP's copy of the manifest is
+taken before its own entry; writing the directory comes after the manifest is frozen, so
+`write` and `total` are in the outcome (`PlanOutcome.phases`), not in manifest.json.
+"""
 
 from __future__ import annotations
 
@@ -7,13 +16,36 @@ import os
 import platform
 import subprocess
 import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import scipy
 
-from .. import __version__
+from .. import _STARTED, __version__
+
+Phases = dict[str, dict[str, float]]  # name -> {"wall_s": ..., "cpu_s": ...}
+
+
+def since_start() -> dict[str, float]:
+    """Wall seconds since `import stratcli` and CPU seconds since the process started."""
+    return {"wall_s": time.perf_counter() - _STARTED, "cpu_s": time.process_time()}
+
+
+@contextmanager
+def phase(phases: Phases, name: str) -> Iterator[None]:
+    """Time the block into `phases[name]` (wall and CPU seconds)."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    try:
+        yield
+    finally:
+        phases[name] = {
+            "wall_s": time.perf_counter() - wall,
+            "cpu_s": time.process_time() - cpu,
+        }
 
 
 def _git(*args: str, cwd: Path | None = None) -> str | None:
@@ -36,7 +68,14 @@ def _git(*args: str, cwd: Path | None = None) -> str | None:
     return out.stdout.strip() if out.returncode == 0 else None
 
 
-def manifest(text: str, argv: list[str], seed: int, timings: dict[str, Any], exit_code: int):
+def manifest(
+    text: str,
+    argv: list[str],
+    seed: int,
+    timings: dict[str, Any],
+    exit_code: int,
+    phases: Phases | None = None,
+):
     commit = _git("rev-parse", "HEAD")
     return {
         "schema": "stratplan.manifest/1",
@@ -54,4 +93,5 @@ def manifest(text: str, argv: list[str], seed: int, timings: dict[str, Any], exi
         "seeds": {"planner": seed},
         **timings,
         "exit_code": exit_code,
+        "phases": dict(phases or {}),
     }

@@ -9,6 +9,7 @@ from typing import Any
 from ..scenario import Task
 from ..sequence import SequencePlan
 from .foxglove_layout import run_layout
+from .manifest import phase
 from .mcap_log import mcap_bytes
 from .plots import render_plots
 from .rundir import run_name, write_run
@@ -36,25 +37,32 @@ def record_files(
     plan: SequencePlan,
     doc: dict,
     manifest: dict,
-    animation: bool = True,
+    animation: bool = False,
     fmt: str = "png",
 ) -> dict[str, Any]:
     """Name → content of every file of the run directory (plots as `fmt`: png, svg or pdf).
 
     The trajectory is re-integrated densely (≥ 200 samples per leg) for the MCAP log and the
-    plots; both are built in memory so the run directory can be written atomically.
+    plots; both are built in memory so the run directory can be written atomically. Each part
+    is timed into `manifest["phases"]` (the log last, so that its copy has the plots' time).
     """
-    traj = sample(plan)
+    phases = manifest.setdefault("phases", {})
+    with phase(phases, "sample"):
+        traj = sample(plan)
+    with phase(phases, "plots"):
+        plots = render_plots(plan, traj, task.scenario.name, animation=animation, fmt=fmt)
     layout = run_layout(plan, traj)
     files: dict[str, Any] = {
         "scenario.toml": task.text,
         "resolved.json": resolved_scenario(task),
         "result.json": doc,
         "manifest.json": manifest,
-        "run.mcap": mcap_bytes(plan, traj, doc, manifest, task.text, task.scenario.name, layout),
         "layout.json": layout,
     }
-    files.update(render_plots(plan, traj, task.scenario.name, animation=animation, fmt=fmt))
+    with phase(phases, "run.mcap"):
+        name = task.scenario.name
+        files["run.mcap"] = mcap_bytes(plan, traj, doc, manifest, task.text, name, layout)
+    files.update(plots)
     return files
 
 

@@ -1,0 +1,66 @@
+"""The disk cache of generated stratum functions: same numbers, silent when it cannot help."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from stratcli.models import codecache
+from stratcli.models.presets import one_arm, two_arm
+
+
+@pytest.fixture
+def cache_home(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    return tmp_path / "stratplan"
+
+
+def _values(cs, q):
+    """Everything a compiled stratum evaluates, at points q."""
+    out = [cs.C_explicit, cs.G(q), cs.dG(q)]
+    if cs.quadrature_terms is not None:
+        out.extend(cs.quadrature_terms(q, 2))
+    return out
+
+
+@pytest.mark.parametrize("build, stratum", [(one_arm, "S3"), (two_arm, "S13")])
+def test_a_cached_stratum_gives_the_very_same_numbers(cache_home, build, stratum):
+    q = np.random.default_rng(1).uniform(-3, 3, (7, build().n))
+    fresh = build().compiled(stratum)
+    expected = _values(fresh, q)
+    assert len(list(cache_home.glob("*.json"))) == 1  # written, G and dG included
+    cached = build().compiled(stratum)  # a new System: read back, nothing differentiated
+    assert cached.quadrature_terms is not None and cached.explicit == fresh.explicit
+    for a, b in zip(expected, _values(cached, q), strict=True):
+        assert np.array_equal(a, b)
+
+
+def test_an_unwritable_cache_compiles_in_silence(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocker))
+    cs = one_arm().compiled("S1")
+    assert cs.supports_quadrature and cs.G(np.zeros(4)).shape == (4, 2)
+
+
+def test_a_damaged_entry_is_generated_again(cache_home):
+    one_arm().compiled("S2")
+    (entry,) = cache_home.glob("*.json")
+    entry.write_text(json.dumps({"format": codecache.FORMAT, "explicit": "garbage"}))
+    cs = one_arm().compiled("S2")
+    q = np.full((1, 4), 0.3)
+    assert np.array_equal(cs.quadrature_terms(q, 0)[0], one_arm().compiled("S2").G(q)[:, 3:, :])
+
+
+def test_the_key_follows_the_fields(cache_home):
+    a, b = one_arm(), one_arm()
+    b.parameters = {}  # same model
+    s = a.strata["S1"]
+    assert codecache.key("one-arm", a.states, "S1", a.fields_on(s)) == codecache.key(
+        "one-arm", b.states, "S1", b.fields_on(s)
+    )
+    assert codecache.key("one-arm", a.states, "S1", a.fields_on(s)) != codecache.key(
+        "one-arm", a.states, "S1", a.fields_on(a.strata["S2"])
+    )

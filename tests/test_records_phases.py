@@ -1,0 +1,45 @@
+"""Every phase of a run is timed: in manifest.json (additions only) and in the outcome."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from stratcli import api
+from stratcli.cli import app
+from stratcli.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIO = ROOT / "scenarios" / "sim1_l_c1.toml"
+PLANNED = ("import", "check", "compile", "planning")
+RECORDED = ("sample", "plots", "run.mcap")
+
+
+def _is_timing(entry) -> bool:
+    return set(entry) == {"wall_s", "cpu_s"} and all(v >= 0 for v in entry.values())
+
+
+def test_the_manifest_and_the_outcome_time_every_phase(tmp_path):
+    outcome = api.plan_run(load_scenario(SCENARIO))
+    assert list(outcome.phases) == list(PLANNED)
+    run_dir = api.write_record(tmp_path, outcome, argv=["test"])
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert list(manifest["phases"]) == [*PLANNED, *RECORDED]
+    assert all(_is_timing(t) for t in manifest["phases"].values())
+    # the keys manifest.json had before phases were added are still there
+    old = {"schema", "stratplan", "command", "compile_time_s", "planning_time_s", "exit_code"}
+    assert old <= set(manifest)
+    assert list(outcome.phases) == [*PLANNED, *RECORDED, "write", "total"]
+    total = outcome.phases["total"]
+    assert total["wall_s"] >= sum(t["wall_s"] for k, t in outcome.phases.items() if k != "total")
+
+
+def test_plan_prints_the_total_beside_the_planning_time(tmp_path):
+    result = CliRunner().invoke(app, ["plan", str(SCENARIO), "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    footer = " ".join(result.output.split())
+    assert "planned in" in footer and " s in all · record:" in footer
+    (run_dir,) = tmp_path.iterdir()
+    assert not (run_dir / "motion.gif").exists()  # the GIF is opt-in (--animation)
