@@ -33,29 +33,37 @@ def ranking(task, doc: dict) -> None:
     rows = table()
     number_column(rows, "rank")
     text_column(rows, "sequence\n(strategy)" if both else "sequence")
-    text_column(rows, "status")  # "ok", or why the sequence failed
+    number_column(rows, "status", justify="left")
     for header in ("energy", "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
         number_column(rows, header)
+    failures = []
     for row in doc["rows"]:
         ok = row["status"] == "ok"
         style = "bold green" if ok and row["rank"] == 1 else None
-
-        def num(x, fmt="{:,.2f}"):
-            return "–" if x is None else fmt.format(x)
-
         sequence = " → ".join(row["sequence"])
+        if not ok:  # the reason is a sentence: below the table, not squeezed into a cell
+            failures.append(f"rank {row['rank']} ({sequence}) failed: {escape(row['reason'])}")
         rows.add_row(
             str(row["rank"]),
             f"{sequence}\n[dim]{row['strategy']}[/]" if both else sequence,
-            "ok" if ok else f"[red]failed[/]: {escape(row['reason'])}",
-            num(row["energy"]) if ok else "–",
-            num(row["peak_control"]) if ok else "–",
-            num(row["excursion"], "{:.3f}") if ok else "–",
-            num(row["duration"], "{:g}"),
+            "ok" if ok else "[red]failed[/]",
+            fmt(row["energy"]) if ok else "–",
+            fmt(row["peak_control"]) if ok else "–",
+            _number(row["excursion"], "{:.3f}") if ok else "–",
+            _number(row["duration"], "{:g}"),
             f"{1e3 * row['planning_time_s']:.0f}",
             style=style,
         )
     render.out_console.print(rows)
+    for failure in failures:
+        say(failure)
+
+
+def _number(x: float | None, pattern: str) -> str:
+    """`x` formatted, "–" when unknown, scientific from 1e6 on (a table cell stays short)."""
+    if x is None or x != x:
+        return "–"
+    return pattern.format(x) if abs(x) < 1e6 else f"{x:.3e}"
 
 
 def comparison_footer(outcome, run_dir: Path) -> None:
@@ -91,21 +99,28 @@ def auto_mode(outcome, run_dir: Path) -> None:
 
 
 def runs_table(rows: list[dict], out: Path) -> None:
-    """`runs`: one row per record, newest first: status, energy and the run (what `show` takes)."""
+    """`runs`: one line per record, newest first: status, energy and the run (what `show`
+    takes), aligned in columns.
+
+    Not a rich table: a run's path may be wider than the terminal, and a table would then
+    shrink or fold every column. Each line is printed whole (`soft_wrap`): the terminal
+    wraps a long one, and a copied path stays one path.
+    """
     if not rows:
         render.out_console.print(f"no run records in {out}", highlight=False)
         return
-    runs = table()
-    number_column(runs, "status", justify="left")
-    number_column(runs, "energy")
-    number_column(runs, "run (stratplan show RUN)", justify="left")
-    for row in rows:
-        runs.add_row(
-            "[green]ok[/]" if row["status"] == "ok" else "[red]failed[/]",
-            fmt(row["total_energy"]),
-            escape(str(out / row["run"])),
+    energies = [fmt(row["total_energy"]) for row in rows]
+    width = max(len("energy"), *map(len, energies))
+    render.out_console.print(
+        f"[bold]status  {'energy':>{width}}  run (stratplan show RUN)[/]", highlight=False
+    )
+    for row, energy in zip(rows, energies, strict=True):
+        status = "[green]ok    [/]" if row["status"] == "ok" else "[red]failed[/]"
+        render.out_console.print(
+            f"{status}  {energy:>{width}}  {escape(str(out / row['run']))}",
+            highlight=False,
+            soft_wrap=True,
         )
-    render.out_console.print(runs)
     say("newest first; a run is named <UTC time it started>-<scenario>-<hash of its text>")
 
 
@@ -172,7 +187,7 @@ def regress_report(report) -> None:
     diffs = report.differences
     rows = table()
     rows.title = f"{report.scenarios} scenarios against {report.baseline}"
-    number_column(rows, "scenario", justify="left")
+    text_column(rows, "scenario")
     text_column(rows, "quantity")
     number_column(rows, "baseline")
     number_column(rows, "now")
