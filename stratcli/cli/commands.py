@@ -65,6 +65,9 @@ def plan(
 
     Auto mode: a scenario with a decompose table and no legs plans every candidate sequence
     (as compare-sequences does), records the best by the table's criterion and says why.
+
+    Legs are numbered from 1 in every table and message ("leg 1 on S3"); a field path such
+    as legs[0].goal indexes the file's [[legs]] array, and result.json lists legs in order.
     """
     from .. import api  # start-up speed
 
@@ -188,7 +191,10 @@ def decompose(
 
 
 def check(
-    target: Annotated[str, typer.Argument(help="Scenario file (TOML) or preset model name.")],
+    target: Annotated[
+        str,
+        typer.Argument(metavar="NAME|FILE", help="A preset model's name, or a scenario file."),
+    ],
     at: Annotated[
         str | None,
         typer.Option(
@@ -254,7 +260,7 @@ def models(
     target: Annotated[
         str | None,
         typer.Argument(
-            metavar="[NAME|FILE]", help="A preset model's name, or a scenario file: describe it."
+            metavar="NAME|FILE", help="A preset model's name, or a scenario file: describe it."
         ),
     ] = None,
 ) -> None:
