@@ -32,7 +32,10 @@ def ranking(task, doc: dict) -> None:
     both = len(doc["strategies"]) > 1
     rows = table()
     number_column(rows, "rank")
-    text_column(rows, "sequence\n(strategy)" if both else "sequence")
+    if both:  # the strategy word under each sequence: as wide as the longest strategy
+        text_column(rows, "sequence\n(strategy)", min_width=len("conservative"))
+    else:
+        text_column(rows, "sequence")
     number_column(rows, "status", justify="left")
     for header in ("energy", "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
         number_column(rows, header)
