@@ -9,6 +9,7 @@ it is off by more than the tolerance). Every start is a `chain_legs` call.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -32,6 +33,7 @@ def plan_sequence(
     legs: list[LegSpec],
     settings: PlannerSettings,
     warm_start: list[np.ndarray] | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> SequencePlan:
     """Check the legs, then plan them with `settings.objective`.
 
@@ -47,6 +49,9 @@ def plan_sequence(
         How to plan; `objective` is "newton" (leg by leg) or "energy" (all legs together).
     warm_start : list of ndarray, optional
         Feasible flat coefficients per leg, tried as an extra first start of the energy search.
+    progress : callable, optional
+        Called as `progress(phase)` with a short description of each phase as it begins
+        (Newton's leg-by-leg pass, each start of the energy search); default: silent.
 
     Returns
     -------
@@ -60,7 +65,7 @@ def plan_sequence(
     """
     start = np.asarray(start, dtype=float)
     check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
-    return plan_with_objective(system, start, legs, settings, warm_start)
+    return plan_with_objective(system, start, legs, settings, warm_start, progress)
 
 
 def plan_with_objective(
@@ -69,12 +74,16 @@ def plan_with_objective(
     legs: list[LegSpec],
     settings: PlannerSettings,
     warm_start: list[np.ndarray] | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> SequencePlan:
     """Plan checked legs with `settings.objective`; `warm_start` (flat coefficients per leg,
-    feasible) is tried as an extra first start of the energy search."""
+    feasible) is tried as an extra first start of the energy search; `progress(phase)` is
+    told each phase as it begins."""
+    say = progress or _silent
     lie_legs = [i + 1 for i, leg in enumerate(legs) if not PLANNERS[leg.method].joint_optimisation]
     if lie_legs and settings.objective != "newton":
         return _with_lie_legs(system, start, legs, settings, lie_legs)
+    say("planning the legs one by one (Newton)")
     newton = chain_legs(system, start, legs, settings)
     if settings.objective == "newton" or not newton.ok:
         return newton
@@ -82,6 +91,7 @@ def plan_with_objective(
     # (cheap, feasible, and in different basins: energy varies by orders of magnitude).
     seeds = [newton]
     for k in range(1, settings.starts):
+        say(f"energy search: start {k + 1} of {settings.starts} (a Newton plan from a seed)")
         other = chain_legs(
             system,
             start,
@@ -102,6 +112,7 @@ def plan_with_objective(
     ]
     if warm_start is not None:
         stacked.insert(0, ("warm start", np.concatenate([np.ravel(c) for c in warm_start])))
+    say(f"energy search: minimum energy from {len(stacked)} starts")
     try:
         with np.errstate(all="ignore"):
             coefficients, search = optimise_energy(
@@ -117,6 +128,7 @@ def plan_with_objective(
     newton = replace(newton, optimisation=search)
     if coefficients is None:
         return newton
+    say("energy search: re-chaining the legs from the best start")
     final = chain_legs(system, start, legs, settings, initial=coefficients)
     final = replace(final, optimisation=search)
     return final if final.ok and final.total_energy <= newton.total_energy else newton
@@ -164,6 +176,10 @@ def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
         f"objective {objective!r} not applied: leg(s) {which} use the Lie-algebraic method, "
         "so the sequence was planned leg by leg (Newton legs with the paper's Newton method)",
     )
+
+
+def _silent(phase: str) -> None:
+    """No progress shown."""
 
 
 def _noted(plan: SequencePlan, note: str) -> SequencePlan:

@@ -484,3 +484,45 @@ def test_bad_options_exit_2_naming_the_option():
     assert result.exit_code == 2 and "--max-length: no sequence of at most 1 strata" in (
         result.output
     )
+
+
+def test_models_describes_a_preset_by_name():
+    result = runner.invoke(app, ["models", "one-arm"])
+    assert result.exit_code == 0, result.output
+    assert "one-arm preset model" in result.output and "q1, q2, q3, theta" in result.output
+    assert "cannot read scenario file" not in result.output
+
+
+@pytest.mark.parametrize("command", ["check", "models"])
+def test_check_and_models_say_the_same_of_an_unknown_argument(command):
+    result = runner.invoke(app, [command, "three-arm"])
+    assert result.exit_code == 2
+    assert result.stderr.strip() == (
+        "error: three-arm: not a preset (one-arm, two-arm) or a scenario file"
+    )
+
+
+def test_plan_json_names_the_record_but_result_json_does_not(tmp_path):
+    result, _ = run(tmp_path, TASK_D, "--json", "--no-animation")
+    assert result.exit_code == 0
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    assert json.loads(result.stdout)["record"] == str(run_dir)
+    assert "record" not in json.loads((run_dir / "result.json").read_text())
+
+
+def test_show_of_a_failed_record_prints_its_failure_and_hint(tmp_path):
+    text = TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-12\nmax_iterations = 1\nrestarts = 0")
+    result, _ = run(tmp_path, text, "--no-animation", "--quiet")
+    assert result.exit_code == 1
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    shown = runner.invoke(app, ["show", str(run_dir)])
+    assert shown.exit_code == 0
+    message = json.loads((run_dir / "result.json").read_text())["message"]
+    assert f"failed: {message}" in shown.stdout and "try" in message
+
+
+def test_flags_help_shows_no_bool_type():
+    for command in ("plan", "compare-sequences", "regress", "check"):
+        text = runner.invoke(app, [command, "--help"]).output
+        flags = [x for x in text.splitlines() if "--quiet" in x or "--json" in x or "--update" in x]
+        assert all("<bool>" not in x for x in flags), flags

@@ -96,12 +96,11 @@ def check_controllability(
     CheckReport
         The check document (`.controllable`, `.problems`), a title and the time taken.
     """
-    task = None
-    if isinstance(target, str) and target in PRESETS and not Path(target).exists():
-        system, legs, title = preset(target), None, f"preset {target}"
+    task = preset_or_scenario(target)
+    if isinstance(task, str):
+        system, legs, title, task = preset(task), None, f"preset {task}", None
         strata, q = list(system.strata), [0.0] * system.n
     else:
-        task = target if isinstance(target, Task) else load_scenario(target)
         system, legs, strata, q = task.system, task.legs or None, check_strata(task), task.start
         title = f"{task.scenario.name} ({task.model_name} model)"
     if at is not None:
@@ -111,6 +110,36 @@ def check_controllability(
     seconds = time.perf_counter() - clock
     doc["target"] = task.source if task is not None else str(target)
     return CheckReport(doc, title, seconds)
+
+
+def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | Task:
+    """A preset model's name, or a loaded scenario (what `check` and `models` take).
+
+    Parameters
+    ----------
+    target : str, Path, Mapping or Task
+        A preset name (a file of that name wins), or a scenario: a loaded one, or what
+        `load_scenario` takes.
+
+    Returns
+    -------
+    str or Task
+        The preset's name, or the scenario.
+
+    Raises
+    ------
+    InputError
+        "not a preset (one-arm, two-arm) or a scenario file" when `target` is a name that is
+        neither a preset nor an existing path; a scenario's own problems otherwise.
+    """
+    if isinstance(target, Task):
+        return target
+    text = isinstance(target, str) and ("\n" in target or "=" in target)  # TOML text
+    if isinstance(target, str | Path) and not text and not Path(target).exists():
+        if str(target) in PRESETS:
+            return str(target)
+        raise InputError(f"not a preset ({', '.join(PRESETS)}) or a scenario file", str(target))
+    return load_scenario(target)
 
 
 def configuration(system: System, at: str | Sequence[float], option: str = "--at") -> list:

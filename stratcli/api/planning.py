@@ -128,7 +128,13 @@ def plan(
     return plan_run(task, check=check, time_scale=time_scale).result
 
 
-def plan_run(task: Task, *, check: bool = True, time_scale: float | None = None) -> PlanOutcome:
+def plan_run(
+    task: Task,
+    *,
+    check: bool = True,
+    time_scale: float | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> PlanOutcome:
     """Plan a scenario's legs one after another, to tolerance (what `stratplan plan` runs).
 
     Parameters
@@ -140,6 +146,10 @@ def plan_run(task: Task, *, check: bool = True, time_scale: float | None = None)
     time_scale : float, optional
         Run the planned path this many times faster; default: the scenario's
         `planner.time_scale`.
+    progress : callable, optional
+        Called as `progress(phase)` with a short description of each phase as it begins:
+        the check, compiling the model, Newton's pass and each start of the energy search
+        (e.g. to show them on a terminal); default: silent.
 
     Returns
     -------
@@ -153,16 +163,20 @@ def plan_run(task: Task, *, check: bool = True, time_scale: float | None = None)
     """
     if not task.legs:
         raise InputError("the scenario has no legs: plan it in auto mode (plan_auto)", task.source)
+    say = progress or (lambda phase: None)
     phases: Phases = {"import": dict(IMPORTED)}
     with phase(phases, "check"):
+        if check:
+            say("checking controllability (Lie brackets of each leg's stratum)")
         check_time = controllability_first(task) if check else 0.0
     started = datetime.now(UTC)
     with phase(phases, "compile"):  # generate the numeric functions first: not planning
+        say("compiling the model")
         for leg in task.legs:
             task.system.compiled(leg.stratum)
     compile_time = phases["compile"]["wall_s"] + check_time  # incl. the brackets of the check
     with phase(phases, "planning"):
-        result = plan_sequence(task.system, task.start, task.legs, task.settings)
+        result = plan_sequence(task.system, task.start, task.legs, task.settings, progress=progress)
     planning_time = phases["planning"]["wall_s"]
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale != 1.0:

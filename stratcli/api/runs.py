@@ -6,6 +6,7 @@ import json
 import os
 import sys
 import tempfile
+import time
 import tomllib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -279,7 +280,12 @@ def clean_runs(out: Path) -> list[Path]:
 # ------------------------------------------------------------------------------------------
 
 
-def regress(directory: Path, baseline: Path, update: bool = False) -> RegressReport:
+def regress(
+    directory: Path,
+    baseline: Path,
+    update: bool = False,
+    progress: Callable[[str, dict[str, Any], float], None] | None = None,
+) -> RegressReport:
     """Plan every scenario in `directory` and compare with a baseline file.
 
     Parameters
@@ -290,6 +296,9 @@ def regress(directory: Path, baseline: Path, update: bool = False) -> RegressRep
         Baseline JSON file (schema ``stratplan.baseline/1``).
     update : bool
         Rewrite the baseline from this run (keeping its tolerances when it exists).
+    progress : callable, optional
+        Called as `progress(name, summary, seconds)` after each scenario is planned (its
+        status, energies and errors, and the seconds it took); default: silent.
 
     Returns
     -------
@@ -307,7 +316,12 @@ def regress(directory: Path, baseline: Path, update: bool = False) -> RegressRep
         except InputError:
             if not update:
                 raise
-    now = {path.stem: summarise(path) for path in paths}
+    now = {}
+    for path in paths:
+        clock = time.perf_counter()
+        now[path.stem] = summarise(path)
+        if progress is not None:
+            progress(path.stem, now[path.stem], time.perf_counter() - clock)
     diffs = compare_baseline(now, old, tolerances)
     if update:
         baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")

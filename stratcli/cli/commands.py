@@ -13,7 +13,7 @@ from typing import Annotated, Literal
 
 import typer
 
-from . import render
+from . import render, render_tables
 from .options import Animation, Json, MaxLength, Out, Quiet, Scenario, Strategy, TaskScenario
 from .render_analysis import check_report, decomposition
 
@@ -71,6 +71,9 @@ def plan(
 
     Auto mode: a scenario with a decompose table and no legs plans every candidate sequence
     (as compare-sequences does), records the best by the table's criterion and says why.
+
+    Legs are numbered from 1 in every table and message ("leg 1 on S3"); a field path such
+    as legs[0].goal indexes the file's [[legs]] array, and result.json lists legs in order.
     """
     from .. import api  # start-up speed
 
@@ -79,12 +82,12 @@ def plan(
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt)
-    with render.reported(file):
-        outcome = api.plan_run(task, check=check, time_scale=time_scale)
-    with render.reported():
-        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
-    if json_output:
-        render.print_json(outcome.document)
+    with render.phases(render.interactive(quiet, json_output)) as progress:
+        with render.reported(file):
+            outcome = api.plan_run(task, check=check, time_scale=time_scale, progress=progress)
+        run_dir = _write(out, outcome, animation, progress, fmt)
+    if json_output:  # result.json, and where the record is (not a key of result.json)
+        render.print_json({**outcome.document, "record": str(run_dir)})
     elif not quiet:
         render.plan_summary(outcome.document)
         render.plan_footer(outcome, run_dir)
@@ -97,22 +100,28 @@ def _plan_auto(task, file: Path, out: Path, json_output, quiet, animation, check
     """`plan` on a scenario without legs: compare the candidates, record and show the best."""
     from .. import api  # start-up speed
 
-    with render.reported(file), render.progress_bar(_interactive(quiet, json_output)) as bar:
+    interactive = render.interactive(quiet, json_output)
+    with render.reported(file), render.progress_bar(interactive) as bar:
         outcome = api.plan_auto(task, check=check, progress=bar)
-    with render.reported():
-        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
+    with render.phases(interactive) as progress:
+        run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:
-        render.print_json(outcome.best.document)
+        render.print_json({**outcome.best.document, "record": str(run_dir)})
     elif not quiet:
-        render.auto_mode(outcome, run_dir)
+        render_tables.auto_mode(outcome, run_dir)
     if not outcome.ok:
         render.error("planning failed", outcome.comparison.choice())
     raise typer.Exit(0 if outcome.ok else 1)
 
 
-def _interactive(quiet: bool, json_output: bool) -> bool:
-    """Draw a progress bar: only for people watching a terminal."""
-    return not (quiet or json_output) and render.err_console.is_terminal
+def _write(out: Path, outcome, animation: bool, progress, fmt: str = "png") -> Path:
+    """Write the run record (exit 4 when it cannot be), telling `progress` so."""
+    from .. import api  # start-up speed
+
+    if progress is not None:
+        progress(f"writing the run record in {out}")
+    with render.reported():
+        return api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
 
 
 def compare_sequences(
@@ -147,17 +156,18 @@ def compare_sequences(
     task = _load(file)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
-    with render.reported(), render.progress_bar(_interactive(quiet, json_output)) as bar:
+    interactive = render.interactive(quiet, json_output)
+    with render.reported(), render.progress_bar(interactive) as bar:
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(task, **options, jobs=jobs, progress=bar)
-    with render.reported():
-        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
+    with render.phases(interactive) as progress:
+        run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:
         render.print_json(outcome.document)
     elif not quiet:
-        render.ranking(task, outcome.document)
+        render_tables.ranking(task, outcome.document)
         render.say(f"best: {outcome.comparison.choice()}")
-        render.comparison_footer(outcome, run_dir)
+        render_tables.comparison_footer(outcome, run_dir)
     if not outcome.ok:
         render.error("no sequence reached the goal", outcome.comparison.choice())
     raise typer.Exit(0 if outcome.ok else 1)
@@ -188,7 +198,10 @@ def decompose(
 
 
 def check(
-    target: Annotated[str, typer.Argument(help="Scenario file (TOML) or preset model name.")],
+    target: Annotated[
+        str,
+        typer.Argument(metavar="NAME|FILE", help="A preset model's name, or a scenario file."),
+    ],
     at: Annotated[
         str | None,
         typer.Option(
@@ -266,28 +279,44 @@ def runs(
     if json_output:
         render.print_json(rows)
     else:
-        render.runs_table(rows, out)
+        render_tables.runs_table(rows, out)
 
 
 def models(
-    file: Annotated[
-        Path | None, typer.Argument(help="Scenario file: describe its model instead.")
+    target: Annotated[
+        str | None,
+        typer.Argument(
+            metavar="NAME|FILE", help="A preset model's name, or a scenario file: describe it."
+        ),
     ] = None,
 ) -> None:
-    """List the preset models, or describe the model of a scenario file.
+    """List the preset models, or describe one: a preset by NAME, or a scenario FILE's model.
 
-    For a scenario: coordinates, inputs and every stratum with its locked coordinates, active
-    inputs, dimension and the end-point evaluator `auto` will use on it.
+    Described: coordinates, inputs and every stratum with its locked coordinates, active
+    inputs, dimension and the end-point evaluator `auto` will use on it. Exits 0, or 2 when
+    the argument is neither a preset nor a scenario file.
     """
-    if file is None:  # the static table: listing presets builds no sympy model
+    if target is None:  # the static table: listing presets builds no sympy model
         from ..models.presets import PRESET_TABLE  # start-up speed
 
-        render.presets_table(PRESET_TABLE)
+        render_tables.presets_table(PRESET_TABLE)
         return
     from .. import api  # start-up speed
+    from ..api.inspection import preset_or_scenario
 
-    task = _load(file)
-    render.model(task, api.strata_table(task.system))
+    with render.reported():
+        found = preset_or_scenario(target)
+        if isinstance(found, str):
+            from ..models.presets import preset  # start-up speed
+
+            system = preset(found)
+            render_tables.model(found, system, api.strata_table(system))
+            return
+        render_tables.model(
+            found.model_name, found.system, api.strata_table(found.system), of=found.scenario.name
+        )
+    if found.settings.evaluator != "auto":
+        render.say(f"this scenario asks for the {found.settings.evaluator} evaluator")
 
 
 def regress(
@@ -300,6 +329,7 @@ def regress(
     update: Annotated[
         bool, typer.Option(metavar="", help="Rewrite the baseline from this run.")
     ] = False,
+    quiet: Quiet = False,
 ) -> None:
     """Plan every scenario in DIRECTORY and compare with a baseline; exit 1 on a regression.
 
@@ -309,7 +339,10 @@ def regress(
     from .. import api  # start-up speed
 
     with render.reported():
-        report = api.regress(directory, baseline, update=update)
-    render.regress_report(report)
+        report = api.regress(
+            directory, baseline, update=update, progress=render_tables.regress_progress(quiet)
+        )
+    if not quiet:
+        render_tables.regress_report(report)
     if not report.updated:
         raise typer.Exit(1 if report.regressions else 0)

@@ -1,23 +1,68 @@
-"""Rich rendering: tables and messages of the commands; nothing here plans or validates."""
+"""Rich rendering: tables and messages of the commands; nothing here plans or validates.
+
+Tables never cut a number or an id: numeric and id columns (`number_column`) are never
+wrapped and never shortened with "…", text columns (`text_column`) wrap. Output that is not a
+terminal is not wrapped at all (`Stream`): a pipe or a file gets each line whole.
+"""
 
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import typer
-from rich.console import Console
+from rich.console import Console, ConsoleDimensions
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    SpinnerColumn,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from rich.table import Table
 
 from ..errors import InputError, NotControllableError, RecordError
 
-out_console = Console()
-err_console = Console(stderr=True)
+PIPE_WIDTH = 10_000  # not a terminal: lines are as long as their text, never wrapped
+
+
+class Stream(Console):
+    """A console that wraps to the terminal's width, and not at all when it is no terminal."""
+
+    @property
+    def size(self) -> ConsoleDimensions:
+        """The terminal's size; `PIPE_WIDTH` columns when the output is not a terminal."""
+        size = Console.size.fget(self)
+        return size if self.is_terminal else ConsoleDimensions(PIPE_WIDTH, size.height)
+
+    @size.setter
+    def size(self, new_size: tuple[int, int]) -> None:
+        Console.size.fset(self, new_size)
+
+
+out_console = Stream()
+err_console = Stream(stderr=True)
+
+
+def table() -> Table:
+    """An empty table in the commands' style (no outer edge)."""
+    return Table(show_edge=False)
+
+
+def number_column(table: Table, header: str, justify: str = "right", **kw: Any) -> None:
+    """A column of numbers, ids or one-word values: never wrapped or cut with "…" (folded only
+    on a terminal too narrow for the cell itself). A long header should break with "\\n"."""
+    table.add_column(header, justify=justify, no_wrap=True, overflow="fold", **kw)
+
+
+def text_column(table: Table, header: str, **kw: Any) -> None:
+    """A column of words: wrapped at spaces to fit, a word longer than the column folded."""
+    table.add_column(header, overflow="fold", **kw)
 
 
 def say(text: str) -> None:
@@ -76,6 +121,35 @@ def progress_bar(enabled: bool) -> Iterator[Any]:
         yield update
 
 
+@contextmanager
+def phases(enabled: bool) -> Iterator[Callable[[str], None] | None]:
+    """A `progress(phase)` callback showing the phase of long work on stderr, with the time
+    it has taken so far (None when disabled); the line goes away when the work is done.
+
+    Refreshed only when the phase changes: no refresh thread (planning may fork workers).
+    """
+    if not enabled:
+        yield None
+        return
+    columns = (SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn())
+    with Progress(*columns, console=err_console, auto_refresh=False, transient=True) as bar:
+        jobs = []
+
+        def update(phase: str) -> None:
+            if jobs:
+                bar.update(jobs[0], description=escape(phase))
+            else:
+                jobs.append(bar.add_task(escape(phase), total=None))
+            bar.refresh()
+
+        yield update
+
+
+def interactive(quiet: bool, json_output: bool) -> bool:
+    """Show progress: only to people watching a terminal (not under --quiet or --json)."""
+    return not (quiet or json_output) and err_console.is_terminal
+
+
 def fmt(x: float | None) -> str:
     """An energy for a table: grouped digits, scientific when large, "–" when unknown."""
     if x is None or x != x:
@@ -103,18 +177,20 @@ def plan_summary(doc: dict) -> None:
         + (f" · H = {basis['harmonics']}, P = {basis['period']:g}" if basis else ""),
         highlight=False,
     )
-    table = Table(show_edge=False)
     # Per-leg Newton iterations and starts describe the plan only when legs are planned one
     # by one; the energy objective optimises all legs together (its line below says how).
     per_leg = not (doc.get("optimisation") or {}).get("starts")
-    counts = ("iterations", "starts") if per_leg else ()
-    columns = ("leg", "stratum", "method", "evaluator", *counts, "final error")
-    for col in (*columns, "energy", "status"):
-        table.add_column(
-            col, justify="left" if col in ("stratum", "method", "evaluator", "status") else "right"
-        )
+    legs = table()
+    number_column(legs, "leg")
+    for col in ("stratum", "method", "evaluator"):
+        text_column(legs, col)
+    for col in ("iterations", "starts") if per_leg else ():
+        number_column(legs, col)
+    number_column(legs, "final error")
+    number_column(legs, "energy")
+    number_column(legs, "status", justify="left")
     for i, leg in enumerate(doc["legs"]):
-        table.add_row(
+        legs.add_row(
             str(i + 1),
             leg["stratum"],
             leg["method"],
@@ -124,7 +200,7 @@ def plan_summary(doc: dict) -> None:
             fmt(leg["energy"]),
             "[green]ok[/]" if leg["converged"] else "[red]failed[/]",
         )
-    out_console.print(table)
+    out_console.print(legs)
     line = f"total energy [bold]{fmt(doc['total_energy'])}[/]"
     ref = doc.get("reference_energy")
     scale = doc.get("time_scale", 1.0)
@@ -178,82 +254,12 @@ def plan_footer(outcome, run_dir: Path) -> None:
     )
 
 
-def ranking(task, doc: dict) -> None:
-    from ..compare import CRITERION_LABELS  # here, not at the top: start-up speed
-
-    s = task.settings
-    out_console.print(
-        f"[bold]{doc['scenario']}[/] · model {doc['model']} · {s.continuity} · objective "
-        f"{getattr(s, 'objective', 'newton')} · tolerance {s.tolerance:g} · essential "
-        f"{', '.join(doc['essential'])} · {doc['sequences']} "
-        f"sequences (max length {doc['max_length']}, {' + '.join(doc['strategies'])}) · "
-        f"ranked by {CRITERION_LABELS[doc['criterion']]}",
-        highlight=False,
-    )
-    table = Table(show_edge=False)
-    columns = ("rank", "sequence", "strategy", "status", "energy", "peak |u|")
-    for col in (*columns, "max excursion", "duration", "planning ms"):
-        table.add_column(
-            col,
-            justify="left" if col in columns[1:4] else "right",
-            no_wrap=col in ("sequence", "strategy"),
-        )
-    for row in doc["rows"]:
-        ok = row["status"] == "ok"
-        style = "bold green" if ok and row["rank"] == 1 else None
-
-        def num(x, fmt="{:,.2f}"):
-            return "–" if x is None else fmt.format(x)
-
-        table.add_row(
-            str(row["rank"]),
-            " → ".join(row["sequence"]),
-            row["strategy"],
-            "ok" if ok else f"[red]failed[/]: {escape(row['reason'])}",
-            num(row["energy"]) if ok else "–",
-            num(row["peak_control"]) if ok else "–",
-            num(row["excursion"], "{:.3f}") if ok else "–",
-            num(row["duration"], "{:g}"),
-            f"{1e3 * row['planning_time_s']:.0f}",
-            style=style,
-        )
-    out_console.print(table)
-
-
-def comparison_footer(outcome, run_dir: Path) -> None:
-    comparison = outcome.comparison
-    saved = (
-        f"legs planned {comparison.legs_planned} of {comparison.legs_requested} "
-        f"({comparison.legs_saved} shared)"
-        if comparison.shared
-        else f"legs planned {comparison.legs_planned} of {comparison.legs_requested}"
-    )
-    say(
-        f"{saved} · {len(comparison.outcomes)} sequences in {comparison.wall_time:.2f} s on "
-        f"{comparison.jobs} process{'es' if comparison.jobs > 1 else ''} (model compiled in "
-        f"{outcome.best.compile_time * 1e3:.0f} ms) · record: {run_dir}"
-    )
-
-
-def auto_mode(outcome, run_dir: Path) -> None:
-    """`plan` in auto mode: what was compared, the chosen plan, where the ranking is."""
-    auto = outcome.settings
-    say(
-        f"auto mode: {len(outcome.comparison.outcomes)} candidate sequences (max length "
-        f"{auto.max_length}, {' + '.join(auto.strategies)}) planned; chose "
-        f"{outcome.comparison.choice()}"
-    )
-    plan_summary(outcome.best.document)
-    comparison_footer(outcome, run_dir)
-    say(
-        f"the full ranking: comparison.csv in the record, or stratplan compare-sequences "
-        f"{outcome.task.source}"
-    )
-
-
 def run_record(record, log: dict | None) -> None:
     """`show`: the summary read back from result.json, the MCAP log, the manifest, files."""
     plan_summary(record.result)
+    if record.result.get("status") != "ok":
+        message = record.result.get("message") or "no message recorded"
+        out_console.print(f"[bold red]failed:[/] {escape(message)}", highlight=False)
     if log:
         topics = ", ".join(f"{t} {n}" for t, n in log["topics"].items())
         say(f"run.mcap: {log['messages']} messages over {log['duration_s']:.2f} s ({topics})")
@@ -265,93 +271,3 @@ def run_record(record, log: dict | None) -> None:
     )
     files = sorted(p.name for p in record.path.iterdir())
     say(f"files: {', '.join(files)}")
-
-
-def runs_table(rows: list[dict], out: Path) -> None:
-    if not rows:
-        out_console.print(f"no run records in {out}")
-        return
-    table = Table(show_edge=False)
-    for col in ("started (UTC)", "scenario", "status", "energy", "run"):
-        table.add_column(col, justify="right" if col == "energy" else "left")
-    for row in rows:
-        table.add_row(
-            row["started"][:19].replace("T", " "),
-            str(row["scenario"]),
-            "[green]ok[/]" if row["status"] == "ok" else "[red]failed[/]",
-            fmt(row["total_energy"]),
-            row["run"],
-        )
-    out_console.print(table)
-
-
-def presets_table(systems: dict) -> None:
-    table = Table(show_edge=False)
-    for col in ("preset", "coordinates", "inputs", "strata", "description"):
-        table.add_column(col)
-    for name, system in systems.items():
-        table.add_row(
-            name,
-            ", ".join(system.states),
-            ", ".join(system.inputs),
-            ", ".join(system.strata),
-            system.description,
-        )
-    out_console.print(table)
-
-
-def model(task, strata: list[dict]) -> None:
-    """`models FILE`: a scenario's model, one row per stratum."""
-    system = task.system
-    say(
-        f"[bold]{task.model_name}[/] model of {task.scenario.name}"
-        f"{': ' + system.description if system.description else ''}"
-    )
-    say(f"coordinates: {', '.join(system.states)}")
-    say(f"inputs: {', '.join(system.inputs)}")
-    table = Table(show_edge=False)
-    for col in ("stratum", "locked", "active inputs", "dimension", "auto evaluator"):
-        table.add_column(col)
-    for s in strata:
-        table.add_row(
-            s["stratum"],
-            ", ".join(s["locked"]) or "–",
-            ", ".join(s["active"]),
-            str(s["dimension"]),
-            s["evaluator"],
-        )
-    out_console.print(table)
-    if task.settings.evaluator != "auto":
-        out_console.print(f"this scenario asks for the {task.settings.evaluator} evaluator")
-
-
-def regress_report(report) -> None:
-    if report.updated:
-        out_console.print(f"baseline {report.baseline} written: {report.scenarios} scenarios")
-        return
-    diffs = report.differences
-    table = Table(show_edge=False, title=f"{report.scenarios} scenarios against {report.baseline}")
-    for col in ("scenario", "quantity", "baseline", "now", "verdict"):
-        table.add_column(col)
-    for d in diffs:
-        table.add_row(
-            d.scenario,
-            d.quantity,
-            _show(d.baseline),
-            _show(d.now),
-            "[red]regression[/]" if d.regression else "[yellow]changed[/]",
-        )
-    if diffs:
-        out_console.print(table)
-        verdict = "[red]regressions[/]" if report.regressions else "[green]no regressions[/]"
-        say(f"{verdict}: {report.regressions} of {len(diffs)} differences are regressions")
-    else:
-        say(
-            f"[green]no regressions[/]: all {report.scenarios} scenarios match {report.baseline} "
-            f"(energy within {report.tolerances['energy_rel']:g} relative, errors within "
-            f"{report.tolerances['error_abs']:g})"
-        )
-
-
-def _show(x) -> str:
-    return f"{x:.6g}" if isinstance(x, float) else str(x)

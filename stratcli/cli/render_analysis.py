@@ -5,9 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from rich.markup import escape
-from rich.table import Table
 
-from .render import out_console
+from . import render
+from .render import number_column, table, text_column
 
 
 def _via_cell(goal) -> str:
@@ -24,13 +24,13 @@ def decomposition(outcome, file: Path) -> None:
 
     task, dec, rows = outcome.task, outcome.decomposition, outcome.document["sequences"]
     system = task.system
-    out_console.print(
+    render.out_console.print(
         f"[bold]{task.scenario.name}[/] · model {task.model_name} · "
         f"start {format_configuration(task.start)} → goal {format_configuration(task.goal)} "
         "(angles in rad; π fractions where exact)",
         highlight=False,
     )
-    out_console.print(
+    render.out_console.print(
         f"essential coordinates: {', '.join(system.states[i] for i in dec.essential)} "
         f"({len(dec.essential)} of {system.n})",
         highlight=False,
@@ -39,18 +39,19 @@ def decomposition(outcome, file: Path) -> None:
         f"{s} moves {', '.join(system.states[i] for i in moved_coordinates(system, s))}"
         for s in dec.candidates_strata
     ]
-    out_console.print(f"candidate strata: {'; '.join(moves)}", highlight=False)
-    table = Table(show_edge=False, show_lines=True)
-    table.add_column("#", justify="right")
-    table.add_column("sequence")
-    table.add_column("strategy")
+    render.out_console.print(f"candidate strata: {'; '.join(moves)}", highlight=False)
+    listing = table()
+    listing.show_lines = True
+    number_column(listing, "#")
+    text_column(listing, "sequence")
+    text_column(listing, "strategy")
     vias = max(len(c.legs) for c in dec.candidates) - 1
-    for v in range(vias):
-        table.add_column(f"via {v + 1}" if vias > 1 else "via")
-    table.add_column("loop legs")
+    for v in range(vias):  # a configuration wraps between its coordinates, not inside one
+        text_column(listing, f"via {v + 1}" if vias > 1 else "via")
+    text_column(listing, "loop\nlegs")
     for row, cand in zip(rows, dec.candidates, strict=True):
         cells = [_via_cell(leg.goal) for leg in cand.legs[:-1]]
-        table.add_row(
+        listing.add_row(
             str(row["index"]),
             " → ".join(cand.sequence),
             cand.strategy,
@@ -58,9 +59,9 @@ def decomposition(outcome, file: Path) -> None:
             *([""] * (vias - len(cells))),
             ", ".join(map(str, row["loops"])) or "–",
         )
-    out_console.print(table)
+    render.out_console.print(listing)
     n, k = len(dec.sequences), len(dec.candidates)
-    out_console.print(
+    render.out_console.print(
         f"{n} sequence{'s' * (n != 1)} of at most {dec.max_length} strata × "
         f"{' and '.join(dec.strategies)} = {k} candidate{'s' * (k != 1)}; a loop leg's goal "
         f"is its start. Plan and rank them: stratplan compare-sequences {file}",
@@ -73,17 +74,20 @@ def check_report(report) -> None:
     from ..decompose import format_configuration  # here, not at the top: start-up speed
 
     doc, title, seconds = report.document, report.title, report.seconds
-    out_console.print(
+    render.out_console.print(
         f"[bold]{escape(title)}[/] · generators and Lie brackets up to degree {doc['degree']} · "
         f"at q = {format_configuration(doc['at'])} and {doc['samples']} sampled "
         f"configurations (seed {doc['seed']})",
         highlight=False,
     )
-    table = Table(show_edge=False)
-    for col in ("stratum", "dim", "rank at q", "σ_min at q", "min rank, σ_min (q + samples)"):
-        table.add_column(col, justify="left" if col == "stratum" else "right")
-    table.add_column("spanning at q")
-    table.add_column("eq. 4")
+    strata = table()
+    number_column(strata, "stratum", justify="left")
+    number_column(strata, "dim")
+    number_column(strata, "rank\nat q")
+    number_column(strata, "σ_min\nat q")
+    number_column(strata, "min rank, σ_min\n(q + samples)")
+    text_column(strata, "spanning at q")
+    text_column(strata, "eq. 4")
     notes = []
     for s in doc["strata"]:
         rank = f"{s['rank_at']}"
@@ -100,7 +104,7 @@ def check_report(report) -> None:
                 f"{s['third_order_needed'] - int(escalated)} sampled configuration(s), "
                 "third order spans there"
             )
-        table.add_row(
+        strata.add_row(
             s["stratum"],
             str(s["dimension"]),
             rank,
@@ -109,9 +113,9 @@ def check_report(report) -> None:
             escape(", ".join(s["spanning_at"])),
             "[green]strong[/]" if s["strong"] else "[red]no[/]",
         )
-    out_console.print(table)
+    render.out_console.print(strata)
     for note in notes:
-        out_console.print(f"note: {escape(note)}", highlight=False)
+        render.out_console.print(f"note: {escape(note)}", highlight=False)
     eq2 = doc["eq2"]
     line = (
         f"eq. 2 ({' + '.join(eq2['strata'])}, each stratum's closure): rank "
@@ -127,12 +131,12 @@ def check_report(report) -> None:
         if eq2["by_switching"]:
             extra = [x for x in eq2["cross_spanning_at"] if x.startswith("[")]
             line += " ([green]holds[/]" + (f"; needs {escape(', '.join(extra))})" if extra else ")")
-    out_console.print(line, highlight=False)
+    render.out_console.print(line, highlight=False)
     if doc["legs"] is not None:
         for leg in doc["legs"]:
             steers = ", ".join(leg["steers"]) or "nothing"
             mark = "[green]spanned[/]" if leg["ok"] else "[red]NOT spanned[/]"
-            out_console.print(
+            render.out_console.print(
                 f"leg {leg['leg']} on {leg['stratum']} steers {steers}: rank {leg['rank']}, "
                 f"σ_min {leg['sigma_min']:.1e} at its start "
                 f"{format_configuration(leg['configuration'])}: {mark}",
@@ -155,4 +159,4 @@ def check_report(report) -> None:
             if all(leg["ok"] for leg in doc["legs"])
             else "; [red]some legs cannot be planned[/]"
         )
-    out_console.print(f"verdict: {verdict} · {seconds * 1e3:.0f} ms", highlight=False)
+    render.out_console.print(f"verdict: {verdict} · {seconds * 1e3:.0f} ms", highlight=False)

@@ -1,0 +1,236 @@
+"""Rich rendering of the comparison, the run list, the models and the regression report.
+
+Numbers and ids go in `number_column`s (never cut with "…"), words in `text_column`s.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.markup import escape
+
+from . import render
+from .render import fmt, number_column, say, table, text_column
+
+
+def ranking(task, doc: dict) -> None:
+    """`compare-sequences`: the settings, then one row per candidate sequence, best first.
+
+    A scenario compared with both strategies shows each row's strategy under its sequence.
+    """
+    from ..compare import CRITERION_LABELS  # here, not at the top: start-up speed
+
+    s = task.settings
+    render.out_console.print(
+        f"[bold]{doc['scenario']}[/] · model {doc['model']} · {s.continuity} · objective "
+        f"{getattr(s, 'objective', 'newton')} · tolerance {s.tolerance:g} · essential "
+        f"{', '.join(doc['essential'])} · {doc['sequences']} "
+        f"sequences (max length {doc['max_length']}, {' + '.join(doc['strategies'])}) · "
+        f"ranked by {CRITERION_LABELS[doc['criterion']]}",
+        highlight=False,
+    )
+    both = len(doc["strategies"]) > 1
+    rows = table()
+    number_column(rows, "rank")
+    if both:  # the strategy word under each sequence: as wide as the longest strategy
+        text_column(rows, "sequence\n(strategy)", min_width=len("conservative"))
+    else:
+        text_column(rows, "sequence")
+    number_column(rows, "status", justify="left")
+    for header in ("energy", "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
+        number_column(rows, header)
+    failures = []
+    for row in doc["rows"]:
+        ok = row["status"] == "ok"
+        style = "bold green" if ok and row["rank"] == 1 else None
+        sequence = " → ".join(row["sequence"])
+        if not ok:  # the reason is a sentence: below the table, not squeezed into a cell
+            failures.append(f"rank {row['rank']} ({sequence}) failed: {escape(row['reason'])}")
+        rows.add_row(
+            str(row["rank"]),
+            f"{sequence}\n[dim]{row['strategy']}[/]" if both else sequence,
+            "ok" if ok else "[red]failed[/]",
+            fmt(row["energy"]) if ok else "–",
+            fmt(row["peak_control"]) if ok else "–",
+            _number(row["excursion"], "{:.3f}") if ok else "–",
+            _number(row["duration"], "{:g}"),
+            f"{1e3 * row['planning_time_s']:.0f}",
+            style=style,
+        )
+    render.out_console.print(rows)
+    for failure in failures:
+        say(failure)
+
+
+def _number(x: float | None, pattern: str) -> str:
+    """`x` formatted, "–" when unknown, scientific from 1e6 on (a table cell stays short)."""
+    if x is None or x != x:
+        return "–"
+    return pattern.format(x) if abs(x) < 1e6 else f"{x:.3e}"
+
+
+def comparison_footer(outcome, run_dir: Path) -> None:
+    """How many legs were planned (and shared), in what time, and where the record is."""
+    comparison = outcome.comparison
+    saved = (
+        f"legs planned {comparison.legs_planned} of {comparison.legs_requested} "
+        f"({comparison.legs_saved} shared)"
+        if comparison.shared
+        else f"legs planned {comparison.legs_planned} of {comparison.legs_requested}"
+    )
+    say(
+        f"{saved} · {len(comparison.outcomes)} sequences in {comparison.wall_time:.2f} s on "
+        f"{comparison.jobs} process{'es' if comparison.jobs > 1 else ''} (model compiled in "
+        f"{outcome.best.compile_time * 1e3:.0f} ms) · record: {run_dir}"
+    )
+
+
+def auto_mode(outcome, run_dir: Path) -> None:
+    """`plan` in auto mode: what was compared, the chosen plan, where the ranking is."""
+    auto = outcome.settings
+    say(
+        f"auto mode: {len(outcome.comparison.outcomes)} candidate sequences (max length "
+        f"{auto.max_length}, {' + '.join(auto.strategies)}) planned; chose "
+        f"{outcome.comparison.choice()}"
+    )
+    render.plan_summary(outcome.best.document)
+    comparison_footer(outcome, run_dir)
+    say(
+        f"the full ranking: comparison.csv in the record, or stratplan compare-sequences "
+        f"{outcome.task.source}"
+    )
+
+
+def runs_table(rows: list[dict], out: Path) -> None:
+    """`runs`: one line per record, newest first: status, energy and the run (what `show`
+    takes), aligned in columns.
+
+    Not a rich table: a run's path may be wider than the terminal, and a table would then
+    shrink or fold every column. Each line is printed whole (`soft_wrap`): the terminal
+    wraps a long one, and a copied path stays one path.
+    """
+    if not rows:
+        render.out_console.print(f"no run records in {out}", highlight=False)
+        return
+    energies = [fmt(row["total_energy"]) for row in rows]
+    width = max(len("energy"), *map(len, energies))
+    render.out_console.print(
+        f"[bold]status  {'energy':>{width}}  run (stratplan show RUN)[/]", highlight=False
+    )
+    for row, energy in zip(rows, energies, strict=True):
+        status = "[green]ok    [/]" if row["status"] == "ok" else "[red]failed[/]"
+        render.out_console.print(
+            f"{status}  {energy:>{width}}  {escape(str(out / row['run']))}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    say("newest first; a run is named <UTC time it started>-<scenario>-<hash of its text>")
+
+
+def presets_table(systems: dict) -> None:
+    """`models`: one row per preset model."""
+    presets = table()
+    number_column(presets, "preset", justify="left")
+    for col in ("coordinates", "inputs", "strata", "description"):
+        text_column(presets, col)
+    for name, system in systems.items():
+        presets.add_row(
+            name,
+            ", ".join(system.states),
+            ", ".join(system.inputs),
+            ", ".join(system.strata),
+            system.description,
+        )
+    render.out_console.print(presets)
+    say("describe one: stratplan models NAME (a preset above, or a scenario file)")
+
+
+def model(name: str, system, strata: list[dict], of: str | None = None) -> None:
+    """`models NAME|FILE`: a model (a preset, or a scenario's), one row per stratum.
+
+    Parameters
+    ----------
+    name : str
+        The model's name.
+    system : System
+        The model.
+    strata : list of dict
+        `api.strata_table(system)`.
+    of : str, optional
+        The scenario whose model it is (None for a preset).
+    """
+    say(
+        f"[bold]{escape(name)}[/] {'model of ' + escape(of) if of else 'preset model'}"
+        f"{': ' + escape(system.description) if system.description else ''}"
+    )
+    say(f"coordinates: {', '.join(system.states)}")
+    say(f"inputs: {', '.join(system.inputs)}")
+    rows = table()
+    number_column(rows, "stratum", justify="left")
+    text_column(rows, "locked")
+    text_column(rows, "active inputs")
+    number_column(rows, "dimension")
+    text_column(rows, "auto evaluator")
+    for s in strata:
+        rows.add_row(
+            s["stratum"],
+            ", ".join(s["locked"]) or "–",
+            ", ".join(s["active"]),
+            str(s["dimension"]),
+            s["evaluator"],
+        )
+    render.out_console.print(rows)
+
+
+def regress_report(report) -> None:
+    """`regress`: the differences from the baseline, or that there are none."""
+    if report.updated:
+        say(f"baseline {report.baseline} written: {report.scenarios} scenarios")
+        return
+    diffs = report.differences
+    rows = table()
+    rows.title = f"{report.scenarios} scenarios against {report.baseline}"
+    text_column(rows, "scenario")
+    text_column(rows, "quantity")
+    number_column(rows, "baseline")
+    number_column(rows, "now")
+    text_column(rows, "verdict")
+    for d in diffs:
+        rows.add_row(
+            escape(d.scenario),
+            d.quantity,
+            _show(d.baseline),
+            _show(d.now),
+            "[red]regression[/]" if d.regression else "[yellow]changed[/]",
+        )
+    if diffs:
+        render.out_console.print(rows)
+        verdict = "[red]regressions[/]" if report.regressions else "[green]no regressions[/]"
+        say(f"{verdict}: {report.regressions} of {len(diffs)} differences are regressions")
+    else:
+        say(
+            f"[green]no regressions[/]: all {report.scenarios} scenarios match {report.baseline} "
+            f"(energy within {report.tolerances['energy_rel']:g} relative, errors within "
+            f"{report.tolerances['error_abs']:g})"
+        )
+
+
+def regress_progress(quiet: bool):
+    """A `progress(name, summary, seconds)` callback printing one line on stderr per scenario
+    planned by `regress` (None under --quiet or when stderr is not a terminal)."""
+    if not render.interactive(quiet, False):
+        return None
+
+    def planned(name: str, summary: dict, seconds: float) -> None:
+        status = "[green]ok[/]" if summary.get("status") == "ok" else "[red]failed[/]"
+        render.err_console.print(
+            f"planned {escape(name)}: {status} · energy {fmt(summary.get('total_energy'))} · "
+            f"{seconds:.1f} s",
+            highlight=False,
+        )
+
+    return planned
+
+
+def _show(x) -> str:
+    return f"{x:.6g}" if isinstance(x, float) else str(x)

@@ -1,0 +1,201 @@
+"""Every table at 80 columns (and wider) never cuts a number or an id with "…"; output that is
+not a terminal is not wrapped at all."""
+
+from __future__ import annotations
+
+import copy
+import io
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+from conftest import ROOT
+from rich.console import Console
+from typer.testing import CliRunner
+
+from stratcli import api
+from stratcli.cli import app, render, render_analysis, render_tables
+from stratcli.regress import Difference
+
+TASK_D = ROOT / "scenarios" / "sim4_task_d.toml"
+AUTO = ROOT / "scenarios" / "sim4_auto.toml"
+LONG_NAME = "a_scenario_with_a_rather_long_name_that_users_like_to_give"
+WIDTHS = (80, 101, 160)
+
+
+@pytest.fixture(scope="module")
+def planned():
+    """sim4_task_d planned (energy objective: its line names every start)."""
+    return api.plan_run(_task(TASK_D))
+
+
+def _task(path):
+    from stratcli.scenario import load_scenario
+
+    return load_scenario(path)
+
+
+def _big(doc: dict) -> dict:
+    """The document with numbers as wide as they get: energies ≥ 1e6, long names."""
+    doc = copy.deepcopy(doc)
+    doc["scenario"] = LONG_NAME
+    for k, leg in enumerate(doc["legs"]):
+        leg["energy"] = 3.0234e7 * (k + 1)
+        leg["error"] = 4.51e-12
+    doc["total_energy"] = 9.07e7
+    opt = doc["optimisation"]
+    for s in opt["starts"]:
+        s["energy"] = 451234.5678
+    return doc
+
+
+def _ranking_doc() -> dict:
+    rows = []
+    for k in range(12):
+        ok = k % 5 != 4
+        rows.append(
+            {
+                "rank": k + 1,
+                "sequence": ["S1", "S3", "S2", "S1", "S3", "S2"][: 2 + k % 5],
+                "strategy": "conservative" if k % 2 else "postponed",
+                "status": "ok" if ok else "failed",
+                "reason": "leg 2 on S3: error 3.2e-02 > tolerance 1e-03 after 40 iterations",
+                "energy": 451.2345 * 10**k if ok else None,
+                "peak_control": 31.5 * (k + 1),
+                "excursion": 10.816 * (k + 1),
+                "duration": 2.0 + k,
+                "planning_time_s": 12.345,
+            }
+        )
+    return {
+        "scenario": LONG_NAME,
+        "model": "one-arm",
+        "essential": ["q1", "q2", "q3", "theta"],
+        "sequences": len(rows),
+        "max_length": 6,
+        "strategies": ["conservative", "postponed"],
+        "criterion": "energy",
+        "rows": rows,
+    }
+
+
+def _tables(planned) -> dict:
+    """name → a function printing that table to render.out_console."""
+    task = _task(AUTO)
+    records = [
+        {"run": f"20261124T095233Z-{LONG_NAME}-c8102454", "status": s, "total_energy": e}
+        for s, e in (("ok", 3.0234e7), ("failed", None), ("ok", 84.04))
+    ]
+    report = SimpleNamespace(
+        updated=False,
+        scenarios=14,
+        baseline=Path("scenarios/baseline.json"),
+        tolerances={"energy_rel": 1e-6, "error_abs": 1e-9},
+        regressions=1,
+        differences=[
+            Difference(LONG_NAME, "total energy", 451.23456789012, 3.0234567891e7, True),
+            Difference(LONG_NAME, "leg 2 error", 1.234567e-12, 9.87654e-11, False),
+            Difference("sim2", "status", "ok", "failed", True),
+        ],
+    )
+    return {
+        "plan summary": lambda: render.plan_summary(_big(planned.document)),
+        "plan summary (as planned)": lambda: render.plan_summary(planned.document),
+        "ranking": lambda: render_tables.ranking(task, _ranking_doc()),
+        "check report (preset)": lambda: render_analysis.check_report(
+            api.check_controllability("two-arm", samples=3)
+        ),
+        "check report (scenario)": lambda: render_analysis.check_report(
+            api.check_controllability(str(TASK_D), samples=3)
+        ),
+        "decompose": lambda: render_analysis.decomposition(
+            api.decompose(task, max_length=3, strategy="both"), AUTO
+        ),
+        "runs": lambda: render_tables.runs_table(records, Path("runs")),
+        "models": lambda: render_tables.presets_table(api.preset_models()),
+        "model": lambda: render_tables.model(
+            "two-arm",
+            api.preset_models()["two-arm"],
+            api.strata_table(api.preset_models()["two-arm"]),
+        ),
+        "regress": lambda: render_tables.regress_report(report),
+    }
+
+
+def _render(monkeypatch, draw, width: int) -> str:
+    console = Console(width=width, record=True, force_terminal=True, file=io.StringIO())
+    monkeypatch.setattr(render, "out_console", console)
+    draw()
+    return console.export_text()
+
+
+def test_no_table_cuts_a_number_or_an_id_at_80_columns_or_wider(monkeypatch, planned):
+    for name, draw in _tables(planned).items():
+        for width in WIDTHS:
+            text = _render(monkeypatch, draw, width)
+            assert "…" not in text, f"{name} at {width} columns:\n{text}"
+            if name != "runs":  # runs prints each path whole; the terminal wraps it
+                assert max(map(len, text.splitlines())) <= width, (name, width)
+
+
+def test_every_number_and_id_appears_whole_at_80_columns(monkeypatch, planned):
+    text = _render(monkeypatch, _tables(planned)["plan summary"], 80)
+    assert "3.023e+07" in text and "6.047e+07" in text and "4.51e-12" in text
+    text = _render(monkeypatch, _tables(planned)["runs"], 80)
+    assert f"runs/20261124T095233Z-{LONG_NAME}-c8102454" in text  # pasteable into show
+    text = _render(monkeypatch, _tables(planned)["ranking"], 80)
+    for k in range(8):
+        if k % 5 != 4:
+            assert render.fmt(451.2345 * 10**k) in text  # 451,234.50 or 4.512e+07
+    text = _render(monkeypatch, _tables(planned)["regress"], 80)
+    assert "3.02346e+07" in text and "9.87654e-11" in text
+
+
+def test_a_console_that_is_no_terminal_does_not_wrap():
+    stream = render.Stream(file=io.StringIO(), width=80)
+    assert not stream.is_terminal and stream.width == render.PIPE_WIDTH
+    sentence = " ".join(["word"] * 60)
+    stream.print(sentence)
+    assert stream.file.getvalue() == sentence + "\n"
+
+
+def test_piped_output_has_no_line_broken_inside_a_sentence(tmp_path):
+    runner = CliRunner()
+    env = {"COLUMNS": "80"}
+    out = tmp_path / "runs"
+    result = runner.invoke(app, ["plan", str(TASK_D), "--out", str(out), "--no-animation"], env=env)
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    header, *_ = lines
+    assert header.startswith("sim4_task_d") and header.endswith("P = 2.17")
+    (energy,) = [x for x in lines if x.startswith("energy-optimal over all legs")]
+    assert "plain Newton:" in energy  # the whole sentence on one line
+    (total,) = [x for x in lines if x.startswith("total energy")]
+    assert total.endswith("status ok")
+    (footer,) = [x for x in lines if x.startswith("planned in")]
+    assert str(out) in footer
+    listed = runner.invoke(app, ["runs", "--out", str(out)], env=env)
+    (run_dir,) = out.iterdir()
+    assert str(run_dir) in listed.stdout and "…" not in listed.stdout
+
+
+def test_progress_is_silent_in_a_pipe(tmp_path):
+    """Under CliRunner stderr is no terminal: no spinner, no bar, only the result."""
+    runner = CliRunner()
+    result = runner.invoke(
+        app, ["plan", str(TASK_D), "--out", str(tmp_path), "--no-animation", "--json"]
+    )
+    assert result.exit_code == 0 and result.stderr == ""
+    doc = json.loads(result.stdout)
+    assert doc["record"] == str(next(tmp_path.iterdir()))
+
+
+def test_plan_run_reports_its_phases():
+    phases: list[str] = []
+    outcome = api.plan_run(_task(TASK_D), progress=phases.append)
+    assert outcome.ok
+    assert phases[0].startswith("checking controllability")
+    assert "compiling the model" in phases
+    starts = [p for p in phases if p.startswith("energy search: start")]
+    assert len(starts) == outcome.task.settings.starts - 1  # start 1 is Newton's own pass
