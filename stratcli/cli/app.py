@@ -25,6 +25,9 @@ app = typer.Typer(
     no_args_is_help=True,
     pretty_exceptions_show_locals=False,
     add_completion=False,
+    # Docstrings are prose: lines join into paragraphs (markdown), and [[legs]] or [u1,u2]
+    # in them are text, not rich markup.
+    rich_markup_mode="markdown",
 )
 
 
