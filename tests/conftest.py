@@ -244,3 +244,24 @@ def mcap_messages(data: bytes, topic: str) -> list[tuple[int, dict]]:
     """(log time, decoded JSON) of every message on `topic` of an MCAP file in memory."""
     reader = make_reader(io.BytesIO(data))
     return [(m.log_time, json.loads(m.data)) for _, _, m in reader.iter_messages(topics=[topic])]
+
+
+# A parallel-parking unicycle as a custom model (one stratum): cheap to plan and to check.
+UNICYCLE = """
+name = "uni"
+[model]
+kind = "custom"
+states = ["x", "y", "theta"]
+inputs = ["v", "w"]
+[model.fields]
+v = ["cos(theta)", "sin(theta)", 0]
+w = [0, 0, 1]
+[[model.strata]]
+name = "drive"
+active = ["v", "w"]
+[task]
+start = [0, 0, 0]
+goal = [0, 0.1, 0]
+[[legs]]
+stratum = "drive"
+"""

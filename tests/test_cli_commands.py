@@ -7,9 +7,7 @@ import json
 import re
 
 import pytest
-from conftest import (
-    ROOT,
-)
+from conftest import ROOT, UNICYCLE
 from typer.testing import CliRunner
 
 import stratcli.cli as cli
@@ -279,26 +277,6 @@ def test_show_refuses_missing_and_incomplete_records(tmp_path):
     partial.mkdir()
     assert runner.invoke(app, ["show", str(partial)]).exit_code == 2
     assert json.loads(runner.invoke(app, ["runs", "--out", str(tmp_path), "--json"]).stdout) == []
-
-
-UNICYCLE = """
-name = "uni"
-[model]
-kind = "custom"
-states = ["x", "y", "theta"]
-inputs = ["v", "w"]
-[model.fields]
-v = ["cos(theta)", "sin(theta)", 0]
-w = [0, 0, 1]
-[[model.strata]]
-name = "drive"
-active = ["v", "w"]
-[task]
-start = [0, 0, 0]
-goal = [0, 0.1, 0]
-[[legs]]
-stratum = "drive"
-"""
 
 
 def test_biped_is_not_controllable_on_its_strata_but_is_stratified_controllable(scenarios_dir):

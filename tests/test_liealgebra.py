@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import UNICYCLE
 from scipy.integrate import cumulative_trapezoid
 
 import stratcli.liealgebra as lie
@@ -16,26 +17,6 @@ from stratcli.models.presets import preset
 from stratcli.scenario import load_scenario, parse_scenario
 
 PI = np.pi
-
-
-UNICYCLE = """
-name = "uni"
-[model]
-kind = "custom"
-states = ["x", "y", "theta"]
-inputs = ["v", "w"]
-[model.fields]
-v = ["cos(theta)", "sin(theta)", 0]
-w = [0, 0, 1]
-[[model.strata]]
-name = "drive"
-active = ["v", "w"]
-[task]
-start = [0, 0, 0]
-goal = [0, 0.1, 0]
-[[legs]]
-stratum = "drive"
-"""
 
 
 @pytest.mark.parametrize(
