@@ -212,7 +212,8 @@ def plan_summary(doc: dict) -> None:
     elif ref:
         line += f" (paper: {fmt(ref)}, ratio {doc['total_energy'] / ref:.2f})"
     if doc["switches"]:
-        worst = max(max(abs(v) for v in sw["jump"].values()) for sw in doc["switches"])
+        jumps = [abs(v) for sw in doc["switches"] for v in sw["jump"].values() if v is not None]
+        worst = max(jumps, default=0.0)  # null: a jump that is not a number (a failed leg)
         line += f" · largest control jump at a switch {worst:.1e}"
     status = "[green]ok[/]" if doc["status"] == "ok" else "[red]failed[/]"
     out_console.print(f"{line} · status {status}", highlight=False)
