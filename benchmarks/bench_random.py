@@ -1,26 +1,31 @@
 """Robustness benchmark: seeded random tasks planned with lr-C1 and verified independently.
 
 Usage: python benchmarks/bench_random.py [--tasks 200] [--seed 0] [--jobs 1] [--only SEED]
+                                         [--theta-vias conservative|free]
 
 Each task (issue 14, item 5) draws from its own `numpy.random.default_rng(task_seed)`, the task
 seeds from `--seed`: the one-arm or the two-arm preset; a sequence of 2-4 strata (one-arm
 S1..S3; two-arm S1..S4 and S12..S34), never the same stratum twice in a row; a start within
 ±π/2 per coordinate; a change of up to ±2.5 rad for every joint the sequence moves and up to
-±0.6 rad for θ. Vias are conservative: a leg sets every joint it can move to its goal value,
-locked joints keep theirs; θ is left free ("*") on the intermediate vias and the last leg
-reaches the goal θ (`--theta-vias goal` instead sets θ to its goal on the first leg, the
-paper's conservative rule). Every task is planned with `stratcli.plan(..., check=False)`,
-continuity lr-C1 and the default objective, then `plan.to_dict()` is re-integrated with
-tests/reintegrate.py (the printed equations, scipy DOP853): a task is *verified* when the plan
-is ok, the legs chain, every leg's locked joints stay put, its recorded end is the true end
-and every coordinate this script prescribed for it (locked ones included) is reached within
-the tolerance (1e-3, the norm over the leg's prescribed coordinates).
+±0.6 rad for θ. Vias are conservative, as `stratcli.decompose.boundary_configurations` makes
+them (checked equal on the 200 default tasks): a leg sets every coordinate it can move to its
+goal value, locked joints keep theirs; θ moves on every stratum, so it is at its goal from the
+first leg on. `--theta-vias free` leaves θ free ("*") on the intermediate vias instead and the
+last leg alone reaches the goal θ (it then undoes the θ drift of all earlier legs, often more
+than 1 rad although the task's own θ change is at most 0.6 rad).
+
+Every task is planned with `stratcli.plan(..., check=False)`, continuity lr-C1 and the default
+objective, then `plan.to_dict()` is re-integrated with tests/reintegrate.py (the printed
+equations, scipy DOP853): a task is *verified* when the plan is ok, the legs chain, every
+leg's locked joints stay put, its recorded end is the true end and every coordinate this
+script prescribed for it (locked ones included) is reached within the tolerance (1e-3, the
+norm over the leg's prescribed coordinates).
 
 Prints, as markdown: the command line and load average, the success rate per model, every
-failure (task seed, model, sequence, status, message) and percentiles of the planning CPU time
-per task (`time.process_time()` around `stratcli.plan`, after an untimed warm-up per model and
-process). Results do not depend on `--jobs`; `--only SEED` re-runs one task and prints its
-scenario as JSON.
+failure (task seed, model, sequence, status, message, what its worst leg was asked) and
+percentiles of the planning CPU time per task (`time.process_time()` around `stratcli.plan`,
+after an untimed warm-up per model and process). Results do not depend on `--jobs`;
+`--only SEED` re-runs one task and prints its scenario as JSON.
 """
 
 from __future__ import annotations
@@ -64,7 +69,7 @@ def locked_joints(stratum: str) -> set[int]:
     return {int(c) - 1 for c in stratum[1:]}
 
 
-def make_task(seed: int, theta_vias: str = "free") -> dict:
+def make_task(seed: int, theta_vias: str = "conservative") -> dict:
     """The scenario dict of one random task, with every leg's goal written out."""
     rng = np.random.default_rng(seed)
     model = str(rng.choice(list(JOINTS)))
@@ -87,7 +92,7 @@ def make_task(seed: int, theta_vias: str = "free") -> dict:
         for j in set(range(k)) - locked_joints(stratum):
             current[j] = float(goal[j])  # conservative: as soon as a leg can move it
         via: list = list(current)
-        if i == len(sequence) - 1 or theta_vias == "goal":
+        if i == len(sequence) - 1 or theta_vias == "conservative":
             via[k] = float(goal[k])
         else:
             via[k] = "*"
@@ -151,7 +156,7 @@ def warm_up(model: str) -> None:
     _WARM.add(model)
 
 
-def run_task(seed: int, theta_vias: str = "free") -> dict:
+def run_task(seed: int, theta_vias: str = "conservative") -> dict:
     """Plan and verify one task; never raises (an exception is a failure with its type)."""
     scenario = make_task(seed, theta_vias)
     model = scenario["model"]["name"]
@@ -162,6 +167,7 @@ def run_task(seed: int, theta_vias: str = "free") -> dict:
         "verified": False,
         "status": "",
         "message": "",
+        "asks": "",
         "cpu": float("nan"),
     }
     warm_up(model)
@@ -177,6 +183,7 @@ def run_task(seed: int, theta_vias: str = "free") -> dict:
     row["status"] = plan.status.name.lower() if hasattr(plan.status, "name") else str(plan.status)
     row["message"] = plan.message
     if not plan.ok:
+        row["asks"] = worst_leg(plan)
         return row
     try:
         reason = verify(scenario, plan.to_dict())
@@ -187,6 +194,18 @@ def run_task(seed: int, theta_vias: str = "free") -> dict:
         row["message"] = reason
     row["verified"] = not reason
     return row
+
+
+def worst_leg(plan) -> str:
+    """What the leg with the largest error was asked to do: its number, Δθ, largest |Δq|."""
+    legs = [leg for leg in plan.legs if np.isfinite(leg.error)]
+    if not legs:
+        return ""
+    leg = max(legs, key=lambda leg: leg.error)
+    delta = np.asarray(leg.goal, dtype=float) - np.asarray(leg.start, dtype=float)
+    joints = np.abs(np.nan_to_num(delta[:-1]))
+    theta = "free" if np.isnan(delta[-1]) else f"{delta[-1]:+.2f}"
+    return f"leg {leg.index + 1}: Δθ {theta}, max \\|Δq\\| {joints.max(initial=0):.2f}"
 
 
 def task_seeds(master: int, n: int) -> list[int]:
@@ -228,11 +247,14 @@ def report(rows: list[dict], args, load_before, load_after, wall: float) -> str:
     failures = [r for r in rows if not r["verified"]]
     out += ["", f"## Failures ({len(failures)})", ""]
     if failures:
-        out += ["| task seed | model | sequence | status | message |", "|---:|---|---|---|---|"]
+        out += [
+            "| task seed | model | sequence | status | message | worst leg asks |",
+            "|---:|---|---|---|---|---|",
+        ]
         for r in failures:
             out.append(
                 f"| {r['seed']} | {r['model']} | {r['sequence']} | {r['status']} "
-                f"| {_one_line(r['message'])} |"
+                f"| {_one_line(r['message'])} | {r['asks']} |"
             )
     else:
         out.append("none")
@@ -265,9 +287,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", type=int, help="run this task seed alone, print its scenario")
     parser.add_argument(
         "--theta-vias",
-        choices=("free", "goal"),
-        default="free",
-        help='θ on intermediate vias: "*" (free) or the goal θ from the first leg on',
+        choices=("conservative", "free"),
+        default="conservative",
+        help='θ on intermediate vias: the goal θ from the first leg on, or "*" (free)',
     )
     args = parser.parse_args(argv)
     if args.only is not None:
