@@ -293,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     if args.only is not None:
-        print(json.dumps(make_task(args.only, args.theta_vias), indent=1))
+        print(json.dumps(make_task(args.only, args.theta_vias)))
         seeds = [args.only]
         args.jobs = 1
     else:
