@@ -33,6 +33,7 @@ STALL_WINDOW = 10  # iterations over which the error must fall ...
 STALL_RATIO = 0.5  # ... at least by this factor, or the attempt restarts
 _DEFAULTS = PlannerSettings()  # the one place defaults live
 BROKEN_STARTS = 3  # attempts whose very start cannot be evaluated before the leg gives up
+CONTINUATION_BUDGET = 2.5  # continuation iterations, × Newton's own (attempts × iterations)
 
 
 def _initial_coefficients(endpoint, goal: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -158,6 +159,7 @@ class NewtonPlanner(LegPlanner):
                 problem.tolerance,
                 rng=np.random.default_rng([seed, problem.index, self.restarts + 1]),
                 scale=scale,
+                max_iterations=int(CONTINUATION_BUDGET * (self.restarts + 1) * self.max_iterations),
             )
             total += path.iterations
             attempt += 1
