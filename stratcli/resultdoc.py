@@ -74,6 +74,7 @@ def _leg(plan: SequencePlan, leg: LegPlan) -> dict[str, Any]:
         "status": leg.status.key,
         "iterations": leg.iterations,
         "attempts": leg.attempts,
+        "strategy": leg.strategy,
         "free_coefficients": leg.free_coefficients,
         "energy": finite_or_none(leg.energy),
         "pieces": [  # a Newton leg is one piece; a Lie leg one piece per step
@@ -181,6 +182,7 @@ def _leg_from(doc: dict, i: int, coordinates: list[str], inputs: list[str]) -> L
         status=Status.from_key(status),
         basis=basis,
         n_inputs=len(inputs),
+        strategy=doc.get("strategy", "newton"),  # records written before "strategy"
     )
 
 

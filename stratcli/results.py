@@ -80,6 +80,8 @@ class LegPlan:
     basis : the Fourier basis of every piece.
     n_inputs : number of inputs of the model (inactive ones are 0).
     message : the numerical failure, if any (added to the status' advice).
+    strategy : what reached the goal: "newton" (damped Newton and its restarts) or
+        "continuation" (a homotopy along the line to the goal, after Newton failed).
     """
 
     index: int
@@ -104,6 +106,7 @@ class LegPlan:
     basis: FourierBasis
     n_inputs: int
     message: str = ""
+    strategy: str = "newton"
 
     def __post_init__(self) -> None:
         for name in ("start", "goal", "end"):

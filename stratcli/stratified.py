@@ -176,6 +176,7 @@ def plan_next_leg(
         free_coefficients=out.free_coefficients,
         status=status,
         message=message,
+        strategy=out.strategy,
     )
 
 

@@ -133,6 +133,7 @@ class LegOutcome:
     free_coefficients: int
     evaluator: str
     message: str = ""
+    strategy: str = "newton"  # what reached the goal: "newton" or "continuation" (newton.py)
 
     @property
     def duration(self) -> float:

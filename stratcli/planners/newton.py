@@ -8,7 +8,12 @@ coefficients `z` left by the boundary conditions (eq. 28). Robustness:
 * start from constant controls that move the explicit coordinates (the joints) straight to
   their goal, plus a small seeded perturbation: at λ = 0 the θ row of J is a combination of
   the joint rows, so a least-squares step would ignore θ (DESIGN §4);
-* deterministic restarts with larger seeded perturbations when an attempt stalls.
+* deterministic restarts with larger seeded perturbations when an attempt stalls;
+* when every attempt failed, continuation (`continuation.py`): intermediate goals along the
+  straight line from the start to the goal, each solved from the previous solution. The
+  outcome's `strategy` says which reached the goal. The energy objective's extra seeded
+  starts (a planner with its own `seed`) skip it: they are meant to be cheap, and a start
+  that needs it is dropped as before.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from ..results import Piece
 from ..settings import PlannerSettings
 from ..status import Status
 from .base import LegOutcome, LegPlanner, LegProblem, damped_gauss_newton
+from .continuation import follow_line
 
 __all__ = ["NewtonPlanner"]
 
@@ -27,6 +33,7 @@ STALL_WINDOW = 10  # iterations over which the error must fall ...
 STALL_RATIO = 0.5  # ... at least by this factor, or the attempt restarts
 _DEFAULTS = PlannerSettings()  # the one place defaults live
 BROKEN_STARTS = 3  # attempts whose very start cannot be evaluated before the leg gives up
+CONTINUATION_BUDGET = 2.5  # continuation iterations, × Newton's own (attempts × iterations)
 
 
 def _initial_coefficients(endpoint, goal: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -60,6 +67,9 @@ class NewtonPlanner(LegPlanner):
         Relative size of the first attempt's perturbation.
     seed : int or None
         Overrides the problem's seed (the energy objective's extra starts).
+    continuation : bool or None
+        Follow a homotopy when every attempt failed; default: unless `seed` is given (the
+        energy objective's extra starts stay cheap and behave as before).
     """
 
     method = "newton"
@@ -76,11 +86,13 @@ class NewtonPlanner(LegPlanner):
         restarts: int = _DEFAULTS.restarts,
         spread: float = 0.02,
         seed: int | None = None,
+        continuation: bool | None = None,
     ):
         self.max_iterations = max_iterations
         self.restarts = restarts
         self.spread = spread
         self.seed = seed
+        self.continuation = seed is None if continuation is None else continuation
 
     def missing_coefficients(self, problem: LegProblem) -> tuple[int, int]:
         return problem.elimination().free, len(problem.targets)
@@ -97,11 +109,16 @@ class NewtonPlanner(LegPlanner):
         N = elimination.null
         seed = problem.seed if self.seed is None else self.seed
 
-        def evaluate(z, jacobian):
-            lam = elimination.coefficients(z)
-            end, J = endpoint(lam, jacobian)
-            Jz = None if J is None else J[targets] @ N
-            return goal[targets] - end[targets], Jz, (lam, end)
+        def evaluate_for(aim):
+            def evaluate(z, jacobian):
+                lam = elimination.coefficients(z)
+                end, J = endpoint(lam, jacobian)
+                Jz = None if J is None else J[targets] @ N
+                return aim - end[targets], Jz, (lam, end)
+
+            return evaluate
+
+        evaluate = evaluate_for(goal[targets])
 
         z_line = elimination.project(_initial_coefficients(endpoint, goal, targets))
         scale = 1.0 + float(np.abs(goal[targets] - endpoint.q0[targets]).max(initial=0.0))
@@ -132,6 +149,22 @@ class NewtonPlanner(LegPlanner):
             broken = broken + 1 if not np.isfinite(result.error) else 0
             if broken >= BROKEN_STARTS:
                 break  # the model cannot even be evaluated here: more starts will not help
+        strategy = "newton"
+        if best.error > problem.tolerance and np.isfinite(best.error) and self.continuation:
+            path = follow_line(  # from small controls (the feasible ones closest to zero)
+                evaluate_for,
+                elimination.project(np.zeros_like(elimination.particular)),
+                endpoint.q0[targets],
+                goal[targets],
+                problem.tolerance,
+                rng=np.random.default_rng([seed, problem.index, self.restarts + 1]),
+                scale=scale,
+                max_iterations=int(CONTINUATION_BUDGET * (self.restarts + 1) * self.max_iterations),
+            )
+            total += path.iterations
+            attempt += 1
+            if path.reached:
+                best, strategy = path.result, "continuation"
         lam, end = best.extra
         ok = best.error <= problem.tolerance
         return LegOutcome(
@@ -143,4 +176,5 @@ class NewtonPlanner(LegPlanner):
             status=Status.SUCCESS if ok else Status.NOT_CONVERGED,
             free_coefficients=elimination.free,
             evaluator=endpoint.kind,
+            strategy=strategy,
         )
