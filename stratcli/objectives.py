@@ -17,6 +17,7 @@ import numpy as np
 from .errors import InputError
 from .models.system import System
 from .planners import PLANNERS
+from .planners.base import ENERGY_RUNAWAY
 from .planners.energy import optimise_energy
 from .sequence import SequencePlan
 from .settings import PlannerSettings
@@ -101,7 +102,9 @@ def plan_with_objective(
             seed=settings.seed + 7919 * k,
             spread=0.02 + 0.3 * k,
         )
-        if other.ok:  # a seed that needs many restarts is not worth its time: skip it
+        # a seed that needs many restarts is not worth its time, nor one whose energy ran
+        # away (ENERGY_RUNAWAY x the first start's): skip it
+        if other.ok and other.total_energy <= ENERGY_RUNAWAY * newton.total_energy:
             seeds.append(other)
     nominal = [start]
     for leg, planned in zip(legs[:-1], newton.legs[:-1], strict=True):

@@ -33,6 +33,10 @@ class Status(enum.Enum):
         "integration); check the model's parameters and expressions, or try a via "
         "configuration closer to the start"
     )
+    DIVERGED = (
+        "was abandoned: the search diverged; the stratum is weak for this displacement: try "
+        "another stratum, a via configuration closer to the start, or auto mode"
+    )
     NOT_PLANNED = "was not planned: an earlier leg failed"
 
     @property

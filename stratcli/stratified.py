@@ -18,6 +18,7 @@ from .controls import FourierBasis, energy
 from .errors import InputError, Problem
 from .models.system import System
 from .planners import PLANNERS, LegPlanner, LegProblem
+from .planners.base import SearchDiverged
 from .results import LegPlan, ModelRef, Switch, make_leg
 from .sequence import SequencePlan
 from .settings import LieSettings, PlannerSettings
@@ -145,7 +146,8 @@ def plan_next_leg(
     try:
         with np.errstate(all="ignore"):  # overflow shows as a non-finite error, handled below
             out = planner.plan(problem)
-    except NUMERICAL_ERRORS as exc:
+    except (SearchDiverged, *NUMERICAL_ERRORS) as exc:
+        diverged = isinstance(exc, SearchDiverged)
         return make_leg(
             **common,
             evaluator=_evaluator_kind(problem),
@@ -157,8 +159,12 @@ def plan_next_leg(
             attempts=1,
             energy=0.0,
             free_coefficients=0,
-            status=Status.NUMERICAL_FAILURE,
-            message=f"{type(exc).__name__}: {exc}"[:300],
+            status=Status.DIVERGED if diverged else Status.NUMERICAL_FAILURE,
+            message=(
+                f"{system.states[exc.coordinate]} {exc.detail}"
+                if diverged
+                else f"{type(exc).__name__}: {exc}"
+            )[:300],
         )
     status, message = out.status, out.message
     if not (np.all(np.isfinite(out.end)) and np.isfinite(out.error)):
@@ -194,6 +200,8 @@ def failure_message(leg: LegPlan, tolerance: float) -> str:
     where = f"leg {leg.index + 1} on {leg.stratum}"
     if leg.status is Status.NUMERICAL_FAILURE:
         return f"{where} was {head} ({leg.message}); {advice}"
+    if leg.status is Status.DIVERGED:
+        return f"{where} {head} ({leg.message}); {advice}"
     if leg.status is Status.LIE_NOT_CONVERGED:
         where += " (Lie-algebraic)"
         work = f"after {leg.iterations} steps"

@@ -178,6 +178,28 @@ stratum = "S1"
 """
 
 
+def weak_stratum_scenario(joints: str = '"*", "*"', theta: str = "10deg") -> str:
+    """Issue 14's 4-link arm (base 20 kg, 1.2 x 0.8; links 3/2/1/0.5 kg, 0.9/0.7/0.5/0.3 m)
+    turning its base by `theta` on S12: only the two small distal links move; `joints` are
+    the goals of q3, q4."""
+    return f"""name = "weak_stratum"
+[model]
+kind = "planar-manipulator"
+base = {{ mass = 20.0, a = 1.2, b = 0.8 }}
+[[model.arms]]
+mount = [0.3, 0.0]
+links = [
+    {{ mass = 3.0, length = 0.9 }}, {{ mass = 2.0, length = 0.7 }},
+    {{ mass = 1.0, length = 0.5 }}, {{ mass = 0.5, length = 0.3 }},
+]
+[task]
+start = [0, 0, 0, 0, 0]
+goal = [0, 0, {joints}, "{theta}"]
+[[legs]]
+stratum = "S12"
+"""
+
+
 # ------------------------------------------------------------------------------------------
 # Record outputs (trajectory, MCAP log, plots) of three scenarios
 # ------------------------------------------------------------------------------------------

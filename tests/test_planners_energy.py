@@ -65,3 +65,20 @@ def test_energy_planning_is_deterministic(task_d):
     assert again.total_energy == optimal.total_energy
     for a, b in zip(again.legs, optimal.legs, strict=True):
         np.testing.assert_array_equal(a.coefficients, b.coefficients)
+
+
+def test_a_start_far_above_the_first_is_abandoned_as_diverged(task_d, monkeypatch):
+    """A start whose energy is ENERGY_RUNAWAY times the first feasible start's is not run:
+    with the limit lowered to 1, every start costlier than the warm-started optimum stops
+    at once, "diverged", and the optimum stays the answer."""
+    import stratcli.planners.energy as energy_search
+
+    task, _, optimal = task_d
+    monkeypatch.setattr(energy_search, "ENERGY_RUNAWAY", 1.0 + 1e-9)
+    warm = [leg.coefficients.ravel() for leg in optimal.legs]
+    again = plan_sequence(task.system, task.start, task.legs, task.settings, warm_start=warm)
+    starts = again.optimisation.starts
+    assert starts[0].kind == "warm start" and starts[0].stopped != "diverged"
+    costlier = [s for s in starts[1:] if s.energy > starts[0].energy * (1 + 1e-6)]
+    assert costlier and all(s.stopped == "diverged" and s.iterations == 0 for s in costlier)
+    assert again.total_energy == pytest.approx(optimal.total_energy, rel=1e-9)

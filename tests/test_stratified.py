@@ -6,13 +6,16 @@ import numpy as np
 import pytest
 from conftest import (
     plan_document,
+    weak_stratum_scenario,
 )
 from reintegrate import PRINTED, reintegrate, verify
 
 from stratcli.continuity import mode_order
 from stratcli.models.presets import preset
-from stratcli.planners import PLANNERS, LegPlanner
+from stratcli.planners import PLANNERS, LegPlanner, damped_gauss_newton
+from stratcli.planners.base import COORDINATE_RUNAWAY, SearchDiverged
 from stratcli.records.result import result_document
+from stratcli.scenario import load_scenario
 from stratcli.sequence import SequencePlan
 from stratcli.settings import PlannerSettings
 from stratcli.status import Status
@@ -120,3 +123,46 @@ def test_a_numerical_breakdown_is_a_failed_leg_with_its_status(breaking_planner)
     assert doc["status"] == "failed" and doc["legs"][1]["status"] == "numerical_failure"
     assert doc["legs"][1]["error"] is None and doc["legs"][1]["pieces"] == []
     assert SequencePlan.from_dict(doc).to_dict() == doc
+
+
+def _escaping(z, jacobian):
+    """e = exp(-z): every step lowers the error and pushes the end point z farther out."""
+    e = np.exp(-z)
+    return e, (e[None, :] if jacobian else None), (z.copy(), z.copy())
+
+
+def test_a_runaway_search_raises_with_the_coordinate():
+    with pytest.raises(SearchDiverged) as caught:
+        damped_gauss_newton(_escaping, np.zeros(1), tolerance=0.0, max_iterations=10_000, mu=1e-6)
+    assert caught.value.coordinate == 0 and "farther out" in caught.value.detail
+    assert "after" in caught.value.detail  # the iterations it took, bounded by the limit
+
+
+def test_a_runaway_check_of_the_caller_stops_the_loop_with_its_reason():
+    def far(payload):
+        return "too far" if payload[1][0] > 5.0 else None
+
+    out = damped_gauss_newton(
+        _escaping, np.zeros(1), tolerance=0.0, max_iterations=10_000, mu=1e-6, diverged=far
+    )
+    assert out.diverged == "too far" and out.iterations < 20 and out.z[0] <= 10.0
+
+
+def test_the_weak_stratum_runaway_is_abandoned_as_diverged():
+    """Issue 14: the 4-link arm turning its base 90° on S12 with q3, q4 free winds q3 by
+    more than 100 rad (it took 13.7 s and ended at q3 = -106 before): now abandoned."""
+    task = load_scenario(weak_stratum_scenario(theta="90deg"))
+    plan = chain_legs(task.system, task.start, task.legs, task.settings)
+    leg = plan.legs[0]
+    assert leg.status is Status.DIVERGED and plan.status is Status.DIVERGED
+    assert plan.message.startswith("leg 1 on S12 was abandoned: the search diverged (q3 reached")
+    assert f"(limit {COORDINATE_RUNAWAY:g})" in plan.message
+    assert "try another stratum" in plan.message and "auto mode" in plan.message
+    assert plan.to_dict()["legs"][0]["status"] == "diverged"
+
+
+def test_the_weak_stratum_with_a_small_turn_still_plans():
+    """The same arm turning 10° winds q3 about 7 rad: not a runaway."""
+    task = load_scenario(weak_stratum_scenario())
+    plan = chain_legs(task.system, task.start, task.legs, task.settings)
+    assert plan.ok and abs(plan.legs[0].end[2]) < COORDINATE_RUNAWAY

@@ -18,6 +18,7 @@ from ..controllability import (
 )
 from ..liealgebra import MAX_DEGREE
 from ..models.system import System
+from ..reachability import Reach, better_strata, reach
 
 __all__ = ["check_document"]
 
@@ -38,7 +39,9 @@ def check_document(
 ) -> dict:
     """Eq. 4 per stratum, eq. 2 for the strata together and, given a scenario's legs, whether
     each leg's stratum spans the coordinates it steers. `controllable` decides exit code 3:
-    for legs, every leg must be spanned; without legs, every stratum strongly controllable."""
+    for legs, every leg must be spanned; without legs, every stratum strongly controllable.
+    Each spanned leg also gets a reachability estimate (`reach`, `stratcli.reachability`);
+    a leg expected to be ill-conditioned adds a sentence to `warnings` (no exit code)."""
     at = np.asarray(at, dtype=float)
     sampled = sample_configurations(system.n, samples, seed)
     Q = np.vstack([at, sampled])
@@ -90,10 +93,16 @@ def check_document(
         "problems": [],
     }
     problems: list[str] = []
+    warnings: list[str] = []
     if legs is not None:
         doc["legs"] = []
-        for leg in leg_reports(system, at, legs, sampled, degree):
+        for leg, spec in zip(leg_reports(system, at, legs, sampled, degree), legs, strict=True):
             names = [system.states[j] for j in leg.targets]
+            estimate = None
+            if leg.ok:
+                estimate = reach(system, leg.stratum, leg.configuration, spec.goal, spec.duration)
+            if estimate is not None and estimate.weak:
+                warnings.append(_weak_leg(system, leg.index, estimate, leg.configuration, spec))
             doc["legs"].append(
                 {
                     "leg": leg.index + 1,
@@ -104,6 +113,7 @@ def check_document(
                     "sigma_min": leg.sigma,
                     "ok": leg.ok,
                     "failure_configuration": None if leg.ok else _vec(leg.failure),
+                    "reach": None if estimate is None else _reach_doc(system, estimate),
                 }
             )
             if not leg.ok:
@@ -124,5 +134,39 @@ def check_document(
             "brackets across strata: not stratified controllable (eq. 2)"
         )
     doc["problems"] = problems
+    doc["warnings"] = warnings
     doc["controllable"] = not problems
     return doc
+
+
+def _reach_doc(system: System, r: Reach) -> dict:
+    """A leg's reachability estimate (`stratcli.reachability`) as the check document has it."""
+    return {
+        "degree": r.degree,
+        "hard_coordinate": system.states[r.hard],
+        "displacement": r.displacement,
+        "leverage": r.leverage,
+        "predicted_energy": r.energy,
+        "weak": r.weak,
+    }
+
+
+def _weak_leg(system: System, index: int, r: Reach, q: np.ndarray, spec) -> str:
+    """The warning of a leg expected to be ill-conditioned: why, and what to try instead."""
+    why = (
+        f"it needs third-order brackets at its start, σ_min {r.sigma:.2g}, and "
+        f"|δ|/σ_min = {r.leverage:.3g} along that direction"
+        if r.degree >= MAX_DEGREE
+        else f"σ_min {r.sigma:.2g}, |δ|/σ_min = {r.leverage:.3g}"
+    )
+    better = better_strata(system, q, spec.goal, spec.duration, r)
+    instead = (
+        f"try stratum {better[0].stratum} (predicted energy ~{better[0].energy:.2g}) or auto mode"
+        if better
+        else "try a via configuration away from the start, or auto mode"
+    )
+    return (
+        f"leg {index + 1} on {r.stratum} is expected to be ill-conditioned: "
+        f"{system.states[r.hard]} is hard to move ({why}; predicted energy ~{r.energy:.2g}); "
+        f"{instead}"
+    )

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -47,11 +47,17 @@ def check_strata(task: Task) -> list[str]:
     return list(task.system.strata)
 
 
-def controllability_first(task: Task, degree: int = 2, samples: int = 100) -> float:
+def controllability_first(
+    task: Task,
+    degree: int = 2,
+    samples: int = 100,
+    warn: Callable[[str], None] | None = None,
+) -> float:
     """The check planning runs first; returns its seconds or raises NotControllableError.
 
     Each leg's stratum must span what the leg steers (or, in auto mode, the candidate strata
-    together must reach every direction); Lie legs raise the bracket degree to theirs.
+    together must reach every direction); Lie legs raise the bracket degree to theirs. Each
+    warning of the check (a leg expected to be ill-conditioned) is passed to `warn`.
     """
     clock = time.perf_counter()
     lie = [(leg.lie or task.settings.lie).degree for leg in task.legs if leg.method == "lie"]
@@ -65,6 +71,8 @@ def controllability_first(task: Task, degree: int = 2, samples: int = 100) -> fl
     )
     if doc["problems"]:
         raise NotControllableError(doc["problems"], task.source)
+    for warning in doc["warnings"] if warn is not None else ():
+        warn(warning)
     return time.perf_counter() - clock
 
 

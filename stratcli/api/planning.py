@@ -134,6 +134,7 @@ def plan_run(
     check: bool = True,
     time_scale: float | None = None,
     progress: Callable[[str], None] | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> PlanOutcome:
     """Plan a scenario's legs one after another, to tolerance (what `stratplan plan` runs).
 
@@ -150,6 +151,9 @@ def plan_run(
         Called as `progress(phase)` with a short description of each phase as it begins:
         the check, compiling the model, Newton's pass and each start of the energy search
         (e.g. to show them on a terminal); default: silent.
+    warn : callable, optional
+        Called as `warn(sentence)`, before any planning, for each leg the check expects to
+        be ill-conditioned (see `check_controllability`); default: silent.
 
     Returns
     -------
@@ -168,7 +172,7 @@ def plan_run(
     with phase(phases, "check"):
         if check:
             say("checking controllability (Lie brackets of each leg's stratum)")
-        check_time = controllability_first(task) if check else 0.0
+        check_time = controllability_first(task, warn=warn) if check else 0.0
     started = datetime.now(UTC)
     with phase(phases, "compile"):  # generate the numeric functions first: not planning
         say("compiling the model")

@@ -84,7 +84,9 @@ def plan(
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt)
     with render.phases(render.interactive(quiet, json_output)) as progress:
         with render.reported(file):
-            outcome = api.plan_run(task, check=check, time_scale=time_scale, progress=progress)
+            outcome = api.plan_run(
+                task, check=check, time_scale=time_scale, progress=progress, warn=_warning
+            )
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:  # result.json, and where the record is (not a key of result.json)
         render.print_json({**outcome.document, "record": str(run_dir)})
@@ -234,7 +236,14 @@ def check(
         check_report(report)
     for problem in report.problems:
         render.error("not controllable", problem)
+    for warning in report.document.get("warnings", ()):
+        _warning(warning)
     raise typer.Exit(0 if report.controllable else 3)
+
+
+def _warning(message: str) -> None:
+    """One `warning:` line on stderr (a leg expected to be ill-conditioned)."""
+    render.error("warning", message)
 
 
 def show(

@@ -8,6 +8,8 @@ and the Lie-algebraic method (`lie.py`) implement it; a third planner is one mor
 class sets `method` (it registers itself in `PLANNERS`).
 
 `damped_gauss_newton` is the one Levenberg–Marquardt loop with backtracking that both use.
+It watches for a runaway search (`SearchDiverged`): coordinates that fly off, coefficients
+that blow up.
 """
 
 from __future__ import annotations
@@ -27,15 +29,29 @@ from ..results import Piece
 from ..status import Status
 
 __all__ = [
+    "COORDINATE_RUNAWAY",
+    "ENERGY_RUNAWAY",
     "PLANNERS",
     "GaussNewtonResult",
     "LegOutcome",
     "LegPlanner",
     "LegProblem",
+    "SearchDiverged",
     "damped_gauss_newton",
+    "runaway",
 ]
 
 PLANNERS: dict[str, type[LegPlanner]] = {}
+
+# A Newton search is abandoned as diverged when, after an accepted step that did not reach the
+# goal, a coordinate of its end point is COORDINATE_RUNAWAY (rad, or the model's unit) farther
+# from 0 than where the first evaluation ended (a start can begin far out and come back: one
+# of Sim 3's hybrid starts ends at q3 = 185 and plans). Not 10 rad: correct plans of weak legs
+# with free joints ("*") wind a distal joint 7-53 rad (the 4-link arm of issue 14 turning its
+# base 10-40° on S12); a runaway search winds it by hundreds or thousands. A start of the
+# energy search is abandoned when its energy is ENERGY_RUNAWAY times the first feasible one's.
+COORDINATE_RUNAWAY = 100.0
+ENERGY_RUNAWAY = 1e4
 
 
 @dataclass(frozen=True, eq=False)
@@ -188,12 +204,46 @@ class LegPlanner(abc.ABC):
         """The status of a leg this planner did not bring to its goal."""
 
 
+class SearchDiverged(Exception):
+    """A search ran away: coordinate `coordinate` (0-based) `detail`; `stratified` ends the
+    leg with `Status.DIVERGED`. Raised by `damped_gauss_newton` when the caller passes no
+    `diverged` check of its own."""
+
+    def __init__(self, coordinate: int, detail: str):
+        super().__init__(f"coordinate {coordinate + 1} {detail}")
+        self.coordinate, self.detail = coordinate, detail
+
+
 @dataclass(frozen=True)
 class GaussNewtonResult:
     z: np.ndarray
     error: float
     iterations: int
     extra: object  # the last accepted evaluation's payload (e.g. coefficients and end point)
+    diverged: str = ""  # why the search was abandoned as diverged ("" if it was not)
+
+
+def runaway(payload: object, first: object) -> tuple[int, str] | None:
+    """The built-in divergence check of a Newton payload `(λ, end point)` against the first
+    evaluation's: (the coordinate that ran away, how far), or None (other payloads: never).
+
+    Coordinates only: the first start's controls can be almost zero (a leg whose joints end
+    where they start), so their growth says nothing; a planner that knows the leg's energy
+    passes its own `diverged` check to `damped_gauss_newton`."""
+    pairs = (payload, first)
+    if not all(isinstance(p, tuple) and len(p) == 2 for p in pairs):
+        return None  # not a Newton payload: no built-in check
+    end, end0 = (np.asarray(p[1], dtype=float) for p in pairs)
+    if end.ndim != 1 or end.shape != end0.shape or not np.all(np.isfinite(end)):
+        return None  # a non-finite end is the numerical-failure path's
+    farther = np.abs(end) - np.abs(end0)  # a search coming back from a far start is fine
+    k = int(np.argmax(farther)) if farther.size else 0
+    if farther.size and farther[k] > COORDINATE_RUNAWAY:
+        return k, (
+            f"reached {end[k]:.4g}, {farther[k]:.3g} farther out than where the first start "
+            f"ended (limit {COORDINATE_RUNAWAY:g})"
+        )
+    return None
 
 
 def damped_gauss_newton(
@@ -206,6 +256,7 @@ def damped_gauss_newton(
     min_step: float = 1e-6,
     stall_window: int | None = None,
     stall_ratio: float = 0.5,
+    diverged: Callable[[object], str | None] | None = None,
 ) -> GaussNewtonResult:
     """Drive the residual `e(z)` to zero: damped pseudo-inverse steps with backtracking.
 
@@ -215,8 +266,14 @@ def damped_gauss_newton(
     full step and rises after a failure. It stops at `tolerance`, after `max_iterations`,
     when no damping makes progress, or, with `stall_window`, when |e| did not fall by
     `stall_ratio` over that many iterations (a fresh start is cheaper than crawling on).
+
+    After every accepted step short of the tolerance, `diverged(payload)` says whether the
+    search ran away (a reason) or not (None): the loop then stops with the reason in the
+    result's `diverged`. Without `diverged`, the built-in check `runaway` (payloads
+    ``(λ, end)`` only) raises `SearchDiverged` instead: the whole leg is abandoned.
     """
     e, J, payload = evaluate(z, True)
+    first = payload
     err = float(np.linalg.norm(e))
     iterations = 0
     history = [err]
@@ -249,6 +306,12 @@ def damped_gauss_newton(
             continue
         z, e, err, payload = z_new, e_new, err_new, payload_new
         if err > tolerance:
+            if diverged is None:
+                ran = runaway(payload, first)
+                if ran:
+                    raise SearchDiverged(ran[0], f"{ran[1]} after {iterations} iterations")
+            elif reason := diverged(payload):
+                return GaussNewtonResult(z, err, iterations, payload, reason)
             J = J_new if J_new is not None else evaluate(z, True)[1]
         mu = max(mu / 10.0, 1e-12) if gamma == 1.0 else min(mu * 2.0, 1.0)
         history.append(err)

@@ -19,6 +19,7 @@ from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
+from .base import ENERGY_RUNAWAY
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
@@ -172,7 +173,9 @@ def optimise_energy(
     The starts are raced, not run one after another: every start first takes
     `ABANDON_AFTER` iterations; then the starts still running are finished in the order of
     their energy, lowest first, so that the best energy is known early and a start still
-    `ABANDON_RATIO` above it is dropped before it spends iterations on a worse minimum.
+    `ABANDON_RATIO` above it is dropped before it spends iterations on a worse minimum. A
+    start whose energy is `ENERGY_RUNAWAY` times the first feasible start's is not run at all
+    (stopped "diverged").
     """
     problem = _Problem(system, starts, legs, settings, targets)
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
@@ -181,9 +184,13 @@ def optimise_energy(
     found: list[np.ndarray] = []  # minima reached by finished starts
     best = [np.inf]
 
+    first = next((run.energy for run in runs if run.feasible), np.inf)
+
     def finish(run: _Descent, iterations: int | None) -> None:
         while not run.done and (iterations is None or run.iterations < iterations):
-            if run.iterations >= ABANDON_AFTER and run.energy > ABANDON_RATIO * best[0]:
+            if run.energy > ENERGY_RUNAWAY * first:
+                run.stop("diverged")  # ran away from the first feasible start's energy
+            elif run.iterations >= ABANDON_AFTER and run.energy > ABANDON_RATIO * best[0]:
                 run.stop("abandoned")  # energy only decreases: unlikely to beat the best
             elif any(
                 np.linalg.norm(run.z - f) <= SAME_MINIMUM * np.sqrt(run.energy) for f in found

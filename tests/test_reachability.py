@@ -1,0 +1,87 @@
+"""Weak strata diagnosed before planning (issue 14): the reachability estimate of each leg,
+the check's warnings, and what `check` and `plan` print."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import SCENARIOS, weak_stratum_scenario
+from typer.testing import CliRunner
+
+from stratcli.api.check import check_document
+from stratcli.api.inspection import check_controllability
+from stratcli.api.planning import plan_run
+from stratcli.cli import app
+from stratcli.reachability import WARN_ENERGY, better_strata, reach
+from stratcli.scenario import load_scenario
+
+runner = CliRunner()
+
+WEAK = weak_stratum_scenario(joints="0, 0")  # the 4-link arm, joints back at 0
+
+
+def test_the_weak_leg_needs_third_order_brackets_and_theta_is_hard():
+    task = load_scenario(WEAK)
+    leg = task.legs[0]
+    r = reach(task.system, "S12", task.start, leg.goal, leg.duration)
+    assert r.degree == 3 and r.sigma == pytest.approx(3.3e-3, rel=0.05)
+    assert task.system.states[r.hard] == "theta" and r.leverage > 50 and r.weak
+    better = better_strata(task.system, task.start, leg.goal, leg.duration, r)
+    assert better[0].stratum == "S34" and not better[0].weak  # the heavy proximal links
+    assert {b.stratum for b in better} >= {"S1", "S2", "S3", "S4", "S14", "S24"}
+    assert "S13" not in {b.stratum for b in better}  # flagged too (two light links)
+
+
+def test_the_check_warns_about_the_weak_leg_naming_theta_and_a_better_stratum():
+    task = load_scenario(WEAK)
+    doc = check_document(task.system, ["S12"], task.start, samples=5, legs=task.legs)
+    assert doc["controllable"] and not doc["problems"]  # a warning, not a failure
+    (warning,) = doc["warnings"]
+    assert warning.startswith("leg 1 on S12 is expected to be ill-conditioned: theta is hard")
+    assert "third-order brackets" in warning and "try stratum S34" in warning
+    assert "auto mode" in warning
+    assert doc["legs"][0]["reach"]["hard_coordinate"] == "theta"
+    assert doc["legs"][0]["reach"]["weak"] is True
+
+
+def test_a_small_turn_with_free_joints_is_not_warned():
+    task = load_scenario(weak_stratum_scenario())
+    doc = check_document(task.system, ["S12"], task.start, samples=5, legs=task.legs)
+    assert doc["warnings"] == [] and doc["legs"][0]["reach"]["degree"] == 1
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
+def test_no_shipped_scenario_is_warned_about(path):
+    doc = check_controllability(path, samples=5).document
+    assert doc["warnings"] == []
+    for leg in doc["legs"] or []:
+        assert leg["reach"]["predicted_energy"] < WARN_ENERGY / 3
+        assert leg["reach"]["degree"] <= 2
+
+
+def test_plan_warns_before_any_iteration():
+    said: list[str] = []
+    outcome = plan_run(load_scenario(WEAK), progress=said.append, warn=said.append)
+    warned = [i for i, s in enumerate(said) if "expected to be ill-conditioned" in s]
+    newton = said.index("planning the legs one by one (Newton)")
+    assert len(warned) == 1 and warned[0] < newton
+    assert outcome.result.legs[0].stratum == "S12"  # planned as asked all the same
+
+
+def test_check_prints_one_warning_line_and_exits_0(tmp_path):
+    path = tmp_path / "weak.toml"
+    path.write_text(WEAK)
+    result = runner.invoke(app, ["check", str(path), "--samples", "5"])
+    assert result.exit_code == 0, result.output
+    lines = [x for x in result.stderr.splitlines() if x.startswith("warning:")]
+    assert len(lines) == 1 and "theta is hard to move" in lines[0] and "S34" in lines[0]
+
+
+def test_plan_of_a_runaway_leg_fails_fast_saying_why(tmp_path):
+    path = tmp_path / "runaway.toml"
+    path.write_text(weak_stratum_scenario(theta="90deg"))
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs"), "-q"])
+    assert result.exit_code == 1
+    assert "planning failed: leg 1 on S12 was abandoned: the search diverged (q3 reached" in (
+        result.stderr
+    )
+    assert "try another stratum" in result.stderr
