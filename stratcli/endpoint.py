@@ -173,7 +173,9 @@ class OdeEndpoint(_Endpoint):
 
     The work of one call is bounded: an integration that needs more than `max_evaluations`
     evaluations of the right-hand side, or more than `growth` times what the last finished
-    call needed (a trial step into a stiff region, huge controls), or that fails, returns
+    call needed (a trial step into a stiff region, huge controls), or once the map has spent
+    `max_total` evaluations over all its calls (a search that can only grind), or that fails,
+    returns
     NaN, which the planners treat as a step that does not reach the goal (it is rejected,
     and a leg that never gets a finite end point fails with a numerical-failure status).
     """
@@ -183,7 +185,9 @@ class OdeEndpoint(_Endpoint):
     atol = 1e-12
     max_evaluations = 20_000  # DOP853 takes 12 per step; the biped's legs need at most ~300
     growth = 20  # a call may take at most this many times the evaluations of the last good one
+    max_total = 400_000  # all calls of one end-point map (one leg): then every call is NaN
     _last = 0  # evaluations of the last call that finished (per end-point map: per leg)
+    _spent = 0  # evaluations of all its calls so far
 
     def __call__(self, lam: np.ndarray, jacobian: bool = True):
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
@@ -191,7 +195,7 @@ class OdeEndpoint(_Endpoint):
         G, dG, basis = self.cs.G, self.cs.dG, self.basis
 
         calls = 0
-        budget = self.max_evaluations
+        budget = min(self.max_evaluations, self.max_total - self._spent)
         if self._last:  # after a finished call: a trial step may not cost far more
             budget = min(budget, max(2_000, self.growth * self._last))
 
@@ -220,6 +224,7 @@ class OdeEndpoint(_Endpoint):
             ok = sol.success
         except _OutOfBudget:
             ok = False
+        self._spent += calls
         if ok:
             self._last = calls
         y = sol.y[:, -1] if ok else np.full(y0.size, np.nan)

@@ -150,7 +150,16 @@ class NewtonPlanner(LegPlanner):
             if broken >= BROKEN_STARTS:
                 break  # the model cannot even be evaluated here: more starts will not help
         strategy = "newton"
-        if best.error > problem.tolerance and np.isfinite(best.error) and self.continuation:
+        # The homotopy solves many legs' worth of Newton problems: affordable with the
+        # quadrature end point (all space manipulators), not on the general ODE path, where
+        # one call can cost 10⁴ evaluations (a custom model would then run for minutes).
+        cheap = endpoint.kind == "quadrature"
+        if (
+            best.error > problem.tolerance
+            and np.isfinite(best.error)
+            and self.continuation
+            and cheap
+        ):
             path = follow_line(  # from small controls (the feasible ones closest to zero)
                 evaluate_for,
                 elimination.project(np.zeros_like(elimination.particular)),
