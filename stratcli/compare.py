@@ -3,6 +3,18 @@
 `compare` plans the candidates (sharing work through `trie`: prefixes once with the Newton
 objective, identical sequences once otherwise, sub-tries in parallel processes), measures
 each (energy, peak |u|, joint excursion, duration) and ranks them by a criterion.
+
+The screen (`screen=K`, energy objective and criterion; auto mode's default, `SCREEN_TOP`):
+every candidate is first planned with the paper's Newton method (shared prefixes, cheap); the
+K with the lowest Newton energy get the full energy search, and the lowest energy they reach
+is the `bound`. The others get a one-start search (from their Newton plan) whose starts are
+stopped once still `planners.energy.SCREEN_RATIO` times above the bound; those that end
+within that ratio of it get the full search too (with the same cut). The rest keep the
+energy of their one-start search (not a minimum) and are marked `screened`. `screen=None`
+plans every candidate to its minimum (exhaustive). A screened energy is what one start of
+the search reached, not the sequence's minimum; that a sequence ending there above twice the
+best cannot win is a heuristic, checked against the exhaustive choice on the Sim 4 task and
+random one-arm tasks (tests/test_compare.py, benchmarks/bench_screen.py).
 """
 
 from __future__ import annotations
@@ -17,6 +29,7 @@ import numpy as np
 from .decompose import Candidate
 from .errors import InputError
 from .models.system import System
+from .planners.energy import SCREEN_RATIO
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import check_legs
@@ -30,6 +43,7 @@ CRITERION_LABELS = {
     "duration": "total duration",
 }
 SAMPLES_PER_LEG = 1001  # for peak |u| and joint excursions
+SCREEN_TOP = 4  # candidates fully searched before the others are screened against them
 
 
 @dataclass(frozen=True)
@@ -48,6 +62,7 @@ class Outcome:
     duration: float = math.nan
     planning_time: float = 0.0  # seconds: this sequence's legs (shared ones included)
     rank: int | None = None
+    screened: bool = False  # its energy search was cut short by the screen (not a minimum)
 
     @property
     def ok(self) -> bool:
@@ -136,11 +151,14 @@ def compare(
     criterion: str = "energy",
     jobs: int = 1,
     progress: Callable[[int], None] | None = None,
+    screen: int | None = None,
 ) -> Comparison:
     """Plan every candidate (sharing work), measure it, rank by `criterion`.
 
     `progress(k)` is called whenever k more candidates are finished. Compile the candidates'
-    strata first (`system.compiled`) so that forked workers inherit them.
+    strata first (`system.compiled`) so that forked workers inherit them. `screen` (K, used
+    with the energy objective and criterion only): the K best by Newton energy are searched
+    fully, the others against their minimum (see the module's docstring); None: all fully.
     """
     if criterion not in CRITERIA:
         raise ValueError(f"unknown criterion {criterion!r} (known: {', '.join(CRITERIA)})")
@@ -148,6 +166,7 @@ def compare(
     advance = progress or (lambda k: None)
     clock = time.perf_counter()
     outcomes: list[Outcome | None] = [None] * len(candidates)
+    screened: set[int] = set()  # cut short by the screen
     valid: list[int] = []
     for k, cand in enumerate(candidates):
         try:
@@ -169,6 +188,10 @@ def compare(
             planned, requested, plans, times = compare_shared(
                 system, settings, start, candidates, valid, jobs, advance
             )
+        elif screen is not None and criterion == "energy":
+            planned, requested, plans, times, screened = _compare_screened(
+                system, settings, start, candidates, valid, jobs, advance, screen
+            )
         else:
             planned, requested, plans, times = compare_whole(
                 system, settings, candidates, valid, jobs, advance
@@ -177,6 +200,8 @@ def compare(
         STATE.clear()
     for k in valid:
         outcomes[k] = _outcome(k, candidates[k], plans[k], times[k], system, settings)
+        if k in screened:
+            outcomes[k] = replace(outcomes[k], screened=True)
     wall = time.perf_counter() - clock
     ranking = rank([o for o in outcomes if o is not None], criterion)
     for r, k in enumerate(ranking):
@@ -191,6 +216,52 @@ def compare(
         wall_time=wall,
         shared=is_newton(settings),
     )
+
+
+def _compare_screened(system, settings, start, candidates, valid, jobs, advance, top: int):
+    """The screen: Newton for all, the `top` lowest Newton energies fully, the rest bounded."""
+    newton = replace(settings, objective="newton")
+    STATE["settings"] = newton
+    _, _, first_plans, first_times = compare_shared(
+        system, newton, start, candidates, valid, jobs, lambda k: None
+    )
+    STATE["settings"] = settings
+
+    def newton_key(k: int):
+        p = first_plans[k]
+        ok = not isinstance(p, str) and p.ok
+        return (0, p.total_energy, k) if ok else (1, 0.0, k)
+
+    order = sorted(valid, key=newton_key)
+    head, tail = sorted(order[: max(1, top)]), sorted(order[max(1, top) :])
+    planned, requested, plans, times = compare_whole(
+        system, settings, candidates, head, jobs, advance
+    )
+    found = [p.total_energy for p in plans.values() if not isinstance(p, str) and p.ok]
+    bound = STATE["bound"] = min(found, default=math.inf)
+    # the others: one start (the Newton plan), cut against the bound
+    STATE["settings"] = replace(settings, starts=1)
+    more = compare_whole(system, settings, candidates, tail, jobs, lambda k: None)
+    STATE["settings"] = settings
+    plans.update(more[2])
+    times.update(more[3])
+    reached = [k for k in tail if not isinstance(plans[k], str) and plans[k].ok]
+    close = [k for k in reached if plans[k].total_energy <= SCREEN_RATIO * bound]
+    again = compare_whole(system, settings, candidates, close, jobs, lambda k: None)
+    advance(len(tail))
+    plans.update(again[2])
+    for k in close:
+        times[k] += again[3][k]
+    screened = {k for k in reached if k not in close}
+    planned, requested = planned + more[0] + again[0], requested + more[1] + again[1]
+    for k in valid:
+        times[k] += first_times[k]
+    return planned, requested, plans, times, screened
+
+
+def _was_screened(plan) -> bool:
+    search = getattr(plan, "optimisation", None)
+    return search is not None and any(s.stopped == "screened" for s in search.starts)
 
 
 def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
@@ -218,6 +289,7 @@ def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
         excursion=excursion,
         duration=plan.duration,
         planning_time=seconds,
+        screened=_was_screened(plan),
     )
 
 
@@ -283,6 +355,7 @@ def compile_strata(system: System, names) -> float:
 
 __all__ = [
     "CRITERIA",
+    "SCREEN_TOP",
     "Comparison",
     "Outcome",
     "compare",

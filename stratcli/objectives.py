@@ -35,6 +35,7 @@ def plan_sequence(
     settings: PlannerSettings,
     warm_start: list[np.ndarray] | None = None,
     progress: Callable[[str], None] | None = None,
+    bound: float = np.inf,
 ) -> SequencePlan:
     """Check the legs, then plan them with `settings.objective`.
 
@@ -53,6 +54,9 @@ def plan_sequence(
     progress : callable, optional
         Called as `progress(phase)` with a short description of each phase as it begins
         (Newton's leg-by-leg pass, each start of the energy search); default: silent.
+    bound : float, optional
+        Another sequence's minimum energy (auto mode's screen): energy-search starts still
+        far above it after a few iterations are stopped "screened"; default: infinite.
 
     Returns
     -------
@@ -66,7 +70,7 @@ def plan_sequence(
     """
     start = np.asarray(start, dtype=float)
     check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
-    return plan_with_objective(system, start, legs, settings, warm_start, progress)
+    return plan_with_objective(system, start, legs, settings, warm_start, progress, bound)
 
 
 def plan_with_objective(
@@ -76,10 +80,12 @@ def plan_with_objective(
     settings: PlannerSettings,
     warm_start: list[np.ndarray] | None = None,
     progress: Callable[[str], None] | None = None,
+    bound: float = np.inf,
 ) -> SequencePlan:
     """Plan checked legs with `settings.objective`; `warm_start` (flat coefficients per leg,
     feasible) is tried as an extra first start of the energy search; `progress(phase)` is
-    told each phase as it begins."""
+    told each phase as it begins; `bound` (another sequence's minimum energy) lets the energy
+    search stop starts far above it (`planners.energy.optimise_energy`)."""
     say = progress or _silent
     lie_legs = [i + 1 for i, leg in enumerate(legs) if not PLANNERS[leg.method].joint_optimisation]
     if lie_legs and settings.objective != "newton":
@@ -119,7 +125,7 @@ def plan_with_objective(
     try:
         with np.errstate(all="ignore"):
             coefficients, search = optimise_energy(
-                system, nominal, legs, settings, targets, stacked
+                system, nominal, legs, settings, targets, stacked, bound
             )
     except NUMERICAL_ERRORS as exc:
         note = (

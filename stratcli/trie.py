@@ -156,11 +156,12 @@ def _plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
     system: System = STATE["system"]
     settings: PlannerSettings = STATE["settings"]
     start: np.ndarray = STATE["start"]
+    bound: float = STATE.get("bound", np.inf)  # the screen's (stratcli.screen)
     out = {}
     for key, legs in items:
         clock = time.perf_counter()
         try:
-            plan = plan_sequence(system, start, legs, settings)
+            plan = plan_sequence(system, start, legs, settings, bound=bound)
             out[key] = (plan, time.perf_counter() - clock, "")  # pickles without its model
         except Exception as exc:
             out[key] = (None, time.perf_counter() - clock, f"{exc}")

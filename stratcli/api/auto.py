@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..compare import Comparison, compare, compile_strata
+from ..compare import SCREEN_TOP, Comparison, compare, compile_strata
 from ..decompose import STRATEGIES, Decomposition, decompose
 from ..errors import InputError, Problem
 from ..scenario import Task
@@ -76,11 +76,14 @@ def decompose_task(task: Task, auto: AutoSettings) -> Decomposition:
 
 
 def compare_decomposition(
-    task, auto, decomposition, *, jobs: int = 1, progress=None
+    task, auto, decomposition, *, jobs: int = 1, progress=None, exhaustive: bool = False
 ) -> tuple[Comparison, float]:
     """Compile the candidates' strata, then plan and rank every candidate of `decomposition`
     by `auto.criterion`; returns the comparison and the compile time. InputError when no
-    candidate could even be planned (all were rejected before planning)."""
+    candidate could even be planned (all were rejected before planning).
+
+    With the energy objective and criterion the candidates are screened (`compare.compare`,
+    `screen=SCREEN_TOP`) unless `exhaustive`: every candidate searched to its minimum."""
     compile_time = compile_strata(task.system, decomposition.candidates_strata)
     comparison = compare(
         task.system,
@@ -90,6 +93,7 @@ def compare_decomposition(
         criterion=auto.criterion,
         jobs=jobs,
         progress=progress,
+        screen=None if exhaustive else SCREEN_TOP,
     )
     best = comparison.best
     if best is None or best.plan is None:

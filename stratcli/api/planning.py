@@ -237,6 +237,7 @@ def compare_sequences(
     criterion: str | None = None,
     jobs: int | None = None,
     progress: Progress | None = None,
+    exhaustive: bool = False,
 ) -> ComparisonOutcome:
     """Plan every candidate sequence of strata in parallel and rank them.
 
@@ -254,6 +255,10 @@ def compare_sequences(
         Worker processes (default: all cores).
     progress : callable, optional
         Called as `progress(done, total)` while sequences are planned.
+    exhaustive : bool
+        With the energy objective and criterion: search every candidate to its minimum
+        instead of screening them (`compare.compare`, `screen`; the rows cut short are
+        marked `screened` in comparison.json).
 
     Returns
     -------
@@ -274,7 +279,7 @@ def compare_sequences(
     if progress is not None:
         progress(0, total)
     comparison, compile_time = compare_decomposition(
-        task, auto, dec, jobs=jobs or default_jobs(), progress=advance
+        task, auto, dec, jobs=jobs or default_jobs(), progress=advance, exhaustive=exhaustive
     )
     doc = comparison_document(
         comparison,

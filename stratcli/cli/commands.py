@@ -140,6 +140,14 @@ def compare_sequences(
     jobs: Annotated[
         int | None, typer.Option(help="Worker processes (default: all cores).", min=1)
     ] = None,
+    exhaustive: Annotated[
+        bool,
+        typer.Option(
+            "--exhaustive",
+            help="Energy objective and criterion: search every sequence to its minimum "
+            "instead of screening them (slower, the same choice on the tested tasks).",
+        ),
+    ] = False,
     out: Out = Path("runs"),
     json_output: Json = False,
     quiet: Quiet = False,
@@ -148,6 +156,9 @@ def compare_sequences(
 ) -> None:
     """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
 
+    With the energy objective and criterion the sequences are screened: all are planned with
+    Newton first, the few lowest get the full energy search, the others a cheap one that is
+    cut short (marked "screened" in comparison.json) when far above the best.
     Ranked by the criterion among the sequences that reached the goal (ties: lower energy);
     failed sequences stay in the table with their reason. The record holds the best
     sequence's full run record plus comparison.json, comparison.csv and ranking.png. Exits 0
@@ -161,7 +172,9 @@ def compare_sequences(
     interactive = render.interactive(quiet, json_output)
     with render.reported(), render.progress_bar(interactive) as bar:
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
-        outcome = api.compare_sequences(task, **options, jobs=jobs, progress=bar)
+        outcome = api.compare_sequences(
+            task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive
+        )
     with render.phases(interactive) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:

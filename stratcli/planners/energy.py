@@ -28,6 +28,7 @@ CURVATURE_FLOOR = 1e-2  # reduced Hessian ≥ this x the energy's own, on the ta
 RESTORATION_STEPS = 12
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
+SCREEN_RATIO = 2.0  # drop a start this far above another sequence's minimum (`bound`)
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
@@ -161,6 +162,7 @@ def optimise_energy(
     settings,
     targets: list[np.ndarray],
     seeds: list[tuple[str, np.ndarray]],
+    bound: float = np.inf,
 ) -> tuple[list[np.ndarray] | None, Optimisation]:
     """Minimum energy over all legs from each of `seeds` ((kind, stacked feasible
     coefficients); the kind is recorded, e.g. "newton" or "warm start").
@@ -176,6 +178,10 @@ def optimise_energy(
     `ABANDON_RATIO` above it is dropped before it spends iterations on a worse minimum. A
     start whose energy is `ENERGY_RUNAWAY` times the first feasible start's is not run at all
     (stopped "diverged").
+
+    `bound` is the minimum energy another sequence reached (auto mode's screen,
+    `stratcli.screen`): a start still `SCREEN_RATIO` above it after `ABANDON_AFTER` iterations
+    is stopped "screened" (this sequence will not be the best); infinite by default.
     """
     problem = _Problem(system, starts, legs, settings, targets)
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
@@ -192,6 +198,8 @@ def optimise_energy(
                 run.stop("diverged")  # ran away from the first feasible start's energy
             elif run.iterations >= ABANDON_AFTER and run.energy > ABANDON_RATIO * best[0]:
                 run.stop("abandoned")  # energy only decreases: unlikely to beat the best
+            elif run.iterations >= ABANDON_AFTER and run.energy > SCREEN_RATIO * bound:
+                run.stop("screened")  # far above another sequence's minimum
             elif any(
                 np.linalg.norm(run.z - f) <= SAME_MINIMUM * np.sqrt(run.energy) for f in found
             ):

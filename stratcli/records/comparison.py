@@ -62,6 +62,7 @@ def _row(o: Outcome) -> dict[str, Any]:
         "excursion": _num(o.excursion),
         "duration": _num(o.duration),
         "planning_time_s": o.planning_time,
+        "screened": o.screened,
         "vias": [_vec(v) for v in cand.vias],
         "vias_pi": [_pi(v) for v in cand.vias],
         "legs": [_leg_row(o, i, leg) for i, leg in enumerate(cand.legs)],

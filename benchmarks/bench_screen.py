@@ -1,0 +1,114 @@
+"""Auto mode's screen against the exhaustive search on seeded random one-arm tasks.
+
+Usage: python benchmarks/bench_screen.py [--tasks 20] [--seed 0] [--jobs 2] [--no-sim4]
+
+Each task draws from `numpy.random.default_rng(seed + i)`: a start within ±π/2 per coordinate
+of the one-arm preset, a change of up to ±2.5 rad per joint and ±0.6 rad for θ (as in
+bench_random.py), decomposed as auto mode does by default (sequences of up to 3 strata,
+conservative vias). Every task's candidates are compared twice with the default (energy)
+objective and criterion: screened (`compare(..., screen=SCREEN_TOP)`, auto mode's default)
+and exhaustive (`screen=None`, every candidate to its minimum). Prints, as markdown, per task
+the two planning times (`Comparison.wall_time`, model compiled before), the two choices and
+whether they match, then the medians. The Sim 4 task (scenarios/sim4_auto.toml) comes first.
+"""
+
+from __future__ import annotations
+
+import os
+
+# as the stratplan command does (stratcli/__main__.py): no BLAS threads for small matrices
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse
+import platform
+import statistics
+from pathlib import Path
+
+import numpy as np
+
+from stratcli.compare import SCREEN_TOP, compare, compile_strata
+from stratcli.decompose import decompose
+from stratcli.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+SIM4 = ROOT / "scenarios" / "sim4_auto.toml"
+MAX_JOINT_CHANGE, MAX_THETA_CHANGE = 2.5, 0.6
+
+
+def random_task(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Start and goal (q1, q2, q3, θ) of one random one-arm task."""
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(-np.pi / 2, np.pi / 2, 4)
+    change = np.concatenate(
+        [
+            rng.uniform(-MAX_JOINT_CHANGE, MAX_JOINT_CHANGE, 3),
+            rng.uniform(-MAX_THETA_CHANGE, MAX_THETA_CHANGE, 1),
+        ]
+    )
+    return start, start + change
+
+
+def both(system, settings, start, goal, jobs: int) -> dict:
+    """The screened and the exhaustive comparison of one task."""
+    dec = decompose(system, start, goal, max_length=3, strategies=("conservative",))
+    compile_strata(system, dec.candidates_strata)
+    runs = {}
+    for name, screen in (("screened", SCREEN_TOP), ("exhaustive", None)):
+        result = compare(system, start, dec.candidates, settings, jobs=jobs, screen=screen)
+        best = result.best
+        runs[name] = {
+            "time": result.wall_time,
+            "choice": (best.candidate.sequence, best.candidate.strategy),
+            "label": f"{best.candidate.label} {best.energy:.2f}",
+            "cut": sum(o.screened for o in result.outcomes),
+        }
+    runs["candidates"] = len(dec.candidates)
+    return runs
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tasks", type=int, default=20)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--no-sim4", action="store_true")
+    args = parser.parse_args()
+    sim4 = load_scenario(SIM4)
+    system, settings = sim4.system, sim4.settings
+    tasks = [] if args.no_sim4 else [("sim4_auto", sim4.start, sim4.goal)]
+    tasks += [(f"seed {args.seed + i}", *random_task(args.seed + i)) for i in range(args.tasks)]
+    print(
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, jobs "
+        f"{args.jobs}, screen top {SCREEN_TOP}, load average {os.getloadavg()[0]:.2f}\n"
+    )
+    print(
+        "| task | candidates | screened s | cut | exhaustive s | screened best | "
+        "exhaustive best | same |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    rows = []
+    both(system, settings, sim4.start, sim4.goal, args.jobs)  # warm-up (caches)
+    for name, start, goal in tasks:
+        r = both(system, settings, start, goal, args.jobs)
+        same = r["screened"]["choice"] == r["exhaustive"]["choice"]
+        rows.append((name, r, same))
+        print(
+            f"| {name} | {r['candidates']} | {r['screened']['time']:.2f} | "
+            f"{r['screened']['cut']} | {r['exhaustive']['time']:.2f} | "
+            f"{r['screened']['label']} | {r['exhaustive']['label']} | "
+            f"{'yes' if same else 'NO'} |",
+            flush=True,
+        )
+    random_rows = [r for name, r, _ in rows if name.startswith("seed")]
+    for label, subset in (("random tasks", random_rows), ("all tasks", [r for _, r, _ in rows])):
+        if subset:
+            print(
+                f"\nmedian planning time, {label} ({len(subset)}): screened "
+                f"{statistics.median(r['screened']['time'] for r in subset):.2f} s, exhaustive "
+                f"{statistics.median(r['exhaustive']['time'] for r in subset):.2f} s"
+            )
+    print(f"same choice: {sum(same for *_, same in rows)} of {len(rows)}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,73 @@
+"""Auto mode's screen (`compare(..., screen=K)`): the same choice as the exhaustive search."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stratcli import api
+from stratcli.compare import SCREEN_TOP, compare
+from stratcli.decompose import decompose
+from stratcli.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def sim4():
+    """Sim 4's auto scenario with its own (the default, energy) objective."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_auto.toml")
+    assert task.settings.objective == "energy"
+    return task
+
+
+def random_task(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A random one-arm task, as benchmarks/bench_screen.py draws it."""
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(-np.pi / 2, np.pi / 2, 4)
+    change = np.concatenate([rng.uniform(-2.5, 2.5, 3), rng.uniform(-0.6, 0.6, 1)])
+    return start, start + change
+
+
+def screened_and_exhaustive(task, start, goal):
+    dec = decompose(task.system, start, goal, max_length=3, strategies=("conservative",))
+    return [
+        compare(task.system, start, dec.candidates, task.settings, jobs=2, screen=screen)
+        for screen in (SCREEN_TOP, None)
+    ]
+
+
+def test_screen_chooses_as_the_exhaustive_search_on_sim4(sim4):
+    screened, exhaustive = screened_and_exhaustive(sim4, sim4.start, sim4.goal)
+    for result in (screened, exhaustive):
+        best = result.best
+        assert best.candidate.sequence == ("S1", "S3") and best.candidate.strategy == (
+            "conservative"
+        )
+        assert best.energy == pytest.approx(64.80, abs=0.01)
+        assert not best.screened
+    assert screened.best.energy == exhaustive.best.energy  # the same search, the same numbers
+    assert any(o.screened for o in screened.outcomes)
+    assert not any(o.screened for o in exhaustive.outcomes)
+    for o in screened.outcomes:  # a screened sequence reached its goal, far above the best
+        if o.screened:
+            assert o.ok and o.energy > 2 * screened.best.energy
+
+
+@pytest.mark.parametrize("seed", [1, 4, 16])
+def test_screen_chooses_as_the_exhaustive_search_on_random_tasks(sim4, seed):
+    start, goal = random_task(seed)
+    screened, exhaustive = screened_and_exhaustive(sim4, start, goal)
+    assert screened.best.candidate == exhaustive.best.candidate
+    assert screened.best.energy == exhaustive.best.energy
+
+
+def test_comparison_json_marks_screened_rows_and_exhaustive_has_none(sim4):
+    doc = api.compare_sequences(sim4, jobs=2).document
+    assert all("screened" in row and "energy" in row for row in doc["rows"])
+    assert doc["rows"][0]["screened"] is False and any(row["screened"] for row in doc["rows"])
+    full = api.compare_sequences(sim4, jobs=2, exhaustive=True).document
+    assert not any(row["screened"] for row in full["rows"])
+    assert full["rows"][0]["sequence"] == doc["rows"][0]["sequence"] == ["S1", "S3"]
