@@ -15,8 +15,10 @@ from typing import Any
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from typer.testing import CliRunner
 
 from stratcli.api import plan_auto, plan_run
+from stratcli.cli import app
 from stratcli.models.presets import preset
 from stratcli.objectives import plan_sequence
 from stratcli.records.mcap_log import mcap_bytes
@@ -287,3 +289,16 @@ goal = [0, 0.1, 0]
 [[legs]]
 stratum = "drive"
 """
+
+
+TASK_C = ROOT / "scenarios" / "sim4_task_c.toml"
+
+
+def plan_record(tmp_path: Path, scenario: Path = TASK_C, *args: str) -> Path:
+    """`stratplan plan SCENARIO --out tmp_path` (quiet, no GIF); the one record it wrote."""
+    result = CliRunner().invoke(
+        app, ["plan", str(scenario), "--out", str(tmp_path), "--quiet", "--no-animation", *args]
+    )
+    assert result.exit_code == 0, result.output
+    (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
+    return run

@@ -7,7 +7,7 @@ import json
 import re
 
 import pytest
-from conftest import ROOT, UNICYCLE
+from conftest import ROOT, UNICYCLE, plan_record
 from typer.testing import CliRunner
 
 import stratcli.cli as cli
@@ -241,20 +241,8 @@ def test_numerical_failure_is_a_failed_leg_with_a_record_not_a_traceback(tmp_pat
     assert doc["message"].startswith("leg 1 on S") and "try" in doc["message"]
 
 
-TASK_C = ROOT / "scenarios" / "sim4_task_c.toml"
-
-
-def _plan(tmp_path, scenario=TASK_C, *args):
-    result = runner.invoke(
-        app, ["plan", str(scenario), "--out", str(tmp_path), "--quiet", "--no-animation", *args]
-    )
-    assert result.exit_code == 0, result.output
-    (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
-    return run
-
-
 def test_show_reads_the_record_back(tmp_path):
-    run = _plan(tmp_path)
+    run = plan_record(tmp_path)
     shown = runner.invoke(app, ["show", str(run)])
     assert shown.exit_code == 0
     assert "sim4_task_c" in shown.output and "S3" in shown.output and "total energy" in shown.output
@@ -269,7 +257,7 @@ def test_show_reads_the_record_back(tmp_path):
 def test_show_refuses_missing_and_incomplete_records(tmp_path):
     missing = runner.invoke(app, ["show", str(tmp_path / "nope")])
     assert missing.exit_code == 2 and "no run record" in missing.output
-    run = _plan(tmp_path)
+    run = plan_record(tmp_path)
     (run / "result.json").unlink()
     broken = runner.invoke(app, ["show", str(run)])
     assert broken.exit_code == 2 and "missing result.json" in broken.output

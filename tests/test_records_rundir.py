@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+from conftest import TASK_C, plan_record
 from typer.testing import CliRunner
 
 from stratcli.cli import app
@@ -116,20 +116,8 @@ def test_non_finite_json_values_are_written_as_null(tmp_path):
 runner = CliRunner()
 
 
-TASK_C = ROOT / "scenarios" / "sim4_task_c.toml"
-
-
-def _plan(tmp_path, scenario=TASK_C, *args):
-    result = runner.invoke(
-        app, ["plan", str(scenario), "--out", str(tmp_path), "--quiet", "--no-animation", *args]
-    )
-    assert result.exit_code == 0, result.output
-    (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
-    return run
-
-
 def test_record_holds_every_file_and_never_overwrites(tmp_path):
-    first = _plan(tmp_path)
+    first = plan_record(tmp_path)
     for name in (*REQUIRED, "resolved.json"):
         assert (first / name).is_file()
     resolved = json.loads((first / "resolved.json").read_text())
