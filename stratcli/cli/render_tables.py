@@ -40,8 +40,10 @@ def ranking(task, doc: dict) -> None:
     for header in ("energy", "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
         number_column(rows, header)
     failures = []
+    screened = 0
     for row in doc["rows"]:
         ok = row["status"] == "ok"
+        screened += bool(row.get("screened"))
         style = "bold green" if ok and row["rank"] == 1 else None
         sequence = " → ".join(row["sequence"])
         if not ok:  # the reason is a sentence: below the table, not squeezed into a cell
@@ -50,7 +52,7 @@ def ranking(task, doc: dict) -> None:
             str(row["rank"]),
             f"{sequence}\n[dim]{row['strategy']}[/]" if both else sequence,
             "ok" if ok else "[red]failed[/]",
-            fmt(row["energy"]) if ok else "–",
+            (fmt(row["energy"]) + ("*" if row.get("screened") else "")) if ok else "–",
             fmt(row["peak_control"]) if ok else "–",
             _number(row["excursion"], "{:.3f}") if ok else "–",
             _number(row["duration"], "{:g}"),
@@ -58,6 +60,11 @@ def ranking(task, doc: dict) -> None:
             style=style,
         )
     render.out_console.print(rows)
+    if screened:
+        say(
+            f"* {screened} sequence(s) screened, not optimised: their energy is where a short "
+            "search stopped, above twice the best (--exhaustive optimises every one)"
+        )
     for failure in failures:
         say(failure)
 
