@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..controls import energy
 from ..liealgebra import hall_basis, iterated_integrals, lie_basis
 from ..results import Piece
 from ..settings import LieSettings
@@ -259,8 +258,3 @@ class LiePlanner(LegPlanner):
             evaluator=kind,
             message="" if ok else message,
         )
-
-
-def step_energy(basis, pieces) -> float:
-    """Energy of a multi-piece leg: the sum over its pieces."""
-    return float(sum(energy(basis, p.duration, p.coefficients) for p in pieces))
