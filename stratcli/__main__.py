@@ -8,12 +8,15 @@ then `main` prints one line, `interrupted` (SIGINT) or `terminated` (SIGTERM), a
 128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM. A record this process finished
 before the signal gets `"interrupted": true` and that exit code in its manifest.json. A second
 signal while unwinding leaves at once, with the same line and code. A signal the process
-was started ignoring (`nohup`, `cmd &` in a script) stays ignored.
+was started ignoring (`nohup`, `cmd &` in a script) stays ignored. A signal whose exception
+Python had to drop (it arrived inside a finaliser) is picked up by `stratcli.interrupts`.
 """
 
 import os
 import signal
 import sys
+
+from .interrupts import Interrupted, install, pending
 
 # Planning multiplies matrices of a few dozen rows, where BLAS threads only add overhead and
 # take the cores that compare-sequences' worker processes need (Sim 4 energy comparison on 2
@@ -22,14 +25,6 @@ import sys
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 HANDLED = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
-
-
-class Interrupted(BaseException):
-    """A handled signal arrived (`signum`); unwinds to `main`."""
-
-    def __init__(self, signum: int):
-        super().__init__(signum)
-        self.signum = signum
 
 
 _state = {"raised": False, "done": False}
@@ -76,11 +71,16 @@ def main() -> None:
     for sig in HANDLED:
         if signal.getsignal(sig) is not signal.SIG_IGN:  # e.g. `nohup`, or `cmd &` in a script
             signal.signal(sig, _on_signal)
+    install()  # an Interrupted raised inside a finaliser is kept, not printed and lost
     try:
         single_threaded_blas()
         from .cli import app
 
-        app(prog_name="stratplan")
+        try:
+            app(prog_name="stratplan")
+        finally:
+            if pending() is not None:  # swallowed, and no checkpoint came before the end
+                _finish_interrupted(pending())
     except Interrupted as exc:
         _finish_interrupted(exc.signum)
     except KeyboardInterrupt:  # raised by hand somewhere (or a handler reset by a library)

@@ -16,6 +16,7 @@ import numpy as np
 
 from .controls import FourierBasis, energy
 from .errors import InputError, Problem
+from .interrupts import checkpoint
 from .models.system import System
 from .planners import PLANNERS, LegPlanner, LegProblem
 from .planners.base import SearchDiverged
@@ -129,6 +130,7 @@ def plan_next_leg(
     initial: np.ndarray | None = None,
 ) -> LegPlan:
     """Plan one leg; a numerical breakdown makes it a failed leg, never an exception."""
+    checkpoint()  # a Ctrl-C that Python dropped inside a finaliser stops at the next leg
     problem = leg_problem(system, settings, leg, at, next_leg, planner, initial)
     common = {
         "index": at.index,

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from .interrupts import checkpoint
 from .models.system import System
 from .objectives import plan_sequence
 from .results import LegPlan
@@ -227,10 +228,12 @@ def _run(
             k = futures[future]
             results[k] = future.result()
             on_unit(units[k][1])
+            checkpoint()  # a signal that arrived inside the pool's weakref callbacks
     except BaseException:  # an interrupt, or a worker's error: stop the workers, re-raise
         _stop(pool, futures)
         raise
     pool.shutdown(wait=True)
+    checkpoint()
     return results
 
 

@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import RecordError
+from ..interrupts import checkpoint
 
 MAX_NAME_BYTES = 100
 STALE_AFTER_S = 3600.0  # a partial directory older than this is a killed run's, whoever wrote it
@@ -239,6 +240,7 @@ def _write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
                 fh.flush()
                 os.fsync(fh.fileno())
         os.chmod(tmp, 0o755)
+        checkpoint()  # an interrupt Python had to drop: no record for an interrupted command
         for k in range(1, 1000):
             final = out / (name if k == 1 else f"{name}-{k}")
             try:

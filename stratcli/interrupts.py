@@ -1,0 +1,53 @@
+"""Interrupts that survive places where Python cannot raise them.
+
+The `stratplan` entry point turns SIGINT and SIGTERM into `Interrupted`, raised from the
+signal handler wherever the main thread happens to be. Python runs signal handlers between
+byte codes, which includes finalisers and weak-reference callbacks (a `ProcessPoolExecutor`
+keeps one): an exception raised there is reported as "Exception ignored in ..." and then
+dropped, and the command would carry on as if nothing had happened. `install` replaces
+`sys.unraisablehook` so that such a swallowed `Interrupted` is remembered instead of printed,
+and `checkpoint` re-raises it; the engine calls `checkpoint` where work is handed out or
+collected, and before anything is written, and the entry point calls it once more at the end.
+Outside the command line nothing is installed and `checkpoint` costs one list test.
+"""
+
+import sys
+
+_swallowed: list[int] = []
+
+
+class Interrupted(BaseException):
+    """A handled signal arrived (`signum`); unwinds to the entry point."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _hook(unraisable) -> None:
+    if isinstance(unraisable.exc_value, Interrupted):
+        _swallowed.append(unraisable.exc_value.signum)
+        return
+    _previous(unraisable)
+
+
+_previous = sys.unraisablehook
+
+
+def install() -> None:
+    """Remember an `Interrupted` that Python could not raise instead of printing it."""
+    global _previous
+    if sys.unraisablehook is not _hook:
+        _previous = sys.unraisablehook
+        sys.unraisablehook = _hook
+
+
+def pending() -> int | None:
+    """The signal number of a swallowed interrupt, or None."""
+    return _swallowed[0] if _swallowed else None
+
+
+def checkpoint() -> None:
+    """Raise `Interrupted` again if a signal handler's exception was swallowed."""
+    if _swallowed:
+        raise Interrupted(_swallowed[0])
