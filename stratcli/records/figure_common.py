@@ -14,6 +14,7 @@ __all__ = [
     "DPI",
     "FAILED_COLOR",
     "FORMATS",
+    "fixed_margins",
     "leg_method",
     "locked_names",
     "save_figure",
@@ -39,6 +40,43 @@ def leg_method(plan: SequencePlan, k: int) -> str:
     if leg.method == "lie":
         return f"{leg.stratum} · lie ({steps} step{'s' if steps != 1 else ''})"
     return f"{leg.stratum} · {leg.method}"
+
+
+def fixed_margins(
+    fig: Figure,
+    left: float,
+    right: float,
+    top: float,
+    bottom: float,
+    hspace: float = 0.0,
+    wspace: float = 0.0,
+) -> None:
+    """Place the subplots with margins and gaps given in inches.
+
+    Matplotlib's constrained (or tight) layout measures every text on every draw and took
+    half of a record's plotting time (0.30 of 0.60 s CPU for Sim 4 D); the figures here have
+    known label sizes, so fixed margins in inches serve as well at any figure size.
+    """
+    width, height = fig.get_size_inches()
+    rows, cols = _grid_shape(fig)
+    inner_h = height - top - bottom
+    inner_w = width - left - right
+    fig.subplots_adjust(
+        left=left / width,
+        right=1.0 - right / width,
+        top=1.0 - top / height,
+        bottom=bottom / height,
+        hspace=hspace / max((inner_h - hspace * (rows - 1)) / rows, 1e-6),
+        wspace=wspace / max((inner_w - wspace * (cols - 1)) / cols, 1e-6),
+    )
+
+
+def _grid_shape(fig: Figure) -> tuple[int, int]:
+    for ax in fig.axes:
+        spec = ax.get_subplotspec()
+        if spec is not None:
+            return spec.get_gridspec().get_geometry()
+    return 1, 1
 
 
 def save_figure(fig: Figure, fmt: str = "png") -> bytes:

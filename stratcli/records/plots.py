@@ -37,6 +37,7 @@ from ..sequence import SequencePlan
 from .figure_common import (
     FAILED_COLOR,
     FORMATS,
+    fixed_margins,
     leg_method,
     locked_names,
     save_figure,
@@ -79,8 +80,10 @@ def _fits(text: str, duration: float, total: float) -> bool:
     return width <= duration / total * (WIDTH - 1.1)
 
 
-def _label_legs(fig: Figure, top: Any, plan: SequencePlan) -> None:
-    """Each leg's label above it; too narrow a leg gets "L<k>" and a footnote."""
+def _label_legs(fig: Figure, top: Any, plan: SequencePlan) -> int:
+    """Each leg's label above it; too narrow a leg gets "L<k>" and a footnote.
+
+    Returns the number of footnote lines (the bottom margin grows with them)."""
     total = plan.duration or 1.0
     trans = blended_transform_factory(top.transData, top.transAxes)
     notes = []
@@ -99,12 +102,16 @@ def _label_legs(fig: Figure, top: Any, plan: SequencePlan) -> None:
             fontsize=LABEL_SIZE,
             color="0.15",
         )
-    if notes:
-        fig.supxlabel("\n".join(textwrap.wrap("; ".join(notes), 150)), fontsize=8, color="0.25")
+    lines = textwrap.wrap("; ".join(notes), 150)
+    if lines:
+        fig.text(0.5, 0.01, "\n".join(lines), ha="center", va="bottom", fontsize=8, color="0.25")
+    return len(lines)
 
 
-def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> None:
-    """Shade the legs, label them with stratum and method, dash switches, mark Lie steps."""
+def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> int:
+    """Shade the legs, label them with stratum and method, dash switches, mark Lie steps.
+
+    Returns the number of footnote lines under the figure."""
     total = plan.duration if plan.legs else 1.0
     steps = [leg.t0 + p.t0 for leg in plan.legs for p in leg.pieces[1:]]
     switches = [sw.time for sw in plan.switches]
@@ -119,12 +126,14 @@ def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> None:
         ax.set_xlim(0.0, total)
         ax.grid(True, axis="y", color="0.85", linewidth=0.6)
         ax.tick_params(labelsize=8)
+    notes = 0
     if len(plan.legs) <= MAX_LABELLED_LEGS:
-        _label_legs(axes[0].figure, axes[0], plan)
+        notes = _label_legs(axes[0].figure, axes[0], plan)
     axes[-1].set_xlabel("time [s]")
     keys = (["- - switch"] if switches else []) + (["│ Lie step"] if steps else [])
     if keys:
         axes[0].figure.text(0.005, 0.995, "   ".join(keys), color="0.3", va="top", fontsize=8)
+    return notes
 
 
 def _time_series(
@@ -137,7 +146,7 @@ def _time_series(
     kind: str,
 ) -> Figure:
     rows = len(names)
-    fig = Figure(figsize=(WIDTH, 1.05 + 1.25 * rows), layout="constrained")
+    fig = Figure(figsize=(WIDTH, 1.05 + 1.25 * rows))
     axes = list(np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]))
     colors = [f"C{i % 10}" for i in range(rows)]
     labelled = len(plan.legs) <= MAX_LABELLED_LEGS
@@ -149,7 +158,17 @@ def _time_series(
         else:  # one line; a switch instant is sampled twice, so jumps still show
             ax.plot(traj.t, values[:, i], color=colors[i], linewidth=1.2, zorder=3)
         ax.set_ylabel(f"{name} [{unit}]" if unit else name, fontsize=9)
-    _decorate_time_axes(axes, plan)
+    notes = _decorate_time_axes(axes, plan)
+    two_line = labelled and any(plan.legs[k].locked for k in range(len(plan.legs)))
+    fig.set_figheight(fig.get_figheight() + 0.15 * notes + (0.15 if two_line else 0.0))
+    fixed_margins(
+        fig,
+        left=0.85,
+        right=0.2,  # the last goal marker sits on the right edge
+        top=0.75 + (0.15 if two_line else 0.0),  # title, key line, leg labels
+        bottom=0.5 + 0.15 * notes,
+        hspace=0.12,
+    )
     if unit is None:
         title += " (custom model: values in its own units)"
     if not labelled:

@@ -22,7 +22,14 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..sequence import SequencePlan
-from .figure_common import DPI, FAILED_COLOR, leg_method, locked_names, stamp_failed
+from .figure_common import (
+    DPI,
+    FAILED_COLOR,
+    fixed_margins,
+    leg_method,
+    locked_names,
+    stamp_failed,
+)
 from .trajectory import Trajectory, world_geometry
 
 __all__ = ["DPI", "frame_schedule", "locked_names", "motion_gif", "stroboscope_figure"]
@@ -128,12 +135,13 @@ def stroboscope_figure(
     span = max(xlim[1] - xlim[0], 1e-9) / max(ylim[1] - ylim[0], 1e-9)
     panel_w = min(4.0, 11.0 / cols) if span < 1.6 else min(5.5, 11.0 / cols)
     panel_h = float(np.clip(panel_w / span, 2.0, 4.5))
-    fig = Figure(
-        figsize=(max(panel_w * cols + 0.4, 7.5), panel_h * rows + 1.4),  # room for the title
-        layout="constrained",
-        dpi=DPI,
-    )
+    margins = {"left": 0.7, "right": 0.2, "top": 0.85, "bottom": 0.85}  # in; titles, legend
+    gaps = {"hspace": 0.75, "wspace": 0.2}  # in; the next row's panel titles, shared y
+    width = panel_w * cols + margins["left"] + margins["right"] + gaps["wspace"] * (cols - 1)
+    height = panel_h * rows + margins["top"] + margins["bottom"] + gaps["hspace"] * (rows - 1)
+    fig = Figure(figsize=(max(width, 7.5), height), dpi=DPI)
     axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
+    fixed_margins(fig, **margins, **gaps)
     tips = _tips(geo)
     for panel in range(rows * cols):
         ax = axes[panel // cols, panel % cols]
@@ -176,7 +184,8 @@ def stroboscope_figure(
     ]
     fig.legend(
         handles=handles,
-        loc="outside lower center",
+        loc="lower center",
+        bbox_to_anchor=(0.5, 0.0),
         ncols=4,
         fontsize=8,
         frameon=False,
@@ -302,7 +311,8 @@ def motion_gif(
             Line2D([], [], color="#7fb3d5", ls=":", label="goal" if plan.ok else "end (failed)"),
             Line2D([], [], color="#d35400", label="end effector"),
         ],
-        loc="outside lower center",
+        loc="lower center",
+        bbox_to_anchor=(0.5, 0.0),
         ncols=3,
         fontsize=9,
         frameon=False,
