@@ -24,6 +24,8 @@ import re
 
 import sympy as sp
 
+from .numbers import ExpressionError
+
 FUNCTIONS = {
     "sin": sp.sin,
     "cos": sp.cos,
@@ -57,12 +59,7 @@ _BINOPS = {
     ast.Mult: lambda a, b: a * b,
     ast.Div: lambda a, b: a / b,
     ast.Pow: lambda a, b: a**b,
-    ast.BitXor: lambda a, b: a**b,  # "x^2" as users of other tools write it
 }
-
-
-class ExpressionError(ValueError):
-    """An expression that is not plain arithmetic in the allowed names."""
 
 
 def parse_expression(text: str, symbols: dict[str, sp.Symbol] | None = None) -> sp.Expr:
@@ -70,7 +67,9 @@ def parse_expression(text: str, symbols: dict[str, sp.Symbol] | None = None) -> 
     symbols = symbols or {}
     if not isinstance(text, str):
         raise ExpressionError(f"expected an expression string, got {text!r}")
-    source = text.strip().replace("π", "pi")
+    # "x^2" as users of other tools write it, with the precedence of a power: Python's `^`
+    # binds looser than + and /, so "q^2/4" would otherwise parse as q^(2/4)
+    source = text.strip().replace("π", "pi").replace("^", "**")
     if not source:
         raise ExpressionError("empty expression")
     if len(source) > MAX_LENGTH:
@@ -160,7 +159,7 @@ def _node(node: ast.AST, rec, symbols: dict[str, sp.Symbol], text: str, allowed:
         raise ExpressionError(f"in {text!r}: unknown name {node.id!r} (allowed names: {allowed})")
     if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
         left, right = rec(node.left), rec(node.right)
-        if isinstance(node.op, ast.Pow | ast.BitXor):
+        if isinstance(node.op, ast.Pow):
             return _power(left, right, text)
         return _BINOPS[type(node.op)](left, right)
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
