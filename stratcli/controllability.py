@@ -34,9 +34,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy as sp
 
 from .liealgebra import (
     MAX_DEGREE,
@@ -47,6 +47,9 @@ from .liealgebra import (
     lie_basis,
 )
 from .models.system import System, _ArrayFunction
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 RANK_RTOL = 1e-9  # singular values below this times the largest count as zero
 MAX_SYMBOLIC_BRACKETS = 250  # custom models: largest degree-3 Hall basis derived by sympy
@@ -224,6 +227,8 @@ class _CrossBasis:
 
 def _cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _CrossBasis:
     """Hall basis of all distinct fields of `strata` together (symbolic, cached)."""
+    import sympy as sp  # only here: a cached model never needs sympy
+
     cache = system.__dict__.setdefault("_lie_cache", {})
     key = ("cross", strata, degree)
     if key in cache:

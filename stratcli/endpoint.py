@@ -17,7 +17,6 @@ from __future__ import annotations
 from functools import cached_property, lru_cache
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .controls import FourierBasis
 from .models.system import CompiledStratum
@@ -217,6 +216,8 @@ class OdeEndpoint(_Endpoint):
             return np.concatenate([dq, dS.ravel()])
 
         y0 = np.concatenate([self.q0, np.zeros(n * p)]) if jacobian else self.q0
+        from scipy.integrate import solve_ivp  # here: models with a quadrature path never need it
+
         try:
             sol = solve_ivp(
                 rhs, (0.0, self.duration), y0, method="DOP853", rtol=self.rtol, atol=self.atol

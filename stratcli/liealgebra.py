@@ -21,18 +21,23 @@ Gauss–Legendre rules exact to rounding, so `h` and its Jacobian are a few tens
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy as sp
-from scipy.integrate import solve_ivp
 
 from .controls import FourierBasis
+from .models import codecache
 from .models.connection import connection, connection_A
 from .models.manipulator import ManipulatorSystem
 from .models.system import Stratum, System, _ArrayFunction
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 MAX_DEGREE = 3
 
@@ -101,6 +106,8 @@ def element_tensor(h: HallElement, m: int) -> np.ndarray:
 def bracket(f: sp.Matrix, g: sp.Matrix, symbols, free: tuple[int, ...]) -> sp.Matrix:
     """`[f, g] = (∂g/∂q) f − (∂f/∂q) g`, differentiating along the free coordinates only
     (the fields of a stratum have zero rows on its locked coordinates)."""
+    import sympy as sp  # only here: a cached model never needs sympy
+
     out = sp.zeros(f.shape[0], 1)
     for k in free:
         if f[k] != 0:
@@ -116,7 +123,8 @@ class LieBasis:
 
     `evaluate(q)` maps configurations (..., n) to the fields on the free coordinates,
     (..., n_free, r), column `h` for `elements[h]`. `symbolic` is None for the closed-form
-    path of physical manipulators (degree ≤ 2, see `_manipulator_basis`).
+    path of physical manipulators (degree ≤ 2, see `_manipulator_basis`) and for a preset's
+    brackets read from the code cache (`models.codecache`; derived once, compiled once).
     """
 
     system: System
@@ -165,31 +173,54 @@ def _build(system: System, stratum: Stratum, degree: int) -> LieBasis:
     if getattr(system, "robot", None) is not None and _is_manipulator(system):
         if degree <= 2 or system.n > SYMBOLIC_MAX_COORDINATES:
             return _manipulator_basis(system, stratum, degree)
-    symbols = list(system.symbols)
     free = stratum.free(system.n)
+    elements = hall_basis(len(stratum.active), degree)
+    names = [system.inputs[k] for k in stratum.active]
+    labels = [element_label(h, names) for h in elements]
+    key = _cache_key(system, stratum, degree)
+    entry = codecache.load(key) if key else None
+    if entry:
+        try:  # a preset's brackets as compiled before: no sympy at all
+            evaluate = _ArrayFunction.restored(entry["rows"], system.n)
+            return LieBasis(system, stratum, degree, elements, labels, free, None, evaluate)
+        except Exception:  # a damaged entry: derive them again
+            pass
+    rows = _symbolic_rows(system, stratum, elements, free)
+    evaluate = _ArrayFunction(rows, list(system.symbols))
+    saved = evaluate.saved() if key else None
+    if saved is not None:
+        codecache.store(key, {"rows": saved})
+    return LieBasis(system, stratum, degree, elements, labels, free, rows, evaluate)
+
+
+def _symbolic_rows(system: System, stratum: Stratum, elements, free) -> sp.Matrix:
+    """The fields of `elements` on the free coordinates, derived with sympy (n_free x r)."""
+    import sympy as sp  # only here: a cached model never needs sympy
+
+    symbols = list(system.symbols)
     G = system.fields_on(stratum)  # n x m_active
-    m = G.shape[1]
-    elements = hall_basis(m, degree)
     fields: dict[HallElement, sp.Matrix] = {}
     for h in elements:
         if isinstance(h, int):
             fields[h] = G[:, h]
         else:
             fields[h] = bracket(fields[h[0]], fields[h[1]], symbols, free)
-    rows = sp.Matrix.hstack(*(fields[h] for h in elements)).extract(
+    return sp.Matrix.hstack(*(fields[h] for h in elements)).extract(
         list(free), list(range(len(elements)))
     )
-    names = [system.inputs[k] for k in stratum.active]
-    return LieBasis(
-        system,
-        stratum,
-        degree,
-        elements,
-        [element_label(h, names) for h in elements],
-        free,
-        rows,
-        _ArrayFunction(rows, symbols),
-    )
+
+
+def _cache_key(system: System, stratum: Stratum, degree: int) -> str | None:
+    """The code-cache key of a stratum's brackets, for systems with an `identity` only."""
+    if system.identity is None:
+        return None
+    what = f"{system.identity}; liealgebra.py sha256 {_source_hash()}"
+    return codecache.key(system.name, system.states, f"{stratum.name} brackets {degree}", what)
+
+
+@cache
+def _source_hash() -> str:
+    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
 
 
 def _is_manipulator(system: System) -> bool:
@@ -254,6 +285,8 @@ def flow(basis: LieBasis, q0: np.ndarray, alpha: np.ndarray) -> np.ndarray:
         q = q0.copy()
         q[free] = y
         return basis.evaluate(q) @ alpha
+
+    from scipy.integrate import solve_ivp  # only the Lie planner flows a basis numerically
 
     sol = solve_ivp(rhs, (0.0, 1.0), q0[free], method="DOP853", rtol=1e-12, atol=1e-14)
     out = q0.copy()

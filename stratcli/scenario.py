@@ -24,7 +24,7 @@ from pydantic import (
 from . import tomlwrite
 from .controls import MAX_PERIODS_PER_LEG
 from .errors import InputError, Problem
-from .models.expressions import parse_number
+from .models.numbers import parse_number
 from .models.presets import PRESETS
 from .models.specs import (
     KINDS,

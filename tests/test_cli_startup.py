@@ -35,8 +35,8 @@ print(json.dumps({"code": code, "heavy": heavy}), file=sys.stderr)
 """
 
 
-def _run(args: list[str]) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+def _run(args: list[str], **env_vars: str) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **env_vars}
     proc = subprocess.run(
         [sys.executable, "-c", PROBE, json.dumps(args), json.dumps(HEAVY)],
         capture_output=True,
@@ -70,10 +70,28 @@ def test_runs_and_show_read_records_without_the_planner(run_dir):
     assert _run(["show", str(run_dir)]) == {"code": 0, "heavy": []}
 
 
+def test_planning_a_preset_from_a_warm_cache_imports_no_sympy(tmp_path):
+    """The first run derives and compiles the strata; the next finds them by the preset's
+    identity and plans, checks and writes its record without sympy."""
+    args = ["plan", str(ROOT / "scenarios" / "sim4_task_d.toml"), "--out", str(tmp_path), "-q"]
+    cache = str(tmp_path / "cache")
+    assert _run(args, XDG_CACHE_HOME=cache) == {"code": 0, "heavy": sorted(HEAVY)}
+    assert _run(args, XDG_CACHE_HOME=cache) == {"code": 0, "heavy": ["matplotlib", "scipy"]}
+
+
 @pytest.mark.parametrize("name", sorted(PRESET_TABLE))
 def test_the_static_preset_table_equals_the_built_models(name):
+    """The table a preset is made from agrees with its printed fields: each stratum `Sij`
+    locks joints i and j, whose columns are the only ones that move them."""
     info, system = PRESET_TABLE[name], preset(name)
-    assert info.states == system.states
-    assert info.inputs == system.inputs
-    assert info.strata == tuple(system.strata)
     assert info.description == system.description
+    assert system.fields.shape == (len(info.states), len(info.inputs))
+    for stratum in system.strata.values():
+        locked = tuple(int(c) - 1 for c in stratum.name[1:])
+        assert stratum.locked == locked
+        assert set(stratum.active) == set(range(len(info.inputs))) - set(locked)
+    system.check()  # no locked coordinate is moved by an active input
+    for i in range(len(info.inputs)):  # joint i is driven by u_i alone
+        assert [system.fields[i, j] for j in range(len(info.inputs))] == [
+            int(i == j) for j in range(len(info.inputs))
+        ]

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, NotControllableError, Problem
-from ..models.expressions import parse_number
+from ..models.numbers import parse_number
 from ..models.presets import PRESETS, preset
 from ..models.system import System
 from ..scenario import Task, load_scenario

@@ -11,8 +11,10 @@ they give, are identical.
 The key is a SHA-256 of the stratplan version, the sympy version (its printer writes the code),
 the source of the generator (`system.py` and this module: a development checkout that changes
 them without a version bump never reads stale code), the model's name and coordinates, the
-stratum and the exact symbolic fields on it (`srepr`). So any model is cached, presets and
-scenario-defined ones alike, and an edited model is a new key. An entry is written only after
+stratum and the exact symbolic fields on it (`srepr`), or instead of the fields the system's
+`identity` (presets: their name and the hash of `presets.py`), which spares a warm run from
+building the fields at all. So any model is cached, presets and scenario-defined ones alike,
+and an edited model is a new key. An entry is written only after
 its source, executed again, gave the same numbers as the compiled function at random points.
 An unwritable directory, a damaged or foreign entry: the fields are compiled as before, in
 silence (the cache is an optimisation, never a failure).
@@ -52,14 +54,23 @@ def _generator() -> str:
 
 
 def key(model: str, states: tuple[str, ...], stratum: str, fields: Any) -> str:
-    """The cache key of a stratum's functions (see the module docstring)."""
-    import sympy as sp  # loaded already: the fields are sympy
+    """The cache key of a stratum's functions (see the module docstring).
 
+    `fields` is the symbolic matrix, or a string that determines it exactly (a system's
+    `identity`): then no sympy is imported, and its version is not part of the key (the
+    entry is numpy source, checked against the compiled function when it was stored).
+    """
     from .. import __version__
 
-    parts = (FORMAT, __version__, sp.__version__, _generator(), model, ",".join(states), stratum)
+    if isinstance(fields, str):
+        tool, what = "identity", fields
+    else:
+        import sympy as sp  # loaded already: the fields are sympy
+
+        tool, what = sp.__version__, sp.srepr(fields)
+    parts = (FORMAT, __version__, tool, _generator(), model, ",".join(states), stratum, what)
     digest = hashlib.sha256()
-    for part in (*parts, sp.srepr(fields)):
+    for part in parts:
         digest.update(part.encode("utf-8") + b"\0")
     return digest.hexdigest()
 

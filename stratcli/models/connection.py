@@ -17,12 +17,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from fractions import Fraction
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sympy as sp
 
 from .planar import PlanarManipulator, Structure, kinematics, points_first, points_last, structure
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 __all__ = [
     "connection",
@@ -135,6 +137,8 @@ def _exact(x: float, max_denominator: int = 10_000) -> sp.Expr:
     Returns a small-denominator rational if one lies within 1e-13 (relative) of x, and
     otherwise the exact binary value of x.
     """
+    import sympy as sp  # only here: a cached model never needs sympy
+
     frac = Fraction(x).limit_denominator(max_denominator)
     if abs(float(frac) - x) <= 1e-13 * max(1.0, abs(x)):
         return sp.Rational(frac.numerator, frac.denominator)
@@ -143,6 +147,8 @@ def _exact(x: float, max_denominator: int = 10_000) -> sp.Expr:
 
 def _exact_angle(x: float) -> sp.Expr:
     """Exact angle: a rational multiple of π when x is one (denominator <= 360)."""
+    import sympy as sp  # only here: a cached model never needs sympy
+
     frac = Fraction(x / math.pi).limit_denominator(360)
     if abs(float(frac) * math.pi - x) <= 1e-13 * max(1.0, abs(x)):
         return sp.Rational(frac.numerator, frac.denominator) * sp.pi
@@ -161,6 +167,8 @@ def trig_canonical(expr: sp.Expr, q_symbols: Sequence[sp.Symbol]) -> sp.Expr:
     form, so equal functions give identical output. Each frequency k is written with its first
     nonzero entry positive. This gives the paper's form, e.g. cos(q1 + q2 + q3).
     """
+    import sympy as sp  # only here: a cached model never needs sympy
+
     q = list(q_symbols)
     z = [sp.Dummy(f"z{j}") for j in range(len(q))]
     rep = {}
@@ -217,6 +225,8 @@ def derive_symbolic(
     the result is a polynomial in cosines with rational coefficients, 1/(12·M) times eq. 6 and
     eq. 11. The output is in `trig_canonical` form, and A_j = f_j / f_θ.
     """
+    import sympy as sp  # only here: a cached model never needs sympy
+
     q = list(q_symbols)
     if len(q) != robot.n_joints:
         raise ValueError(f"need {robot.n_joints} symbols, got {len(q)}")

@@ -10,13 +10,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import combinations
+from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy as sp
 
 from .connection import connection, connection_A, connection_symbolic
 from .planar import PlanarManipulator
 from .system import Stratum, System
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 
 def stratum_name(locked: tuple[int, ...]) -> str:
@@ -108,6 +111,8 @@ class ManipulatorSystem(System):
 
     @property
     def fields(self) -> sp.Matrix:  # derived symbolically on first use only (slow for long chains)
+        import sympy as sp  # only here: a cached model never needs sympy
+
         if self._fields is None:
             k = self.robot.n_joints
             A = connection_symbolic(self.robot, self.symbols[:k])

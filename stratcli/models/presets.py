@@ -4,20 +4,24 @@
 joint `i` (its input is off), `Sij` locks joints `i` and `j` (two-arm model only).
 
 `PRESET_TABLE` describes the presets without building them: `stratplan models` lists it
-without importing sympy (a test checks it equals the built systems). sympy is imported by the
-functions that build a model, for the same start-up speed.
+without importing sympy (a test checks it equals the built systems). A preset `System` is
+made from that table too; its symbolic fields are built on first use only, and its `identity`
+(name and the hash of this file) keys the code cache, so a run whose strata are cached never
+imports sympy.
 """
 
 from __future__ import annotations
 
+import hashlib
 from functools import cache
 from itertools import combinations
+from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
+
+from .system import System, make_strata
 
 if TYPE_CHECKING:
     import sympy as sp
-
-    from .system import System
 
 
 class PresetInfo(NamedTuple):
@@ -56,25 +60,20 @@ def _c(*qs: sp.Symbol) -> sp.Expr:
     return sp.cos(sum(qs))
 
 
-def _manipulator(name: str, k: int, f: list[sp.Expr], f_theta: sp.Expr, strata) -> System:
+def _fields(k: int, f: list[sp.Expr], f_theta: sp.Expr) -> sp.Matrix:
+    """`G` of a k-joint preset: joint i driven by u_i, `θ' = Σ f_i / f_θ u_i`."""
     import sympy as sp  # start-up speed (module docstring)
 
-    from .system import System, make_strata
-
-    states = (*(f"q{i}" for i in range(1, k + 1)), "theta")
-    inputs = tuple(f"u{i}" for i in range(1, k + 1))
     G = sp.zeros(k + 1, k)
     for i in range(k):
         G[i, i] = 1
         G[k, i] = f[i] / f_theta
-    return System(name, states, inputs, G, make_strata(states, inputs, strata(states, inputs)))
+    return G
 
 
-def one_arm() -> System:
+def _one_arm_fields() -> sp.Matrix:
     """One-arm, three-joint free-floating manipulator, paper eq. 5-9."""
     import sympy as sp  # start-up speed (module docstring)
-
-    from .planar import paper_one_arm
 
     q1, q2, q3 = sp.symbols("q1 q2 q3", real=True)
     f1 = -(
@@ -100,23 +99,12 @@ def one_arm() -> System:
         + sp.Rational(4226, 5)
     )
 
-    def strata(states, inputs):
-        return {
-            f"S{i + 1}": ((states[i],), tuple(u for j, u in enumerate(inputs) if j != i))
-            for i in range(3)
-        }
-
-    system = _manipulator("one-arm", 3, [f1, f2, f3], f_theta, strata)
-    system.description = PRESET_TABLE["one-arm"].description
-    system.robot = paper_one_arm()
-    return system
+    return _fields(3, [f1, f2, f3], f_theta)
 
 
-def two_arm() -> System:
+def _two_arm_fields() -> sp.Matrix:
     """Two-arm, four-joint free-floating manipulator, paper eq. 10-13."""
     import sympy as sp  # start-up speed (module docstring)
-
-    from .planar import paper_two_arm
 
     q1, q2, q3, q4 = sp.symbols("q1 q2 q3 q4", real=True)
     c = _c
@@ -156,21 +144,63 @@ def two_arm() -> System:
         + 1726
     )
 
-    def strata(states, inputs):
-        out = {}
-        for size in (1, 2):
-            for locked in combinations(range(4), size):
-                name = "S" + "".join(str(i + 1) for i in locked)
-                out[name] = (
-                    tuple(states[i] for i in locked),
-                    tuple(u for j, u in enumerate(inputs) if j not in locked),
-                )
-        return out
+    return _fields(4, [f1, f2, f3, f4], f_theta)
 
-    system = _manipulator("two-arm", 4, [f1, f2, f3, f4], f_theta, strata)
-    system.description = PRESET_TABLE["two-arm"].description
-    system.robot = paper_two_arm()
-    return system
+
+_BUILDERS = {"one-arm": _one_arm_fields, "two-arm": _two_arm_fields}
+
+
+@cache
+def _source_hash() -> str:
+    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+
+
+class PresetSystem(System):
+    """A preset: coordinates, strata and robot from `PRESET_TABLE`, fields built lazily."""
+
+    def __init__(self, name: str):
+        from .planar import paper_one_arm, paper_two_arm
+
+        info = PRESET_TABLE[name]
+        states, inputs = info.states, info.inputs
+        spec = {}
+        for stratum in info.strata:  # "S13": joints 1 and 3 locked, their inputs off
+            locked = [int(c) - 1 for c in stratum[1:]]
+            spec[stratum] = (
+                tuple(states[i] for i in locked),
+                tuple(u for j, u in enumerate(inputs) if j not in locked),
+            )
+        robot = {"one-arm": paper_one_arm, "two-arm": paper_two_arm}[name]()
+        super().__init__(
+            name,
+            states,
+            inputs,
+            None,
+            make_strata(states, inputs, spec),
+            description=info.description,
+            robot=robot,
+            identity=f"preset {name}; presets.py sha256 {_source_hash()}",
+        )
+
+    @property
+    def fields(self) -> sp.Matrix:  # the printed equations, built on first use only
+        if self._fields is None:
+            self._fields = _BUILDERS[self.name]()
+        return self._fields
+
+    @fields.setter
+    def fields(self, value) -> None:
+        self._fields = value
+
+
+def one_arm() -> System:
+    """One-arm, three-joint free-floating manipulator, paper eq. 5-9."""
+    return PresetSystem("one-arm")
+
+
+def two_arm() -> System:
+    """Two-arm, four-joint free-floating manipulator, paper eq. 10-13."""
+    return PresetSystem("two-arm")
 
 
 PRESETS = {"one-arm": one_arm, "two-arm": two_arm}

@@ -12,12 +12,11 @@ from __future__ import annotations
 from functools import lru_cache
 from typing import Annotated, Any, Literal
 
-import sympy as sp
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, model_validator
 
 from ..errors import InputError, Problem
-from .expressions import ExpressionError, parse_expression, parse_number
 from .manipulator import ManipulatorSystem
+from .numbers import ExpressionError, parse_number
 from .planar import Arm, Base, Link, PlanarManipulator
 from .presets import PRESETS, preset
 from .system import Stratum, System
@@ -198,6 +197,10 @@ def _planar_system(spec: PlanarModel) -> System:
 
 
 def _custom_system(spec: CustomModel) -> System:
+    import sympy as sp  # only for models written as expressions (presets need none)
+
+    from .expressions import parse_expression
+
     problems: list[Problem] = []
     states, inputs = tuple(spec.states), tuple(spec.inputs)
     for what, names in (("states", states), ("inputs", inputs)):

@@ -7,7 +7,8 @@ coordinates, whose rows depend on explicit coordinates only, so that their end v
 plain integral. Vectorised numpy functions are generated once: the quadrature rows with their
 first and second derivatives (fused, `_FusedRows`), and `G(q)`, `∂G/∂q` for the ODE path.
 Their source is kept in a disk cache (`codecache`), so a model is differentiated and
-compiled once, not on every run.
+compiled once, not on every run. A system with an `identity` (the presets) is found in that
+cache without building its symbolic fields, so a warm run never imports sympy.
 """
 
 from __future__ import annotations
@@ -15,14 +16,16 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sympy as sp
 
 from ..errors import ModelError, Problem
 from . import codecache
 from .planar import PlanarManipulator
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 
 @dataclass(frozen=True)
@@ -50,6 +53,8 @@ class _ArrayFunction:
 
     def __init__(self, array: Any, symbols: list[sp.Symbol], saved: dict | None = None):
         if saved is None:
+            import sympy as sp  # only to generate: a cached function needs none
+
             self.shape = tuple(array.shape)
             flat = [array[idx] for idx in np.ndindex(*self.shape)]
             self.index = [i for i, e in enumerate(flat) if sp.sympify(e).is_zero is not True]
@@ -59,6 +64,11 @@ class _ArrayFunction:
             self.shape, self.index = tuple(saved["shape"]), list(saved["index"])
             self._func = codecache.function(saved["source"]) if self.index else None
         self._n = len(symbols)
+
+    @classmethod
+    def restored(cls, saved: dict, n: int) -> _ArrayFunction:
+        """Again from what `saved()` returned, for `n` coordinates (no sympy)."""
+        return cls(None, [None] * n, saved=saved)
 
     def saved(self) -> dict | None:
         """What the disk cache keeps of it, or None when its source cannot be kept."""
@@ -78,6 +88,8 @@ class _ArrayFunction:
 
 def _derivatives(exprs: list[sp.Expr], symbols: list[sp.Symbol]) -> list[sp.Expr]:
     """`∂e/∂s` for every e of `exprs` (outer) and s of `symbols` (inner), flat."""
+    import sympy as sp
+
     return [sp.diff(e, s) for e in exprs for s in symbols]
 
 
@@ -91,6 +103,8 @@ class _FusedRows:
     """
 
     def __init__(self, rows: sp.Matrix, symbols: list[sp.Symbol], explicit: tuple[int, ...]):
+        import sympy as sp
+
         nQ, m = rows.shape
         nE = len(explicit)
         self._sizes = (nQ, m, nE)
@@ -123,6 +137,8 @@ class _FusedRows:
 
     def _func(self, order: int) -> Callable:
         if self._funcs[order] is None:
+            import sympy as sp
+
             self._funcs[order] = sp.lambdify(
                 self._symbols, self._flats[order], modules="numpy", cse=True
             )
@@ -165,7 +181,6 @@ class CompiledStratum:
 
     system: System
     stratum: Stratum
-    G_sym: sp.Matrix  # n x m_active, parameters substituted
     explicit: tuple[int, ...] = field(init=False)
     quadrature: tuple[int, ...] = field(init=False)
     C_explicit: np.ndarray = field(init=False)  # |E| x m_active constant rows
@@ -174,8 +189,9 @@ class CompiledStratum:
     _entry: dict = field(init=False, repr=False)  # what the cache holds of this stratum
 
     def __post_init__(self) -> None:
-        system, G = self.system, self.G_sym
-        self._key = codecache.key(system.name, system.states, self.stratum.name, G)
+        system = self.system
+        what = system.identity if system.identity is not None else self.G_sym
+        self._key = codecache.key(system.name, system.states, self.stratum.name, what)
         self._entry = codecache.load(self._key) or {}
         if self._entry:
             try:
@@ -201,7 +217,7 @@ class CompiledStratum:
     def _restore(self, entry: dict) -> None:
         self.explicit = tuple(entry["explicit"])
         self.quadrature = tuple(entry["quadrature"])
-        m = self.G_sym.shape[1]
+        m = len(self.stratum.active)
         self.C_explicit = np.array(entry["C_explicit"], dtype=float).reshape(len(self.explicit), m)
         self.quadrature_terms = None
         if entry["sizes"] is not None:
@@ -232,6 +248,10 @@ class CompiledStratum:
             _ = self.G, self.dG  # the ODE path is the only one: compile now
 
     @cached_property
+    def G_sym(self) -> sp.Matrix:  # n x m_active, parameters substituted; built on a cache miss
+        return self.system.fields_on(self.stratum)
+
+    @cached_property
     def G(self) -> _ArrayFunction:  # (..., n) -> (..., n, m_active)
         return self._array("G", lambda: self.G_sym)
 
@@ -240,6 +260,8 @@ class CompiledStratum:
         return self._array("dG", self._dG_sym)
 
     def _dG_sym(self) -> sp.NDimArray:
+        import sympy as sp
+
         q, (n, m) = list(self.system.symbols), self.G_sym.shape
         flat = [
             sp.diff(self.G_sym[i, j], q[k]) for i in range(n) for j in range(m) for k in range(n)
@@ -248,13 +270,12 @@ class CompiledStratum:
 
     def _array(self, name: str, build: Callable[[], Any]) -> _ArrayFunction:
         """`G` or `dG` from the disk cache, else generated (and then cached)."""
-        symbols = list(self.system.symbols)
         if self._entry.get(name):
             try:
-                return _ArrayFunction(None, symbols, saved=self._entry[name])
+                return _ArrayFunction.restored(self._entry[name], self.system.n)
             except Exception:  # a damaged entry: generate it again
                 pass
-        func = _ArrayFunction(build(), symbols)
+        func = _ArrayFunction(build(), list(self.system.symbols))
         saved = func.saved() if "explicit" in self._entry else None  # else: __post_init__
         if saved is not None:
             self._entry[name] = saved
@@ -280,6 +301,9 @@ class System:
     description: str = ""
     robot: PlanarManipulator | None = None  # physical robot, when the model is a manipulator
     spec: Any = None  # the scenario's [model] table it was built from (a plan's reference)
+    # Determines `fields` exactly (e.g. a preset and the hash of its source): the code cache
+    # is keyed by it, so a warm run needs no symbolic fields at all. None: keyed by the fields.
+    identity: str | None = None
     _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False)
 
     def __getstate__(self) -> dict:
@@ -291,6 +315,8 @@ class System:
 
     @cached_property
     def symbols(self) -> tuple[sp.Symbol, ...]:
+        import sympy as sp
+
         return tuple(sp.Symbol(s, real=True) for s in self.states)
 
     @property
@@ -310,6 +336,8 @@ class System:
 
     def fields_on(self, stratum: Stratum) -> sp.Matrix:
         """Vector fields of the stratum's active inputs (columns), parameters substituted."""
+        import sympy as sp
+
         values = dict(self.parameters)
         values.update(dict(stratum.parameters))
         subs = {sp.Symbol(k, real=True): sp.Rational(repr(float(v))) for k, v in values.items()}
@@ -321,7 +349,7 @@ class System:
         s = self.stratum(stratum) if isinstance(stratum, str) else stratum
         if s.name not in self._compiled:
             try:
-                self._compiled[s.name] = CompiledStratum(self, s, self.fields_on(s))
+                self._compiled[s.name] = CompiledStratum(self, s)
             except ModelError:
                 raise
             except _SYMBOLIC_FAILURES as exc:

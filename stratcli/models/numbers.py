@@ -1,0 +1,103 @@
+"""Numbers in scenario files: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°".
+
+Plain arithmetic of literals and the constants pi (π) and E is evaluated here, in decimal
+arithmetic with 40 digits and rounded once to a float, without sympy (a scenario is read on
+every run, and sympy costs 0.2 s to import). Anything else (functions, unknown names, bad
+syntax) goes to `expressions.parse_number`, the sympy-backed parser, which evaluates it or
+gives the error message; the values agree (both round a correctly computed value once).
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import re
+from decimal import Context, Decimal, DivisionByZero, InvalidOperation, Overflow
+
+__all__ = ["ExpressionError", "parse_number"]
+
+_DEG = re.compile(r"^\s*(.+?)\s*(deg|°)\s*$")
+_CONTEXT = Context(prec=40, Emax=999, Emin=-999, traps=[DivisionByZero, InvalidOperation, Overflow])
+_PI = Decimal("3.141592653589793238462643383279502884197169399375")
+_CONSTANTS = {"pi": _PI, "π": _PI, "E": Decimal("2.718281828459045235360287471352662497757")}
+_MAX_LENGTH = 200  # longer text goes to the full parser, which bounds it
+_MAX_POWER = 64
+_MAX_MAGNITUDE = Decimal("1e15")  # larger constants: the full parser decides (it refuses them)
+
+
+class ExpressionError(ValueError):
+    """An expression that is not plain arithmetic in the allowed names."""
+
+
+class _NotPlain(Exception):
+    """Not plain constant arithmetic: the full parser decides."""
+
+
+def _eval(node: ast.AST) -> Decimal:
+    value = _value(node)
+    if abs(value) > _MAX_MAGNITUDE:
+        raise _NotPlain
+    return value
+
+
+def _value(node: ast.AST) -> Decimal:
+    if isinstance(node, ast.Expression):
+        return _eval(node.body)
+    if isinstance(node, ast.Constant) and type(node.value) in (int, float):
+        return Decimal(repr(node.value)) if isinstance(node.value, float) else Decimal(node.value)
+    if isinstance(node, ast.Name) and node.id in _CONSTANTS:
+        return _CONSTANTS[node.id]
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.UAdd | ast.USub):
+        value = _eval(node.operand)
+        return _CONTEXT.minus(value) if isinstance(node.op, ast.USub) else value
+    if isinstance(node, ast.BinOp):
+        a, b = _eval(node.left), _eval(node.right)
+        if isinstance(node.op, ast.Add):
+            return _CONTEXT.add(a, b)
+        if isinstance(node.op, ast.Sub):
+            return _CONTEXT.subtract(a, b)
+        if isinstance(node.op, ast.Mult):
+            return _CONTEXT.multiply(a, b)
+        if isinstance(node.op, ast.Div):
+            return _CONTEXT.divide(a, b)
+        if isinstance(node.op, ast.Pow) and b == b.to_integral_value() and abs(b) <= _MAX_POWER:
+            return _CONTEXT.power(a, int(b))
+    raise _NotPlain
+
+
+def _plain(text: str) -> float | None:
+    """The value of plain constant arithmetic, or None when it is anything else."""
+    if len(text) > _MAX_LENGTH:
+        return None
+    try:
+        number = float(_eval(ast.parse(text.strip().replace("^", "**"), mode="eval")))
+    except (_NotPlain, SyntaxError, ValueError, ArithmeticError, RecursionError):
+        return None
+    return number if math.isfinite(number) else None
+
+
+def parse_number(value: float | int | str) -> float:
+    """A real number from a TOML value: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°".
+
+    Raises
+    ------
+    ExpressionError
+        Not a finite real constant (the message says why).
+    """
+    if isinstance(value, bool):
+        raise ExpressionError(f"expected a number, got {value!r}")
+    if isinstance(value, int | float):
+        number = float(value)
+        if not math.isfinite(number):
+            raise ExpressionError(f"must be a finite number (got {number})")
+        return number
+    if not isinstance(value, str):
+        raise ExpressionError(f"expected a number or an expression such as 'pi/3', got {value!r}")
+    match = _DEG.match(value)
+    text, scale = (match.group(1), math.pi / 180.0) if match else (value, 1.0)
+    number = _plain(text)
+    if number is not None:
+        return number * scale
+    from .expressions import parse_number as full  # functions, names, and every error message
+
+    return full(value)

@@ -1,0 +1,48 @@
+"""Numbers in scenario files: the sympy-free path gives what the full parser gives."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from stratcli.models import expressions
+from stratcli.models.numbers import ExpressionError, parse_number
+
+PLAIN = ["pi/3", "-pi/12", "2*pi/3", "60deg", "-45°", "1e-3", "(1+2)/7", "pi^2/4", "E**2", "π/5"]
+
+
+@pytest.mark.parametrize("text", PLAIN)
+def test_plain_arithmetic_equals_the_full_parser(text, monkeypatch):
+    fast = parse_number(text)
+    calls = []
+    monkeypatch.setattr(expressions, "parse_number", lambda v: calls.append(v))
+    assert parse_number(text) == fast and calls == []  # never reached the full parser
+    monkeypatch.undo()
+    assert fast == expressions.parse_number(text)
+
+
+def test_a_caret_is_a_power_with_a_powers_precedence():
+    """Python's `^` binds looser than `/`: "pi^2/4" must not become pi^(1/2)."""
+    assert parse_number("pi^2/4") == parse_number("pi**2/4") == expressions.parse_number("pi^2/4")
+    assert parse_number("pi^2/4") == pytest.approx(math.pi**2 / 4, rel=1e-15)
+
+
+@pytest.mark.parametrize("text", ["sqrt(2)/2", "atan2(1, 2)", "cos(pi/3)"])
+def test_functions_go_to_the_full_parser(text):
+    assert parse_number(text) == expressions.parse_number(text)
+    assert math.isfinite(parse_number(text))
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [("x/2", "unknown name"), ("1/0", "infinite"), ("pi/", "cannot parse"), ("1e20", "exceeds")],
+)
+def test_what_is_not_a_number_gets_the_full_parsers_message(text, words):
+    with pytest.raises(ExpressionError, match=words):
+        parse_number(text)
+    with pytest.raises(ExpressionError) as full:
+        expressions.parse_number(text)
+    with pytest.raises(ExpressionError) as fast:
+        parse_number(text)
+    assert str(fast.value) == str(full.value)
