@@ -1,7 +1,8 @@
 """Re-integration of a plan: dense samples on the real time axis (no I/O).
 
 `sample` re-integrates every leg from its recorded start with the leg's own Fourier controls
-(scipy's DOP853, independent of the planner's end-point evaluator) on a uniform grid of
+(DOP853, `stratcli.odeint`: scipy's algorithm without importing scipy.integrate;
+independent of the planner's end-point evaluator) on a uniform grid of
 leg-local times, and places the samples on the real time axis (leg k spans
 `[t0_k, t0_k + duration_k]`). Both ends of every leg are sampled, so a switch instant appears
 twice: once as the end of the leg before it and once as the start of the leg after it.
@@ -20,8 +21,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
+from .odeint import OutOfSteps, dop853
 from .results import LegPlan
 
 if TYPE_CHECKING:  # the plan type holds a sampler; only its annotations are needed here
@@ -95,14 +96,10 @@ def _integrate(G, basis, L, q0, duration: float, t_eval: np.ndarray) -> np.ndarr
 
     try:
         with np.errstate(all="ignore"):
-            sol = solve_ivp(
-                rhs, (0.0, duration), q0, method="DOP853", t_eval=t_eval, rtol=RTOL, atol=ATOL
-            )
-    except (_Budget, ArithmeticError, ValueError, np.linalg.LinAlgError):
+            y = dop853(rhs, duration, q0, t_eval, rtol=RTOL, atol=ATOL)
+    except (_Budget, OutOfSteps, ArithmeticError, ValueError, np.linalg.LinAlgError):
         return None
-    if not sol.success or sol.y.shape[1] != len(t_eval):
-        return None
-    return sol.y.T
+    return y if np.all(np.isfinite(y)) else None
 
 
 def integrate_leg(plan: SequencePlan, leg: LegPlan, tau: np.ndarray) -> np.ndarray:
