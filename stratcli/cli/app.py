@@ -7,6 +7,7 @@ import gc
 from typing import Annotated
 
 import typer
+from typer.core import TyperCommand, TyperGroup
 
 from .. import __version__
 from . import commands
@@ -19,8 +20,28 @@ from . import commands
 gc.set_threshold(10_000, 10, 10)
 atexit.register(gc.freeze)
 
+
+class _NoTypeOnHelp:
+    """`--help` is a flag: no `<bool>` beside it in the help (as for every other flag)."""
+
+    def get_help_option(self, ctx):
+        option = super().get_help_option(ctx)
+        if option is not None:
+            option.metavar = ""
+        return option
+
+
+class _Group(_NoTypeOnHelp, TyperGroup):
+    pass
+
+
+class _Command(_NoTypeOnHelp, TyperCommand):
+    pass
+
+
 app = typer.Typer(
     name="stratplan",
+    cls=_Group,
     help="Motion planning for stratified nonholonomic systems (free-floating manipulators).",
     no_args_is_help=True,
     pretty_exceptions_show_locals=False,
@@ -49,11 +70,11 @@ def _main(
     pass
 
 
-app.command()(commands.plan)
-app.command()(commands.show)
-app.command()(commands.runs)
-app.command()(commands.models)
-app.command()(commands.regress)
-app.command("decompose")(commands.decompose)
-app.command("compare-sequences")(commands.compare_sequences)
-app.command()(commands.check)
+app.command(cls=_Command)(commands.plan)
+app.command(cls=_Command)(commands.show)
+app.command(cls=_Command)(commands.runs)
+app.command(cls=_Command)(commands.models)
+app.command(cls=_Command)(commands.regress)
+app.command("decompose", cls=_Command)(commands.decompose)
+app.command("compare-sequences", cls=_Command)(commands.compare_sequences)
+app.command(cls=_Command)(commands.check)
