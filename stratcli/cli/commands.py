@@ -144,6 +144,7 @@ def compare_sequences(
         bool,
         typer.Option(
             "--exhaustive",
+            metavar="",
             help="Energy objective and criterion: search every sequence to its minimum "
             "instead of screening them (slower, the same choice on the tested tasks).",
         ),
