@@ -15,6 +15,14 @@ plans every candidate to its minimum (exhaustive). A screened energy is what one
 the search reached, not the sequence's minimum; that a sequence ending there above twice the
 best cannot win is a heuristic, checked against the exhaustive choice on the Sim 4 task and
 random one-arm tasks (tests/test_compare.py, benchmarks/bench_screen.py).
+
+Equal duration. A sequence's energy falls as its duration grows (time-scaling a path by s
+multiplies its energy by s and its duration by 1/s, so energy × duration is a property of the
+path), and candidates of different lengths have different total durations. The energy
+criterion therefore compares every sequence at one total duration, the shortest candidate's
+`reference_duration` T: `energy_equal_time = energy · duration / T`, the energy its path would
+take if run in T. The screen compares the same quantity. The raw energy of each plan (as
+planned, at its own duration) is reported beside it.
 """
 
 from __future__ import annotations
@@ -63,14 +71,22 @@ class Outcome:
     planning_time: float = 0.0  # seconds: this sequence's legs (shared ones included)
     rank: int | None = None
     screened: bool = False  # its energy search was cut short by the screen (not a minimum)
+    reference_duration: float = math.nan  # the comparison's equal total duration T
 
     @property
     def ok(self) -> bool:
         return self.status == "ok"
 
+    @property
+    def energy_equal_time(self) -> float:
+        """The energy of this path run in the comparison's total duration T (E·duration/T)."""
+        if not math.isfinite(self.reference_duration) or not self.duration > 0:
+            return self.energy
+        return self.energy * self.duration / self.reference_duration
+
     def value(self, criterion: str) -> float:
         return {
-            "energy": self.energy,
+            "energy": self.energy_equal_time,
             "peak-control": self.peak_control,
             "excursion": self.excursion,
             "duration": self.duration,
@@ -89,6 +105,13 @@ class Comparison:
     legs_planned: int  # legs actually planned
     wall_time: float
     shared: bool  # prefix sharing used (Newton objective)
+    reference_duration: float = math.nan  # total duration the energies are compared at
+
+    @property
+    def equal_durations(self) -> bool:
+        """Whether every candidate has the reference duration (energies compare as they are)."""
+        durations = [o.duration for o in self.outcomes if math.isfinite(o.duration)]
+        return all(math.isclose(d, self.reference_duration) for d in durations)
 
     @property
     def best(self) -> Outcome | None:
@@ -105,6 +128,8 @@ class Comparison:
             return "no candidate sequences"
         ok = [self.outcomes[i] for i in self.ranking if self.outcomes[i].ok]
         label = CRITERION_LABELS[self.criterion]
+        if self.criterion == "energy" and not self.equal_durations:
+            label += f" at an equal total duration of {self.reference_duration:g} s"
         if not best.ok:
             return (
                 "no sequence reached the goal; the one that got furthest was "
@@ -182,6 +207,8 @@ def compare(
             cs = system.compiled(leg.stratum)  # before forking: workers inherit the functions
             if settings.evaluator == "ode":
                 _ = cs.G, cs.dG  # the general path's functions are generated on first use
+    durations = [sum(leg.duration for leg in cand.legs) for cand in candidates]
+    reference = min((d for d in durations if d > 0), default=math.nan)
     STATE.update(system=system, settings=settings, start=start)
     try:
         if is_newton(settings):
@@ -202,6 +229,7 @@ def compare(
         outcomes[k] = _outcome(k, candidates[k], plans[k], times[k], system, settings)
         if k in screened:
             outcomes[k] = replace(outcomes[k], screened=True)
+    outcomes = [replace(o, reference_duration=reference) for o in outcomes]
     wall = time.perf_counter() - clock
     ranking = rank([o for o in outcomes if o is not None], criterion)
     for r, k in enumerate(ranking):
@@ -215,6 +243,7 @@ def compare(
         legs_planned=planned,
         wall_time=wall,
         shared=is_newton(settings),
+        reference_duration=reference,
     )
 
 
@@ -227,18 +256,18 @@ def _compare_screened(system, settings, start, candidates, valid, jobs, advance,
     )
     STATE["settings"] = settings
 
-    def newton_key(k: int):
+    def newton_key(k: int):  # energy x duration: the ranking at equal duration
         p = first_plans[k]
         ok = not isinstance(p, str) and p.ok
-        return (0, p.total_energy, k) if ok else (1, 0.0, k)
+        return (0, p.total_energy * p.duration, k) if ok else (1, 0.0, k)
 
     order = sorted(valid, key=newton_key)
     head, tail = sorted(order[: max(1, top)]), sorted(order[max(1, top) :])
     planned, requested, plans, times = compare_whole(
         system, settings, candidates, head, jobs, advance
     )
-    found = [p.total_energy for p in plans.values() if not isinstance(p, str) and p.ok]
-    bound = STATE["bound"] = min(found, default=math.inf)
+    found = [p.total_energy * p.duration for p in plans.values() if not isinstance(p, str) and p.ok]
+    bound = STATE["bound"] = min(found, default=math.inf)  # energy x duration (see trie)
     # the others: one start (the Newton plan), cut against the bound
     STATE["settings"] = replace(settings, starts=1)
     more = compare_whole(system, settings, candidates, tail, jobs, lambda k: None)
@@ -246,7 +275,9 @@ def _compare_screened(system, settings, start, candidates, valid, jobs, advance,
     plans.update(more[2])
     times.update(more[3])
     reached = [k for k in tail if not isinstance(plans[k], str) and plans[k].ok]
-    close = [k for k in reached if plans[k].total_energy <= SCREEN_RATIO * bound]
+    close = [
+        k for k in reached if plans[k].total_energy * plans[k].duration <= SCREEN_RATIO * bound
+    ]
     again = compare_whole(system, settings, candidates, close, jobs, lambda k: None)
     advance(len(tail))
     plans.update(again[2])

@@ -157,11 +157,13 @@ def _plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
     system: System = STATE["system"]
     settings: PlannerSettings = STATE["settings"]
     start: np.ndarray = STATE["start"]
-    bound: float = STATE.get("bound", np.inf)  # the screen's (stratcli.screen)
+    # the screen's bound is an energy x duration (compare: energies at equal duration)
+    action: float = STATE.get("bound", np.inf)
     out = {}
     for key, legs in items:
         clock = time.perf_counter()
         try:
+            bound = action / sum(leg.duration for leg in legs)
             plan = plan_sequence(system, start, legs, settings, bound=bound)
             out[key] = (plan, time.perf_counter() - clock, "")  # pickles without its model
         except Exception as exc:

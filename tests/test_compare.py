@@ -83,11 +83,41 @@ def test_shared_prefixes_give_exactly_the_plans_of_plan_sequence(sim4):
             np.testing.assert_array_equal(a.end, b.end)
         for a, b in zip(o.plan.switches, again.switches, strict=True):
             np.testing.assert_array_equal(a.jump_derivative, b.jump_derivative)
-    energies = [result.outcomes[k].energy for k in result.ranking if result.outcomes[k].ok]
+    ranked = [result.outcomes[k] for k in result.ranking if result.outcomes[k].ok]
+    energies = [o.energy_equal_time for o in ranked]  # compared at one total duration
     assert energies == sorted(energies)
+    assert result.reference_duration == min(
+        sum(leg.duration for leg in c.legs) for c in dec.candidates
+    )
     assert "lowest total energy" in result.choice()
     by_peak = compare(
         sim4.system, sim4.start, dec.candidates[:6], sim4.settings, criterion="peak-control"
     )
     peaks = [by_peak.outcomes[k].peak_control for k in by_peak.ranking]
     assert peaks == sorted(peaks)
+
+
+def test_energies_are_compared_at_equal_total_duration(sim4):
+    """Time-scaling a path by s multiplies its energy by s and divides its duration by s, so
+    energy x duration belongs to the path: a longer sequence cannot win by being slower."""
+    from dataclasses import replace
+
+    import pytest
+
+    from stratcli.compare import Outcome, rank
+    from stratcli.stratified import time_scaled
+
+    cand = decompose(sim4.system, sim4.start, sim4.goal, max_length=2).candidates[0]
+    plan = plan_sequence(sim4.system, sim4.start, list(cand.legs), sim4.settings)
+    assert plan.ok
+    for s in (0.5, 2.0, 3.0):
+        scaled = time_scaled(plan, s)
+        assert scaled.total_energy * scaled.duration == pytest.approx(
+            plan.total_energy * plan.duration, rel=1e-12
+        )
+    short = Outcome(0, cand, None, "ok", "", "", energy=100.0, duration=2.0)
+    long = Outcome(1, cand, None, "ok", "", "", energy=80.0, duration=3.0)  # 120 in 2 s
+    at = [replace(o, reference_duration=2.0) for o in (short, long)]
+    assert at[1].energy_equal_time == pytest.approx(120.0)
+    assert rank(at, "energy") == [0, 1]
+    assert rank([short, long], "energy") == [1, 0]  # raw energies would favour the slow one

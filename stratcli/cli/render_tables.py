@@ -37,7 +37,11 @@ def ranking(task, doc: dict) -> None:
     else:
         text_column(rows, "sequence")
     number_column(rows, "status", justify="left")
-    for header in ("energy", "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
+    reference = doc.get("reference_duration_s")
+    durations = {row["duration"] for row in doc["rows"] if row["duration"] is not None}
+    scaled = doc["criterion"] == "energy" and reference is not None and durations != {reference}
+    headers = ["energy"] + ([f"energy\nin {reference:g} s"] if scaled else [])
+    for header in (*headers, "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
         number_column(rows, header)
     failures = []
     screened = 0
@@ -48,11 +52,15 @@ def ranking(task, doc: dict) -> None:
         sequence = " → ".join(row["sequence"])
         if not ok:  # the reason is a sentence: below the table, not squeezed into a cell
             failures.append(f"rank {row['rank']} ({sequence}) failed: {escape(row['reason'])}")
+        star = "*" if row.get("screened") else ""
+        energies = [fmt(row["energy"]) + star if ok else "–"]
+        if scaled:
+            energies.append(fmt(row["energy_equal_time"]) + star if ok else "–")
         rows.add_row(
             str(row["rank"]),
             f"{sequence}\n[dim]{row['strategy']}[/]" if both else sequence,
             "ok" if ok else "[red]failed[/]",
-            (fmt(row["energy"]) + ("*" if row.get("screened") else "")) if ok else "–",
+            *energies,
             fmt(row["peak_control"]) if ok else "–",
             _number(row["excursion"], "{:.3f}") if ok else "–",
             _number(row["duration"], "{:g}"),
@@ -64,6 +72,12 @@ def ranking(task, doc: dict) -> None:
         say(
             f"* {screened} sequence(s) screened, not optimised: their energy is where a short "
             "search stopped, above twice the best (--exhaustive optimises every one)"
+        )
+    if scaled:
+        say(
+            f"sequences are ranked by energy at equal total duration: each path run in "
+            f"{reference:g} s (energy × duration / {reference:g} s; time-scaling a path keeps "
+            "energy × duration)"
         )
     for failure in failures:
         say(failure)

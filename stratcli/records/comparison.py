@@ -58,6 +58,7 @@ def _row(o: Outcome) -> dict[str, Any]:
         "reason": o.reason,
         "message": o.message,
         "energy": _num(o.energy),
+        "energy_equal_time": _num(o.energy_equal_time),
         "peak_control": _num(o.peak_control),
         "excursion": _num(o.excursion),
         "duration": _num(o.duration),
@@ -96,6 +97,7 @@ def comparison_document(
         "max_length": decomposition.max_length,
         "strategies": list(decomposition.strategies),
         "criterion": comparison.criterion,
+        "reference_duration_s": _num(comparison.reference_duration),
         "settings": settings,
         "best": 0 if best is not None and best.ok else None,
         "choice": comparison.choice(),
@@ -161,7 +163,7 @@ FAILED_COLOR = "#c0392b"
 # units of the ranking quantities for the presets and physical planar models (rad, rad/s)
 _UNITS = {"energy": "rad²/s", "peak-control": "rad/s", "excursion": "rad", "duration": "s"}
 _KEYS = {
-    "energy": "energy",
+    "energy": "energy_equal_time",
     "peak-control": "peak_control",
     "excursion": "excursion",
     "duration": "duration",
@@ -173,6 +175,8 @@ def _axis_label(doc: dict[str, Any]) -> str:
     label = CRITERION_LABELS[criterion]
     if criterion == "energy":
         label += " ∫|u|² dt"
+        if doc.get("reference_duration_s") is not None:
+            label += f", each path run in {doc['reference_duration_s']:g} s"
     if criterion == "duration" or doc.get("model") != "custom":
         return f"{label} [{_UNITS[criterion]}]"
     return f"{label} (the model's units)"
@@ -187,6 +191,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     """
     key = _KEYS[doc["criterion"]]
     rows = doc["rows"]
+    if rows and key not in rows[0]:  # a record written before energies were compared so
+        key = doc["criterion"]
     labels = [f"{'→'.join(r['sequence'])} · {r['strategy'][:4]}." for r in rows]
     ok = [i for i, r in enumerate(rows) if r["status"] == "ok" and r[key] is not None]
     values = [rows[i][key] for i in ok]
