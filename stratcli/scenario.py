@@ -179,6 +179,13 @@ def _problems(exc: ValidationError, prefix: tuple = ()) -> list[Problem]:
         msg = err["msg"].removeprefix("Value error, ")
         if kind == "missing":
             msg = "required field is missing"
+        if kind in ("union_tag_not_found", "union_tag_invalid"):  # a model without a valid kind
+            field = err.get("ctx", {}).get("discriminator", "kind").strip("'")
+            got = err["input"].get(field) if isinstance(err["input"], dict) else None
+            what = "is missing" if got is None else f"is {_short(got)}, not a kind"
+            kinds = ", ".join(KINDS)
+            out.append(Problem(_path((*loc, field)), f"{what} (one of: {kinds})"))
+            continue
         shown = "" if kind == "missing" else f" (got {_short(err['input'])})"
         out.append(Problem(_path(loc), f"{msg}{shown}"))
     return out

@@ -224,3 +224,21 @@ def test_huge_configurations_load_cleanly(tmp_path):
         head, sep, rest = SCENARIOS[name].partition("[task]")
         rest = _replace_nth(NUMBER, rest, rng, rng.choice(["1e38", "-1e300", "1e308"]))
         _load(_write(tmp_path, k, head + sep + rest), f"{name} #{k}")
+
+
+@pytest.mark.parametrize(
+    "model, words",
+    [
+        (
+            {"name": "two-arm"},
+            "model.kind: is missing (one of: preset, custom, planar-manipulator)",
+        ),
+        ({"kind": "presett", "name": "two-arm"}, "model.kind: is 'presett', not a kind (one of:"),
+    ],
+)
+def test_a_model_without_a_valid_kind_names_the_kinds(model, words):
+    """Not pydantic's "Unable to extract tag using discriminator": the field and its values."""
+    task = {"start": [0] * 5, "goal": [0] * 5}
+    with pytest.raises(InputError) as info:
+        load_scenario({"name": "x", "model": model, "task": task})
+    assert words in str(info.value) and "discriminator" not in str(info.value)
