@@ -46,7 +46,8 @@ from .liealgebra import (
     hall_basis,
     lie_basis,
 )
-from .models.system import System, _ArrayFunction
+from .models.manipulator import ManipulatorSystem
+from .models.system import Stratum, System, _ArrayFunction
 
 if TYPE_CHECKING:
     import sympy as sp
@@ -56,7 +57,9 @@ MAX_SYMBOLIC_BRACKETS = 250  # custom models: largest degree-3 Hall basis derive
 
 
 def _cross_affordable(system: System, strata: list[str], degree: int) -> bool:
-    """Whether the symbolic closure across `strata` is small enough to derive."""
+    """Whether the closure across `strata` is cheap (closed form) or small enough to derive."""
+    if isinstance(system, ManipulatorSystem):
+        return True
     if getattr(system, "robot", None) is not None:
         return system.n <= SYMBOLIC_MAX_COORDINATES
     m = sum(len(system.stratum(s).active) for s in strata)  # an upper bound on the generators
@@ -227,12 +230,34 @@ class _CrossBasis:
 
 def _cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _CrossBasis:
     """Hall basis of all distinct fields of `strata` together (symbolic, cached)."""
-    import sympy as sp  # only here: a cached model never needs sympy
-
     cache = system.__dict__.setdefault("_lie_cache", {})
     key = ("cross", strata, degree)
-    if key in cache:
-        return cache[key]
+    if key not in cache:
+        if isinstance(system, ManipulatorSystem):
+            cache[key] = _manipulator_cross_basis(system, strata, degree)
+        else:
+            cache[key] = _symbolic_cross_basis(system, strata, degree)
+    return cache[key]
+
+
+def _manipulator_cross_basis(
+    system: ManipulatorSystem, strata: tuple[str, ...], degree: int
+) -> _CrossBasis:
+    """A manipulator's input u_j drives the same field on every stratum where it is active:
+    the closure across strata is the closed-form basis of one stratum with all their inputs."""
+    first: dict[int, str] = {}
+    for name in strata:
+        for j in system.stratum(name).active:
+            first.setdefault(j, name)
+    union = Stratum("+".join(strata), (), tuple(first))  # in the order the strata give them
+    basis = lie_basis(system, union, degree)  # closed form (liealgebra._manipulator_basis)
+    names = [f"{system.inputs[j]}@{first[j]}" for j in union.active]
+    return _CrossBasis([element_label(h, names) for h in basis.elements], basis.evaluate)
+
+
+def _symbolic_cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _CrossBasis:
+    import sympy as sp  # only here: a cached model never needs sympy
+
     symbols = list(system.symbols)
     generators: list[sp.Matrix] = []
     names: list[str] = []
@@ -255,9 +280,7 @@ def _cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _Cross
             else bracket(fields[h[0]], fields[h[1]], symbols, every)
         )
     matrix = sp.Matrix.hstack(*(fields[h] for h in elements))
-    out = _CrossBasis([element_label(h, names) for h in elements], _ArrayFunction(matrix, symbols))
-    cache[key] = out
-    return out
+    return _CrossBasis([element_label(h, names) for h in elements], _ArrayFunction(matrix, symbols))
 
 
 # --------------------------------------------------------------------------------------------

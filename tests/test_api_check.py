@@ -5,8 +5,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import pytest
 from conftest import (
     chain_scenario,
+    weak_stratum_scenario,
 )
 
 from stratcli.api.check import check_document
@@ -33,3 +35,19 @@ def test_check_of_a_20_link_chain_is_quick_and_right():
     (stratum,) = doc["strata"]
     assert stratum["rank_at_requested_degree"] == 19 and stratum["degree_at"] == 3
     assert doc["controllable"] and stratum["strong"]
+
+
+@pytest.mark.parametrize(
+    "strata, degree", [(("S12", "S34"), 2), (("S1", "S2"), 2), (("S12", "S3"), 3)]
+)
+def test_a_manipulators_closure_across_strata_equals_the_symbolic_one(strata, degree):
+    """Closed form (one stratum with every input of the strata) against sympy's brackets of
+    the fields of each stratum: same labels, same fields (degree 3: fourth-order differences)."""
+    from stratcli import controllability as c
+
+    system = parse_scenario(weak_stratum_scenario()).system
+    Q = np.random.default_rng(0).uniform(-3, 3, (30, system.n))
+    fast = c._cross_basis(system, strata, degree)
+    slow = c._symbolic_cross_basis(system, strata, degree)
+    assert fast.labels == slow.labels
+    np.testing.assert_allclose(fast.evaluate(Q), slow.evaluate(Q), rtol=0, atol=1e-11)
