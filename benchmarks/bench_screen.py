@@ -135,7 +135,8 @@ def main() -> None:
                 f"{statistics.median(r['screened']['time'] for r in subset):.2f} s"
             )
             if exhaustive:
-                line += f", exhaustive {statistics.median(r['exhaustive']['time'] for r in subset):.2f} s"
+                median = statistics.median(r["exhaustive"]["time"] for r in subset)
+                line += f", exhaustive {median:.2f} s"
             print(line)
     if exhaustive:
         print(f"same choice: {sum(same for *_, same in rows)} of {len(rows)}")
