@@ -69,7 +69,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5, help="Runs per command (median; ≥ 5).")
     args = parser.parse_args()
+    # Bytecode caching on, as on a user's machine: with PYTHONDONTWRITEBYTECODE set (some CI
+    # images set it) every run compiles stratplan's ~70 modules from source, ~0.14 s CPU.
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "runs"

@@ -9,7 +9,7 @@ from conftest import (
     mcap_messages,
 )
 
-from stratcli.records.trajectory import base_extent, world_geometry
+from stratcli.models.geometry import base_extent, world_geometry
 
 
 def _compose(transforms: list[dict]) -> dict[str, tuple[np.ndarray, float]]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stratcli.records.trajectory import base_extent, world_geometry
+from stratcli.models.geometry import base_extent, world_geometry
 
 
 def test_trajectory_reintegrates_every_leg(any_run):
