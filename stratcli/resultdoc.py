@@ -16,6 +16,7 @@ import numpy as np
 from .controls import FourierBasis
 from .results import (
     SCHEMA,
+    ConstraintReport,
     LegPlan,
     ModelRef,
     Optimisation,
@@ -118,6 +119,7 @@ def plan_document(plan: SequencePlan) -> dict[str, Any]:
         "time_scale": plan.time_scale,
         "notes": list(plan.notes),
         "optimisation": _optimisation(plan.optimisation),
+        "constraints": plan.constraints.to_dict() if plan.constraints else None,
         "legs": [_leg(plan, leg) for leg in plan.legs],
         "switches": [
             {
@@ -238,4 +240,5 @@ def plan_from_document(
         time_scale=doc.get("time_scale", 1.0),
         notes=tuple(doc.get("notes") or ()),
         reference_energy=doc.get("reference_energy"),
+        constraints=ConstraintReport.from_dict(c) if (c := doc.get("constraints")) else None,
     )

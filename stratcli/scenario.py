@@ -22,6 +22,7 @@ from pydantic import (
 )
 
 from . import tomlwrite
+from .constraints import Constraints, ConstraintsSpec, check_configuration, resolve
 from .controls import MAX_PERIODS_PER_LEG
 from .errors import InputError, Problem
 from .models.numbers import parse_number
@@ -97,6 +98,7 @@ class Scenario(_Strict):
     legs: list[LegEntry] | None = Field(None, min_length=1, max_length=1000)
     decompose: DecomposeSettings | None = None
     reference: ReferenceSpec | None = None
+    constraints: ConstraintsSpec | None = None
 
 
 @dataclass
@@ -111,6 +113,7 @@ class Task:
     settings: PlannerSettings
     source: str
     text: str
+    constraints: Constraints | None = None  # the [constraints] table, resolved on the model
 
     @property
     def model_name(self) -> str:
@@ -285,6 +288,12 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
 
     start = vector(scenario.task.start, "task.start")
     goal = vector(scenario.task.goal, "task.goal")
+    constraints = None
+    if scenario.constraints is not None:
+        try:
+            constraints = resolve(scenario.constraints, system)
+        except InputError as exc:
+            problems.extend(exc.problems)
     p = scenario.planner
     legs: list[LegSpec] = []
     if scenario.legs is None and scenario.decompose is None:
@@ -371,6 +380,13 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
             )
         if entry.method != "lie" and entry.lie is not None:
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
+    if constraints is not None:
+        if start is not None:
+            problems.extend(check_configuration(system, start, constraints, "task.start"))
+        for i, leg in enumerate(legs[:-1]):
+            problems.extend(check_configuration(system, leg.goal, constraints, f"legs[{i}].goal"))
+        if goal is not None:
+            problems.extend(check_configuration(system, goal, constraints, "task.goal"))
     if problems:
         raise InputError(problems)
     settings = p
@@ -389,7 +405,7 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
         raise InputError(problems)
 
     check_legs(system, start, legs, settings)
-    return Task(scenario, system, start, goal, legs, settings, source, text)
+    return Task(scenario, system, start, goal, legs, settings, source, text, constraints)
 
 
 __all__ = ["PRESETS", "Scenario", "Task", "build_system", "load_scenario", "parse_scenario"]

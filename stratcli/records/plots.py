@@ -43,7 +43,7 @@ from .figure_common import (
     save_figure,
     stamp_failed,
 )
-from .robot_figures import motion_gif, stroboscope_figure
+from .robot_figures import motion_gif, resolved_constraints, stroboscope_figure
 from .trajectory import Trajectory
 
 __all__ = ["FORMATS", "configuration_figure", "controls_figure", "render_plots", "save_figure"]
@@ -175,6 +175,8 @@ def _time_series(
         title = f"{title} ({len(plan.legs)} legs; leg labels omitted above {MAX_LABELLED_LEGS})"
     elif kind == "configuration":
         _mark_goals(plan, axes)
+    if kind == "configuration" and plan.constraints is not None:
+        _shade_limits(plan, traj, axes)
     else:
         _mark_off_inputs(plan, axes)
     if not plan.ok:
@@ -211,6 +213,30 @@ def _mark_goals(plan: SequencePlan, axes: list[Any]) -> None:
         axes[0].figure.text(
             0.995, 0.995, "○ goal of the leg", color=GOAL_COLOR, ha="right", va="top", fontsize=8
         )
+
+
+def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any]) -> None:
+    """Joint limits of [constraints] as shaded bands, and each joint's closest approach."""
+    limits = resolved_constraints(plan)
+    for i, ax in enumerate(axes):
+        lo, hi = limits.lower[i], limits.upper[i]
+        if not (np.isfinite(lo) or np.isfinite(hi)):
+            continue
+        y0, y1 = ax.get_ylim()
+        for a, b in ((hi, max(y1, hi + 0.05 * (y1 - y0))), (min(y0, lo - 0.05 * (y1 - y0)), lo)):
+            if np.isfinite(a) and np.isfinite(b):
+                ax.axhspan(a, b, color=FAILED_COLOR, alpha=0.12, lw=0, zorder=1)
+        room = np.minimum(traj.q[:, i] - lo, hi - traj.q[:, i])
+        k = int(np.nanargmin(room))
+        ax.plot(traj.t[k], traj.q[k, i], "x", color=FAILED_COLOR, ms=6, mew=1.4, zorder=5)
+        ax.set_ylim(
+            min(y0, lo - 0.05 * (y1 - y0)) if np.isfinite(lo) else y0,
+            max(y1, hi + 0.05 * (y1 - y0)) if np.isfinite(hi) else y1,
+        )
+    axes[0].figure.text(
+        0.005, 0.005, "shaded: beyond a joint limit; × closest approach", color=FAILED_COLOR,
+        ha="left", va="bottom", fontsize=8,
+    )  # fmt: skip
 
 
 def _mark_off_inputs(plan: SequencePlan, axes: list[Any]) -> None:
