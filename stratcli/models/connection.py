@@ -29,6 +29,8 @@ if TYPE_CHECKING:
 __all__ = [
     "connection",
     "connection_A",
+    "connection_gradient",
+    "connection_hessian",
     "connection_symbolic",
     "derive_symbolic",
     "f_theta_and_f",
@@ -72,12 +74,13 @@ def connection_A(robot: PlanarManipulator, q: Any) -> np.ndarray:
     return f / f_theta[..., None]
 
 
-def _connection_block(st: Structure, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A (n, K) and dA (n, n, K) for q of shape (n, K)."""
+def _connection_block(st: Structure, q: np.ndarray, v: np.ndarray | None = None):
+    """A (n, K) and dA (n, n, K) for q of shape (n, K); with weights v (n, K) also
+    H (n, n, K) = Σ_j v_j ∂²A_j/∂q_k∂q_l."""
     _, _, o, p = kinematics(st, q)
     (pcx, pcy), (Sx, Sy), f_theta, f = _f_parts(st, o, p)
     (ox, oy), (px, py) = o, p
-    M, n, K = st.M, q.shape[0], q.shape[1]
+    M = st.M
     # ∂p_i/∂q_k = s_k rot90(p_i − o_k) for i ∈ D(k), and rot90(a)·b = a × b. Summing the
     # MODELS.md §3 derivatives over the distal sets gives
     #   c_k = Σ_{i∈D(k)} m_i (p_i − o_k) / M              so that ∂p_c/∂q_k = s_k rot90(c_k)
@@ -85,12 +88,13 @@ def _connection_block(st: Structure, q: np.ndarray) -> tuple[np.ndarray, np.ndar
     #   ∂(−f_j)/∂q_k = s_j s_k [W_jk × (2 o_k − o_j − p_c) + μ_jk o_k × (o_j + p_c)
     #                           − M c_k × c_j − [k strictly proximal to j] (o_j − o_k) × S_j]
     # with E_jki = D_ji D_ki m_i, W_jk = Σ_i E_jki p_i, μ_jk = Σ_i E_jki, S_j = Σ_{i∈D(j)} m_i P_i.
-    cx = (st.D @ (st.m_col * px) - st.mu * ox) / M
-    cy = (st.D @ (st.m_col * py) - st.mu * oy) / M
+    Yx, Yy = st.D @ (st.m_col * px), st.D @ (st.m_col * py)  # Y_k = Σ_{i∈D(k)} m_i p_i
+    cx = (Yx - st.mu * ox) / M
+    cy = (Yy - st.mu * oy) / M
     d_f_theta = 2.0 * M * st.s * (cx * (oy - pcy) - cy * (ox - pcx))  # [k, K]
 
-    Wx = (st.E @ px).reshape(n, n, K)
-    Wy = (st.E @ py).reshape(n, n, K)
+    # W_jk = Σ_i D_ji D_ki m_i p_i is Y of the more distal of j, k (same arm): O(n²) per point
+    Wx, Wy = st.same3 * Yx[st.distal], st.same3 * Yy[st.distal]
     ojx, ojy, okx, oky = ox[:, None], oy[:, None], ox[None], oy[None]  # rows j, columns k
     gx, gy = ojx + pcx, ojy + pcy  # o_j + p_c
     term = Wx * (2.0 * oky - gy) - Wy * (2.0 * okx - gx)
@@ -101,7 +105,69 @@ def _connection_block(st: Structure, q: np.ndarray) -> tuple[np.ndarray, np.ndar
 
     A = f / f_theta
     dA = (df - A[:, None] * d_f_theta[None]) / f_theta
-    return A, dA
+    if v is None:
+        return A, dA
+    parts = (o, p, (pcx, pcy), (Yx, Yy), (cx, cy), f_theta, d_f_theta)
+    F, dF = (v * f).sum(0), np.einsum("jK,jkK->kK", v, df)
+    dd_F, dd_f_theta = _second_derivatives(st, parts, v)
+    # the quotient rule twice: ∇²(F/f_θ)
+    b, db = f_theta, d_f_theta
+    cross = dF[:, None] * db[None] + db[:, None] * dF[None]
+    H = dd_F / b - cross / b**2 - F * dd_f_theta / b**2 + 2.0 * F * db[:, None] * db[None] / b**3
+    return A, dA, H
+
+
+def _second_derivatives(st: Structure, parts, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """∇²F with F = Σ_j v_j f_j, and ∇²f_θ, each (n, n, K), in O(n²) per point.
+
+    Second derivatives of a point x moved by joints k and l are
+    ∂²x/∂q_k∂q_l = −s_k s_l (x − o_d), d the more distal of k, l (p the more proximal). With
+    σ_j = s_j v_j, ω_i = Σ_{j∈P(i)} σ_j (prefix sums along the arm) and the distal sums Y, c of
+    `_connection_block`, −F = const + Σ_j σ_j g_j, g_j = Σ_{i∈D(j)} m_i (p_i − p_c)·(p_i − o_j)
+    = T1 + T2 + T3 summed over j, whose Hessians are (for joints on one arm, k ≤ l):
+
+    * T1 = Σ_i m_i ω_i |p_i|²:     −2 s_k s_l o_p·a_d,  a_d = Σ_{i∈D(d)} m_i ω_i (p_i − o_d)
+    * T2 = −Σ_j σ_j o_j·Y_j:       s_k s_l [M B_p·c_d + M (ω_d − ω_p) o_p·c_d
+      + o_p·Σ_{j>d} σ_j (Y_j + μ_j o_j − 2 μ_j o_d)],  B_p = Σ_{j≤p} σ_j o_j
+    * T3 = −p_c·h, h = M Σ_j σ_j c_j: s_k s_l [same (c_d·h + M p_c·e_d) − M (c_k·e_l + c_l·e_k)],
+      e_k = ω_k c_k + Σ_{j>k} σ_j c_j (this one couples the arms through p_c)
+
+    and ∇²f_θ = 2 M s_k s_l [same (p_c − o_p)·c_d − c_k·c_l]. Joints on different arms give
+    zero except for the c_k, c_l products.
+    """
+    (ox, oy), (px, py), (pcx, pcy), (Yx, Yy), (cx, cy), _, _ = parts
+    M, D, Ds, m = st.M, st.D, st.D - np.eye(st.D.shape[0]), st.m_col
+    d, pr, same = st.distal, st.proximal, st.same3
+    sigma = st.s * v
+    omega = D.T @ sigma  # (n, K)
+    mw = m * omega
+
+    def at(x, idx):  # (n, K) gathered at an (n, n) index array -> (n, n, K)
+        return x[idx]
+
+    def dot_pd(ax, ay, bx, by):  # a_p · b_d
+        return at(ax, pr) * at(bx, d) + at(ay, pr) * at(by, d)
+
+    cc = cx[:, None] * cx[None] + cy[:, None] * cy[None]  # c_k · c_l
+    dd_f_theta = 2.0 * M * st.ss * (same * dot_pd(pcx - ox, pcy - oy, cx, cy) - cc)
+
+    # the terms o_p · V_d, with V collecting T1 and the last two of T2
+    nu = D @ mw
+    mu_sig = st.mu * sigma
+    Vx = -2.0 * (D @ (mw * px) - nu * ox) + Ds @ (sigma * Yx + mu_sig * ox) - 2 * (Ds @ mu_sig) * ox
+    Vy = -2.0 * (D @ (mw * py) - nu * oy) + Ds @ (sigma * Yy + mu_sig * oy) - 2 * (Ds @ mu_sig) * oy
+    Vx, Vy = Vx + M * omega * cx, Vy + M * omega * cy  # the ω_d part of M (ω_d − ω_p) o_p·c_d
+    Bx, By = D.T @ (sigma * ox), D.T @ (sigma * oy)
+    t12 = dot_pd(ox, oy, Vx, Vy) + M * dot_pd(Bx - omega * ox, By - omega * oy, cx, cy)
+
+    hx, hy = M * (sigma * cx).sum(0), M * (sigma * cy).sum(0)  # (K,)
+    ex = omega * cx + Ds @ (sigma * cx)
+    ey = omega * cy + Ds @ (sigma * cy)
+    t3 = same * (at(cx * hx + M * pcx * ex, d) + at(cy * hy + M * pcy * ey, d))
+    t3 -= M * (cx[:, None] * ex[None] + cy[:, None] * ey[None])
+    t3 -= M * (ex[:, None] * cx[None] + ey[:, None] * cy[None])
+    dd_F = -st.ss * (same * t12 + t3)
+    return dd_F, dd_f_theta
 
 
 def connection(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -124,6 +190,71 @@ def connection(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray
         A[k0 : k0 + block] = a.T
         dA[k0 : k0 + block] = np.moveaxis(d, -1, 0)
     return A.reshape(*lead, n), dA.reshape(*lead, n, n)
+
+
+def _gradient_block(st: Structure, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+    """A (n, K) and g (n, K) = Σ_j v_j ∂A_j/∂q_k for q, v of shape (n, K), in O(n) per point
+    (plus products with the distal masks).
+
+    With the notation of `_second_derivatives` (σ, ω, Y, c, h, e), ∂p/∂q_k = s_k rot90(p − o_k)
+    and rot90(a)·b = a × b, the derivative of −F = −Σ_j v_j f_j is
+    s_k [2 Z_k × o_k + M B_k × c_k + o_k × Σ_{j>k} σ_j (Y_j + μ_j o_j) − c_k × h − M e_k × p_c]
+    with Z_k = Σ_{i∈D(k)} m_i ω_i p_i and B_k = Σ_{j≤k} σ_j o_j.
+    """
+    _, _, (ox, oy), (px, py) = kinematics(st, q)
+    (pcx, pcy), _, f_theta, f = _f_parts(st, (ox, oy), (px, py))
+    M, D = st.M, st.D
+    Ds = D - np.eye(D.shape[0])
+    Yx, Yy = D @ (st.m_col * px), D @ (st.m_col * py)
+    cx, cy = (Yx - st.mu * ox) / M, (Yy - st.mu * oy) / M
+    d_f_theta = 2.0 * M * st.s * (cx * (oy - pcy) - cy * (ox - pcx))
+    sigma = st.s * v
+    omega = D.T @ sigma
+    mw = st.m_col * omega
+    mu_sig = st.mu * sigma
+    Zx, Zy = D @ (mw * px), D @ (mw * py)
+    Bx, By = D.T @ (sigma * ox), D.T @ (sigma * oy)
+    Qx, Qy = Ds @ (sigma * Yx + mu_sig * ox), Ds @ (sigma * Yy + mu_sig * oy)
+    hx, hy = M * (sigma * cx).sum(0), M * (sigma * cy).sum(0)
+    ex, ey = omega * cx + Ds @ (sigma * cx), omega * cy + Ds @ (sigma * cy)
+    neg = 2.0 * (Zx * oy - Zy * ox) + M * (Bx * cy - By * cx) + (ox * Qy - oy * Qx)
+    neg -= cx * hy - cy * hx
+    neg -= M * (ex * pcy - ey * pcx)
+    F, dF = (v * f).sum(0), -st.s * neg
+    A = f / f_theta
+    return A, (dF - F * d_f_theta / f_theta) / f_theta
+
+
+def connection_gradient(robot: PlanarManipulator, q: Any, v: Any) -> tuple[np.ndarray, np.ndarray]:
+    """A (..., n) and g[..., k] = Σ_j v_j ∂A_j/∂q_k (..., n): one contraction of dA, the one an
+    end point's Jacobian needs, in closed form at O(n) per point (`_gradient_block`) where dA
+    costs O(n²). `v` has the shape of `q`."""
+    st = structure(robot)
+    qT, lead = points_last(robot, q)
+    vT, _ = points_last(robot, np.broadcast_to(v, np.shape(q)))
+    A, g = _gradient_block(st, qT, vT)
+    return points_first(A, lead), points_first(g, lead)
+
+
+def connection_hessian(
+    robot: PlanarManipulator, q: Any, v: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A, dA (as `connection`) and H[..., k, l] = Σ_j v_j ∂²A_j/∂q_k∂q_l, all in closed form.
+
+    `v` has the shape of `q` (weights per point). The contracted second derivatives cost O(n²)
+    per point, like dA (`_second_derivatives`), where the full tensor would cost O(n³).
+    """
+    st = structure(robot)
+    qT, lead = points_last(robot, q)
+    vT, _ = points_last(robot, np.broadcast_to(v, np.shape(q)))
+    n, K = qT.shape
+    block = max(64, 25_000 // (n * n))
+    out = (np.empty((n, K)), np.empty((n, n, K)), np.empty((n, n, K)))
+    for k0 in range(0, K, block):
+        cols = slice(k0, k0 + block)
+        for full, part in zip(out, _connection_block(st, qT[:, cols], vT[:, cols]), strict=True):
+            full[..., cols] = part
+    return tuple(points_first(x, lead) for x in out)
 
 
 # --------------------------------------------------------------------------------------------

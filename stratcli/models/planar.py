@@ -252,7 +252,10 @@ class Structure:
     DsT: np.ndarray  # (n, n) strictly distal mask, transposed: DsT[j, k] = [k proximal to j]
     DI: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} I_i
     mu: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} m_i
-    E: np.ndarray  # (n*n, n) E[(j, k), i] = D[j, i] D[k, i] m_i
+    same: np.ndarray  # (n, n) 1 if joints j and k are on the same arm
+    same3: np.ndarray  # (n, n, 1)
+    distal: np.ndarray  # (n, n) int: the more distal of joints j, k (max; same arm)
+    proximal: np.ndarray  # (n, n) int: the more proximal of j, k (min)
     mu2: np.ndarray  # (n, n, 1) Σ_i D[j, i] D[k, i] m_i
     ss: np.ndarray  # (n, n, 1) s_j s_k
     DsT3: np.ndarray  # (n, n, 1)
@@ -275,6 +278,9 @@ def structure(robot: PlanarManipulator) -> Structure:
     s = np.array([float(robot.arms[a].sense) for a in arm_of])
     E = D[:, None, :] * D[None, :, :] * m
     DsT = (D - np.eye(n)).T
+    arm = np.array(arm_of)
+    same = (arm[:, None] == arm[None, :]).astype(float)
+    j, k = np.indices((n, n))
 
     def col(x: Any) -> np.ndarray:
         return np.asarray(x, dtype=float).reshape(n, 1)
@@ -292,7 +298,10 @@ def structure(robot: PlanarManipulator) -> Structure:
         "DsT": DsT,
         "DI": col(D @ inertia),
         "mu": col(D @ m),
-        "E": E.reshape(n * n, n),
+        "same": same,
+        "same3": same[:, :, None],
+        "distal": np.maximum(j, k),  # joints are numbered proximal to distal on each arm
+        "proximal": np.minimum(j, k),
         "mu2": E.sum(axis=-1)[:, :, None],
         "ss": np.outer(s, s)[:, :, None],
         "DsT3": DsT[:, :, None],
