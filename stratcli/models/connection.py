@@ -88,19 +88,28 @@ def _connection_block(st: Structure, q: np.ndarray, v: np.ndarray | None = None)
     #   ∂(−f_j)/∂q_k = s_j s_k [W_jk × (2 o_k − o_j − p_c) + μ_jk o_k × (o_j + p_c)
     #                           − M c_k × c_j − [k strictly proximal to j] (o_j − o_k) × S_j]
     # with E_jki = D_ji D_ki m_i, W_jk = Σ_i E_jki p_i, μ_jk = Σ_i E_jki, S_j = Σ_{i∈D(j)} m_i P_i.
-    Yx, Yy = st.D @ (st.m_col * px), st.D @ (st.m_col * py)  # Y_k = Σ_{i∈D(k)} m_i p_i
+    # On one arm W_jk = Y_d and μ_jk = μ_d for d the more distal of j, k (Y_k = Σ_{i∈D(k)} m_i
+    # p_i), so the bracket is a sum of outer products of per-joint vectors, O(n²) per point:
+    #   k ≤ j:  r_j + α_j x_k + β_j y_k − M c_k × c_j,  with o_k = (x_k, y_k), g_j = o_j + p_c,
+    #           r_j = g_j × Y_j + S_j × o_j,  α_j = μ_j g_{j,y} + S_{j,y} − 2 Y_{j,y},
+    #           β_j = 2 Y_{j,x} − μ_j g_{j,x} − S_{j,x}
+    #   k > j:  2 Y_k × o_k − M c_k × p_c − M c_k × (o_j + c_j)
+    #   other arms: − M c_k × c_j
+    Yx, Yy = st.D @ (st.m_col * px), st.D @ (st.m_col * py)
     cx = (Yx - st.mu * ox) / M
     cy = (Yy - st.mu * oy) / M
     d_f_theta = 2.0 * M * st.s * (cx * (oy - pcy) - cy * (ox - pcx))  # [k, K]
 
-    # W_jk = Σ_i D_ji D_ki m_i p_i is Y of the more distal of j, k (same arm): O(n²) per point
-    Wx, Wy = st.same3 * Yx[st.distal], st.same3 * Yy[st.distal]
-    ojx, ojy, okx, oky = ox[:, None], oy[:, None], ox[None], oy[None]  # rows j, columns k
-    gx, gy = ojx + pcx, ojy + pcy  # o_j + p_c
-    term = Wx * (2.0 * oky - gy) - Wy * (2.0 * okx - gx)
-    term += st.mu2 * (okx * gy - oky * gx)
-    term -= M * (cx[None] * cy[:, None] - cy[None] * cx[:, None])
-    term -= st.DsT3 * ((ojx - okx) * Sy[:, None] - (ojy - oky) * Sx[:, None])
+    gx, gy = ox + pcx, oy + pcy
+    r = (gx * Yy - gy * Yx) + (Sx * oy - Sy * ox)
+    alpha = st.mu * gy + Sy - 2.0 * Yy
+    beta = 2.0 * Yx - st.mu * gx - Sx
+    Mcx, Mcy = M * cx, M * cy
+    rho = 2.0 * (Yx * oy - Yy * ox) - (Mcx * pcy - Mcy * pcx)
+    lower = r[:, None] + alpha[:, None] * ox[None] + beta[:, None] * oy[None]
+    upper = rho[None] - Mcx[None] * oy[:, None] + Mcy[None] * ox[:, None]
+    term = st.same3 * np.where(st.lower3, lower, upper)
+    term += Mcx[:, None] * cy[None] - Mcy[:, None] * cx[None]  # − M c_k × c_j
     df = -st.ss * term  # [j, k, K]
 
     A = f / f_theta
@@ -108,17 +117,12 @@ def _connection_block(st: Structure, q: np.ndarray, v: np.ndarray | None = None)
     if v is None:
         return A, dA
     parts = (o, p, (pcx, pcy), (Yx, Yy), (cx, cy), f_theta, d_f_theta)
-    F, dF = (v * f).sum(0), np.einsum("jK,jkK->kK", v, df)
-    dd_F, dd_f_theta = _second_derivatives(st, parts, v)
-    # the quotient rule twice: ∇²(F/f_θ)
-    b, db = f_theta, d_f_theta
-    cross = dF[:, None] * db[None] + db[:, None] * dF[None]
-    H = dd_F / b - cross / b**2 - F * dd_f_theta / b**2 + 2.0 * F * db[:, None] * db[None] / b**3
-    return A, dA, H
+    return A, dA, _second_derivatives(st, parts, v, (v * f).sum(0), np.einsum("jK,jkK->kK", v, dA))
 
 
-def _second_derivatives(st: Structure, parts, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """∇²F with F = Σ_j v_j f_j, and ∇²f_θ, each (n, n, K), in O(n²) per point.
+def _second_derivatives(st: Structure, parts, v: np.ndarray, F: np.ndarray, g: np.ndarray):
+    """H = Σ_j v_j ∂²A_j/∂q_k∂q_l (n, n, K) in O(n²) per point, from F = Σ_j v_j f_j (K,) and
+    g = Σ_j v_j ∂A_j/∂q (n, K).
 
     Second derivatives of a point x moved by joints k and l are
     ∂²x/∂q_k∂q_l = −s_k s_l (x − o_d), d the more distal of k, l (p the more proximal). With
@@ -133,41 +137,41 @@ def _second_derivatives(st: Structure, parts, v: np.ndarray) -> tuple[np.ndarray
       e_k = ω_k c_k + Σ_{j>k} σ_j c_j (this one couples the arms through p_c)
 
     and ∇²f_θ = 2 M s_k s_l [same (p_c − o_p)·c_d − c_k·c_l]. Joints on different arms give
-    zero except for the c_k, c_l products.
+    zero except for the c_k, c_l products. The quotient rule twice, with a = F/f_θ, gives
+    H = (∇²F − a ∇²f_θ − g ∇f_θᵀ − ∇f_θ gᵀ) / f_θ. On one arm s_k s_l = 1, and every term is
+    a sum of outer products u_d w_p of per-joint vectors, which is what is evaluated: the
+    matrix L_jk = u_j w_k taken as L on k ≤ j and Lᵀ on k > j.
     """
-    (ox, oy), (px, py), (pcx, pcy), (Yx, Yy), (cx, cy), _, _ = parts
+    (ox, oy), (px, py), (pcx, pcy), (Yx, Yy), (cx, cy), f_theta, d_f_theta = parts
     M, D, Ds, m = st.M, st.D, st.D - np.eye(st.D.shape[0]), st.m_col
-    d, pr, same = st.distal, st.proximal, st.same3
     sigma = st.s * v
     omega = D.T @ sigma  # (n, K)
     mw = m * omega
+    a = F / f_theta
 
-    def at(x, idx):  # (n, K) gathered at an (n, n) index array -> (n, n, K)
-        return x[idx]
-
-    def dot_pd(ax, ay, bx, by):  # a_p · b_d
-        return at(ax, pr) * at(bx, d) + at(ay, pr) * at(by, d)
-
-    cc = cx[:, None] * cx[None] + cy[:, None] * cy[None]  # c_k · c_l
-    dd_f_theta = 2.0 * M * st.ss * (same * dot_pd(pcx - ox, pcy - oy, cx, cy) - cc)
-
-    # the terms o_p · V_d, with V collecting T1 and the last two of T2
+    # o_p · V_d, with V collecting T1, the last two terms of T2 and the ω_d part of the first
     nu = D @ mw
     mu_sig = st.mu * sigma
     Vx = -2.0 * (D @ (mw * px) - nu * ox) + Ds @ (sigma * Yx + mu_sig * ox) - 2 * (Ds @ mu_sig) * ox
     Vy = -2.0 * (D @ (mw * py) - nu * oy) + Ds @ (sigma * Yy + mu_sig * oy) - 2 * (Ds @ mu_sig) * oy
-    Vx, Vy = Vx + M * omega * cx, Vy + M * omega * cy  # the ω_d part of M (ω_d − ω_p) o_p·c_d
-    Bx, By = D.T @ (sigma * ox), D.T @ (sigma * oy)
-    t12 = dot_pd(ox, oy, Vx, Vy) + M * dot_pd(Bx - omega * ox, By - omega * oy, cx, cy)
-
+    Vx, Vy = Vx + M * omega * cx, Vy + M * omega * cy
+    # w_p · M c_d: the rest of T2 and −a ∇²f_θ's (p_c − o_p)·c_d
+    Wx = D.T @ (sigma * ox) - omega * ox + 2.0 * a * (pcx - ox)
+    Wy = D.T @ (sigma * oy) - omega * oy + 2.0 * a * (pcy - oy)
+    # T3's c_d·h + M p_c·e_d
     hx, hy = M * (sigma * cx).sum(0), M * (sigma * cy).sum(0)  # (K,)
     ex = omega * cx + Ds @ (sigma * cx)
     ey = omega * cy + Ds @ (sigma * cy)
-    t3 = same * (at(cx * hx + M * pcx * ex, d) + at(cy * hy + M * pcy * ey, d))
-    t3 -= M * (cx[:, None] * ex[None] + cy[:, None] * ey[None])
-    t3 -= M * (ex[:, None] * cx[None] + ey[:, None] * cy[None])
-    dd_F = -st.ss * (same * t12 + t3)
-    return dd_F, dd_f_theta
+    diag = cx * hx + cy * hy + M * (pcx * ex + pcy * ey)
+    L = Vx[:, None] * ox[None] + Vy[:, None] * oy[None] + diag[:, None]
+    L += (M * cx)[:, None] * Wx[None] + (M * cy)[:, None] * Wy[None]
+    on_arm = st.same3 * np.where(st.lower3, L, L.swapaxes(0, 1))
+    # −M (c_k·ê_l + c_l·ê_k) with ê = e + a c (T3 and −a ∇²f_θ's c_k·c_l), signs s_k s_l, and
+    # −(g ∇f_θᵀ + ∇f_θ gᵀ)
+    ehx, ehy = st.s * (ex + a * cx), st.s * (ey + a * cy)
+    scx, scy = (st.s * M) * cx, (st.s * M) * cy
+    R = scx[:, None] * ehx[None] + scy[:, None] * ehy[None] - g[:, None] * d_f_theta[None]
+    return (R + R.swapaxes(0, 1) - on_arm) / f_theta
 
 
 def connection(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:

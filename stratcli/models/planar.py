@@ -254,6 +254,7 @@ class Structure:
     mu: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} m_i
     same: np.ndarray  # (n, n) 1 if joints j and k are on the same arm
     same3: np.ndarray  # (n, n, 1)
+    lower3: np.ndarray  # (n, n, 1) bool: k ≤ j (joint k at or before joint j, if on one arm)
     distal: np.ndarray  # (n, n) int: the more distal of joints j, k (max; same arm)
     proximal: np.ndarray  # (n, n) int: the more proximal of j, k (min)
     mu2: np.ndarray  # (n, n, 1) Σ_i D[j, i] D[k, i] m_i
@@ -300,6 +301,7 @@ def structure(robot: PlanarManipulator) -> Structure:
         "mu": col(D @ m),
         "same": same,
         "same3": same[:, :, None],
+        "lower3": (j >= k)[:, :, None],
         "distal": np.maximum(j, k),  # joints are numbered proximal to distal on each arm
         "proximal": np.minimum(j, k),
         "mu2": E.sum(axis=-1)[:, :, None],
