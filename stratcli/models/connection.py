@@ -143,7 +143,7 @@ def _second_derivatives(st: Structure, parts, v: np.ndarray, F: np.ndarray, g: n
     matrix L_jk = u_j w_k taken as L on k ≤ j and Lᵀ on k > j.
     """
     (ox, oy), (px, py), (pcx, pcy), (Yx, Yy), (cx, cy), f_theta, d_f_theta = parts
-    M, D, Ds, m = st.M, st.D, st.D - np.eye(st.D.shape[0]), st.m_col
+    M, D, Ds, m = st.M, st.D, st.Ds, st.m_col
     sigma = st.s * v
     omega = D.T @ sigma  # (n, K)
     mw = m * omega
@@ -207,8 +207,7 @@ def _gradient_block(st: Structure, q: np.ndarray, v: np.ndarray) -> tuple[np.nda
     """
     _, _, (ox, oy), (px, py) = kinematics(st, q)
     (pcx, pcy), _, f_theta, f = _f_parts(st, (ox, oy), (px, py))
-    M, D = st.M, st.D
-    Ds = D - np.eye(D.shape[0])
+    M, D, Ds = st.M, st.D, st.Ds
     Yx, Yy = D @ (st.m_col * px), D @ (st.m_col * py)
     cx, cy = (Yx - st.mu * ox) / M, (Yy - st.mu * oy) / M
     d_f_theta = 2.0 * M * st.s * (cx * (oy - pcy) - cy * (ox - pcx))
