@@ -1,0 +1,360 @@
+"""Spatial free-floating manipulators from URDF, built on Pinocchio (SPATIAL.md).
+
+The configuration is `(R, q)`: base attitude `R ∈ SO(3)` and the angles `q` of the revolute
+joints (Pinocchio's order, which is the URDF's depth-first order). A plan's coordinates are
+`(q_1..q_k, rx, ry, rz)`, the attitude as its rotation vector `log(R)` (rad, world frame);
+the planners never integrate it in those coordinates: the end-point map integrates `R` on the
+group (`stratcli.magnus`) and only reports `log(R(T))`.
+
+Zero total momentum fixes the base twist `ν = S(q) q̇` (6×k, base frame, `[v; ω]`) with
+`S = −A_b⁻¹ A_j` from the centroidal map `A_g = [A_b A_j]` (Pinocchio, base at the identity:
+`S` does not depend on `R`). Its derivative along the joints contracted with the joint rates,
+`∂(S u)/∂q`, comes from Pinocchio's analytic centroidal-momentum derivatives
+(`∂h/∂q` at the zero-momentum velocity), one call per point.
+
+Pinocchio (`pip install 'stratplan[spatial]'`) is imported only here, on first use.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from itertools import combinations
+from pathlib import Path
+
+import numpy as np
+
+from .. import so3
+from ..errors import InputError, ModelError, Problem
+from .system import Stratum, System
+from .urdf import UrdfSummary, read_urdf
+
+__all__ = ["INSTALL", "SpatialRobot", "SpatialStratum", "SpatialSystem", "load_pinocchio"]
+
+INSTALL = "pip install 'stratplan[spatial]'"
+ATTITUDE = ("rx", "ry", "rz")
+
+
+def load_pinocchio():
+    """The `pinocchio` module, or an `InputError` with the exact install command."""
+    try:
+        import pinocchio
+    except ImportError:
+        raise InputError(
+            [
+                Problem(
+                    "model.kind",
+                    f"URDF models need Pinocchio, which is not installed; install it with: "
+                    f"{INSTALL}",
+                )
+            ]
+        ) from None
+    return pinocchio
+
+
+class SpatialRobot:
+    """A free-flying base carrying revolute joints, from a URDF (Pinocchio model inside).
+
+    Pickles as its URDF text (Pinocchio's model is rebuilt where it is unpickled).
+    """
+
+    def __init__(self, text: str, summary: UrdfSummary, path: str = "", base: str | None = None):
+        self.text, self.summary, self.path = text, summary, path
+        self.base = base or summary.root
+        if self.base != summary.root:
+            raise InputError(
+                [
+                    Problem(
+                        "model.base",
+                        f"must be the URDF's root link {summary.root!r} (re-rooting a URDF at "
+                        f"another link is not supported yet), got {self.base!r}",
+                    )
+                ]
+            )
+        self._build()
+
+    def _build(self) -> None:
+        pin = load_pinocchio()
+        self._pin = pin
+        try:
+            self.model = pin.buildModelFromXML(self.text, pin.JointModelFreeFlyer())
+        except (RuntimeError, ValueError) as exc:
+            raise InputError([Problem("model.path", f"Pinocchio cannot load it: {exc}")]) from None
+        self.data = self.model.createData()
+        model = self.model
+        names = list(model.names)[2:]
+        for j, name in enumerate(names, start=2):
+            if model.joints[j].nq != 1 or model.joints[j].nv != 1:
+                raise InputError(
+                    [Problem("model.path", f"joint {name!r} is not a 1-DoF revolute joint")]
+                )
+        self.joint_names = tuple(names)
+        self.iq = np.array([model.joints[j].idx_q for j in range(2, model.njoints)])
+        self.iv = np.array([model.joints[j].idx_v for j in range(2, model.njoints)])
+        self.lower = np.asarray(model.lowerPositionLimit)[self.iq].copy()
+        self.upper = np.asarray(model.upperPositionLimit)[self.iq].copy()
+        self.mass = float(sum(inertia.mass for inertia in model.inertias))
+        if not self.mass > 0:
+            raise InputError([Problem("model.path", "the robot has no mass")])
+        self._neutral = np.asarray(pin.neutral(model), dtype=float)
+        self.link_names = tuple(f.name for f in model.frames if f.type == pin.FrameType.BODY)
+
+    def __getstate__(self) -> dict:
+        return {"text": self.text, "summary": self.summary, "path": self.path, "base": self.base}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._build()
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_names)
+
+    def configuration(self, q: np.ndarray, R: np.ndarray | None = None, p=None) -> np.ndarray:
+        """Pinocchio's `q` (position, quaternion x y z w, joints) for joints `q` and pose."""
+        x = self._neutral.copy()
+        x[self.iq] = q
+        if R is not None:
+            w, qx, qy, qz = so3.quaternion_from_matrix(R)
+            x[3:7] = (qx, qy, qz, w)
+        if p is not None:
+            x[:3] = p
+        return x
+
+    def connection(
+        self, q: np.ndarray, u: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """`S(q)` (K, 6, k) at joint angles q (K, k), and with rates `u` (K, k) also
+        `D = ∂(S_ω u)/∂q` (K, 3, k), the angular rows' derivative along the joints."""
+        pin, model, data = self._pin, self.model, self.data
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        K, k = q.shape
+        Ab, Aj = np.empty((K, 6, 6)), np.empty((K, 6, k))
+        dh = np.empty((K, 6, k)) if u is not None else None
+        zero = np.zeros(model.nv)
+        x = self._neutral.copy()
+        for i in range(K):
+            x[self.iq] = q[i]
+            Ag = pin.computeCentroidalMap(model, data, x)
+            Ab[i], Aj[i] = Ag[:, :6], Ag[:, 6:][:, self.iv - 6]
+        S = -np.linalg.solve(Ab, Aj)
+        if u is None:
+            return S, None
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        nu = (S @ u[:, :, None])[:, :, 0]
+        v = np.zeros(model.nv)
+        for i in range(K):
+            x[self.iq] = q[i]
+            v[:6], v[self.iv] = nu[i], u[i]
+            dh_dq = pin.computeCentroidalDynamicsDerivatives(model, data, x, v, zero)[0]
+            dh[i] = dh_dq[:, self.iv]
+        D = -np.linalg.solve(Ab, dh)[:, 3:]
+        return S, D
+
+    def com_in_base(self, q: np.ndarray) -> np.ndarray:
+        """The system CoM in the base frame (K, 3) at joint angles q (K, k)."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        return np.array(
+            [self._pin.centerOfMass(self.model, self.data, self.configuration(qi)) for qi in q]
+        )
+
+    def base_position(self, q: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Base origin in the world frame with the system CoM at the origin: `−R c(q)`."""
+        c = self.com_in_base(q)
+        return -(np.asarray(R) @ c[..., None])[..., 0]
+
+    def momentum(self, q: np.ndarray, R: np.ndarray, rates: np.ndarray) -> np.ndarray:
+        """Total momentum (6,) about the CoM, world axes, of the motion with joint rates
+        `rates` and the base twist the connection gives (an audit: it should be ~0)."""
+        S, _ = self.connection(q[None])
+        v = np.concatenate([S[0] @ rates, rates])
+        x = self.configuration(q, R)
+        return np.asarray(self._pin.computeCentroidalMap(self.model, self.data, x) @ v)
+
+    def link_poses(self, q: np.ndarray, R: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """World pose (position, rotation) of every body link at joints q and attitude R."""
+        pin = self._pin
+        x = self.configuration(q, R, self.base_position(q[None], R)[0])
+        pin.framesForwardKinematics(self.model, self.data, x)
+        out = {}
+        for i, frame in enumerate(self.model.frames):
+            if frame.type == pin.FrameType.BODY:
+                placement = self.data.oMf[i]
+                out[frame.name] = (placement.translation.copy(), placement.rotation.copy())
+        return out
+
+
+def stratum_name(locked: tuple[int, ...]) -> str:
+    """As for planar robots: `S1`, `S13` by joint number (1-based, URDF order)."""
+    numbers = [str(j + 1) for j in locked]
+    return "S" + ("_" if any(len(x) > 1 for x in numbers) else "").join(numbers)
+
+
+def default_lock_sets(k: int) -> list[tuple[int, ...]]:
+    """Every single lock and, from four joints on, every pair."""
+    return [(j,) for j in range(k)] + (list(combinations(range(k), 2)) if k >= 4 else [])
+
+
+@dataclass
+class SpatialStratum:
+    """The interface of `CompiledStratum` for a spatial stratum; its end-point map is
+    `MagnusEndpoint` (the joints in closed form, the attitude on the group)."""
+
+    system: SpatialSystem
+    stratum: Stratum
+
+    def __post_init__(self) -> None:
+        k = self.system.spatial.n_joints
+        self.k = k
+        self.act = np.array(self.stratum.active, dtype=int)
+        self.explicit = tuple(range(k))
+        self.quadrature = ()
+        self.C_explicit = np.eye(k)[:, self.act]
+        self.supports_quadrature = True  # the quadrature structure, with a group update
+
+    def endpoint(self, q0, basis, duration):
+        from ..magnus import MagnusEndpoint
+
+        return MagnusEndpoint(self, q0, basis, duration)
+
+    def G(self, y: np.ndarray) -> np.ndarray:
+        """`y' = G(y) u` in the plan's coordinates (joints, rotation vector), (..., n, m):
+        the attitude row is `J_r⁻¹(φ) S_ω(q)`, valid while |φ| < π (re-integration only)."""
+        y = np.asarray(y, dtype=float)
+        lead, k, m = y.shape[:-1], self.k, self.act.size
+        flat = y.reshape(-1, k + 3)
+        S, _ = self.system.spatial.connection(flat[:, :k])
+        out = np.zeros((flat.shape[0], k + 3, m))
+        out[:, self.act, np.arange(m)] = 1.0
+        out[:, k:, :] = so3.right_jacobian_inverse(flat[:, k:]) @ S[:, 3:, :][:, :, self.act]
+        return out.reshape(*lead, k + 3, m)
+
+    def dG(self, y: np.ndarray) -> np.ndarray:
+        """`∂G/∂y` (..., n, m, n) by central differences (the general ODE path only)."""
+        y = np.asarray(y, dtype=float)
+        n, h = y.shape[-1], 1e-6
+        cols = [(self.G(y + h * e) - self.G(y - h * e)) / (2 * h) for e in np.eye(n)]
+        return np.stack(cols, axis=-1)
+
+
+class SpatialSystem(System):
+    """A `System` on SO(3)×Rᵏ from a URDF; coordinates `(joints..., rx, ry, rz)`."""
+
+    def __init__(
+        self,
+        robot: SpatialRobot,
+        lock_sets: list[tuple[int, ...]] | None = None,
+        name: str = "urdf",
+    ):
+        k = robot.n_joints
+        if set(robot.joint_names) & set(ATTITUDE):
+            raise InputError(
+                [Problem("model.path", f"joint names {ATTITUDE} are reserved for the attitude")]
+            )
+        states = (*robot.joint_names, *ATTITUDE)
+        inputs = tuple(f"u_{j}" for j in robot.joint_names)
+        strata = {}
+        for locked in lock_sets if lock_sets is not None else default_lock_sets(k):
+            locked = tuple(sorted(locked))
+            active = tuple(j for j in range(k) if j not in locked)
+            strata[stratum_name(locked)] = Stratum(stratum_name(locked), locked, active)
+        description = f"URDF robot {robot.summary.name!r}: {k} revolute joints, free-flying base"
+        super().__init__(name, states, inputs, None, strata, description=description)
+        self.spatial = robot
+
+    @property
+    def fields(self):
+        raise ModelError(
+            [Problem("model", "a URDF model has no symbolic vector fields (numeric only)")]
+        )
+
+    @fields.setter
+    def fields(self, value) -> None:
+        pass
+
+    @cached_property
+    def attitude(self) -> slice:
+        """Where the rotation vector sits in a configuration."""
+        return slice(self.n - 3, self.n)
+
+    def compiled(self, stratum):
+        s = self.stratum(stratum) if isinstance(stratum, str) else stratum
+        if s.name not in self._compiled:
+            self._compiled[s.name] = SpatialStratum(self, s)
+        return self._compiled[s.name]
+
+
+def load_spatial(path: str | Path, base: str | None = None, strata=None) -> SpatialSystem:
+    """A `SpatialSystem` from a URDF file; `strata` are lock sets of joint names."""
+    text, summary = read_urdf(Path(path))
+    robot = SpatialRobot(text, summary, str(path), base)
+    lock_sets = None
+    if strata is not None:
+        lock_sets, problems = [], []
+        names = robot.joint_names
+        for i, locks in enumerate(strata):
+            unknown = [x for x in locks if x not in names]
+            if unknown or not locks or len(set(locks)) >= len(names):
+                problems.append(
+                    Problem(
+                        f"model.strata[{i}]",
+                        f"lock set {list(locks)} must name 1..{len(names) - 1} distinct joints "
+                        f"of {', '.join(names)}"
+                        + (f" (unknown: {', '.join(unknown)})" if unknown else ""),
+                    )
+                )
+                continue
+            lock_sets.append(tuple(sorted({names.index(x) for x in locks})))
+        if problems:
+            raise InputError(problems)
+    return SpatialSystem(robot, lock_sets)
+
+
+def _angle(value, where: str, problems: list[Problem]):
+    from .numbers import parse_number
+
+    if isinstance(value, str) and value.strip() == "*":
+        return "*"
+    try:
+        return parse_number(value)
+    except (ValueError, TypeError) as exc:
+        problems.append(Problem(where, f"{exc} (got {value!r})"))
+        return 0.0
+
+
+def configuration_list(table: dict, system: SpatialSystem, where: str) -> list:
+    """A configuration given by name (`{j1 = 0.3, ..., attitude = [rx, ry, rz]}` or with
+    `rpy = [roll, pitch, yaw]`) as the list in coordinate order; raises `InputError`.
+
+    The attitude is a rotation vector (rad, world frame) or URDF roll-pitch-yaw
+    (`Rz(yaw) Ry(pitch) Rx(roll)`); `"*"` leaves a coordinate (or the whole attitude) free.
+    """
+    problems: list[Problem] = []
+    joints = system.spatial.joint_names
+    allowed = (*joints, "attitude", "rpy")
+    unknown = [key for key in table if key not in allowed]
+    if unknown:
+        problems.append(
+            Problem(where, f"unknown names {', '.join(unknown)} (allowed: {', '.join(allowed)})")
+        )
+    missing = [j for j in joints if j not in table]
+    if missing:
+        problems.append(Problem(where, f'missing joints {", ".join(missing)} ("*" if free)'))
+    if "attitude" in table and "rpy" in table:
+        problems.append(Problem(where, "give either attitude or rpy, not both"))
+    out = [table.get(j, 0.0) for j in joints]
+    key = "rpy" if "rpy" in table else "attitude"
+    value = table.get(key, [0.0, 0.0, 0.0])
+    if isinstance(value, str) and value.strip() == "*":
+        value = ["*"] * 3
+    if not isinstance(value, list) or len(value) != 3:
+        problems.append(Problem(f"{where}.{key}", f"needs 3 angles (rad), got {value!r}"))
+        value = [0.0] * 3
+    angles = [_angle(v, f"{where}.{key}[{i}]", problems) for i, v in enumerate(value)]
+    if problems:
+        raise InputError(problems)
+    if key == "rpy" and "*" not in angles:
+        angles = so3.log(so3.rpy_to_matrix(angles)).tolist()
+    elif key == "rpy" and any(a != "*" for a in angles):
+        raise InputError([Problem(f"{where}.rpy", 'either all three angles or "*" for all')])
+    return out + angles
