@@ -23,7 +23,7 @@ from . import so3
 from .controls import FourierBasis
 from .endpoint import node_count
 
-__all__ = ["MagnusEndpoint", "attitude_path"]
+__all__ = ["MagnusEndpoint", "attitude_path", "residual_on_group"]
 
 SQRT3 = np.sqrt(3.0)
 MIN_STEPS = 32
@@ -114,6 +114,10 @@ class MagnusEndpoint:
         J[k:] = so3.right_jacobian_inverse(phi) @ eta.reshape(3, -1)
         return end, J
 
+    def residual(self, end, J, aim, targets):
+        """`residual_on_group` for this leg's coordinates."""
+        return residual_on_group(end, J, aim, targets, self.k)
+
     def attitudes(self, lam: np.ndarray) -> np.ndarray:
         """R at the step boundaries (N + 1, 3, 3) for coefficients λ."""
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
@@ -141,3 +145,26 @@ def attitude_path(cs, q0, basis: FourierBasis, duration: float, lam, tau: np.nda
         out_q.append(np.asarray(q0, dtype=float)[: cs.k] + cs.C_explicit @ (L @ basis.integrals(t)))
         out_R.append(ep.attitudes(lam)[-1])
     return np.array(out_q), np.array(out_R)
+
+
+def residual_on_group(end, J, aim, targets, k: int):
+    """End minus goal on the targeted coordinates, the attitude's as `log(R_goalᵀ R(T))`.
+
+    `aim` holds the goal's values of `targets`; the attitude (coordinates k, k+1, k+2) is
+    measured on the group when all three are targeted, else (a partly free attitude)
+    coordinate-wise. The Jacobian rows follow: `J_r⁻¹(e) J_r(φ) ∂φ/∂λ`.
+    """
+    targets = np.asarray(targets, dtype=int)
+    r = end[targets] - aim
+    Jt = None if J is None else J[targets]
+    rows = np.flatnonzero(targets >= k)
+    if rows.size != 3:
+        return r, Jt
+    phi, goal = end[k:], aim[rows]
+    e = so3.log(so3.exp(goal).T @ so3.exp(phi))
+    r = r.copy()
+    r[rows] = e
+    if Jt is not None:
+        Jt = Jt.copy()
+        Jt[rows] = so3.right_jacobian_inverse(e) @ so3.right_jacobian(phi) @ Jt[rows]
+    return r, Jt

@@ -212,6 +212,12 @@ class SpatialStratum:
         self.C_explicit = np.eye(k)[:, self.act]
         self.supports_quadrature = True  # the quadrature structure, with a group update
 
+    def residual(self, end, J, aim, targets):
+        """End minus goal with the attitude on the group (`magnus.residual_on_group`)."""
+        from ..magnus import residual_on_group
+
+        return residual_on_group(end, J, aim, targets, self.k)
+
     def endpoint(self, q0, basis, duration):
         from ..magnus import MagnusEndpoint
 

@@ -23,7 +23,7 @@ import numpy as np
 from ..results import Piece
 from ..settings import PlannerSettings
 from ..status import Status
-from .base import LegOutcome, LegPlanner, LegProblem, damped_gauss_newton
+from .base import LegOutcome, LegPlanner, LegProblem, damped_gauss_newton, goal_residual
 from .continuation import follow_line
 
 __all__ = ["NewtonPlanner"]
@@ -113,8 +113,8 @@ class NewtonPlanner(LegPlanner):
             def evaluate(z, jacobian):
                 lam = elimination.coefficients(z)
                 end, J = endpoint(lam, jacobian)
-                Jz = None if J is None else J[targets] @ N
-                return aim - end[targets], Jz, (lam, end)
+                r, Jt = goal_residual(endpoint, end, J, aim, targets)
+                return -r, (None if Jt is None else Jt @ N), (lam, end)
 
             return evaluate
 
@@ -153,7 +153,7 @@ class NewtonPlanner(LegPlanner):
         # The homotopy solves many legs' worth of Newton problems: affordable with the
         # quadrature end point (all space manipulators), not on the general ODE path, where
         # one call can cost 10⁴ evaluations (a custom model would then run for minutes).
-        cheap = endpoint.kind == "quadrature"
+        cheap = endpoint.kind in ("quadrature", "magnus")
         if (
             best.error > problem.tolerance
             and np.isfinite(best.error)

@@ -1,0 +1,114 @@
+"""Scenarios with `[model] kind = "urdf"`: the path relative to the file, configurations by
+joint name with `attitude` or `rpy`, one-line errors, and plans verified independently."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from stratcli.cli import app
+from stratcli.errors import InputError
+from stratcli.scenario import load_scenario, parse_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+SPATIAL = ROOT / "scenarios" / "spatial"
+
+pin = pytest.importorskip("pinocchio")
+
+from spatial_reintegrate import verify_spatial  # noqa: E402
+
+from stratcli import so3  # noqa: E402
+from stratcli.api import plan_run  # noqa: E402
+
+TEXT = """
+name = "t"
+[model]
+kind = "urdf"
+path = "{path}"
+[task]
+start = {start}
+goal = {goal}
+[[legs]]
+stratum = "S3"
+"""
+
+
+def _text(start="[0, 0, 0, 0, 0, 0]", goal='[0, 0, "*", 0.1, 0, 0]', path=None):
+    return TEXT.format(path=path or (ROOT / "robots" / "arm3.urdf"), start=start, goal=goal)
+
+
+def test_configuration_by_name_with_rpy_and_free_coordinates():
+    start = '{ j1 = "10deg", j2 = 0, j3 = 0.5, rpy = [0.1, -0.2, 0.3] }'
+    goal = '{ j1 = 0, j2 = 0, j3 = "*", attitude = [0.1, "*", 0] }'
+    task = parse_scenario(_text(start, goal))
+    assert task.system.states == ("j1", "j2", "j3", "rx", "ry", "rz")
+    np.testing.assert_allclose(task.start[:3], [np.radians(10), 0, 0.5])
+    np.testing.assert_allclose(so3.exp(task.start[3:]), so3.rpy_to_matrix([0.1, -0.2, 0.3]))
+    assert np.isnan(task.goal[2]) and np.isnan(task.goal[4]) and task.goal[3] == 0.1
+
+
+def test_path_is_relative_to_the_scenario_file(tmp_path):
+    (tmp_path / "robots").mkdir()
+    (tmp_path / "robots" / "r.urdf").write_text((ROOT / "robots" / "arm3.urdf").read_text())
+    (tmp_path / "s.toml").write_text(_text(path="robots/r.urdf"))
+    task = load_scenario(tmp_path / "s.toml")
+    assert Path(task.scenario.model.path) == (tmp_path / "robots" / "r.urdf").resolve()
+
+
+@pytest.mark.parametrize(
+    "start, words",
+    [
+        ("{ j1 = 0, j2 = 0, jx = 0, j3 = 0 }", "task.start: unknown names jx"),
+        ("{ j1 = 0, j2 = 0 }", "task.start: missing joints j3"),
+        ("{ j1 = 0, j2 = 0, j3 = 0, rpy = [0, 0] }", "task.start.rpy: needs 3 angles"),
+        ('{ j1 = 0, j2 = 0, j3 = 0, rpy = [0, "*", 0] }', "task.start.rpy: either all three"),
+    ],
+)
+def test_bad_configurations_name_the_field(start, words):
+    with pytest.raises(InputError) as err:
+        parse_scenario(_text(start=start))
+    assert words in str(err.value)
+
+
+def test_unsupported_joint_and_missing_pinocchio_exit_2(tmp_path, monkeypatch):
+    text = (
+        (ROOT / "robots" / "arm3.urdf")
+        .read_text()
+        .replace('name="j2" type="revolute"', 'name="j2" type="prismatic"')
+    )
+    (tmp_path / "r.urdf").write_text(text)
+    (tmp_path / "s.toml").write_text(_text(path="r.urdf"))
+    runner = CliRunner()
+    result = runner.invoke(app, ["plan", str(tmp_path / "s.toml")])
+    assert result.exit_code == 2 and "joint 'j2' is prismatic" in result.output
+    assert "Traceback" not in result.output
+
+    from stratcli.models import spatial
+
+    def missing():
+        raise InputError("model.kind: URDF models need Pinocchio; " + spatial.INSTALL)
+
+    monkeypatch.setattr(spatial, "load_pinocchio", missing)
+    (tmp_path / "ok.toml").write_text(_text())
+    result = runner.invoke(app, ["plan", str(tmp_path / "ok.toml")])
+    assert result.exit_code == 2 and "pip install 'stratplan[spatial]'" in result.output
+
+
+def _planned(name, objective="newton", **settings):
+    task = load_scenario(SPATIAL / f"{name}.toml")
+    task.settings = dataclasses.replace(task.settings, objective=objective, **settings)
+    return task, plan_run(task, check=False)
+
+
+def test_reorientation_by_joint_cycles_verifies_independently():
+    task, out = _planned("arm3_reorient")
+    doc = out.document
+    verify_spatial(doc, task.system.spatial)
+    start, end = np.array(doc["start"]), np.array(doc["legs"][-1]["end"])
+    np.testing.assert_allclose(end[:3], start[:3], atol=1e-6)  # the joints come back
+    assert np.linalg.norm(end[3:]) > 0.3  # the base turned
+    att = doc["attitude"]
+    assert att["end"]["quaternion"][0] > 0 and len(att["end"]["rotation_vector"]) == 3
+    assert att["legs"][0]["goal_error"] <= doc["tolerance"]
