@@ -21,7 +21,8 @@ from .magnus import MagnusEndpoint
 
 __all__ = ["attitude_document", "audit_leg", "group_error"]
 
-AUDIT_STEPS = 400  # Magnus steps of the audit's re-integration per leg (or piece)
+AUDIT_STEPS = 400  # at least this many Magnus steps per leg (or piece) in the audit, and
+# twice the planner's (the CoM drift is integrated by Simpson's rule on them)
 AUDIT_POINTS = 40  # where the momentum is evaluated along a leg
 
 
@@ -49,11 +50,12 @@ def audit_leg(system, leg) -> dict[str, float]:
     momentum = drift = ortho = 0.0
     for piece in leg.pieces:
         ep = MagnusEndpoint(cs, q, leg.basis, piece.duration)
-        ep.steps_override = AUDIT_STEPS
         lam = np.asarray(piece.coefficients, dtype=float).ravel()
-        R = ep.attitudes(lam)  # (N + 1, 3, 3) at the step boundaries
-        t = np.linspace(0.0, piece.duration, AUDIT_STEPS + 1)
         L = lam.reshape(ep.m, ep.size)
+        steps = 2 * max(AUDIT_STEPS // 2, ep.steps(L))  # even: Simpson's rule below
+        ep.steps_override = steps
+        R = ep.attitudes(lam)  # (N + 1, 3, 3) at the step boundaries
+        t = np.linspace(0.0, piece.duration, steps + 1)
         joints = q[:k] + leg.basis.integrals(t) @ (L.T @ cs.C_explicit.T)
         rates = leg.basis.values(t) @ (L.T @ cs.C_explicit.T)
         S, _ = robot.connection(joints)
@@ -62,7 +64,7 @@ def audit_leg(system, leg) -> dict[str, float]:
         expected = robot.base_position(joints, R)
         drift = max(drift, float(np.abs(p - expected)[::2].max()))
         ortho = max(ortho, so3.orthogonality_error(R))
-        for i in np.linspace(0, AUDIT_STEPS, AUDIT_POINTS // max(len(leg.pieces), 1) + 1):
+        for i in np.linspace(0, steps, AUDIT_POINTS // max(len(leg.pieces), 1) + 1):
             i = int(i)
             h = robot.momentum(joints[i], R[i], rates[i])
             momentum = max(momentum, float(np.linalg.norm(h)))

@@ -88,7 +88,7 @@ def verify_spatial(doc: dict, robot) -> None:
         # the recorded end is the true one: joints, and the attitude on the group
         np.testing.assert_allclose(leg["end"][:k], again["end"], atol=1e-9)
         gap = np.linalg.norm(so3.log(so3.exp(np.array(leg["end"][k:])).T @ again["R"]))
-        assert gap <= 1e-9, (i, gap)
+        assert gap <= 1e-8, (i, gap)  # as reintegrate.verify for planar ends
         np.testing.assert_allclose(
             again["end"][[j for j in locked]], again["start"][locked], atol=1e-12
         )

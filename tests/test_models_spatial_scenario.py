@@ -112,3 +112,32 @@ def test_reorientation_by_joint_cycles_verifies_independently():
     att = doc["attitude"]
     assert att["end"]["quaternion"][0] > 0 and len(att["end"]["rotation_vector"]) == 3
     assert att["legs"][0]["goal_error"] <= doc["tolerance"]
+
+
+@pytest.mark.parametrize("mode", ["none", "l-C0", "l-C1", "lr-C0", "lr-C1"])
+def test_every_continuity_mode_with_soft_start_and_full_stop(mode):
+    task, out = _planned("arm3_reorient", continuity=mode, soft_start=True, full_stop=True)
+    doc = out.document
+    verify_spatial(doc, task.system.spatial)
+    first, last = doc["legs"][0]["pieces"][0], doc["legs"][-1]["pieces"][-1]
+    from reintegrate import controls
+
+    u0 = controls(first, doc["inputs"], 0.0)
+    du0 = controls(first, doc["inputs"], 0.0, derivative=True)
+    uT = controls(last, doc["inputs"], last["duration"])
+    duT = controls(last, doc["inputs"], last["duration"], derivative=True)
+    assert max(np.abs(u0).max(), np.abs(du0).max(), np.abs(uT).max(), np.abs(duT).max()) < 1e-9
+
+
+def test_three_leg_task_on_the_seven_joint_arm_verifies_independently():
+    task, out = _planned("arm7_three_legs")
+    verify_spatial(out.document, task.system.spatial)
+    assert out.document["attitude"]["legs"][0]["goal"] is None  # left free on leg 1
+
+
+@pytest.mark.slow
+def test_energy_objective_lowers_the_energy_and_still_verifies():
+    task, out = _planned("arm3_reorient", objective="energy")
+    doc = out.document
+    verify_spatial(doc, task.system.spatial)
+    assert doc["total_energy"] <= doc["optimisation"]["newton_energy"]
