@@ -21,16 +21,17 @@ import numpy as np
 
 from . import so3
 from .controls import FourierBasis
-from .endpoint import node_count
+from .endpoint import _speed_grid
 
 __all__ = ["MagnusEndpoint", "attitude_path", "residual_on_group"]
 
 SQRT3 = np.sqrt(3.0)
-MIN_STEPS = 32
-# Steps per node of the planar quadrature rule (`endpoint.node_count`, which follows the joint
-# speed): the Magnus error is ~16x smaller per halving; 3 keeps it below ~2e-10 rad on legs
-# with joint speeds of several rad/s (tests/test_magnus.py), at 6 connection calls per node.
-STEPS_PER_NODE = 3
+MIN_STEPS = 16
+# Steps per radian of `T (max Σ|u| + ω_H)`, the phase the attitude rate's fastest terms run
+# through in a leg: the joints turn at Σ|u|, the controls oscillate at up to ω_H. The Magnus
+# error falls 16x per halving; 12 keeps it below 5e-10 rad on legs with joint speeds of several
+# rad/s (tests/test_magnus.py) and far below on calmer ones.
+STEPS_PER_RADIAN = 12.0
 
 
 class MagnusEndpoint:
@@ -58,10 +59,17 @@ class MagnusEndpoint:
         return self.m * self.size
 
     def steps(self, L: np.ndarray) -> int:
-        """Magnus steps: `STEPS_PER_NODE` × the quadrature's node count."""
+        """Magnus steps: `STEPS_PER_RADIAN` per radian of `T (max Σ|u| + ω_H)`."""
         if self.steps_override:
             return self.steps_override
-        return max(MIN_STEPS, STEPS_PER_NODE * node_count(L, self.duration, self.basis))
+        u = _speed_grid(self.basis, self.duration) @ L.T
+        speed = float(np.abs(u).sum(axis=1).max()) if u.size else 0.0
+        phase = self.duration * (speed + self.basis.omega[-1])
+        # the error also grows with the rate itself (∝ speed): fast legs get (speed/4)^¼ more
+        phase *= max(1.0, (1.0 + speed) / 5.0) ** 0.25
+        if not np.isfinite(phase):
+            return MIN_STEPS
+        return int(min(max(MIN_STEPS, np.ceil(STEPS_PER_RADIAN * phase)), 1 << 14))
 
     def _table(self, N: int):
         if N not in self._tables:

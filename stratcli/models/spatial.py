@@ -128,26 +128,27 @@ class SpatialRobot:
         `D = ∂(S_ω u)/∂q` (K, 3, k), the angular rows' derivative along the joints."""
         pin, model, data = self._pin, self.model, self.data
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        K, k = q.shape
-        Ab, Aj = np.empty((K, 6, 6)), np.empty((K, 6, k))
-        dh = np.empty((K, 6, k)) if u is not None else None
-        zero = np.zeros(model.nv)
-        x = self._neutral.copy()
-        for i in range(K):
-            x[self.iq] = q[i]
-            Ag = pin.computeCentroidalMap(model, data, x)
-            Ab[i], Aj[i] = Ag[:, :6], Ag[:, 6:][:, self.iv - 6]
-        S = -np.linalg.solve(Ab, Aj)
+        K = q.shape[0]
+        X = np.repeat(self._neutral[None], K, axis=0)
+        X[:, self.iq] = q
+        Ag = np.empty((K, 6, model.nv))
+        centroidal_map = pin.computeCentroidalMap
+        for i in range(K):  # the per-point cost is mostly this loop's own: keep it bare
+            Ag[i] = centroidal_map(model, data, X[i])
+        Ab = Ag[:, :, :6]
+        S = -np.linalg.solve(Ab, Ag[:, :, self.iv])
         if u is None:
             return S, None
         u = np.atleast_2d(np.asarray(u, dtype=float))
-        nu = (S @ u[:, :, None])[:, :, 0]
-        v = np.zeros(model.nv)
+        V = np.zeros((K, model.nv))
+        V[:, :6] = (S @ u[:, :, None])[:, :, 0]
+        V[:, self.iv] = u
+        zero = np.zeros(model.nv)
+        dh = np.empty((K, 6, model.nv))
+        derivatives = pin.computeCentroidalDynamicsDerivatives
         for i in range(K):
-            x[self.iq] = q[i]
-            v[:6], v[self.iv] = nu[i], u[i]
-            dh_dq = pin.computeCentroidalDynamicsDerivatives(model, data, x, v, zero)[0]
-            dh[i] = dh_dq[:, self.iv]
+            dh[i] = derivatives(model, data, X[i], V[i], zero)[0]
+        dh = dh[:, :, self.iv]
         D = -np.linalg.solve(Ab, dh)[:, 3:]
         return S, D
 
