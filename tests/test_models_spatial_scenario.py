@@ -141,3 +141,11 @@ def test_energy_objective_lowers_the_energy_and_still_verifies():
     doc = out.document
     verify_spatial(doc, task.system.spatial)
     assert doc["total_energy"] <= doc["optimisation"]["newton_energy"]
+
+
+def test_models_lists_joints_limits_and_strata():
+    result = CliRunner().invoke(app, ["models", str(SPATIAL / "arm7_three_legs.toml")])
+    assert result.exit_code == 0, result.output
+    out = result.output
+    assert "joint_1 [-2.97, 2.97]" in out and "rotation vector" in out
+    assert "S12" in out and "magnus" in out  # pair locks from four joints on

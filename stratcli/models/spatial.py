@@ -265,7 +265,15 @@ class SpatialSystem(System):
             locked = tuple(sorted(locked))
             active = tuple(j for j in range(k) if j not in locked)
             strata[stratum_name(locked)] = Stratum(stratum_name(locked), locked, active)
-        description = f"URDF robot {robot.summary.name!r}: {k} revolute joints, free-flying base"
+        limits = ", ".join(
+            f"{name} [{lo:.3g}, {hi:.3g}]"
+            for name, lo, hi in zip(robot.joint_names, robot.lower, robot.upper, strict=True)
+        )
+        description = (
+            f"URDF robot {robot.summary.name!r}, {robot.mass:.4g} kg: {k} revolute joints "
+            f"(limits, rad: {limits}) on a free-flying base {robot.base!r}; attitude rx, ry, rz "
+            "= rotation vector log(R), rad, world frame"
+        )
         super().__init__(name, states, inputs, None, strata, description=description)
         self.spatial = robot
 
