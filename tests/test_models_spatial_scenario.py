@@ -149,3 +149,12 @@ def test_models_lists_joints_limits_and_strata():
     out = result.output
     assert "joint_1 [-2.97, 2.97]" in out and "rotation vector" in out
     assert "S12" in out and "magnus" in out  # pair locks from four joints on
+
+
+@pytest.mark.slow
+def test_regress_covers_the_spatial_scenarios():
+    result = CliRunner().invoke(
+        app, ["regress", str(SPATIAL), "--baseline", str(SPATIAL / "baseline.json")]
+    )
+    assert result.exit_code == 0, result.output
+    assert "all 2 scenarios match" in result.output
