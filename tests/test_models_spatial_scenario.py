@@ -158,3 +158,9 @@ def test_regress_covers_the_spatial_scenarios():
     )
     assert result.exit_code == 0, result.output
     assert "all 2 scenarios match" in result.output
+
+
+def test_lie_legs_are_rejected_on_urdf_models():
+    text = _text() + 'method = "lie"\n'
+    with pytest.raises(InputError, match=r"legs\[0\]\.method: Lie-algebraic legs are not"):
+        parse_scenario(text)

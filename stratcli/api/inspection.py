@@ -60,10 +60,6 @@ def controllability_first(
     warning of the check (a leg expected to be ill-conditioned) is passed to `warn`.
     """
     clock = time.perf_counter()
-    if getattr(task.system, "spatial", None) is not None:  # no symbolic fields to bracket
-        if warn is not None:
-            warn("the controllability check does not cover URDF models yet: skipped")
-        return 0.0
     lie = [(leg.lie or task.settings.lie).degree for leg in task.legs if leg.method == "lie"]
     doc = check_document(
         task.system,

@@ -10,6 +10,7 @@ from typing import Any
 
 from pydantic import TypeAdapter, ValidationError
 
+from ..errors import InputError, Problem
 from .specs import UrdfModel, build_system
 from .system import System
 
@@ -40,6 +41,15 @@ def prepare_urdf(raw: dict[str, Any], base_dir: Path | None) -> tuple[dict, Syst
             if isinstance(task.get(key), dict):
                 task[key] = configuration_list(task[key], system, f"task.{key}")
     for i, leg in enumerate(raw.get("legs") or []):
+        if isinstance(leg, dict) and leg.get("method") == "lie":
+            raise InputError(
+                [
+                    Problem(
+                        f"legs[{i}].method",
+                        'Lie-algebraic legs are not supported on URDF models yet (use "newton")',
+                    )
+                ]
+            )
         if isinstance(leg, dict) and isinstance(leg.get("goal"), dict):
             leg["goal"] = configuration_list(leg["goal"], system, f"legs[{i}].goal")
     return raw, system
