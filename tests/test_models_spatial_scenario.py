@@ -157,10 +157,22 @@ def test_regress_covers_the_spatial_scenarios():
         app, ["regress", str(SPATIAL), "--baseline", str(SPATIAL / "baseline.json")]
     )
     assert result.exit_code == 0, result.output
-    assert "all 2 scenarios match" in result.output
+    assert "all 3 scenarios match" in result.output
 
 
 def test_lie_legs_are_rejected_on_urdf_models():
     text = _text() + 'method = "lie"\n'
     with pytest.raises(InputError, match=r"legs\[0\]\.method: Lie-algebraic legs are not"):
         parse_scenario(text)
+
+
+def test_auto_mode_ranks_spatial_sequences_and_the_best_verifies():
+    from stratcli.api import plan_auto
+
+    outcome = plan_auto(SPATIAL / "arm3_auto.toml", jobs=1)
+    assert outcome.ok
+    best = outcome.best
+    verify_spatial(best.document, best.task.system.spatial)
+    goal = np.array(best.document["goal"])
+    end = np.array(best.document["end"])
+    assert np.linalg.norm(so3.log(so3.exp(goal[3:]).T @ so3.exp(end[3:]))) <= 1e-6
