@@ -96,8 +96,8 @@ class MagnusEndpoint:
         h, _, Phi, Psi = self._table(self.steps(L))
         u = Phi @ L.T  # (2N, m)
         q = self.q0[: self.k] + Psi @ (L.T @ self.C.T)  # (2N, k)
-        S, D = self.robot.connection(q, u @ self.C.T if jacobian else None)
-        S_w = S[:, 3:, :][:, :, self.act]  # (2N, 3, m)
+        S, D = self.robot.angular(q, u @ self.C.T if jacobian else None)
+        S_w = S[:, :, self.act]  # (2N, 3, m)
         xi = (S_w @ u[:, :, None])[:, :, 0]
         x1, x2 = xi[0::2], xi[1::2]
         Omega = 0.5 * h * (x1 + x2) + (SQRT3 * h * h / 12.0) * np.cross(x1, x2)

@@ -44,14 +44,14 @@ def spatial_basis(system, stratum: Stratum, degree: int) -> LieBasis:
 
         def S(P, key):
             if ("S", key) not in memo:
-                memo["S", key] = robot.connection(P)[0][:, 3:, :]  # (K, 3, k)
+                memo["S", key] = robot.angular(P)[0]  # (K, 3, k)
             return memo["S", key]
 
         def derivative_of_generator(P, key, j):  # ∂ξ_j/∂q (K, 3, k), analytic
             if ("D", key, j) not in memo:
                 u = np.zeros_like(P)
                 u[:, j] = 1.0
-                memo["D", key, j] = robot.connection(P, u)[1]
+                memo["D", key, j] = robot.angular(P, u)[1]
             return memo["D", key, j]
 
         def zeta(h, P, key):

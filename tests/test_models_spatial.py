@@ -87,3 +87,13 @@ def test_reserved_and_unsupported(tmp_path):
         load_spatial(tmp_path / "r.urdf")
     with pytest.raises(InputError, match="root link 'base'"):
         load_spatial(ROBOTS / "arm3.urdf", base="l1")
+
+
+def test_angular_rows_alone_give_the_same_rate_and_derivative():
+    robot = load_spatial(ROBOTS / "bus_arm7.urdf").spatial
+    rng = np.random.default_rng(1)
+    q, u = rng.uniform(-2, 2, (5, 7)), rng.normal(size=(5, 7))
+    S, D = robot.connection(q, u)
+    S_w, D_w = robot.angular(q, u)
+    np.testing.assert_allclose(S_w, S[:, 3:], atol=1e-14)
+    np.testing.assert_allclose(D_w, D, atol=1e-14)

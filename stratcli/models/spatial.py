@@ -152,6 +152,39 @@ class SpatialRobot:
         D = -np.linalg.solve(Ab, dh)[:, 3:]
         return S, D
 
+    def angular(
+        self, q: np.ndarray, u: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """`S_ω(q)` (K, 3, k) and with `u` also `D` (K, 3, k): what planning needs.
+
+        The angular momentum about the CoM does not see the base's linear velocity (a uniform
+        translation), so the angular rows of the centroidal map alone fix `ω`:
+        `S_ω = −A_ωω⁻¹ A_ωq`, a 3×3 solve (in closed form here) instead of the 6×6 one.
+        """
+        pin, model, data = self._pin, self.model, self.data
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        K = q.shape[0]
+        X = np.repeat(self._neutral[None], K, axis=0)
+        X[:, self.iq] = q
+        Ag = np.empty((K, 6, model.nv))
+        centroidal_map = pin.computeCentroidalMap
+        for i in range(K):
+            Ag[i] = centroidal_map(model, data, X[i])
+        inverse = _inverse3(Ag[:, 3:, 3:6])
+        S = -inverse @ Ag[:, 3:, self.iv]
+        if u is None:
+            return S, None
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        V = np.zeros((K, model.nv))
+        V[:, 3:6] = (S @ u[:, :, None])[:, :, 0]  # the base's linear velocity changes no
+        V[:, self.iv] = u  # angular momentum about the CoM: left at zero
+        zero = np.zeros(model.nv)
+        dh = np.empty((K, 6, model.nv))
+        derivatives = pin.computeCentroidalDynamicsDerivatives
+        for i in range(K):
+            dh[i] = derivatives(model, data, X[i], V[i], zero)[0]
+        return S, -inverse @ dh[:, 3:, self.iv]
+
     def com_in_base(self, q: np.ndarray) -> np.ndarray:
         """The system CoM in the base frame (K, 3) at joint angles q (K, k)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
@@ -183,6 +216,14 @@ class SpatialRobot:
                 placement = self.data.oMf[i]
                 out[frame.name] = (placement.translation.copy(), placement.rotation.copy())
         return out
+
+
+def _inverse3(A: np.ndarray) -> np.ndarray:
+    """Inverses of 3×3 matrices (K, 3, 3) by cross products (adjugate over determinant)."""
+    a0, a1, a2 = A[:, :, 0], A[:, :, 1], A[:, :, 2]
+    rows = np.stack([np.cross(a1, a2), np.cross(a2, a0), np.cross(a0, a1)], axis=1)
+    det = np.einsum("ki,ki->k", a0, rows[:, 0])
+    return rows / det[:, None, None]
 
 
 def stratum_name(locked: tuple[int, ...]) -> str:
@@ -230,10 +271,10 @@ class SpatialStratum:
         y = np.asarray(y, dtype=float)
         lead, k, m = y.shape[:-1], self.k, self.act.size
         flat = y.reshape(-1, k + 3)
-        S, _ = self.system.spatial.connection(flat[:, :k])
+        S, _ = self.system.spatial.angular(flat[:, :k])
         out = np.zeros((flat.shape[0], k + 3, m))
         out[:, self.act, np.arange(m)] = 1.0
-        out[:, k:, :] = so3.right_jacobian_inverse(flat[:, k:]) @ S[:, 3:, :][:, :, self.act]
+        out[:, k:, :] = so3.right_jacobian_inverse(flat[:, k:]) @ S[:, :, self.act]
         return out.reshape(*lead, k + 3, m)
 
     def dG(self, y: np.ndarray) -> np.ndarray:
