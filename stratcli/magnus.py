@@ -33,6 +33,7 @@ MIN_STEPS = 16
 # error falls 16x per halving; 14 keeps it below 5e-10 rad on legs with joint speeds of several
 # rad/s (tests/test_magnus.py) and far below on calmer ones.
 STEPS_PER_RADIAN = 14.0
+COUPLING_REFERENCE = 0.6  # |S_ω| of the golden arm (robots/arm3.urdf), where it is calibrated
 
 
 def _effective_frequency(L: np.ndarray, basis: FourierBasis) -> float:
@@ -66,6 +67,12 @@ class MagnusEndpoint:
         self._tables: dict[int, tuple] = {}
         self.steps_override: int | None = None  # tests: a fixed number of steps
 
+    @cached_property
+    def coupling(self) -> float:
+        """Spectral norm of the active columns of `S_ω` at the start (one Pinocchio call)."""
+        S, _ = self.robot.angular(self.q0[None, : self.k])
+        return float(np.linalg.norm(S[0][:, self.act], 2)) if self.act.size else 0.0
+
     @property
     def n_coefficients(self) -> int:
         return self.m * self.size
@@ -77,8 +84,11 @@ class MagnusEndpoint:
         u = _speed_grid(self.basis, self.duration) @ L.T
         speed = float(np.abs(u).sum(axis=1).max()) if u.size else 0.0
         phase = self.duration * (speed + _effective_frequency(L, self.basis))
-        # the error also grows with the rate itself (∝ speed): fast legs get (speed/4)^¼ more
+        # the error also grows with the rate itself (∝ speed): fast legs get (speed/4)^¼ more;
+        # and as the square of the coupling |S_ω| (the error terms are commutators of rates):
+        # a bus heavy against its arm needs fewer steps than the golden arm (|S_ω| ≈ 0.6)
         phase *= max(1.0, (1.0 + speed) / 5.0) ** 0.25
+        phase *= min(max(np.sqrt(self.coupling / COUPLING_REFERENCE), 0.5), 2.0)
         if not np.isfinite(phase):
             return MIN_STEPS
         return int(min(max(MIN_STEPS, np.ceil(STEPS_PER_RADIAN * phase)), 1 << 14))

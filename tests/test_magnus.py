@@ -121,3 +121,17 @@ def test_jacobian_matches_finite_differences(arm3):
         ]
     )
     np.testing.assert_allclose(J, fd, atol=1e-8, rtol=0)
+
+
+def test_seven_joint_arm_matches_independent_integration():
+    """Fewer steps where the arm turns the bus less (`MagnusEndpoint.coupling`): still 1e-9."""
+    arm7 = load_spatial(ROBOTS / "bus_arm7.urdf")
+    rng = np.random.default_rng(5)
+    basis = FourierBasis(harmonics=3, period=2.17)
+    cs = arm7.compiled("S4")
+    q0 = np.concatenate([rng.uniform(-1, 1, 7), rng.uniform(-0.5, 0.5, 3)])
+    lam = rng.normal(0.0, 0.6, len(cs.act) * basis.size)
+    end, _ = cs.endpoint(q0, basis, 2.0)(lam, jacobian=False)
+    joints, R = _quaternion_reference(arm7, cs, q0, basis, 2.0, lam)
+    np.testing.assert_allclose(end[:7], joints, atol=1e-11, rtol=0)
+    assert np.linalg.norm(so3.log(R.T @ so3.exp(end[7:]))) < 1e-9
