@@ -48,3 +48,13 @@ def test_urdf_is_attached(spatial_run):
     task, _, _, data = spatial_run
     attachments = {a.name: a for a in make_reader(io.BytesIO(data)).iter_attachments()}
     assert attachments["ff_arm3.urdf"].data.decode() == task.system.spatial.text
+
+
+def test_layout_draws_the_urdf_in_the_3d_panel(spatial_run):
+    task, out, traj, _ = spatial_run
+    from stratcli.records.foxglove_layout import THREE_D, run_layout
+
+    layout = run_layout(out.result, traj)
+    layer = layout["configById"][THREE_D]["layers"]["urdf"]
+    assert layer["layerId"] == "foxglove.Urdf" and layer["sourceType"] == "filePath"
+    assert Path(layer["filePath"]).read_text() == task.system.spatial.text

@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 
 from .. import so3
 
-__all__ = ["spatial_stroboscope_figure"]
+__all__ = ["reach", "spatial_stroboscope_figure"]
 
 INSTANTS_PER_LEG = 6
 COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
@@ -36,6 +36,16 @@ def _poses(plan, traj, indices):
         ]
         drawn.append((np.array([p for p, _ in poses.values()]), segments))
     return drawn
+
+
+def reach(plan, q) -> float:
+    """The largest distance of a link origin from the system CoM at configuration q (m)."""
+    robot = plan.system.spatial
+    k = robot.n_joints
+    if not np.all(np.isfinite(q)):
+        return 0.0
+    poses = robot.link_poses(np.asarray(q)[:k], so3.exp(np.asarray(q)[k:]))
+    return float(max(np.linalg.norm(p) for p, _ in poses.values()))
 
 
 def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
