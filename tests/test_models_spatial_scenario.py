@@ -176,3 +176,13 @@ def test_auto_mode_ranks_spatial_sequences_and_the_best_verifies():
     goal = np.array(best.document["goal"])
     end = np.array(best.document["end"])
     assert np.linalg.norm(so3.log(so3.exp(goal[3:]).T @ so3.exp(end[3:]))) <= 1e-6
+
+
+def test_plan_command_prints_the_audit_per_leg(tmp_path):
+    path = SPATIAL / "arm7_three_legs.toml"
+    result = CliRunner().invoke(app, ["plan", str(path), "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert "leg 3 on SO(3): attitude error" in result.output
+    assert "leg 1 on SO(3): attitude error (partly free)" in result.output
+    (run,) = tmp_path.iterdir()
+    assert {"run.mcap", "stroboscope.png", "result.json"} <= {p.name for p in run.iterdir()}
