@@ -33,6 +33,12 @@ MIN_STEPS = 16
 # error falls 16x per halving; 14 keeps it below 5e-10 rad on legs with joint speeds of several
 # rad/s (tests/test_magnus.py) and far below on calmer ones.
 STEPS_PER_RADIAN = 14.0
+ACCURACY = 5e-10  # rad: the Magnus error on the full steps (tests/test_magnus.py)
+# Far from the goal the map is evaluated to 1e-5 of the last goal error (a Newton step
+# usually divides it by far more than 10), and the result kept if its accuracy is within
+# RELATIVE_ACCURACY of the goal error it finds.
+AIM_ACCURACY = 1e-5
+RELATIVE_ACCURACY = 1e-3
 COUPLING_REFERENCE = 0.6  # |S_ω| of the golden arm (robots/arm3.urdf), where it is calibrated
 
 
@@ -66,6 +72,8 @@ class MagnusEndpoint:
         self.psi_T = basis.integrals(self.duration)
         self._tables: dict[int, tuple] = {}
         self.steps_override: int | None = None  # tests: a fixed number of steps
+        self._aim: tuple[np.ndarray, np.ndarray] | None = None  # goal values, targets
+        self._error = np.inf  # the goal error of the last evaluation
 
     @cached_property
     def coupling(self) -> float:
@@ -101,9 +109,9 @@ class MagnusEndpoint:
             self._tables[N] = (h, t, self.basis.values(t), self.basis.integrals(t))
         return self._tables[N]
 
-    def _march(self, L: np.ndarray, jacobian: bool):
+    def _march(self, L: np.ndarray, jacobian: bool, steps: int | None = None):
         """(h, Φ, Ψ, S_ω at the nodes, D at the nodes, ξ1, ξ2, Ω, R_0..R_N)."""
-        h, _, Phi, Psi = self._table(self.steps(L))
+        h, _, Phi, Psi = self._table(self.steps(L) if steps is None else steps)
         u = Phi @ L.T  # (2N, m)
         q = self.q0[: self.k] + Psi @ (L.T @ self.C.T)  # (2N, k)
         S, D = self.robot.angular(q, u @ self.C.T if jacobian else None)
@@ -119,14 +127,46 @@ class MagnusEndpoint:
         return h, Phi, Psi, S_w, D, x1, x2, Omega, R
 
     def __call__(self, lam: np.ndarray, jacobian: bool = True):
+        """End point and (with `jacobian`) its Jacobian; far from the goal on coarser steps.
+
+        Once a goal is known (`residual` was called), the map is evaluated on fewer steps
+        when the last goal error was large: to an accuracy of `AIM_ACCURACY` × that error
+        (the Magnus error falls as N⁻⁴), kept only if it is below `RELATIVE_ACCURACY` × the
+        error it then finds, else evaluated again on the full steps. Near the goal every
+        evaluation is on the full steps; `refined` gives the full-step end of any λ.
+        """
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
+        if not np.all(np.isfinite(L)):
+            end = np.full(self.q0.size, np.nan)
+            return end, (np.full((end.size, self.n_coefficients), np.nan) if jacobian else None)
+        full = self.steps(L)
+        coarse = self._coarse_steps(full)
+        if coarse < full:
+            end, J = self._evaluate(L, jacobian, coarse)
+            error = np.linalg.norm(residual_on_group(end, None, *self._aim, self.k)[0])
+            if RELATIVE_ACCURACY * error >= ACCURACY * (full / coarse) ** 4:
+                return end, J
+        return self._evaluate(L, jacobian, full)
+
+    def _coarse_steps(self, full: int) -> int:
+        if self._aim is None or self.steps_override or not np.isfinite(self._error):
+            return full
+        wanted = max(ACCURACY, AIM_ACCURACY * self._error)
+        coarse = int(np.ceil(full * (ACCURACY / wanted) ** 0.25))
+        return max(MIN_STEPS, coarse) if coarse < 0.8 * full else full
+
+    def refined(self, lam: np.ndarray) -> np.ndarray:
+        """The end point on the full steps (what a plan records)."""
+        L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
+        if not np.all(np.isfinite(L)):
+            return np.full(self.q0.size, np.nan)
+        return self._evaluate(L, False, self.steps(L))[0]
+
+    def _evaluate(self, L: np.ndarray, jacobian: bool, steps: int):
         k = self.k
         end = self.q0.copy()
         end[:k] += self.C @ (L @ self.psi_T)
-        if not np.all(np.isfinite(L)):
-            end[:] = np.nan
-            return end, (np.full((end.size, self.n_coefficients), np.nan) if jacobian else None)
-        h, Phi, Psi, S_w, D, x1, x2, Omega, R = self._march(L, jacobian)
+        h, Phi, Psi, S_w, D, x1, x2, Omega, R = self._march(L, jacobian, steps)
         phi = so3.log(R[-1])
         end[k:] = phi
         if not jacobian:
@@ -145,8 +185,12 @@ class MagnusEndpoint:
         return end, J
 
     def residual(self, end, J, aim, targets):
-        """`residual_on_group` for this leg's coordinates."""
-        return residual_on_group(end, J, aim, targets, self.k)
+        """`residual_on_group` for this leg's coordinates; remembers the goal and the error
+        (they set the accuracy of the next evaluation)."""
+        r, Jt = residual_on_group(end, J, aim, targets, self.k)
+        self._aim = (np.array(aim, dtype=float), np.array(targets, dtype=int))
+        self._error = float(np.linalg.norm(r))
+        return r, Jt
 
     def attitudes(self, lam: np.ndarray) -> np.ndarray:
         """R at the step boundaries (N + 1, 3, 3) for coefficients λ."""

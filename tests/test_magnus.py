@@ -135,3 +135,23 @@ def test_seven_joint_arm_matches_independent_integration():
     joints, R = _quaternion_reference(arm7, cs, q0, basis, 2.0, lam)
     np.testing.assert_allclose(end[:7], joints, atol=1e-11, rtol=0)
     assert np.linalg.norm(so3.log(R.T @ so3.exp(end[7:]))) < 1e-9
+
+
+def test_far_from_the_goal_the_map_is_coarse_but_accurate_to_its_error(arm3):
+    basis = FourierBasis(harmonics=3, period=2.17)
+    cs = arm3.compiled("S3")
+    q0 = np.array([0.3, -0.2, 0.0, 0.1, 0.0, -0.1])
+    lam = np.random.default_rng(3).normal(0.0, 0.3, 2 * basis.size)
+    ep = cs.endpoint(q0, basis, 2.0)
+    exact = ep.refined(lam)
+    targets = np.arange(6)
+    far = exact.copy()
+    far[3:] += 0.3  # a goal 0.5 rad away
+    ep.residual(exact, None, far[targets], targets)
+    calls = []
+    march = ep._march
+    ep._march = lambda L, jac, steps=None: calls.append(steps) or march(L, jac, steps)
+    end, _ = ep(lam, jacobian=False)
+    assert calls[0] < ep.steps(lam.reshape(2, -1)) // 2  # coarse
+    gap = np.linalg.norm(so3.log(so3.exp(exact[3:]).T @ so3.exp(end[3:])))
+    assert gap <= 1e-3 * 0.5

@@ -175,11 +175,17 @@ class NewtonPlanner(LegPlanner):
             if path.reached:
                 best, strategy = path.result, "continuation"
         lam, end = best.extra
-        ok = best.error <= problem.tolerance
+        error = best.error
+        refined = getattr(endpoint, "refined", None)  # a map that evaluates coarsely far away
+        if refined is not None and np.all(np.isfinite(end)):
+            end = refined(lam)
+            r, _ = goal_residual(endpoint, end, None, goal[targets], targets)
+            error = float(np.linalg.norm(r))
+        ok = error <= problem.tolerance
         return LegOutcome(
             pieces=(Piece(0.0, problem.duration, lam.reshape(endpoint.m, endpoint.size)),),
             end=np.array(end, dtype=float),
-            error=best.error,
+            error=error,
             iterations=total,
             attempts=attempt + 1,
             status=Status.SUCCESS if ok else Status.NOT_CONVERGED,
