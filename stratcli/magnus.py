@@ -74,6 +74,7 @@ class MagnusEndpoint:
         self.steps_override: int | None = None  # tests: a fixed number of steps
         self._aim: tuple[np.ndarray, np.ndarray] | None = None  # goal values, targets
         self._error = np.inf  # the goal error of the last evaluation
+        self._full: tuple | None = None  # ((λ, steps), end) of the last full-step evaluation
 
     @cached_property
     def coupling(self) -> float:
@@ -146,7 +147,9 @@ class MagnusEndpoint:
             error = np.linalg.norm(residual_on_group(end, None, *self._aim, self.k)[0])
             if RELATIVE_ACCURACY * error >= ACCURACY * (full / coarse) ** 4:
                 return end, J
-        return self._evaluate(L, jacobian, full)
+        end, J = self._evaluate(L, jacobian, full)
+        self._full = ((L.tobytes(), full), end.copy())
+        return end, J
 
     def _coarse_steps(self, full: int) -> int:
         if self._aim is None or self.steps_override or not np.isfinite(self._error):
@@ -160,7 +163,10 @@ class MagnusEndpoint:
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
         if not np.all(np.isfinite(L)):
             return np.full(self.q0.size, np.nan)
-        return self._evaluate(L, False, self.steps(L))[0]
+        steps = self.steps(L)
+        if self._full is not None and self._full[0] == (L.tobytes(), steps):
+            return self._full[1].copy()  # its last evaluation was this one, on the full steps
+        return self._evaluate(L, False, steps)[0]
 
     def _evaluate(self, L: np.ndarray, jacobian: bool, steps: int):
         k = self.k
