@@ -168,8 +168,8 @@ class SpatialRobot:
         X[:, self.iq] = q
         Ag = np.empty((K, 6, model.nv))
         centroidal_map = pin.computeCentroidalMap
-        for i in range(K):
-            Ag[i] = centroidal_map(model, data, X[i])
+        for i, x in enumerate(X):  # iterating rows: no index arithmetic per point
+            Ag[i] = centroidal_map(model, data, x)
         inverse = _inverse3(Ag[:, 3:, 3:6])
         S = -inverse @ Ag[:, 3:, self.iv]
         if u is None:
@@ -181,8 +181,8 @@ class SpatialRobot:
         zero = np.zeros(model.nv)
         dh = np.empty((K, 6, model.nv))
         derivatives = pin.computeCentroidalDynamicsDerivatives
-        for i in range(K):
-            dh[i] = derivatives(model, data, X[i], V[i], zero)[0]
+        for i, (x, v) in enumerate(zip(X, V, strict=True)):
+            dh[i] = derivatives(model, data, x, v, zero)[0]
         return S, -inverse @ dh[:, 3:, self.iv]
 
     def com_in_base(self, q: np.ndarray) -> np.ndarray:
