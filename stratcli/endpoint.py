@@ -251,7 +251,13 @@ class OdeEndpoint(_Endpoint):
 def make_endpoint(
     cs: CompiledStratum, q0, basis: FourierBasis, duration: float, evaluator: str = "auto"
 ) -> _Endpoint:
-    """The quadrature path when the structure allows it (or when asked), else the ODE path."""
+    """The quadrature path when the structure allows it (or when asked), else the ODE path.
+
+    A stratum with an end-point map of its own (`endpoint`: spatial models, whose attitude is
+    integrated on SO(3)) uses it unless the ODE path is asked for."""
+    own = getattr(cs, "endpoint", None)
+    if own is not None and evaluator != "ode":
+        return own(q0, basis, duration)
     if evaluator == "ode" or (evaluator == "auto" and not cs.supports_quadrature):
         return OdeEndpoint(cs, q0, basis, duration)
     return QuadratureEndpoint(cs, q0, basis, duration)

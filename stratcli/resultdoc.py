@@ -93,7 +93,17 @@ def _leg(plan: SequencePlan, leg: LegPlan) -> dict[str, Any]:
 
 
 def plan_document(plan: SequencePlan) -> dict[str, Any]:
-    """The JSON-ready result of a planned (or failed) sequence."""
+    """The JSON-ready result of a planned (or failed) sequence; a spatial (URDF) plan also
+    has an `attitude` section (`spatialdoc`)."""
+    doc = _document(plan)
+    if getattr(plan.model.spec, "kind", None) == "urdf":
+        from .spatialdoc import attitude_document
+
+        doc["attitude"] = attitude_document(plan)
+    return doc
+
+
+def _document(plan: SequencePlan) -> dict[str, Any]:
     s = plan.settings
     return {
         "schema": SCHEMA,

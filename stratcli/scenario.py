@@ -34,6 +34,7 @@ from .models.specs import (
     ModelSpec,
     PlanarModel,
     PresetModel,
+    UrdfModel,
     build_system,
 )
 from .models.system import System
@@ -149,7 +150,9 @@ def _allowed_keys(loc: tuple) -> list[str]:
         if isinstance(item, int):
             continue
         if item in KINDS and cls is None:
-            cls = {"preset": PresetModel, "custom": CustomModel}.get(item, PlanarModel)
+            cls = {"preset": PresetModel, "custom": CustomModel, "urdf": UrdfModel}.get(
+                item, PlanarModel
+            )
             continue
         fields = _fields_of(cls)
         if fields is None or item not in fields:
@@ -231,17 +234,27 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
         text = read_scenario_text(path)
     except InputError as exc:
         raise exc.with_source(where) from None
-    return parse_scenario(text, where)
+    return parse_scenario(text, where, base_dir=path.parent)
 
 
-def parse_scenario(text: str, source: str = "<scenario>") -> Task:
-    """`load_scenario` for TOML text."""
-    return _from_raw(parse_toml(text, source), text, source)
+def parse_scenario(text: str, source: str = "<scenario>", base_dir: Path | None = None) -> Task:
+    """`load_scenario` for TOML text; a URDF `path` is relative to `base_dir` (default: cwd)."""
+    return _from_raw(parse_toml(text, source), text, source, base_dir)
 
 
-def _from_raw(raw: dict[str, Any], text: str | None, source: str) -> Task:
+def _from_raw(
+    raw: dict[str, Any], text: str | None, source: str, base_dir: Path | None = None
+) -> Task:
     if non_finite := reject_non_finite(raw):
         raise InputError(non_finite, source)
+    system = None
+    if isinstance(raw.get("model"), dict) and raw["model"].get("kind") == "urdf":
+        from .models.spatial_scenario import prepare_urdf  # configurations by joint name
+
+        try:
+            raw, system = prepare_urdf(raw, base_dir)
+        except InputError as exc:
+            raise exc.with_source(source) from None
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
@@ -252,7 +265,7 @@ def _from_raw(raw: dict[str, Any], text: str | None, source: str) -> Task:
         except (TypeError, ValueError) as exc:
             raise InputError(f"cannot be written as TOML: {exc}", source) from None
     try:
-        return _resolve(scenario, source, text)
+        return _resolve(scenario, source, text, system)
     except InputError as exc:
         raise exc.with_source(source) from None
 
@@ -272,8 +285,10 @@ def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[P
     return None
 
 
-def _resolve(scenario: Scenario, source: str, text: str) -> Task:
-    system = build_system(scenario.model)
+def _resolve(scenario: Scenario, source: str, text: str, system: System | None = None) -> Task:
+    if system is None:
+        system = build_system(scenario.model)
+    system.spec = scenario.model
     n = system.n
     problems: list[Problem] = []
     names = ", ".join(system.states)

@@ -18,7 +18,7 @@ from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
-from .base import ENERGY_RUNAWAY
+from .base import ENERGY_RUNAWAY, goal_residual
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
@@ -127,9 +127,10 @@ class _Problem:
                 zip(self.endpoints, self.targets, self.goals, strict=True)
             ):
                 end, Ji = ep(lam[self.offsets[i] : self.offsets[i + 1]], jacobian)
-                res.append(end[t] - g)
+                r, Jt = goal_residual(ep, end, Ji, g, t)
+                res.append(r)
                 if jacobian:
-                    J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = Ji[t]
+                    J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = Jt
                 row += t.size
             self._c = np.concatenate(res)
             if jacobian:

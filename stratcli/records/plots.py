@@ -4,7 +4,8 @@
 * `controls.png`: every input against time; an input that is off on a leg is drawn at zero
   there and labelled "off".
 * `stroboscope.png` (manipulators): the robot drawn at regular instants of each leg, fading
-  from light to dark, one panel per leg (as the paper's Fig. 7).
+  from light to dark, one panel per leg (as the paper's Fig. 7); a URDF robot on the two
+  principal planes of its motion (`spatial_figures`).
 * `motion.gif` (manipulators): the same motion, animated in real time (or at a stated speed-up).
 
 In the time plots every leg is shaded and labelled with its stratum and method ("leg 2: S1 ·
@@ -65,6 +66,11 @@ LABEL_SIZE = 8.5  # pt, of the leg labels
 def _is_manipulator(plan: SequencePlan) -> bool:
     robot = plan.system.robot
     return robot is not None and plan.system.n == robot.n_joints + 1
+
+
+def _is_spatial(plan: SequencePlan) -> bool:
+    """A URDF robot: joints and the attitude's rotation vector (rx, ry, rz) in rad."""
+    return getattr(plan.system, "spatial", None) is not None
 
 
 def _leg_label(plan: SequencePlan, k: int) -> str:
@@ -270,7 +276,7 @@ def _mark_off_inputs(plan: SequencePlan, axes: list[Any]) -> None:
 
 def configuration_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Figure:
     """Every coordinate against time (rad for manipulators)."""
-    unit = "rad" if _is_manipulator(plan) else None
+    unit = "rad" if _is_manipulator(plan) or _is_spatial(plan) else None
     head = f"{title}: configuration" if title else "configuration"
     return _time_series(
         plan, traj, traj.q, plan.system.states, unit, head + " vs time", "configuration"
@@ -279,7 +285,7 @@ def configuration_figure(plan: SequencePlan, traj: Trajectory, title: str = "") 
 
 def controls_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Figure:
     """Every input against time (rad/s for manipulators: u_i is the speed of joint i)."""
-    unit = "rad/s" if _is_manipulator(plan) else None
+    unit = "rad/s" if _is_manipulator(plan) or _is_spatial(plan) else None
     head = f"{title}: controls" if title else "controls"
     return _time_series(plan, traj, traj.u, plan.system.inputs, unit, head + " vs time", "controls")
 
@@ -317,6 +323,12 @@ def render_plots(
         )
         if animation:
             makers["motion.gif"] = lambda: motion_gif(plan, traj, title)
+    elif _is_spatial(plan):  # a URDF robot: on the principal planes of its motion
+        from .spatial_figures import spatial_stroboscope_figure
+
+        makers[f"stroboscope.{fmt}"] = lambda: save_figure(
+            spatial_stroboscope_figure(plan, traj, title), fmt
+        )
     files = {}
     for name, make in makers.items():
         try:
