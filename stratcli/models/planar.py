@@ -256,7 +256,6 @@ class Structure:
     same: np.ndarray  # (n, n) 1 if joints j and k are on the same arm
     lower_same: np.ndarray  # (n, n) bool: j, k on one arm and k ≤ j (k at or before j)
     upper_same: np.ndarray  # (n, n) bool: j, k on one arm and k > j
-    ss2: np.ndarray  # (n, n) s_j s_k
     m0: float
     M: float
     sum_inertia: float  # I0 + Σ I_i
@@ -300,7 +299,6 @@ def structure(robot: PlanarManipulator) -> Structure:
         # joints are numbered proximal to distal on each arm
         "lower_same": (same > 0) & (j >= k),
         "upper_same": (same > 0) & (j < k),
-        "ss2": np.outer(s, s),
     }
     for value in arrays.values():
         value.setflags(write=False)
