@@ -200,7 +200,16 @@ def long_two_arm_chain() -> PlanarManipulator:
     return PlanarManipulator(Base(9.0, 2.2), arms)
 
 
-SECOND = {**ROBOTS, "two-arm-12": long_two_arm_chain}
+def single_link_arms() -> PlanarManipulator:
+    """Three arms of one link each: no joint is proximal to another."""
+    arms = tuple(
+        Arm((0.4 * np.cos(a), 0.4 * np.sin(a)), a, 1 if i % 2 else -1, (Link(0.6 + 0.2 * i, 0.8),))
+        for i, a in enumerate((0.3, 2.2, 4.1))
+    )
+    return PlanarManipulator(Base(5.0, 1.1), arms)
+
+
+SECOND = {**ROBOTS, "two-arm-12": long_two_arm_chain, "single-link-arms": single_link_arms}
 
 
 @pytest.mark.parametrize("name", SECOND)

@@ -254,9 +254,8 @@ class Structure:
     DI: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} I_i
     mu: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} m_i
     same: np.ndarray  # (n, n) 1 if joints j and k are on the same arm
-    same3: np.ndarray  # (n, n, 1)
-    lower3: np.ndarray  # (n, n, 1) bool: k ≤ j (joint k at or before joint j, if on one arm)
-    ss: np.ndarray  # (n, n, 1) s_j s_k
+    lower_same: np.ndarray  # (n, n) bool: j, k on one arm and k ≤ j (k at or before j)
+    upper_same: np.ndarray  # (n, n) bool: j, k on one arm and k > j
     m0: float
     M: float
     sum_inertia: float  # I0 + Σ I_i
@@ -297,9 +296,9 @@ def structure(robot: PlanarManipulator) -> Structure:
         "DI": col(D @ inertia),
         "mu": col(D @ m),
         "same": same,
-        "same3": same[:, :, None],
-        "lower3": (j >= k)[:, :, None],  # joints are numbered proximal to distal on each arm
-        "ss": np.outer(s, s)[:, :, None],
+        # joints are numbered proximal to distal on each arm
+        "lower_same": (same > 0) & (j >= k),
+        "upper_same": (same > 0) & (j < k),
     }
     for value in arrays.values():
         value.setflags(write=False)
