@@ -137,8 +137,12 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
     problems: list[Problem] = []
     n, m = system.n, system.m
     robot = getattr(system, "robot", None)
+    spatial = getattr(system, "spatial", None)  # a URDF robot: its joints come first
     joints = robot.n_joints if robot is not None else n  # limits apply to the joints
     lower, upper = np.full(n, -np.inf), np.full(n, np.inf)
+    if spatial is not None:  # the URDF's limits, unless the table overrides them
+        joints = len(spatial.joint_names)
+        lower[:joints], upper[:joints] = spatial.lower, spatial.upper
     limits = spec.joint_limits
     if isinstance(limits, dict):
         pairs = {}
@@ -178,8 +182,9 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
         problems.append(
             Problem(
                 "constraints",
-                "self_collision and obstacles need a physical robot (a preset or a planar "
-                "manipulator)",
+                "self_collision and obstacles need a planar robot (a preset or a planar "
+                "manipulator); for custom and URDF models only joint, rate and acceleration "
+                "limits are supported",
             )
         )
     if problems:

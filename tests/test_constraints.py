@@ -160,3 +160,22 @@ def test_the_constraint_report_round_trips_through_result_json(tmp_path):
     loaded = load_run(run)
     assert loaded.to_dict()["constraints"] == outcome.document["constraints"]
     assert loaded.constraints == outcome.result.constraints
+
+
+def test_urdf_models_take_their_joint_limits_from_the_urdf_unless_overridden():
+    pytest.importorskip("pinocchio")
+    raw = tomllib.loads((ROOT / "scenarios" / "spatial" / "arm7_three_legs.toml").read_text())
+    raw["model"]["path"] = str(ROOT / "robots" / "bus_arm7.urdf")
+    raw["constraints"] = {"max_rate": 1.0}
+    task = load_scenario(raw)
+    robot = task.system.spatial
+    joints = len(robot.joint_names)
+    np.testing.assert_array_equal(task.constraints.lower[:joints], robot.lower)
+    np.testing.assert_array_equal(task.constraints.upper[:joints], robot.upper)
+    assert np.all(np.isinf(task.constraints.lower[joints:]))  # the attitude is not limited
+    raw["constraints"] = {"joint_limits": {"joint_2": [-1.0, 1.0]}}
+    c = load_scenario(raw).constraints
+    assert (c.lower[1], c.upper[1]) == (-1.0, 1.0)
+    assert c.upper[0] == robot.upper[0]
+    raw["constraints"] = {"self_collision": True}
+    assert any("need a planar robot" in p for p in _problems(raw))
