@@ -261,11 +261,20 @@ def _warning(message: str) -> None:
 
 
 def show(
-    run: Annotated[Path, typer.Argument(help="Run directory (as printed by plan).")],
+    run: Annotated[
+        Path, typer.Argument(help="Run directory (as printed by plan), or a sweep directory.")
+    ],
     json_output: Json = False,
 ) -> None:
-    """Show a run record (read back from its files, not re-planned)."""
+    """Show a run record (read back from its files, not re-planned), or a sweep directory."""
     from .. import api  # start-up speed
+    from ..records.sweepdir import is_sweep_dir
+
+    if is_sweep_dir(run):
+        from .sweep import show_sweep
+
+        show_sweep(run, json_output)
+        return
 
     with render.reported():
         record, log = api.read_run(run)
