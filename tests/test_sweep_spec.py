@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sweep_files import AUTO, GRID, RANDOM, TASK_A, write
+from sweep_files import AUTO, GRID, RANDOM, ROOT, TASK_A, write
 from typer.testing import CliRunner
 
 from stratcli.cli import app
@@ -114,3 +114,11 @@ def test_the_command_exits_2_with_one_line_per_problem(tmp_path):
     assert result.exit_code == 2 and len(lines) == 2, result.output
     assert 'sweep.grid."goal.q9"' in lines[0] and 'sweep.grid."goal.q1"[0]' in lines[1]
     assert not (tmp_path / "o").exists()
+
+
+def test_the_shipped_goal_map_is_a_21_by_21_auto_grid_around_the_papers_goal():
+    sweep = load_sweep(ROOT / "scenarios" / "sweeps" / "sim4_goal_map.toml")
+    assert sweep.mode == "auto" and sweep.count == 441 and sweep.keys == ("goal.q1", "goal.theta")
+    middle = next(sweep.tasks(skip=set(range(220))))  # task 220: the middle of the grid
+    goal = load_scenario(middle.scenario).goal
+    assert np.allclose(goal, [-np.pi / 3, np.pi / 3, np.pi / 4, -np.pi / 12], atol=1e-12)

@@ -45,8 +45,8 @@ def progress_bar(enabled: bool) -> Iterator[Any]:
         MofNCompleteColumn(),
         _Rate(),
         TimeElapsedColumn(),
-        TextColumn("left"),
         TimeRemainingColumn(),
+        TextColumn("left"),
     )
     with Progress(*columns, console=render.err_console, auto_refresh=False, transient=True) as bar:
         job = bar.add_task("sweep", total=None)

@@ -24,7 +24,7 @@ from .figure_common import save_figure
 FAILED = "0.8"
 PALETTE = (
     "#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3",
-    "#937860", "#da8bc3", "#8c8c8c", "#ccb974", "#64b5cd",
+    "#937860", "#da8bc3", "#17becf", "#ccb974", "#64b5cd",
 )  # fmt: skip
 
 
