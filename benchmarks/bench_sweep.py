@@ -23,7 +23,10 @@ peak |u| and excursion) and the overhead per task beyond planning: `wall × work
 mean planning_time_s` (what a task costs the pool beyond the planner: dispatch, the worker's
 own part, the fsync'd row, start-up shared out). Parallel efficiency of a 2-worker run:
 `throughput(2) / (2 × throughput(1))`. The rows are checked identical (timing columns aside)
-across the three runs. The load average is printed first: the machine may be shared.
+across the three runs. CPU ms/task: user + system time of this process and the local pool's
+workers (joined at the end of the sweep, so counted by `RUSAGE_CHILDREN`) per task; not
+measured for Dask, whose workers outlive the run. The load average is printed before and
+after: on a shared machine, wall times and the efficiency follow the other load, CPU does not.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the stratplan command d
 
 import argparse
 import platform
+import resource
 import shlex
 import statistics
 import sys
@@ -61,9 +65,11 @@ def sweep_file(folder: Path, objective: str, count: int, seed: int) -> Path:
 
 def measure(label: str, path: Path, out: Path, workers: int, **how) -> dict:
     sweep = load_sweep(path)
+    cpu = _cpu()
     clock = time.perf_counter()
     outcome = run_sweep(sweep, out, records="none", **how)
     wall = time.perf_counter() - clock
+    cpu = _cpu() - cpu  # the local pool's workers are joined: counted; Dask's are not
     rows = list(outcome.rows.values())
     planning = [r["planning_time_s"] or 0.0 for r in rows]
     inside = [r["task_time_s"] - (r["planning_time_s"] or 0.0) for r in rows]
@@ -79,6 +85,7 @@ def measure(label: str, path: Path, out: Path, workers: int, **how) -> dict:
         "planning_mean": statistics.fmean(planning),
         "inside_median": statistics.median(inside),
         "overhead": wall * workers / n - statistics.fmean(planning),
+        "cpu": cpu / n if "executor" not in how else None,
         "rows": {
             k: {c: v for c, v in r.items() if c not in TIMING_COLUMNS}
             for k, r in outcome.rows.items()
@@ -86,20 +93,31 @@ def measure(label: str, path: Path, out: Path, workers: int, **how) -> dict:
     }
 
 
+def _cpu() -> float:
+    """CPU seconds (user + system) of this process and its joined child processes."""
+    own, children = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def report(objective: str, runs: list[dict]) -> None:
     print(f"\n### {objective} objective, {runs[0]['tasks']} tasks ({runs[0]['ok']} reached)\n")
     print(
         "| executor | workers | wall s | tasks/s | planning ms (median) | in worker beyond "
-        "planning ms (median) | overhead/task beyond planning ms | parallel efficiency |"
+        "planning ms (median) | overhead/task beyond planning ms | CPU ms/task | "
+        "parallel efficiency |"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     one = runs[0]["rate"]
     for r in runs:
         eff = f"{100 * r['rate'] / (r['workers'] * one):.0f} %" if r["workers"] > 1 else "–"
+        cpu = "–" if r["cpu"] is None else f"{1e3 * r['cpu']:.1f}"
         print(
             f"| {r['label']} | {r['workers']} | {r['wall']:.1f} | {r['rate']:.1f} | "
             f"{1e3 * r['planning_median']:.1f} | {1e3 * r['inside_median']:.1f} | "
-            f"{1e3 * r['overhead']:.1f} | {eff} |"
+            f"{1e3 * r['overhead']:.1f} | {cpu} | {eff} |"
         )
     same = all(r["rows"] == runs[0]["rows"] for r in runs)
     print(f"\nrows identical across executors (timing columns aside): {same}")

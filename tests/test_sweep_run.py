@@ -66,7 +66,11 @@ def test_a_dask_cluster_gives_the_same_rows(reference, tmp_path):
         n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
     ) as cluster:
         path = write(tmp_path, GRID)
-        outcome = stratcli.run_sweep(path, tmp_path / "d", dask=cluster.scheduler_address)
+        scheduler = tmp_path / "scheduler.json"  # as `dask scheduler --scheduler-file` writes
+        scheduler.write_text(
+            json.dumps({"type": "Scheduler", "address": cluster.scheduler_address})
+        )
+        outcome = stratcli.run_sweep(path, tmp_path / "d", dask=str(scheduler))
         with distributed.Client(cluster) as client:  # workers' BLAS is single-threaded
             blas = client.run(lambda: os.environ.get("OPENBLAS_NUM_THREADS"))
     assert set(blas.values()) == {"1"}
@@ -128,3 +132,11 @@ def test_a_sweep_killed_mid_way_resumes_to_the_same_table(tmp_path):
     assert summary["resumed_rows"] == len(done) and summary["done"] == 15
     assert _table(out) == _table(whole.out)
     assert strip(read_rows(out / ROWS)) == strip(whole.rows)
+
+
+def test_a_bad_dask_scheduler_file_is_bad_input(tmp_path):
+    (tmp_path / "scheduler.json").write_text("{}")
+    with pytest.raises(InputError, match="not a readable Dask scheduler file"):
+        stratcli.run_sweep(
+            write(tmp_path, GRID), tmp_path / "o", dask=str(tmp_path / "scheduler.json")
+        )

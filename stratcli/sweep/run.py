@@ -16,6 +16,7 @@ starts), and a row holds only the task's own numbers besides `TIMING_COLUMNS`.
 
 from __future__ import annotations
 
+import json
 import multiprocessing
 import os
 import time
@@ -34,6 +35,7 @@ from .spec import Sweep
 from .worker import run_task
 
 RECORDS = ("best", "failed", "all", "none")
+CONNECT_TIMEOUT = "20s"  # to reach a Dask scheduler
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 Progress = Callable[[int, int], None]  # (tasks done, tasks in all)
 
@@ -100,12 +102,18 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
         raise InputError(
             "--dask: dask.distributed is not installed (pip install 'stratplan[dask]')"
         ) from None
+    target = address
+    if address.endswith(".json") or Path(address).is_file():  # a scheduler file: its address
+        try:
+            target = json.loads(Path(address).read_text())["address"]
+            assert isinstance(target, str)
+        except (OSError, ValueError, KeyError, TypeError, AssertionError):
+            raise InputError(
+                f"--dask {address}: not a readable Dask scheduler file (JSON with an address)"
+            ) from None
     try:
-        if address.endswith(".json") or Path(address).is_file():
-            client = Client(scheduler_file=address, timeout="20s")
-        else:
-            client = Client(address, timeout="20s")
-    except (OSError, TimeoutError, ValueError) as exc:
+        client = Client(target, timeout=CONNECT_TIMEOUT)
+    except Exception as exc:  # whatever distributed raises for an address it cannot use
         raise InputError(f"--dask {address}: cannot reach the scheduler ({exc})") from None
     try:
         workers = len(client.scheduler_info().get("workers", {}))
