@@ -109,21 +109,31 @@ def test_resume_refuses_another_sweep(reference, tmp_path):
         run_sweep(load_sweep(other), reference.out, jobs=1, resume=True)
 
 
+def _kill_after(command, out, rows: int, signum: int) -> int:
+    """Run the sweep command until `rows` rows are written, then send it `signum`."""
+    proc = subprocess.Popen(command)
+    deadline = time.monotonic() + 120
+    while len(read_rows(out / ROWS)) < rows and time.monotonic() < deadline:
+        assert proc.poll() is None, "the sweep ended before it could be killed"
+        time.sleep(0.01)
+    proc.send_signal(signum)
+    return proc.wait()
+
+
 @pytest.mark.slow
 def test_a_sweep_killed_mid_way_resumes_to_the_same_table(tmp_path):
     path = write(tmp_path, KILLED_GRID, objective="energy")
     whole = run_sweep(load_sweep(path), tmp_path / "whole", jobs=2)
     out = tmp_path / "killed"
     command = [sys.executable, "-m", "stratcli", "sweep", str(path), "--out", str(out)]
-    proc = subprocess.Popen([*command, "--jobs", "1", "-q"])
-    deadline = time.monotonic() + 120
-    while len(read_rows(out / ROWS)) < 3 and time.monotonic() < deadline:
-        assert proc.poll() is None, "the sweep ended before it could be killed"
-        time.sleep(0.01)
-    proc.send_signal(signal.SIGKILL)
-    proc.wait()
+    assert _kill_after([*command, "--jobs", "1", "-q"], out, 2, signal.SIGINT) == 130
+    first = read_rows(out / ROWS)
+    code = _kill_after(
+        [*command, "--jobs", "1", "-q", "--resume"], out, len(first) + 2, signal.SIGKILL
+    )
+    assert code == -signal.SIGKILL
     done = read_rows(out / ROWS)
-    assert 3 <= len(done) < 15  # killed mid-way: some rows, not all
+    assert len(first) + 2 <= len(done) < 15  # killed mid-way: some rows, not all
     with open(out / ROWS, "ab") as fh:  # and as if killed while writing a row
         fh.write(b'{"index": 14, "status": "ok", "ener')
     resumed = subprocess.run([*command, "--resume", "--jobs", "2", "--json"], capture_output=True)
@@ -132,6 +142,31 @@ def test_a_sweep_killed_mid_way_resumes_to_the_same_table(tmp_path):
     assert summary["resumed_rows"] == len(done) and summary["done"] == 15
     assert _table(out) == _table(whole.out)
     assert strip(read_rows(out / ROWS)) == strip(whole.rows)
+
+
+@pytest.mark.slow
+def test_a_dead_dask_worker_loses_no_task(reference, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        pids = list(client.run(os.getpid).values())
+        killed = []
+
+        def kill_one(done: int, total: int) -> None:  # SIGKILL a worker once 2 rows are in
+            if done >= 2 and not killed:
+                os.kill(pids[0], signal.SIGKILL)
+                killed.append(pids[0])
+
+        path = write(tmp_path, GRID)
+        outcome = stratcli.run_sweep(
+            path, tmp_path / "d", dask=cluster.scheduler_address, progress=kill_one
+        )
+    assert killed and outcome.complete  # Dask ran the dead worker's task again elsewhere
+    assert strip(outcome.rows) == strip(reference.rows)
 
 
 def test_a_bad_dask_scheduler_file_is_bad_input(tmp_path):
