@@ -103,6 +103,27 @@ def test_a_dead_worker_leaves_its_task_missing_and_resume_plans_it(reference, tm
     assert strip(again.rows) == strip(reference.rows)
 
 
+class _BreakingPool(ThreadPoolExecutor):
+    """Refuses work after 3 tasks, as a process pool does once a worker was killed."""
+
+    submitted = 0
+
+    def submit(self, fn, *args, **kwargs):
+        self.submitted += 1
+        if self.submitted > 3:
+            raise RuntimeError("pool broken")
+        return super().submit(fn, *args, **kwargs)
+
+
+def test_a_broken_pool_leaves_the_rest_missing_and_resume_plans_it(reference, tmp_path):
+    path = write(tmp_path, GRID)
+    with _BreakingPool(1) as pool:
+        first = run_sweep(load_sweep(path), tmp_path / "o", executor=pool)
+    assert sorted(first.rows) == [0, 1, 2] and first.missing == [3, 4, 5]
+    again = run_sweep(load_sweep(path), tmp_path / "o", jobs=2, resume=True)
+    assert again.planned == 3 and strip(again.rows) == strip(reference.rows)
+
+
 def test_resume_refuses_another_sweep(reference, tmp_path):
     other = write(tmp_path, GRID.replace("-0.2", "-0.1"))
     with pytest.raises(InputError, match="another sweep file"):

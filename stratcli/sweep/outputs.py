@@ -12,6 +12,8 @@ from ..records.sweep_plots import sweep_figures
 from .spec import Sweep
 from .worker import STATUSES
 
+MAX_LISTED = 1000  # missing task indices listed in sweep.json
+
 
 def summarise(
     spec: dict[str, Any], rows: dict[int, dict[str, Any]], missing: list[int] | None = None
@@ -36,7 +38,7 @@ def summarise(
         "tasks": spec["count"],
         "done": done,
         "missing": spec["count"] - done,
-        "lost_workers_tasks": list(missing or []),
+        "missing_tasks": list(missing or [])[:MAX_LISTED],  # the first ones, by index
         "counts": counts,
         "success_rate": counts["ok"] / done if done else None,
         "energy": {
@@ -66,6 +68,7 @@ def finish(
     planned: int,
     resumed: int,
     missing: list[int],
+    started: str,
 ) -> tuple[dict[str, Any], list[Path]]:
     """Write results.csv, the plots and sweep.json; (sweep.json, the files written)."""
     from .run import spec_document
@@ -78,6 +81,7 @@ def finish(
         planned_this_run=planned,
         resumed_rows=resumed,
         tasks_per_s=planned / wall if wall > 0 else None,
+        started=started,
         finished=datetime.now(UTC).isoformat(),
     )
     files = []

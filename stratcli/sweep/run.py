@@ -21,7 +21,7 @@ import multiprocessing
 import os
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -36,6 +36,10 @@ from .worker import run_task
 
 RECORDS = ("best", "failed", "all", "none")
 CONNECT_TIMEOUT = "20s"  # to reach a Dask scheduler
+# tasks submitted ahead of the rows that came back: enough to keep every worker busy, few
+# enough that a sweep of a million tasks does not build a million scenario dicts up front
+IN_FLIGHT_PER_WORKER = 8
+MIN_IN_FLIGHT = 16
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 Progress = Callable[[int, int], None]  # (tasks done, tasks in all)
 
@@ -213,25 +217,28 @@ def run_sweep(
     advance = progress or (lambda done, total: None)
     per_task = "all" if records == "all" else "failed" if records == "failed" else "none"
     futures: dict[Future, int] = {}
-    missing: list[int] = []
     written: list[Path] = []
     try:
         advance(len(rows), sweep.count)
         with sweepdir.RowLog(out / sweepdir.ROWS) as log:
-            for task in sweep.tasks(skip=set(rows)):
-                futures[executor.submit(run_task, _payload(sweep, task, per_task))] = task.index
-            for future in as_completed(futures):
-                index = futures[future]
-                try:
-                    result = future.result()
-                except Exception:  # the worker died (not the task: run_task returns rows)
-                    missing.append(index)
-                    continue
-                if result["record"] is not None:  # before the row: a row means it is there
-                    written.append(_write_record(out, *result["record"]))
-                log.append(result["row"])
-                rows[index] = result["row"]
-                advance(len(rows), sweep.count)
+            todo = sweep.tasks(skip=set(rows))
+            window = max(MIN_IN_FLIGHT, IN_FLIGHT_PER_WORKER * max(1, info.workers))
+            accepting = _submit(executor, futures, todo, window, sweep, per_task)
+            while futures:
+                finished, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for future in sorted(finished, key=futures.get):
+                    index = futures.pop(future)
+                    try:
+                        result = future.result()
+                    except Exception:  # the worker died (not the task: run_task gives rows)
+                        continue
+                    if result["record"] is not None:  # before the row: a row means it is there
+                        written.append(_write_record(out, *result["record"]))
+                    log.append(result["row"])
+                    rows[index] = result["row"]
+                    advance(len(rows), sweep.count)
+                if accepting:
+                    accepting = _submit(executor, futures, todo, window, sweep, per_task)
         if records == "best":
             best = _best(rows)
             if best is not None and not (out / "records" / f"task-{best:06d}").exists():
@@ -247,9 +254,25 @@ def run_sweep(
             executor.shutdown(wait=True, cancel_futures=True)
     wall = time.perf_counter() - clock
     planned = len(rows) - resumed
-    summary, files = finish(sweep, out, rows, info, wall, planned, resumed, sorted(missing))
-    summary["started"] = started.isoformat()
-    return SweepOutcome(out, rows, summary, planned, resumed, sorted(missing), files + written)
+    missing = [k for k in range(sweep.count) if k not in rows]  # their workers died
+    summary, files = finish(
+        sweep, out, rows, info, wall, planned, resumed, missing, started.isoformat()
+    )
+    return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)
+
+
+def _submit(executor, futures: dict, todo: Iterator, window: int, sweep: Sweep, records) -> bool:
+    """Submit tasks from `todo` until `window` are in flight (bounded memory and queue);
+    False when the executor refuses work (a broken pool: the rest stays missing)."""
+    while len(futures) < window:
+        task = next(todo, None)
+        if task is None:
+            return True
+        try:
+            futures[executor.submit(run_task, _payload(sweep, task, records))] = task.index
+        except Exception:  # e.g. BrokenProcessPool after a worker was killed
+            return False
+    return True
 
 
 def _payload(sweep: Sweep, task, records: str) -> dict[str, Any]:
