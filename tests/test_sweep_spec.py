@@ -122,3 +122,17 @@ def test_the_shipped_goal_map_is_a_21_by_21_auto_grid_around_the_papers_goal():
     middle = next(sweep.tasks(skip=set(range(220))))  # task 220: the middle of the grid
     goal = load_scenario(middle.scenario).goal
     assert np.allclose(goal, [-np.pi / 3, np.pi / 3, np.pi / 4, -np.pi / 12], atol=1e-12)
+
+
+def test_problems_of_the_base_scenario_name_its_file(tmp_path):
+    base = tmp_path / "base.toml"
+    base.write_text(TASK_A.read_text().replace("tolerance = 1e-3", "tolerance = 7"))
+    with pytest.raises(InputError) as exc:
+        load_sweep(write(tmp_path, GRID, scenario=base))
+    assert "sweep.scenario: " in str(exc.value) and "planner.tolerance" in str(exc.value)
+    assert str(base) in str(exc.value)
+    base.write_text('name = "nolegs"\n[model]\nkind = "preset"\nname = "one-arm"\n'
+                    "[task]\nstart = [0, 0, 0, 0]\ngoal = [1, 0, 0, 0]\n")  # fmt: skip
+    with pytest.raises(InputError, match=r"sweep\.mode: legs mode needs"):
+        load_sweep(write(tmp_path, GRID, scenario=base))
+    assert load_sweep(write(tmp_path, GRID, scenario=base, mode="auto")).count == 6

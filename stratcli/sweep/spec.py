@@ -251,7 +251,7 @@ def _base(spec: SweepFile, folder: Path) -> tuple[dict[str, Any], str]:
     path = folder / spec.sweep.scenario
     try:
         text = read_scenario_text(path)
-        return parse_toml(text, str(path)), "sweep.scenario"
+        return parse_toml(text, str(path)), spec.sweep.scenario
     except InputError as exc:
         raise InputError([Problem("sweep.scenario", p.message) for p in exc.problems]) from None
 
@@ -265,10 +265,11 @@ def _resolve(spec: SweepFile, folder: Path, source: str, text: str) -> Sweep:
     try:
         task = load_scenario(copy.deepcopy(base), name=where)
     except InputError as exc:
+        problems = [_under(where, p) for p in exc.problems if p.path != "legs"]
         if s.mode == "legs" and "legs" not in base:
-            needs = "legs mode needs a base scenario with [[legs]]"
-            raise InputError([Problem("sweep.mode", needs)]) from None
-        raise InputError([_under(where, p) for p in exc.problems]) from None
+            needs = "legs mode needs a base scenario with [[legs]] (or mode = auto)"
+            problems.append(Problem("sweep.mode", needs))
+        raise InputError(problems or [_under(where, p) for p in exc.problems]) from None
     states = tuple(task.system.states)
     problems: list[Problem] = []
     for key, value in s.set.items():
@@ -282,7 +283,7 @@ def _resolve(spec: SweepFile, folder: Path, source: str, text: str) -> Sweep:
                 problems.append(Problem(field, str(exc)))
     if problems:
         raise InputError(problems)
-    if not problems and s.set:
+    if s.set:
         check_scenario(base, field="sweep.set", problems=problems)
     kinds = [k for k in ("grid", "random", "task") if getattr(s, k) is not None]
     if len(kinds) != 1:
@@ -348,5 +349,7 @@ def _resolve(spec: SweepFile, folder: Path, source: str, text: str) -> Sweep:
 
 
 def _under(where: str, p: Problem) -> Problem:
-    path = f"{where}.{p.path}" if where == "scenario" and p.path else p.path or where
-    return Problem(path, p.message)
+    """A problem of the base scenario: under [scenario], or in the file sweep.scenario names."""
+    if where == "scenario":
+        return Problem(f"scenario.{p.path}" if p.path else "scenario", p.message)
+    return Problem("sweep.scenario", f"{where}: {p.path}: {p.message}" if p.path else p.message)
