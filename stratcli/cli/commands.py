@@ -140,6 +140,14 @@ def compare_sequences(
     jobs: Annotated[
         int | None, typer.Option(help="Worker processes (default: all cores).", min=1)
     ] = None,
+    dask: Annotated[
+        str | None,
+        typer.Option(
+            metavar="ADDRESS|FILE",
+            help="Plan the sequences on a Dask cluster (scheduler address or JSON file) instead "
+            "of --jobs local processes; needs stratplan[dask].",
+        ),
+    ] = None,
     exhaustive: Annotated[
         bool,
         typer.Option(
@@ -174,7 +182,7 @@ def compare_sequences(
     with render.reported(), render.progress_bar(interactive) as bar:
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(
-            task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive
+            task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
         )
     with render.phases(interactive) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
