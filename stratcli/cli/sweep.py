@@ -21,7 +21,7 @@ from rich.progress import (
 from rich.text import Text
 
 from . import render
-from .options import Json, Quiet
+from .options import Quiet
 
 
 class _Rate(ProgressColumn):
@@ -82,13 +82,16 @@ def sweep(
         ),
     ] = False,
     out: Annotated[
-        Path | None, typer.Option(help="Sweep directory (default: sweeps/<name>).")
+        Path | None,
+        typer.Option(help="Sweep directory (default: sweeps/NAME, NAME from the sweep file)."),
     ] = None,
     records: Annotated[
         Literal["best", "failed", "all", "none"],
         typer.Option(help="Full run records written under OUT/records for these tasks."),
     ] = "failed",
-    json_output: Json = False,
+    json_output: Annotated[
+        bool, typer.Option("--json", metavar="", help="Print sweep.json instead of the summary.")
+    ] = False,
     quiet: Quiet = False,
 ) -> None:
     """Plan many tasks of one base scenario (a grid, random tasks or a table of them).
