@@ -196,3 +196,11 @@ def test_a_bad_dask_scheduler_file_is_bad_input(tmp_path):
         stratcli.run_sweep(
             write(tmp_path, GRID), tmp_path / "o", dask=str(tmp_path / "scheduler.json")
         )
+
+
+def test_local_workers_run_blas_single_threaded(monkeypatch):
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.delenv(var, raising=False)
+    with stratcli.sweep.local_executor(1) as pool:
+        seen = pool.submit(os.getenv, "OPENBLAS_NUM_THREADS").result()
+    assert seen == "1"
