@@ -262,11 +262,9 @@ def compare_sequences(
         With the energy objective and criterion: search every candidate to its minimum
         instead of screening them (`compare.compare`, `screen`; the rows cut short are
         marked `screened` in comparison.json).
-    executor : concurrent.futures.Executor, optional
-        Plan the sequences on this executor instead of `jobs` forked processes (the same
-        results; the model must come from a scenario's [model] table).
-    dask : str, optional
-        A Dask scheduler's address or scheduler JSON file: plan on that cluster.
+    executor, dask : concurrent.futures.Executor or str, optional
+        Plan on this executor, or on the Dask cluster of this scheduler address or file,
+        instead of `jobs` forked processes (the same results; a scenario's model only).
 
     Returns
     -------
