@@ -132,7 +132,10 @@ def test_resume_refuses_another_sweep(reference, tmp_path):
 
 def _kill_after(command, out, rows: int, signum: int) -> int:
     """Run the sweep command until `rows` rows are written, then send it `signum`."""
-    proc = subprocess.Popen(command)
+    # SIGINT as a terminal's Ctrl-C delivers it, even where this test was started ignoring it
+    proc = subprocess.Popen(
+        command, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)
+    )
     deadline = time.monotonic() + 120
     while len(read_rows(out / ROWS)) < rows and time.monotonic() < deadline:
         assert proc.poll() is None, "the sweep ended before it could be killed"
