@@ -1,18 +1,20 @@
 """Energy and planning time of stratplan against the free-control lower bound (CasADi/IPOPT).
 
-Usage: python benchmarks/bench_energy.py [--repeats N] [--starts K] [SCENARIO ...]
+Usage: python benchmarks/bench_energy.py [--repeats N] [--starts K] [--no-bound] [SCENARIO ...]
 
 One table, every row from the same run, for the paper's scenarios: the paper's energy; the
 plain Newton plan's; the energy-optimal plan's with H = 3 harmonics (the default) and with
 H = 8 (warm-started from the H = 3 optimum); the lower bound over free controls with the same
 dynamics, durations, boundary configurations and control conditions
 (benchmarks/casadi_baseline.py: direct collocation, IPOPT, multi-start); the energy ratios to
-the bound; stratplan's planning time (energy objective, H = 3, its multi-start included: median
-of --repeats runs after a warm-up run that compiles the model); IPOPT's time for its whole
-multi-start (NLP construction excluded, as model compilation is for stratplan); and the time
-ratio. The bound is the best local optimum IPOPT finds from its own deterministic starts and
-from starts seeded by stratplan's H = 3 and H = 8 plans (marked † when one of those won; its
-unseeded best is then given below the table). Without casadi the bound columns are left empty:
+the bound; stratplan's planning time (energy objective, H = 3, its multi-start included: CPU
+time, median of --repeats runs after a warm-up run that compiles the model) and its end-point
+evaluations; IPOPT's time for its whole multi-start (NLP construction excluded, as model
+compilation is for stratplan); and the time ratio (a different, much larger problem: for the
+time comparison on stratplan's own problem see benchmarks/bench_peer.py). The bound is the
+best local optimum IPOPT finds from its own deterministic starts and from starts seeded by
+stratplan's H = 3 and H = 8 plans (marked † when one of those won; its unseeded best is then
+given below the table). Without casadi (or with --no-bound) the bound columns are left empty:
 pip install -e '.[bench]'.
 """
 
@@ -28,6 +30,7 @@ import platform
 import statistics
 import sys
 import time
+from collections import Counter
 from dataclasses import replace
 
 import numpy as np
@@ -41,6 +44,7 @@ from casadi_baseline import (
     solve_bound,
 )
 
+from stratcli import endpoint
 from stratcli.controls import FourierBasis, embed
 from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
@@ -56,6 +60,28 @@ PROTOTYPE_BOUND = {
     "sim4_task_c": 104.88,
     "sim4_task_d": 79.31,
 }
+
+
+EVALUATIONS: Counter = Counter()  # end-point calls of one plan: with Jacobian, value only, Hessian
+
+
+def _count_evaluations() -> None:
+    """Count every end-point evaluation (both evaluators) in EVALUATIONS."""
+    for cls in (endpoint.QuadratureEndpoint, endpoint.OdeEndpoint):
+        call = cls.__call__
+
+        def counted(self, lam, jacobian=True, _call=call):
+            EVALUATIONS["jacobian" if jacobian else "value"] += 1
+            return _call(self, lam, jacobian)
+
+        cls.__call__ = counted
+    hessian = endpoint.QuadratureEndpoint.hessian
+
+    def counted_hessian(self, lam, weights, _hessian=hessian):
+        EVALUATIONS["hessian"] += 1
+        return _hessian(self, lam, weights)
+
+    endpoint.QuadratureEndpoint.hessian = counted_hessian
 
 
 def _plan(task, settings, **kwargs):
@@ -77,11 +103,13 @@ def bench(path, repeats: int, starts: int, with_bound: bool) -> dict:
         h3 = _plan(task, settings)  # warm-up
         times = []
         for _ in range(repeats):
-            clock = time.perf_counter()
+            EVALUATIONS.clear()
+            clock = time.process_time()
             h3 = _plan(task, settings)
-            times.append(time.perf_counter() - clock)
+            times.append(time.process_time() - clock)
         row["h3"] = h3.total_energy if h3.ok else None
         row["seconds"] = statistics.median(times)
+        row["evaluations"] = dict(EVALUATIONS)  # of the last timed run
         H = settings.basis.harmonics
         more = replace(
             settings,
@@ -117,7 +145,7 @@ def _best_pg(plan) -> float | None:
     opt = plan.optimisation
     if not plan.ok or opt is None or opt.best is None:
         return None
-    return opt.outcomes[opt.best].projected_gradient
+    return opt.starts[opt.best].projected_gradient
 
 
 def _num(value, fmt: str = ".2f") -> str:
@@ -135,8 +163,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("scenarios", nargs="*", help=f"default: {' '.join(PAPER_SCENARIOS)}")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs (median)")
     parser.add_argument("--starts", type=int, default=STARTS, help="IPOPT starts")
+    parser.add_argument("--no-bound", action="store_true", help="skip the CasADi bound")
     args = parser.parse_args(argv)
-    with_bound = casadi_available()
+    with_bound = casadi_available() and not args.no_bound
+    _count_evaluations()
     argv_text = " ".join(argv if argv is not None else sys.argv[1:])
     print(f"$ python benchmarks/bench_energy.py {argv_text}".rstrip())
     print(f"{machine()}, Python {platform.python_version()}", end="")
@@ -145,16 +175,16 @@ def main(argv: list[str] | None = None) -> None:
 
         print(f", CasADi {casadi.__version__}", end="")
     print(f"; median of {args.repeats} timed runs after a warm-up\n")
-    if not with_bound:
+    if not with_bound and not args.no_bound:
         print("casadi is not installed, so there is no bound: pip install -e '.[bench]'\n")
 
     clock = time.perf_counter()
     rows = [bench(p, args.repeats, args.starts, with_bound) for p in scenario_paths(args.scenarios)]
     print(
         "| scenario | paper | Newton | H=3 | H=8 | bound | H=3 ÷ bound | H=8 ÷ bound "
-        "| stratplan s | CasADi s | stratplan ÷ CasADi time |"
+        "| stratplan CPU s | end-point evaluations | CasADi s | stratplan ÷ CasADi time |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         bound = r.get("bound")
         cells = [
@@ -166,7 +196,8 @@ def main(argv: list[str] | None = None) -> None:
             _num(bound) + (" †" if r.get("bound_seeded") else ""),
             _ratio(r.get("h3"), bound),
             _ratio(r.get("h8"), bound),
-            _num(r.get("seconds"), ".2f"),
+            _num(r.get("seconds"), ".3f"),
+            _evaluations(r.get("evaluations")),
             _num(r.get("casadi_seconds"), ".2f"),
             _ratio(r.get("seconds"), r.get("casadi_seconds"), ".2f"),
         ]
@@ -178,7 +209,9 @@ def main(argv: list[str] | None = None) -> None:
             f"{args.starts} IPOPT starts (see benchmarks/casadi_baseline.py)."
         )
     print(
-        f"stratplan s: energy objective, H = 3, multi-start included. H = {MORE_HARMONICS}: "
+        "stratplan CPU s: energy objective, H = 3, multi-start included (end-point evaluations "
+        "of one run: with Jacobian + value only + Hessians = total). H = "
+        f"{MORE_HARMONICS}: "
         f"warm-started from the H = 3 optimum, plus {MORE_STARTS} starts of its own."
     )
     for r in rows:
@@ -220,10 +253,23 @@ def main(argv: list[str] | None = None) -> None:
             + ", ".join(f"{name} {_num(a, '.1e')} / {_num(b, '.1e')}" for name, (a, b) in pgs)
             + "."
         )
-    sim4 = [r["seconds"] for r in rows if r["scenario"].startswith("sim4") and "seconds" in r]
+    sim4 = [r for r in rows if r["scenario"].startswith("sim4") and "seconds" in r]
     if sim4:
-        print(f"Slowest Sim 4 median planning time: {max(sim4):.2f} s (target ≤ 0.5 s).")
+        times = [1e3 * r["seconds"] for r in sim4]
+        counts = [sum(r["evaluations"].values()) for r in sim4]
+        print(
+            f"Sim 4 tasks, energy objective at H = 3: CPU {min(times):.0f}–{max(times):.0f} ms "
+            f"(median over the tasks {statistics.median(times):.0f} ms; target ≤ 70 ms), "
+            f"{min(counts)}–{max(counts)} end-point evaluations per task."
+        )
     print(f"Whole benchmark: {time.perf_counter() - clock:.0f} s.")
+
+
+def _evaluations(counts: dict | None) -> str:
+    if not counts:
+        return "–"
+    j, v, h = (counts.get(k, 0) for k in ("jacobian", "value", "hessian"))
+    return f"{j} + {v} + {h} = {j + v + h}"
 
 
 def _yes(flag: bool) -> str:

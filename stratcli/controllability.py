@@ -58,7 +58,7 @@ MAX_SYMBOLIC_BRACKETS = 250  # custom models: largest degree-3 Hall basis derive
 
 def _cross_affordable(system: System, strata: list[str], degree: int) -> bool:
     """Whether the closure across `strata` is cheap (closed form) or small enough to derive."""
-    if isinstance(system, ManipulatorSystem):
+    if isinstance(system, ManipulatorSystem) or getattr(system, "spatial", None) is not None:
         return True
     if getattr(system, "robot", None) is not None:
         return system.n <= SYMBOLIC_MAX_COORDINATES
@@ -68,7 +68,7 @@ def _cross_affordable(system: System, strata: list[str], degree: int) -> bool:
 
 def _can_escalate(system: System, stratum: str) -> bool:
     """Whether third-order brackets of `stratum` are affordable (closed form or small)."""
-    if getattr(system, "robot", None) is not None:
+    if getattr(system, "robot", None) is not None or getattr(system, "spatial", None) is not None:
         return True
     m = len(system.stratum(stratum).active)
     return len(hall_basis(m, MAX_DEGREE)) <= MAX_SYMBOLIC_BRACKETS
@@ -233,8 +233,8 @@ def _cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _Cross
     cache = system.__dict__.setdefault("_lie_cache", {})
     key = ("cross", strata, degree)
     if key not in cache:
-        if isinstance(system, ManipulatorSystem):
-            cache[key] = _manipulator_cross_basis(system, strata, degree)
+        if isinstance(system, ManipulatorSystem) or getattr(system, "spatial", None) is not None:
+            cache[key] = _manipulator_cross_basis(system, strata, degree)  # spatial: numeric
         else:
             cache[key] = _symbolic_cross_basis(system, strata, degree)
     return cache[key]

@@ -97,8 +97,10 @@ def essential_coordinates(
 def moved_coordinates(system: System, stratum: Stratum | str) -> tuple[int, ...]:
     """Coordinates a stratum can change: unlocked, with a row of `G` that is not zero on it."""
     s = system.stratum(stratum) if isinstance(stratum, str) else stratum
-    if system.robot is not None:  # a manipulator: unlocked joints have inputs, θ moves with them
-        return s.free(system.n)  # (and deriving A symbolically is slow for long chains)
+    if system.robot is not None or getattr(system, "spatial", None) is not None:
+        # a manipulator (planar or URDF): unlocked joints have inputs, the attitude moves with
+        # them (and deriving A symbolically is slow for long chains; a URDF has no symbols)
+        return s.free(system.n)
     G = system.fields_on(s)
     return tuple(
         i

@@ -90,6 +90,10 @@ class QuadratureEndpoint(_Endpoint):
         self.E = np.array(cs.explicit, dtype=int)
         self.Q = np.array(cs.quadrature, dtype=int)
         self.C = cs.C_explicit
+        # q_j' = u_j (every manipulator): C only selects, so products with it are gathers
+        C = self.C
+        selects = C.size and np.all((C == 0.0) | (C == 1.0)) and np.all(C.sum(axis=0) == 1.0)
+        self._select = C.argmax(axis=0) if selects else None
         self.psi_T = basis.integrals(self.duration)
         self._tables: dict[int, tuple] = {}
 
@@ -115,14 +119,19 @@ class QuadratureEndpoint(_Endpoint):
         end[self.E] += self.C @ (L @ self.psi_T)
         if self.Q.size == 0:
             return (end, self._J_explicit.copy()) if jacobian else (end, None)
-        terms = self.cs.quadrature_terms(q, 1 if jacobian else 0)
-        GQ = terms[0]  # (K, nQ, m)
+        if jacobian and hasattr(self.cs, "quadrature_jacobian"):  # physical models
+            GQ, Du = self.cs.quadrature_jacobian(q, u[:, None, :])  # Du: (K, nQ, nE)
+        else:
+            terms = self.cs.quadrature_terms(q, 1 if jacobian else 0)
+            GQ = terms[0]  # (K, nQ, m)
+            if jacobian:
+                Du = (u[:, None, None, :] @ terms[1])[:, :, 0, :]
         end[self.Q] += w @ (GQ @ u[:, :, None])[..., 0]
         if not jacobian:
             return end, None
         J = self._J_explicit.copy()
         # ∂(G u)/∂λ: directly through u (basis values Φ) and through q_E (basis integrals Ψ)
-        D = (u[:, None, None, :] @ terms[1])[:, :, 0, :] @ self.C  # (K, nQ, m)
+        D = Du @ self.C if self._select is None else Du[..., self._select]  # (K, nQ, m)
         K = w.size
         JQ = (GQ * w[:, None, None]).reshape(K, -1).T @ Phi
         JQ += (D * w[:, None, None]).reshape(K, -1).T @ Psi  # (nQ * m, size)
@@ -140,19 +149,26 @@ class QuadratureEndpoint(_Endpoint):
         if self.Q.size == 0 or not np.any(omega):
             return np.zeros((p, p))
         _, w, Phi, Psi, u, q = self._nodes(lam)
-        _, dGQ, ddGQ = self.cs.quadrature_terms(q, 2)
-        K, m, s = w.size, self.m, self.size
+        K, m, s, nE = w.size, self.m, self.size, self.E.size
+        if hasattr(self.cs, "quadrature_hessian"):  # the contraction only (physical models)
+            dGQ, D2 = self.cs.quadrature_hessian(q, omega[None, :, None] * u[:, None, :])
+        else:
+            _, dGQ, ddGQ = self.cs.quadrature_terms(q, 2)
+            D2 = u[:, None, :] @ np.tensordot(ddGQ, omega, axes=(1, 0)).reshape(K, m, nE * nE)
         D1 = np.tensordot(dGQ, omega, axes=(1, 0))  # (K, m, nE)
-        nE = self.E.size
-        D2 = u[:, None, :] @ np.tensordot(ddGQ, omega, axes=(1, 0)).reshape(K, m, nE * nE)
-        W1 = (D1 @ self.C) * w[:, None, None]  # (K, m, m): ∂G_a/∂q · ∂q/∂λ_a'
-        W2 = (self.C.T @ D2.reshape(K, nE, nE) @ self.C) * w[:, None, None]  # (K, m, m)
-        # H[a,b,c,d] = Σ_k W1[k,a,c] Φ[k,b] Ψ[k,d] (+ transpose) + Σ_k W2[k,a,c] Ψ[k,b] Ψ[k,d]
-        X1 = (W1[:, :, None, :] * Phi[:, None, :, None]).reshape(K, -1)  # (K, a b c)
-        X2 = (W2[:, :, None, :] * Psi[:, None, :, None]).reshape(K, -1)
-        H = (X1.T @ Psi).reshape(m, s, m, s)
+        D2 = D2.reshape(K, nE, nE)
+        if self._select is None:  # W1: ∂G_a/∂q · ∂q/∂λ_a', W2: C'ᵀ ∂²G C', both (K, m, m)
+            W1, W2 = D1 @ self.C, self.C.T @ D2 @ self.C
+        else:
+            sel = self._select
+            W1, W2 = D1[..., sel], D2[:, sel[:, None], sel[None, :]]
+        W1, W2 = W1 * w[:, None, None], W2 * w[:, None, None]
+        # H[a,b,c,d] = Σ_k W1[k,a,c] Φ[k,b] Ψ[k,d] (+ transpose) + Σ_k W2[k,a,c] Ψ[k,b] Ψ[k,d]:
+        # one product (m², 2K) @ (2K, s²), which is cheaper than forming (K, m, s, m) arrays
+        W = np.concatenate([W1, 0.5 * W2]).reshape(2 * K, m * m)
+        B = np.concatenate([Phi[:, :, None] * Psi[:, None, :], Psi[:, :, None] * Psi[:, None, :]])
+        H = (W.T @ B.reshape(2 * K, s * s)).reshape(m, m, s, s).transpose(0, 2, 1, 3)
         H = H + H.transpose(2, 3, 0, 1)
-        H += (X2.T @ Psi).reshape(m, s, m, s)
         return H.reshape(p, p)
 
     @cached_property
@@ -235,7 +251,13 @@ class OdeEndpoint(_Endpoint):
 def make_endpoint(
     cs: CompiledStratum, q0, basis: FourierBasis, duration: float, evaluator: str = "auto"
 ) -> _Endpoint:
-    """The quadrature path when the structure allows it (or when asked), else the ODE path."""
+    """The quadrature path when the structure allows it (or when asked), else the ODE path.
+
+    A stratum with an end-point map of its own (`endpoint`: spatial models, whose attitude is
+    integrated on SO(3)) uses it unless the ODE path is asked for."""
+    own = getattr(cs, "endpoint", None)
+    if own is not None and evaluator != "ode":
+        return own(q0, basis, duration)
     if evaluator == "ode" or (evaluator == "auto" and not cs.supports_quadrature):
         return OdeEndpoint(cs, q0, basis, duration)
     return QuadratureEndpoint(cs, q0, basis, duration)

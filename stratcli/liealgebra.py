@@ -172,6 +172,10 @@ STEP = 1e-3  # step of the fourth-order central differences of degree-3 brackets
 def _build(system: System, stratum: Stratum, degree: int) -> LieBasis:
     if getattr(system, "robot", None) is not None and _is_manipulator(system):
         return _manipulator_basis(system, stratum, degree)
+    if getattr(system, "spatial", None) is not None:  # a URDF robot: numeric, on SO(3)×Rᵏ
+        from .spatial_lie import spatial_basis
+
+        return spatial_basis(system, stratum, degree)
     free = stratum.free(system.n)
     elements = hall_basis(len(stratum.active), degree)
     names = [system.inputs[k] for k in stratum.active]

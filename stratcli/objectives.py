@@ -97,7 +97,7 @@ def plan_with_objective(
     # Starts: the Newton plan, then Newton plans from more widely perturbed seeded starts
     # (cheap, feasible, and in different basins: energy varies by orders of magnitude).
     seeds = [newton]
-    for k in range(1, settings.starts):
+    for k in range(1, settings.starts if _exact_hessians(system, legs, settings) else 1):
         say(f"energy search: start {k + 1} of {settings.starts} (a Newton plan from a seed)")
         other = chain_legs(
             system,
@@ -141,6 +141,27 @@ def plan_with_objective(
     final = chain_legs(system, start, legs, settings, initial=coefficients)
     final = replace(final, optimisation=search)
     return final if final.ok and final.total_energy <= newton.total_energy else newton
+
+
+def _exact_hessians(system: System, legs: list[LegSpec], settings: PlannerSettings) -> bool:
+    """Whether every leg's end-point map has exact second derivatives; if not (ODE-path
+    legs, URDF models) the energy search keeps one start (`optimise_energy`), so no seeded
+    Newton plans are made for the others."""
+    from .endpoint import make_endpoint
+
+    return all(
+        hasattr(
+            make_endpoint(
+                system.compiled(leg.stratum),
+                np.zeros(system.n),
+                settings.basis,
+                leg.duration,
+                settings.evaluator,
+            ),
+            "hessian",
+        )
+        for leg in legs
+    )
 
 
 def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:

@@ -16,6 +16,7 @@ import numpy as np
 from .controls import FourierBasis
 from .results import (
     SCHEMA,
+    ConstraintReport,
     LegPlan,
     ModelRef,
     Optimisation,
@@ -92,7 +93,17 @@ def _leg(plan: SequencePlan, leg: LegPlan) -> dict[str, Any]:
 
 
 def plan_document(plan: SequencePlan) -> dict[str, Any]:
-    """The JSON-ready result of a planned (or failed) sequence."""
+    """The JSON-ready result of a planned (or failed) sequence; a spatial (URDF) plan also
+    has an `attitude` section (`spatialdoc`)."""
+    doc = _document(plan)
+    if getattr(plan.model.spec, "kind", None) == "urdf":
+        from .spatialdoc import attitude_document
+
+        doc["attitude"] = attitude_document(plan)
+    return doc
+
+
+def _document(plan: SequencePlan) -> dict[str, Any]:
     s = plan.settings
     return {
         "schema": SCHEMA,
@@ -118,6 +129,7 @@ def plan_document(plan: SequencePlan) -> dict[str, Any]:
         "time_scale": plan.time_scale,
         "notes": list(plan.notes),
         "optimisation": _optimisation(plan.optimisation),
+        "constraints": plan.constraints.to_dict() if plan.constraints else None,
         "legs": [_leg(plan, leg) for leg in plan.legs],
         "switches": [
             {
@@ -238,4 +250,5 @@ def plan_from_document(
         time_scale=doc.get("time_scale", 1.0),
         notes=tuple(doc.get("notes") or ()),
         reference_energy=doc.get("reference_energy"),
+        constraints=ConstraintReport.from_dict(c) if (c := doc.get("constraints")) else None,
     )

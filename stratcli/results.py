@@ -29,6 +29,8 @@ from .status import Status
 
 __all__ = [
     "SCHEMA",
+    "ConstraintReport",
+    "LegMargins",
     "LegPlan",
     "ModelRef",
     "Optimisation",
@@ -225,3 +227,76 @@ def nan_to_none(x: Any) -> list[float | None]:
 def finite_or_none(x: float | None) -> float | None:
     """A number for JSON: non-finite values (a leg stopped by overflow) become null."""
     return None if x is None or not math.isfinite(x) else float(x)
+
+
+MARGINS = ("joint_limit", "rate", "acceleration", "self_clearance", "obstacle_clearance")
+
+
+@dataclass(frozen=True)
+class LegMargins:
+    """Smallest margin of one leg to each limit on a dense re-integration (`constraints.verify`).
+
+    Positive: inside the limit by that much; negative: violated. Joint limits in rad, rates
+    in rad/s, accelerations in rad/s², clearances in the model's length unit (the distance
+    between body surfaces less the required clearance). None where the limit is not set.
+    """
+
+    joint_limit: float | None = None
+    rate: float | None = None
+    acceleration: float | None = None
+    self_clearance: float | None = None
+    obstacle_clearance: float | None = None
+
+    def to_dict(self) -> dict[str, float | None]:
+        """`{limit: margin}` (None where the limit is not set)."""
+        return {k: None if v is None else finite_or_none(v) for k, v in self.items()}
+
+    def items(self):
+        """(limit, margin) pairs in a fixed order."""
+        return ((k, getattr(self, k)) for k in MARGINS)
+
+
+@dataclass(frozen=True)
+class ConstraintReport:
+    """What the [constraints] table asked and what the plan met.
+
+    Attributes
+    ----------
+    spec : the table as given (JSON-ready).
+    legs : per leg, the smallest margins (`LegMargins`).
+    samples_per_leg : re-integration samples per leg behind the margins.
+    violated : empty when every margin is ≥ 0; else names the limit, the leg and the time.
+    duration_set_by : the rate or acceleration limit that slowed the plan ("" if none did).
+    """
+
+    spec: dict[str, Any]
+    legs: tuple[LegMargins, ...] = ()
+    samples_per_leg: int = 0
+    violated: str = ""
+    duration_set_by: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """No limit is violated."""
+        return not self.violated
+
+    def to_dict(self) -> dict[str, Any]:
+        """The result.json `constraints` object (margins per leg under `legs`)."""
+        return {
+            "spec": self.spec,
+            "samples_per_leg": self.samples_per_leg,
+            "violated": self.violated or None,
+            "duration_set_by": self.duration_set_by or None,
+            "legs": [m.to_dict() for m in self.legs],
+        }
+
+    @classmethod
+    def from_dict(cls, doc: dict[str, Any]) -> ConstraintReport:
+        """Read back what `to_dict` wrote."""
+        return cls(
+            spec=dict(doc.get("spec") or {}),
+            legs=tuple(LegMargins(**{k: m.get(k) for k in MARGINS}) for m in doc.get("legs") or ()),
+            samples_per_leg=int(doc.get("samples_per_leg") or 0),
+            violated=doc.get("violated") or "",
+            duration_set_by=doc.get("duration_set_by") or "",
+        )

@@ -22,6 +22,7 @@ from pydantic import (
 )
 
 from . import tomlwrite
+from .constraints import Constraints, ConstraintsSpec, check_configuration, resolve
 from .controls import MAX_PERIODS_PER_LEG
 from .errors import InputError, Problem
 from .models.numbers import parse_number
@@ -33,6 +34,7 @@ from .models.specs import (
     ModelSpec,
     PlanarModel,
     PresetModel,
+    UrdfModel,
     build_system,
 )
 from .models.system import System
@@ -97,6 +99,7 @@ class Scenario(_Strict):
     legs: list[LegEntry] | None = Field(None, min_length=1, max_length=1000)
     decompose: DecomposeSettings | None = None
     reference: ReferenceSpec | None = None
+    constraints: ConstraintsSpec | None = None
 
 
 @dataclass
@@ -111,6 +114,7 @@ class Task:
     settings: PlannerSettings
     source: str
     text: str
+    constraints: Constraints | None = None  # the [constraints] table, resolved on the model
 
     @property
     def model_name(self) -> str:
@@ -146,7 +150,9 @@ def _allowed_keys(loc: tuple) -> list[str]:
         if isinstance(item, int):
             continue
         if item in KINDS and cls is None:
-            cls = {"preset": PresetModel, "custom": CustomModel}.get(item, PlanarModel)
+            cls = {"preset": PresetModel, "custom": CustomModel, "urdf": UrdfModel}.get(
+                item, PlanarModel
+            )
             continue
         fields = _fields_of(cls)
         if fields is None or item not in fields:
@@ -228,17 +234,27 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
         text = read_scenario_text(path)
     except InputError as exc:
         raise exc.with_source(where) from None
-    return parse_scenario(text, where)
+    return parse_scenario(text, where, base_dir=path.parent)
 
 
-def parse_scenario(text: str, source: str = "<scenario>") -> Task:
-    """`load_scenario` for TOML text."""
-    return _from_raw(parse_toml(text, source), text, source)
+def parse_scenario(text: str, source: str = "<scenario>", base_dir: Path | None = None) -> Task:
+    """`load_scenario` for TOML text; a URDF `path` is relative to `base_dir` (default: cwd)."""
+    return _from_raw(parse_toml(text, source), text, source, base_dir)
 
 
-def _from_raw(raw: dict[str, Any], text: str | None, source: str) -> Task:
+def _from_raw(
+    raw: dict[str, Any], text: str | None, source: str, base_dir: Path | None = None
+) -> Task:
     if non_finite := reject_non_finite(raw):
         raise InputError(non_finite, source)
+    system = None
+    if isinstance(raw.get("model"), dict) and raw["model"].get("kind") == "urdf":
+        from .models.spatial_scenario import prepare_urdf  # configurations by joint name
+
+        try:
+            raw, system = prepare_urdf(raw, base_dir)
+        except InputError as exc:
+            raise exc.with_source(source) from None
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
@@ -249,7 +265,7 @@ def _from_raw(raw: dict[str, Any], text: str | None, source: str) -> Task:
         except (TypeError, ValueError) as exc:
             raise InputError(f"cannot be written as TOML: {exc}", source) from None
     try:
-        return _resolve(scenario, source, text)
+        return _resolve(scenario, source, text, system)
     except InputError as exc:
         raise exc.with_source(source) from None
 
@@ -269,8 +285,10 @@ def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[P
     return None
 
 
-def _resolve(scenario: Scenario, source: str, text: str) -> Task:
-    system = build_system(scenario.model)
+def _resolve(scenario: Scenario, source: str, text: str, system: System | None = None) -> Task:
+    if system is None:
+        system = build_system(scenario.model)
+    system.spec = scenario.model
     n = system.n
     problems: list[Problem] = []
     names = ", ".join(system.states)
@@ -285,6 +303,12 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
 
     start = vector(scenario.task.start, "task.start")
     goal = vector(scenario.task.goal, "task.goal")
+    constraints = None
+    if scenario.constraints is not None:
+        try:
+            constraints = resolve(scenario.constraints, system)
+        except InputError as exc:
+            problems.extend(exc.problems)
     p = scenario.planner
     legs: list[LegSpec] = []
     if scenario.legs is None and scenario.decompose is None:
@@ -371,6 +395,13 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
             )
         if entry.method != "lie" and entry.lie is not None:
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
+    if constraints is not None:
+        if start is not None:
+            problems.extend(check_configuration(system, start, constraints, "task.start"))
+        for i, leg in enumerate(legs[:-1]):
+            problems.extend(check_configuration(system, leg.goal, constraints, f"legs[{i}].goal"))
+        if goal is not None:
+            problems.extend(check_configuration(system, goal, constraints, "task.goal"))
     if problems:
         raise InputError(problems)
     settings = p
@@ -389,7 +420,7 @@ def _resolve(scenario: Scenario, source: str, text: str) -> Task:
         raise InputError(problems)
 
     check_legs(system, start, legs, settings)
-    return Task(scenario, system, start, goal, legs, settings, source, text)
+    return Task(scenario, system, start, goal, legs, settings, source, text, constraints)
 
 
 __all__ = ["PRESETS", "Scenario", "Task", "build_system", "load_scenario", "parse_scenario"]

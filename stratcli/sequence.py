@@ -14,7 +14,15 @@ import numpy as np
 
 from .models.specs import system_from_ref
 from .resultdoc import plan_document, plan_from_document
-from .results import LegPlan, ModelRef, Optimisation, Switch, Timings, frozen_array
+from .results import (
+    ConstraintReport,
+    LegPlan,
+    ModelRef,
+    Optimisation,
+    Switch,
+    Timings,
+    frozen_array,
+)
 from .settings import PlannerSettings
 from .simulate import Trajectory, sample
 from .status import Status
@@ -47,6 +55,7 @@ class SequencePlan:
     reference_energy: float | None = None
     scenario_text: str = field(default="", repr=False)  # the scenario it was planned from
     timings: Timings = Timings()
+    constraints: ConstraintReport | None = None  # the [constraints] table and the margins
     _system: Any = field(default=None, repr=False, compare=False)  # not pickled
 
     def __post_init__(self) -> None:
@@ -67,19 +76,23 @@ class SequencePlan:
     # ---- summary -------------------------------------------------------------------------
     @property
     def ok(self) -> bool:
-        """Every planned leg reached its goal, and every leg was planned."""
+        """Every leg was planned and reached its goal, within the constraints if any."""
         return (
             self.planned_legs > 0
             and len(self.legs) == self.planned_legs
             and all(leg.converged for leg in self.legs)
+            and (self.constraints is None or self.constraints.ok)
         )
 
     @property
     def status(self) -> Status:
-        """`SUCCESS`, or the status of the first leg that failed (`NOT_PLANNED` if missing)."""
+        """`SUCCESS`, the status of the first leg that failed (`NOT_PLANNED` if missing), or
+        `CONSTRAINT_VIOLATED`."""
         for leg in self.legs:
             if not leg.converged:
                 return leg.status
+        if self.constraints is not None and not self.constraints.ok:
+            return Status.CONSTRAINT_VIOLATED
         return Status.SUCCESS if self.ok else Status.NOT_PLANNED
 
     @property

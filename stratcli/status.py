@@ -38,6 +38,11 @@ class Status(enum.Enum):
         "another stratum, a via configuration closer to the start, or auto mode"
     )
     NOT_PLANNED = "was not planned: an earlier leg failed"
+    CONSTRAINT_VIOLATED = (
+        "reached its goals but violates a limit of [constraints] (the search does not yet "
+        "steer away from joint limits, collisions or obstacles); try via configurations that "
+        "keep the robot away from the limit, another stratum sequence, or the other objective"
+    )
 
     @property
     def ok(self) -> bool:

@@ -9,7 +9,7 @@ from stratcli.controls import FourierBasis
 from stratcli.endpoint import OdeEndpoint, QuadratureEndpoint, make_endpoint
 from stratcli.errors import InputError
 from stratcli.models.manipulator import ManipulatorSystem
-from stratcli.models.planar import paper_one_arm
+from stratcli.models.planar import paper_one_arm, paper_two_arm
 from stratcli.models.presets import preset
 from stratcli.scenario import parse_scenario
 
@@ -69,11 +69,13 @@ def test_jacobian_matches_finite_differences(evaluator):
         (lambda: preset("one-arm"), "S2", np.array([0.3, -0.7, 1.1, 0.2])),
         (lambda: preset("two-arm"), "S12", np.array([0.1, 0.5, -0.4, 0.9, -0.3])),
         (lambda: ManipulatorSystem(paper_one_arm()), "S3", np.array([0.3, -0.7, 1.1, 0.2])),
+        (lambda: ManipulatorSystem(paper_two_arm()), "S2", np.array([0.1, 0.5, -0.4, 0.9, -0.3])),
     ],
 )
 def test_endpoint_hessian_matches_finite_differences_of_the_jacobian(system, stratum, q0):
-    """The energy objective's exact second derivatives (fused compiled ∂²G_Q, or batched
-    central differences of the closed-form connection) agree with the exact Jacobian."""
+    """The energy objective's exact second derivatives (fused compiled ∂²G_Q, or the
+    closed-form contracted second derivatives of the physical connection) agree with the
+    exact Jacobian."""
     ep = QuadratureEndpoint(system().compiled(stratum), q0, BASIS, 1.2)
     rng = np.random.default_rng(3)
     lam = rng.normal(0, 2.0, ep.n_coefficients)

@@ -19,6 +19,8 @@ import sympy as sp
 from stratcli.models.connection import (
     connection,
     connection_A,
+    connection_gradient,
+    connection_hessian,
     connection_symbolic,
     derive_symbolic,
     f_theta_and_f,
@@ -182,6 +184,57 @@ def test_dA_equals_finite_differences_generic(name):
     _, dA = connection(robot, q)
     fd = central_jacobian(lambda x: connection_A(robot, x), q, 1e-5)
     assert np.max(np.abs(dA - fd)) <= 1e-8
+
+
+def long_two_arm_chain() -> PlanarManipulator:
+    """Two arms of 7 and 5 unequal links, so every distal/proximal case of the sums occurs."""
+    rng = np.random.default_rng(11)
+
+    def links(k):
+        return tuple(
+            Link(rng.uniform(0.2, 1.0), rng.uniform(0.2, 0.6), rng.uniform(0.05, 0.3))
+            for _ in range(k)
+        )
+
+    arms = (Arm((0.5, 0.1), 0.4, 1, links(7)), Arm((-0.3, -0.4), 2.6, -1, links(5)))
+    return PlanarManipulator(Base(9.0, 2.2), arms)
+
+
+SECOND = {**ROBOTS, "two-arm-12": long_two_arm_chain}
+
+
+@pytest.mark.parametrize("name", SECOND)
+def test_contracted_second_derivatives_equal_finite_differences(name):
+    """Σ_j v_j ∂²A_j/∂q_k∂q_l in closed form equals central differences of the (tested) dA,
+    with different weights at every point; each term of it is well above the tolerance."""
+    robot = SECOND[name]()
+    n = robot.n_joints
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-np.pi, np.pi, (400, n))
+    v = rng.normal(size=(400, n))
+    A, dA, H = connection_hessian(robot, q, v)
+    A0, dA0 = connection(robot, q)
+    np.testing.assert_array_equal(A, A0)
+    np.testing.assert_allclose(dA, dA0, rtol=0, atol=1e-15)
+    fd = central_jacobian(
+        lambda x: np.einsum("...j,...jk->...k", v, connection(robot, x)[1]), q, 1e-5
+    )
+    assert np.max(np.abs(H - fd)) <= 1e-8 * max(1.0, np.abs(H).max())
+    assert np.max(np.abs(H - np.swapaxes(H, -1, -2))) <= 1e-14 * np.abs(H).max()
+    assert np.median(np.abs(H)) > 1e-4  # real curvature, not zeros compared with zeros
+
+
+@pytest.mark.parametrize("name", SECOND)
+def test_contracted_first_derivatives_equal_dA(name):
+    """Σ_j v_j ∂A_j/∂q_k in O(n) per point equals the full dA contracted."""
+    robot = SECOND[name]()
+    rng = np.random.default_rng(6)
+    q = rng.uniform(-np.pi, np.pi, (3, 50, robot.n_joints))
+    v = rng.normal(size=q.shape)
+    A, g = connection_gradient(robot, q, v)
+    A0, dA0 = connection(robot, q)
+    np.testing.assert_array_equal(A, A0)
+    np.testing.assert_allclose(g, np.einsum("...j,...jk->...k", v, dA0), rtol=0, atol=1e-14)
 
 
 def test_models_md_test_vectors():

@@ -55,3 +55,25 @@ def test_rod_links_change_the_model():
     Ap = ManipulatorSystem(paper).compiled("S1").quadrature_terms(q, 0)[0]
     Ar = ManipulatorSystem(rods).compiled("S1").quadrature_terms(q, 0)[0]
     assert np.abs(Ap - Ar).max() > 0.1  # MODELS.md §5: up to 0.23
+
+
+def test_contracted_terms_equal_the_full_derivatives():
+    """The strata's one-contraction terms (what end-point Jacobians and Hessians use) equal
+    the full first and second derivatives of the θ row contracted the same way."""
+    cs = ManipulatorSystem(paper_two_arm()).compiled("S2")  # joint 2 locked
+    rng = np.random.default_rng(4)
+    q = rng.uniform(-np.pi, np.pi, (60, 5))
+    V = rng.normal(size=(60, 1, 3))
+    G, dG, ddG = cs.quadrature_terms(q, 2)
+    GQ, Du = cs.quadrature_jacobian(q, V)
+    dGQ, H = cs.quadrature_hessian(q, V)
+    np.testing.assert_array_equal(GQ, G)
+    np.testing.assert_allclose(dGQ, dG, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(Du, np.einsum("kra,krae->kre", V, dG), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(H, np.einsum("kra,kraef->kef", V, ddG), rtol=0, atol=1e-13)
+    h = 1e-5  # and the full second derivatives are those of the first
+    fd = [
+        (cs.quadrature_terms(q + h * e, 1)[1] - cs.quadrature_terms(q - h * e, 1)[1]) / (2 * h)
+        for e in np.eye(5)[:4]
+    ]
+    np.testing.assert_allclose(ddG, np.stack(fd, axis=-1), rtol=0, atol=1e-8)

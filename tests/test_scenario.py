@@ -231,7 +231,7 @@ def test_huge_configurations_load_cleanly(tmp_path):
     [
         (
             {"name": "two-arm"},
-            "model.kind: is missing (one of: preset, custom, planar-manipulator)",
+            "model.kind: is missing (one of: preset, custom, planar-manipulator, urdf)",
         ),
         ({"kind": "presett", "name": "two-arm"}, "model.kind: is 'presett', not a kind (one of:"),
     ],

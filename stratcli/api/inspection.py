@@ -199,8 +199,8 @@ def strata_table(system: System) -> list[dict[str, Any]]:
     Returns
     -------
     list of dict
-        stratum, locked, active, dimension and evaluator ("quadrature" or "ode", what
-        `auto` uses on it).
+        stratum, locked, active, dimension and evaluator ("quadrature", "magnus" (a URDF
+        model's attitude on SO(3)) or "ode", what `auto` uses on it).
     """
     rows = []
     for s in system.strata.values():
@@ -211,7 +211,13 @@ def strata_table(system: System) -> list[dict[str, Any]]:
                 "locked": [system.states[i] for i in s.locked],
                 "active": [system.inputs[j] for j in s.active],
                 "dimension": system.n - len(s.locked),
-                "evaluator": "quadrature" if cs.supports_quadrature else "ode",
+                "evaluator": _evaluator(cs),
             }
         )
     return rows
+
+
+def _evaluator(cs) -> str:
+    if getattr(cs, "endpoint", None) is not None:
+        return "magnus"
+    return "quadrature" if cs.supports_quadrature else "ode"

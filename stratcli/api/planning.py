@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from ..compare import CRITERIA, Comparison
+from ..constraints import enforce
 from ..decompose import STRATEGIES, Decomposition, pi_fraction
 from ..errors import InputError, Problem
 from ..objectives import plan_sequence
@@ -186,6 +187,10 @@ def plan_run(
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale != 1.0:
         result = time_scaled(result, scale)
+    if task.constraints is not None:  # rate limits by time scaling; every limit verified
+        with phase(phases, "constraints"):
+            say("verifying the constraints on a dense re-integration")
+            result = enforce(result.with_system(task.system), task.constraints)
     result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
     doc = result.to_dict()
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases)

@@ -219,6 +219,16 @@ def plan_summary(doc: dict) -> None:
     out_console.print(f"{line} · status {status}", highlight=False)
     for note in doc.get("notes") or []:
         out_console.print(f"note: {escape(note)}", highlight=False)
+    for i, leg in enumerate((doc.get("attitude") or {}).get("legs") or []):  # URDF robots
+        if leg.get("audit"):
+            a, err = leg["audit"], leg.get("goal_error")
+            out_console.print(
+                f"leg {i + 1} on SO(3): attitude error "
+                f"{'(partly free)' if err is None else f'{err:.1e} rad'} · audit: momentum "
+                f"{a['max_momentum']:.1e}, CoM drift {a['com_drift']:.1e} m, "
+                f"|RᵀR − I| {a['orthogonality']:.1e}",
+                highlight=False,
+            )
     lie = [
         (i + 1, leg)
         for i, leg in enumerate(doc["legs"])

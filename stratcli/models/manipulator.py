@@ -1,9 +1,10 @@
 """Planar free-floating manipulators from physical parameters as stratified systems (DESIGN §7).
 
 `q = (q_1..q_k, θ)`, `q_j' = u_j`, `θ' = Σ A_j(q) u_j` with `A = f/f_θ` from angular-momentum
-conservation (MODELS.md §1-3). The numeric strata evaluate `A` and `∂A/∂q` with the vectorised
-closed forms of `connection.connection` (no sympy, so 20-link chains are cheap); the symbolic
-fields are derived only when something asks for them (e.g. Lie brackets).
+conservation (MODELS.md §1-3). The numeric strata evaluate `A`, `∂A/∂q` and the contracted
+second derivatives with the vectorised closed forms of `connection` (no sympy, so 30-link
+chains are cheap); the symbolic fields are derived only when something asks for them (e.g.
+Lie brackets).
 """
 
 from __future__ import annotations
@@ -14,7 +15,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .connection import connection, connection_A, connection_symbolic
+from .connection import (
+    connection,
+    connection_A,
+    connection_gradient,
+    connection_hessian,
+    connection_symbolic,
+)
 from .planar import PlanarManipulator
 from .system import Stratum, System
 
@@ -69,8 +76,7 @@ class NumericManipulatorStratum:
 
         def terms(q, order):
             """θ row on the active inputs (..., 1, m) and its first (..., 1, m, k) and second
-            (..., 1, m, k, k) derivatives along the joints; the second by central
-            differences of the closed-form dA, all shifted points in one batched call."""
+            (..., 1, m, k, k) derivatives along the joints, all in closed form."""
             joints = q[..., :k]
             if order == 0:
                 return (connection_A(robot, joints)[..., None, act],)
@@ -78,15 +84,37 @@ class NumericManipulatorStratum:
             out = (A[..., None, act], dA[..., None, act, :])
             if order == 1:
                 return out
-            h = 1e-5
-            shifts = h * np.concatenate([np.eye(k), -np.eye(k)])  # (2k, k)
-            moved = joints[None] + shifts.reshape(2 * k, *([1] * (joints.ndim - 1)), k)
-            dAs = connection(robot, moved)[1][..., act, :]  # (2k, ..., m, k)
-            dd = np.moveaxis((dAs[:k] - dAs[k:]) / (2 * h), 0, -1)  # (..., m, k, k)
+            # the full tensor, one contraction per active input (the planners need only one:
+            # `hessian_terms`)
+            unit = np.zeros((m, *joints.shape))
+            unit[np.arange(m), ..., act] = 1.0
+            dd = np.stack([connection_hessian(robot, joints, e)[2] for e in unit], axis=-3)
             return (*out, dd[..., None, :, :, :])
+
+        def jacobian_terms(q, V):
+            """The θ row on the active inputs (..., 1, m) and Σ_a V_a ∂G_θa/∂q (..., 1, k) for
+            weights V (..., 1, m): what an end point's Jacobian needs, in O(k) per point
+            (`connection_gradient`)."""
+            joints = q[..., :k]
+            v = np.zeros(joints.shape)
+            v[..., act] = V[..., 0, :]
+            A, g = connection_gradient(robot, joints, v)
+            return A[..., None, act], g[..., None, :]
+
+        def hessian_terms(q, V):
+            """The θ row's first derivatives (..., 1, m, k) and Σ_a V_a ∂²G_θa/∂q² (..., k, k)
+            for weights V (..., 1, m): the one contraction an end point's Hessian needs, in
+            O(k²) per point (`connection_hessian`)."""
+            joints = q[..., :k]
+            v = np.zeros(joints.shape)
+            v[..., act] = V[..., 0, :]
+            _, dA, H = connection_hessian(robot, joints, v)
+            return dA[..., None, act, :], H
 
         self.G, self.dG = G, dG
         self.quadrature_terms = terms
+        self.quadrature_jacobian = jacobian_terms
+        self.quadrature_hessian = hessian_terms
 
 
 class ManipulatorSystem(System):

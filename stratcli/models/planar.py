@@ -250,12 +250,13 @@ class Structure:
     mount_y: np.ndarray  # (n, 1)
     D: np.ndarray  # (n, n) D[k, i] = 1 if link i is at or after joint k on the same arm
     DsT: np.ndarray  # (n, n) strictly distal mask, transposed: DsT[j, k] = [k proximal to j]
+    Ds: np.ndarray  # (n, n) D − I: Ds @ x sums x over the joints strictly distal to each joint
     DI: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} I_i
     mu: np.ndarray  # (n, 1) Σ_{i ∈ D(j)} m_i
-    E: np.ndarray  # (n*n, n) E[(j, k), i] = D[j, i] D[k, i] m_i
-    mu2: np.ndarray  # (n, n, 1) Σ_i D[j, i] D[k, i] m_i
+    same: np.ndarray  # (n, n) 1 if joints j and k are on the same arm
+    same3: np.ndarray  # (n, n, 1)
+    lower3: np.ndarray  # (n, n, 1) bool: k ≤ j (joint k at or before joint j, if on one arm)
     ss: np.ndarray  # (n, n, 1) s_j s_k
-    DsT3: np.ndarray  # (n, n, 1)
     m0: float
     M: float
     sum_inertia: float  # I0 + Σ I_i
@@ -273,8 +274,10 @@ def structure(robot: PlanarManipulator) -> Structure:
     m = np.array([link.mass for link in links])
     inertia = np.array([link.inertia for link in links])
     s = np.array([float(robot.arms[a].sense) for a in arm_of])
-    E = D[:, None, :] * D[None, :, :] * m
     DsT = (D - np.eye(n)).T
+    arm = np.array(arm_of)
+    same = (arm[:, None] == arm[None, :]).astype(float)
+    j, k = np.indices((n, n))
 
     def col(x: Any) -> np.ndarray:
         return np.asarray(x, dtype=float).reshape(n, 1)
@@ -290,12 +293,13 @@ def structure(robot: PlanarManipulator) -> Structure:
         "mount_y": col([robot.arms[a].mount[1] for a in arm_of]),
         "D": D,
         "DsT": DsT,
+        "Ds": np.ascontiguousarray(DsT.T),
         "DI": col(D @ inertia),
         "mu": col(D @ m),
-        "E": E.reshape(n * n, n),
-        "mu2": E.sum(axis=-1)[:, :, None],
+        "same": same,
+        "same3": same[:, :, None],
+        "lower3": (j >= k)[:, :, None],  # joints are numbered proximal to distal on each arm
         "ss": np.outer(s, s)[:, :, None],
-        "DsT3": DsT[:, :, None],
     }
     for value in arrays.values():
         value.setflags(write=False)

@@ -29,6 +29,7 @@ __all__ = [
     "Number",
     "PlanarModel",
     "PresetModel",
+    "UrdfModel",
     "build_system",
     "system_from_ref",
 ]
@@ -133,19 +134,39 @@ class PlanarModel(_Strict):
         return self
 
 
-ModelSpec = Annotated[PresetModel | CustomModel | PlanarModel, Field(discriminator="kind")]
-KINDS = ("preset", "custom", "planar-manipulator")
+class UrdfModel(_Strict):
+    """A spatial free-floating manipulator from a URDF (SPATIAL.md; needs `stratplan[spatial]`).
+
+    `path` is relative to the scenario file (made absolute when the scenario is read); `base`
+    is the free-flying link (the URDF's root); `strata` are lock sets of joint names (default:
+    every single lock, plus every pair from four joints on).
+    """
+
+    kind: Literal["urdf"]
+    path: str = Field(min_length=1, max_length=4096)
+    base: str | None = Field(None, max_length=200)
+    strata: list[list[str]] | None = Field(None, max_length=1000)
+
+
+ModelSpec = Annotated[
+    PresetModel | CustomModel | PlanarModel | UrdfModel, Field(discriminator="kind")
+]
+KINDS = ("preset", "custom", "planar-manipulator", "urdf")
 
 _SPEC: TypeAdapter[Any] = TypeAdapter(ModelSpec)
 
 
-def build_system(spec: PresetModel | CustomModel | PlanarModel) -> System:
+def build_system(spec: PresetModel | CustomModel | PlanarModel | UrdfModel) -> System:
     """The model named or described by the scenario's [model] table (which it keeps as
     `spec`, the reference plans carry)."""
     if spec.kind == "preset":
         system = preset(spec.name)
     elif spec.kind == "planar-manipulator":
         system = _planar_system(spec)
+    elif spec.kind == "urdf":
+        from .spatial import load_spatial  # Pinocchio is imported only for URDF models
+
+        system = load_spatial(spec.path, spec.base, spec.strata)
     else:
         system = _custom_system(spec)
     system.spec = spec

@@ -38,6 +38,7 @@ __all__ = [
     "LegProblem",
     "SearchDiverged",
     "damped_gauss_newton",
+    "goal_residual",
     "runaway",
 ]
 
@@ -131,9 +132,22 @@ class LegProblem:
         )
 
     def error(self, q: np.ndarray) -> float:
-        """Euclidean goal error over the targeted coordinates."""
-        t = list(self.targets)
-        return float(np.linalg.norm(self.goal[t] - np.asarray(q)[t]))
+        """Euclidean goal error over the targeted coordinates (a spatial model's attitude
+        measured on the group, `goal_residual`)."""
+        t = np.array(self.targets, dtype=int)
+        cs = self.system.compiled(self.stratum)
+        r, _ = goal_residual(cs, np.asarray(q, dtype=float), None, self.goal[t], t)
+        return float(np.linalg.norm(r))
+
+
+def goal_residual(endpoint, end, J, aim, targets):
+    """`end − goal` on `targets` (`aim`: the goal there) and its Jacobian rows `J[targets]`;
+    an end-point map (or compiled stratum) with its own `residual` measures it its way (a
+    spatial model: the attitude on SO(3), `magnus.residual_on_group`)."""
+    own = getattr(endpoint, "residual", None)
+    if own is not None:
+        return own(end, J, aim, targets)
+    return end[targets] - aim, (None if J is None else J[targets])
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,13 +13,12 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import scipy.linalg
 
 from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
-from .base import ENERGY_RUNAWAY
+from .base import ENERGY_RUNAWAY, goal_residual
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
@@ -32,6 +31,25 @@ SCREEN_RATIO = 2.0  # drop a start this far above another sequence's minimum (`b
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
+
+
+def _block_diag(blocks: list[np.ndarray]) -> np.ndarray:
+    """The block-diagonal matrix of `blocks` (scipy.linalg.block_diag; no scipy import)."""
+    out = np.zeros((sum(b.shape[0] for b in blocks), sum(b.shape[1] for b in blocks)))
+    r = c = 0
+    for b in blocks:
+        out[r : r + b.shape[0], c : c + b.shape[1]] = b
+        r, c = r + b.shape[0], c + b.shape[1]
+    return out
+
+
+def _null_space(A: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of A's null space (scipy.linalg.null_space's rank rule)."""
+    if A.size == 0:
+        return np.eye(A.shape[1])
+    _, s, vh = np.linalg.svd(A, full_matrices=True)
+    tol = max(A.shape) * np.finfo(float).eps * (s.max() if s.size else 0.0)
+    return vh[int(np.sum(s > tol)) :].T
 
 
 class _Problem:
@@ -55,8 +73,8 @@ class _Problem:
             full_stop=settings.full_stop,
         )
         elim = eliminate(cons)
-        self.M = scipy.linalg.block_diag(
-            *[
+        self.M = _block_diag(
+            [
                 np.kron(np.eye(len(a)), basis.gram(T))
                 for a, T in zip(actives, durations, strict=True)
             ]
@@ -109,9 +127,10 @@ class _Problem:
                 zip(self.endpoints, self.targets, self.goals, strict=True)
             ):
                 end, Ji = ep(lam[self.offsets[i] : self.offsets[i + 1]], jacobian)
-                res.append(end[t] - g)
+                r, Jt = goal_residual(ep, end, Ji, g, t)
+                res.append(r)
                 if jacobian:
-                    J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = Ji[t]
+                    J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = Jt
                 row += t.size
             self._c = np.concatenate(res)
             if jacobian:
@@ -151,7 +170,7 @@ class _Problem:
     def projected_gradient(self, z) -> float:
         """|Z'∇f| / |∇f| with Z a basis of the constraints' tangent space at z."""
         g = self.energy_grad(z)
-        Z = scipy.linalg.null_space(self.constraint_jac(z))
+        Z = _null_space(self.constraint_jac(z))
         return float(np.linalg.norm(Z.T @ g) / max(np.linalg.norm(g), 1e-300))
 
 
@@ -260,7 +279,6 @@ class _Descent:
         clock = time.perf_counter()
         self.problem = problem
         self.H0 = problem.H0
-        self.chol = scipy.linalg.cho_factor(self.H0)
         self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
         self.c_tol = min(1e-10, 1e-3 * tol)
         self.iterations = 0
@@ -287,12 +305,12 @@ class _Descent:
             if violation > 0.5 * previous:
                 return None  # not converging fast: let the line search shorten the step
             previous = violation
-            HJ = scipy.linalg.cho_solve(self.chol, J.T)
+            HJ = 0.5 * J.T  # H0⁻¹ Jᵀ (H0 = 2 I: the energy is |z|² in the whitened z)
             try:
-                S = scipy.linalg.cho_factor(J @ HJ)
+                L = np.linalg.cholesky(J @ HJ)
             except np.linalg.LinAlgError:
                 return None
-            z = z - HJ @ scipy.linalg.cho_solve(S, c)
+            z = z - HJ @ np.linalg.solve(L.T, np.linalg.solve(L, c))
             if not np.all(np.isfinite(z)):
                 return None
         return None
@@ -329,7 +347,8 @@ class _Descent:
         W = H0 + problem.constraint_hessian(z, mu) if self.exact else H0
         R = Z.T @ W @ Z
         R0 = Z.T @ H0 @ Z
-        low = float(scipy.linalg.eigh(R, R0, eigvals_only=True)[0])
+        # R0 = Zᵀ H0 Z = 2 I (Z orthonormal): the generalised eigenproblem is R's own, halved
+        low = float(np.linalg.eigvalsh(R)[0]) / 2.0 if R.size else np.inf
         if low < CURVATURE_FLOOR:  # convexify in the energy metric (the basis is ill-scaled)
             R = R + (CURVATURE_FLOOR - low) * R0
         d = -Z @ np.linalg.solve(R, reduced)

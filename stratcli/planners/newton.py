@@ -23,7 +23,7 @@ import numpy as np
 from ..results import Piece
 from ..settings import PlannerSettings
 from ..status import Status
-from .base import LegOutcome, LegPlanner, LegProblem, damped_gauss_newton
+from .base import LegOutcome, LegPlanner, LegProblem, damped_gauss_newton, goal_residual
 from .continuation import follow_line
 
 __all__ = ["NewtonPlanner"]
@@ -113,8 +113,8 @@ class NewtonPlanner(LegPlanner):
             def evaluate(z, jacobian):
                 lam = elimination.coefficients(z)
                 end, J = endpoint(lam, jacobian)
-                Jz = None if J is None else J[targets] @ N
-                return aim - end[targets], Jz, (lam, end)
+                r, Jt = goal_residual(endpoint, end, J, aim, targets)
+                return -r, (None if Jt is None else Jt @ N), (lam, end)
 
             return evaluate
 
@@ -153,7 +153,7 @@ class NewtonPlanner(LegPlanner):
         # The homotopy solves many legs' worth of Newton problems: affordable with the
         # quadrature end point (all space manipulators), not on the general ODE path, where
         # one call can cost 10⁴ evaluations (a custom model would then run for minutes).
-        cheap = endpoint.kind == "quadrature"
+        cheap = endpoint.kind in ("quadrature", "magnus")
         if (
             best.error > problem.tolerance
             and np.isfinite(best.error)
@@ -175,11 +175,17 @@ class NewtonPlanner(LegPlanner):
             if path.reached:
                 best, strategy = path.result, "continuation"
         lam, end = best.extra
-        ok = best.error <= problem.tolerance
+        error = best.error
+        refined = getattr(endpoint, "refined", None)  # a map that evaluates coarsely far away
+        if refined is not None and np.all(np.isfinite(end)):
+            end = refined(lam)
+            r, _ = goal_residual(endpoint, end, None, goal[targets], targets)
+            error = float(np.linalg.norm(r))
+        ok = error <= problem.tolerance
         return LegOutcome(
             pieces=(Piece(0.0, problem.duration, lam.reshape(endpoint.m, endpoint.size)),),
             end=np.array(end, dtype=float),
-            error=best.error,
+            error=error,
             iterations=total,
             attempts=attempt + 1,
             status=Status.SUCCESS if ok else Status.NOT_CONVERGED,

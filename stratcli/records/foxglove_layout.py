@@ -12,6 +12,7 @@ them (`{"direction", "first", "second", "splitPercentage"}`; a leaf is a panel i
 | Plot | `Plot!configuration` | `/state.q.<coordinate>` for every coordinate |
 | State Transitions | `StateTransitions!stratum` | `/state.stratum` and `/state.leg` |
 
+A URDF robot's 3-D panel draws the robot with a URDF layer (the file's path) in perspective.
 The 3-D panel is left out when the log has no `/tf` (a model without a robot drawing). Message
 paths are `topic.field.field` in the field names of `mcap_schemas`; every time axis is the log
 time, so the plots and the 3-D view move together with Foxglove's playback bar. Built as plain
@@ -75,7 +76,27 @@ def _plot(title: str, series: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def _three_d(follow: Literal["world", "base"], distance: float) -> dict[str, Any]:
+def _three_d(
+    follow: Literal["world", "base"], distance: float, urdf: str | None = None
+) -> dict[str, Any]:
+    panel = _three_d_panel(follow, distance)
+    if urdf is not None:  # a URDF robot: Foxglove draws it, moved by /tf (frames = its links)
+        panel["cameraState"].update(perspective=True, phi=60, thetaOffset=45)
+        panel["layers"]["urdf"] = {
+            "visible": True,
+            "label": "Robot (URDF)",
+            "instanceId": "urdf",
+            "layerId": "foxglove.Urdf",
+            "sourceType": "filePath",
+            "filePath": urdf,
+            "displayMode": "auto",
+            "fallbackColor": "#b0b8c8",
+            "order": 2,
+        }
+    return panel
+
+
+def _three_d_panel(follow: Literal["world", "base"], distance: float) -> dict[str, Any]:
     return {
         "foxglovePanelTitle": "Motion (world frame at the system CM)",
         "followTf": follow,
@@ -123,6 +144,7 @@ def foxglove_layout(
     robot: bool,
     follow: Literal["world", "base"] = "world",
     distance: float = 5.0,
+    urdf: str | None = None,
 ) -> dict[str, Any]:
     """The Foxglove layout of a run (a JSON-ready dict).
 
@@ -133,6 +155,7 @@ def foxglove_layout(
     robot : whether the log has `/tf` and `/scene` (`shows_robot`); without, no 3-D panel.
     follow : the frame the 3-D view follows: `"world"` (fixed view) or `"base"` (its position).
     distance : the 3-D camera's distance (zoom), in the model's length unit.
+    urdf : a URDF robot's file: the 3-D panel gets a URDF layer drawing it (perspective view).
 
     Returns
     -------
@@ -155,7 +178,7 @@ def foxglove_layout(
     charts = _split("column", CONTROLS, _split("column", CONFIGURATION, STRATUM, 70), 38)
     tree: Any = charts
     if robot:
-        config[THREE_D] = _three_d(follow, distance)
+        config[THREE_D] = _three_d(follow, distance, urdf)
         tree = _split("row", THREE_D, charts, 55)
     return {
         "configById": config,
@@ -184,6 +207,12 @@ def run_layout(
     """
     system = plan.system
     robot = shows_robot(plan, traj)
+    if getattr(system, "spatial", None) is not None and traj.size:  # a URDF robot
+        from .spatial_figures import reach
+
+        distance = round(4.0 * max(reach(plan, traj.q[0]), 0.25), 3)
+        states, inputs = tuple(system.states), tuple(system.inputs)
+        return foxglove_layout(states, inputs, True, follow, distance, system.spatial.path)
     distance = 5.0
     if robot:
         geo = world_geometry(system.robot, traj.q[:1])

@@ -8,7 +8,7 @@ Every channel is JSON-encoded with a JSON Schema:
 | `/controls` | `stratplan.Controls` | one per sample: `t`, `leg`, `stratum`, `u`, `du` |
 | `/legs` | `stratplan.Leg` | `kind: "leg"` at each leg's start, `kind: "switch"` at each switch |
 | `/summary` | `stratplan.Summary` | one, at the end: status, energies, end point, ... |
-| `/tf` | `foxglove.FrameTransforms` | manipulators: one per sample, world → base → links |
+| `/tf` | `foxglove.FrameTransforms` | manipulators, URDF robots: per sample, world → base → links |
 | `/scene` | `foxglove.SceneUpdate` | manipulators: once, base, links, end-effector path |
 
 Samples are those of a `Trajectory` (both ends of every leg, so a switch instant appears twice).
@@ -45,6 +45,7 @@ from ..sequence import SequencePlan
 from .foxglove_layout import run_layout, shows_robot
 from .mcap_scene import frame_transforms, link_frames, scene_update
 from .mcap_schemas import FRAME_TRANSFORMS_SCHEMA, SCENE_UPDATE_SCHEMA, own_schemas
+from .mcap_spatial import is_spatial, spatial_transforms, urdf_attachment
 from .trajectory import Trajectory, world_geometry
 
 __all__ = ["epoch_ns", "layout_bytes", "mcap_bytes"]
@@ -201,8 +202,10 @@ def mcap_bytes(
     for topic, schema in own_schemas(states, inputs).items():
         log.channel(topic, schema)
     manipulator = shows_robot(plan, traj)
-    if manipulator:
+    spatial = is_spatial(plan) and traj.size > 0  # a URDF robot: /tf after its links
+    if manipulator or spatial:
         log.channel("/tf", FRAME_TRANSFORMS_SCHEMA)
+    if manipulator:
         log.channel("/scene", SCENE_UPDATE_SCHEMA)
         geo = world_geometry(system.robot, traj.q)
         frames = link_frames(plan)
@@ -229,6 +232,11 @@ def mcap_bytes(
         data=layout_bytes(run_layout(plan, traj) if layout is None else layout),
     )
 
+    if spatial:
+        name, data = urdf_attachment(plan)
+        writer.add_attachment(
+            create_time=epoch, log_time=epoch, name=name, media_type="application/xml", data=data
+        )
     t_first = float(traj.t[0]) if traj.size else 0.0
     if manipulator and traj.size:
         log.write("/scene", at(t_first), scene_update(plan, geo, at(t_first)))
@@ -268,6 +276,8 @@ def mcap_bytes(
             )
             if manipulator:
                 log.write("/tf", ns, frame_transforms(geo, frames, i, ns))
+            elif spatial and (tf := spatial_transforms(plan, traj.q[i], ns)) is not None:
+                log.write("/tf", ns, tf)
         if leg.index in switches:
             sw = switches[leg.index]
             jumps = [abs(v) for v in sw["jump"].values()]

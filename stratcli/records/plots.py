@@ -4,7 +4,8 @@
 * `controls.png`: every input against time; an input that is off on a leg is drawn at zero
   there and labelled "off".
 * `stroboscope.png` (manipulators): the robot drawn at regular instants of each leg, fading
-  from light to dark, one panel per leg (as the paper's Fig. 7).
+  from light to dark, one panel per leg (as the paper's Fig. 7); a URDF robot on the two
+  principal planes of its motion (`spatial_figures`).
 * `motion.gif` (manipulators): the same motion, animated in real time (or at a stated speed-up).
 
 In the time plots every leg is shaded and labelled with its stratum and method ("leg 2: S1 ·
@@ -43,7 +44,7 @@ from .figure_common import (
     save_figure,
     stamp_failed,
 )
-from .robot_figures import motion_gif, stroboscope_figure
+from .robot_figures import motion_gif, resolved_constraints, stroboscope_figure
 from .trajectory import Trajectory
 
 __all__ = ["FORMATS", "configuration_figure", "controls_figure", "render_plots", "save_figure"]
@@ -65,6 +66,11 @@ LABEL_SIZE = 8.5  # pt, of the leg labels
 def _is_manipulator(plan: SequencePlan) -> bool:
     robot = plan.system.robot
     return robot is not None and plan.system.n == robot.n_joints + 1
+
+
+def _is_spatial(plan: SequencePlan) -> bool:
+    """A URDF robot: joints and the attitude's rotation vector (rx, ry, rz) in rad."""
+    return getattr(plan.system, "spatial", None) is not None
 
 
 def _leg_label(plan: SequencePlan, k: int) -> str:
@@ -175,6 +181,8 @@ def _time_series(
         title = f"{title} ({len(plan.legs)} legs; leg labels omitted above {MAX_LABELLED_LEGS})"
     elif kind == "configuration":
         _mark_goals(plan, axes)
+    if kind == "configuration" and plan.constraints is not None:
+        _shade_limits(plan, traj, axes)
     else:
         _mark_off_inputs(plan, axes)
     if not plan.ok:
@@ -213,6 +221,30 @@ def _mark_goals(plan: SequencePlan, axes: list[Any]) -> None:
         )
 
 
+def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any]) -> None:
+    """Joint limits of [constraints] as shaded bands, and each joint's closest approach."""
+    limits = resolved_constraints(plan)
+    for i, ax in enumerate(axes):
+        lo, hi = limits.lower[i], limits.upper[i]
+        if not (np.isfinite(lo) or np.isfinite(hi)):
+            continue
+        y0, y1 = ax.get_ylim()
+        for a, b in ((hi, max(y1, hi + 0.05 * (y1 - y0))), (min(y0, lo - 0.05 * (y1 - y0)), lo)):
+            if np.isfinite(a) and np.isfinite(b):
+                ax.axhspan(a, b, color=FAILED_COLOR, alpha=0.12, lw=0, zorder=1)
+        room = np.minimum(traj.q[:, i] - lo, hi - traj.q[:, i])
+        k = int(np.nanargmin(room))
+        ax.plot(traj.t[k], traj.q[k, i], "x", color=FAILED_COLOR, ms=6, mew=1.4, zorder=5)
+        ax.set_ylim(
+            min(y0, lo - 0.05 * (y1 - y0)) if np.isfinite(lo) else y0,
+            max(y1, hi + 0.05 * (y1 - y0)) if np.isfinite(hi) else y1,
+        )
+    axes[0].figure.text(
+        0.005, 0.005, "shaded: beyond a joint limit; × closest approach", color=FAILED_COLOR,
+        ha="left", va="bottom", fontsize=8,
+    )  # fmt: skip
+
+
 def _mark_off_inputs(plan: SequencePlan, axes: list[Any]) -> None:
     """Write "off" over the legs on which an input is not active (it is zero there)."""
     for i, ax in enumerate(axes):
@@ -244,7 +276,7 @@ def _mark_off_inputs(plan: SequencePlan, axes: list[Any]) -> None:
 
 def configuration_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Figure:
     """Every coordinate against time (rad for manipulators)."""
-    unit = "rad" if _is_manipulator(plan) else None
+    unit = "rad" if _is_manipulator(plan) or _is_spatial(plan) else None
     head = f"{title}: configuration" if title else "configuration"
     return _time_series(
         plan, traj, traj.q, plan.system.states, unit, head + " vs time", "configuration"
@@ -253,7 +285,7 @@ def configuration_figure(plan: SequencePlan, traj: Trajectory, title: str = "") 
 
 def controls_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Figure:
     """Every input against time (rad/s for manipulators: u_i is the speed of joint i)."""
-    unit = "rad/s" if _is_manipulator(plan) else None
+    unit = "rad/s" if _is_manipulator(plan) or _is_spatial(plan) else None
     head = f"{title}: controls" if title else "controls"
     return _time_series(plan, traj, traj.u, plan.system.inputs, unit, head + " vs time", "controls")
 
@@ -291,6 +323,12 @@ def render_plots(
         )
         if animation:
             makers["motion.gif"] = lambda: motion_gif(plan, traj, title)
+    elif _is_spatial(plan):  # a URDF robot: on the principal planes of its motion
+        from .spatial_figures import spatial_stroboscope_figure
+
+        makers[f"stroboscope.{fmt}"] = lambda: save_figure(
+            spatial_stroboscope_figure(plan, traj, title), fmt
+        )
     files = {}
     for name, make in makers.items():
         try:

@@ -20,7 +20,9 @@ from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.colors import to_rgb, to_rgba
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.patches import Circle, Polygon
 
+from ..constraints import ConstraintsSpec, resolve
 from ..sequence import SequencePlan
 from .figure_common import (
     DPI,
@@ -115,6 +117,23 @@ def _draw_poses(
     )
 
 
+def resolved_constraints(plan: SequencePlan):
+    """The plan's [constraints] table resolved on its model (limits per coordinate)."""
+    return resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
+
+
+def _draw_obstacles(ax, plan: SequencePlan) -> None:
+    """The obstacles of [constraints], hatched."""
+    if plan.constraints is None or not plan.constraints.spec.get("obstacles"):
+        return
+    c = resolved_constraints(plan)
+    style = {"facecolor": "#f5b7b1", "edgecolor": FAILED_COLOR, "hatch": "///", "lw": 1.0}
+    for centre, radius in c.circles:
+        ax.add_patch(Circle(centre, radius, zorder=1, **style))
+    for corners in c.boxes:
+        ax.add_patch(Polygon(corners, closed=True, zorder=1, **style))
+
+
 def stroboscope_figure(
     plan: SequencePlan, traj: Trajectory, title: str = "", snapshots: int = 10
 ) -> Figure:
@@ -160,6 +179,7 @@ def stroboscope_figure(
         for a in range(tips.shape[1]):
             ax.plot(tips[s, a, 0], tips[s, a, 1], ":", color="#d35400", lw=1.2, zorder=6)
         ax.plot(0, 0, "+", color="k", markersize=7, zorder=7)
+        _draw_obstacles(ax, plan)
         ax.set_xlim(*xlim)
         ax.set_ylim(*ylim)
         ax.set_aspect("equal")

@@ -1,0 +1,386 @@
+"""Limits of real hardware: the [constraints] table, rate limits met by time scaling, margins.
+
+A scenario's optional `[constraints]` table (`ConstraintsSpec`) gives joint limits (rad),
+rate and acceleration limits of the inputs (rad/s, rad/s²), self-collision with a clearance,
+and obstacles (circles and boxes in the inertial frame, planar manipulators only). The
+collision geometry is the physical robot the model carries: the base rectangle and the links
+as capsules of radius `link_radius` (default 0.05 in the model's length unit); a link is
+not checked against its neighbour in the arm, nor the first link of an arm against the base
+it is mounted on.
+
+What is done with them. Rate and acceleration limits are met exactly by time scaling (a
+driftless system run s times slower has controls s times smaller and their derivatives s²
+times smaller, `rate_limited`); the plan notes which limit set its duration. Every limit is
+then verified on a dense re-integration (`verify`: at least 2000 samples per leg), and a plan
+that violates one is failed (`Status.CONSTRAINT_VIOLATED`), its message naming the limit, the
+leg and the time. The search itself does not yet steer away from joint limits or collisions:
+a violating sequence is reported, and auto mode can choose another.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, BeforeValidator, Field, Strict
+
+from .clearance import (
+    box_corners,
+    point_polygon_distance,
+    point_segment_distance,
+    polygon_polygon_distance,
+    segment_polygon_distance,
+    segment_segment_distance,
+)
+from .errors import InputError, Problem
+from .models.geometry import world_geometry
+from .models.numbers import parse_number
+from .models.specs import STRICT
+from .results import ConstraintReport, LegMargins
+from .simulate import sample
+from .stratified import time_scaled
+
+__all__ = [
+    "VERIFY_SAMPLES",
+    "Constraints",
+    "ConstraintsSpec",
+    "check_configuration",
+    "enforce",
+    "rate_limited",
+    "resolve",
+    "verify",
+]
+
+VERIFY_SAMPLES = 2000  # per leg, for the margins
+VIOLATION_TOL = 1e-9  # a margin below -this is a violation (rounding of the geometry)
+MAX_OBSTACLES = 100
+Number = Annotated[float, BeforeValidator(parse_number)]
+Positive = Annotated[float, BeforeValidator(parse_number), Field(gt=0, le=1e6)]
+NonNegative = Annotated[float, BeforeValidator(parse_number), Field(ge=0, le=1e6)]
+Point = Annotated[list[Number], Field(min_length=2, max_length=2)]
+
+
+class _Strict(BaseModel):
+    model_config = STRICT
+
+
+class CircleSpec(_Strict):
+    shape: Literal["circle"]
+    centre: Point
+    radius: Positive
+
+
+class BoxSpec(_Strict):
+    shape: Literal["box"]
+    centre: Point
+    size: Annotated[list[Positive], Field(min_length=2, max_length=2)]
+    rotation: Number = 0.0  # rad
+
+
+Limits = Annotated[list[Number], Field(min_length=2, max_length=2)]
+
+
+class ConstraintsSpec(_Strict):
+    """The [constraints] table (all optional)."""
+
+    joint_limits: Limits | list[Limits] | dict[str, Limits] | None = None
+    max_rate: Positive | list[Positive] | None = None
+    max_acceleration: Positive | list[Positive] | None = None
+    self_collision: Annotated[bool, Strict()] = False
+    clearance: NonNegative = 0.0
+    link_radius: Positive = 0.05
+    obstacles: list[Annotated[CircleSpec | BoxSpec, Field(discriminator="shape")]] = Field(
+        default_factory=list, max_length=MAX_OBSTACLES
+    )
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """Resolved against a model: per-coordinate limits, per-input rates, geometry."""
+
+    lower: np.ndarray  # (n,) -inf where a coordinate has no limit
+    upper: np.ndarray
+    max_rate: np.ndarray | None  # (m,) per input
+    max_acceleration: np.ndarray | None
+    self_collision: bool
+    clearance: float
+    link_radius: float
+    circles: tuple[tuple[np.ndarray, float], ...]  # (centre, radius)
+    boxes: tuple[np.ndarray, ...]  # corners (4, 2)
+    spec: dict[str, Any]  # the table as given (for result.json)
+
+    @property
+    def geometric(self) -> bool:
+        return self.self_collision or bool(self.circles or self.boxes)
+
+
+def _per(value, count: int, what: str, path: str, problems: list[Problem]) -> np.ndarray | None:
+    if value is None:
+        return None
+    values = [value] * count if isinstance(value, float | int) else list(value)
+    if len(values) != count:
+        problems.append(Problem(path, f"give one number or {count} (one per {what})"))
+        return None
+    return np.asarray(values, dtype=float)
+
+
+def resolve(spec: ConstraintsSpec, system) -> Constraints:
+    """Check the table against the model and resolve it per coordinate and input.
+
+    Raises
+    ------
+    InputError
+        One problem per bad entry, each naming its field.
+    """
+    problems: list[Problem] = []
+    n, m = system.n, system.m
+    robot = getattr(system, "robot", None)
+    joints = robot.n_joints if robot is not None else n  # limits apply to the joints
+    lower, upper = np.full(n, -np.inf), np.full(n, np.inf)
+    limits = spec.joint_limits
+    if isinstance(limits, dict):
+        pairs = {}
+        for name, pair in limits.items():
+            if name not in system.states:
+                problems.append(
+                    Problem(
+                        f"constraints.joint_limits.{name}",
+                        f"not a coordinate ({', '.join(system.states)})",
+                    )
+                )
+            else:
+                pairs[system.states.index(name)] = pair
+    elif limits is not None and limits and isinstance(limits[0], list):
+        if len(limits) != joints:
+            problems.append(
+                Problem(
+                    "constraints.joint_limits", f"give {joints} [lower, upper] pairs, one per joint"
+                )
+            )
+        pairs = dict(enumerate(limits[:joints]))
+    elif limits is not None:
+        pairs = dict.fromkeys(range(joints), limits)
+    else:
+        pairs = {}
+    for i, (lo, hi) in pairs.items():
+        if not lo < hi:
+            problems.append(
+                Problem(
+                    f"constraints.joint_limits[{i}]", f"lower {lo:g} must be below upper {hi:g}"
+                )
+            )
+        lower[i], upper[i] = lo, hi
+    rate = _per(spec.max_rate, m, "input", "constraints.max_rate", problems)
+    acc = _per(spec.max_acceleration, m, "input", "constraints.max_acceleration", problems)
+    if (spec.self_collision or spec.obstacles) and robot is None:
+        problems.append(
+            Problem(
+                "constraints",
+                "self_collision and obstacles need a physical robot (a preset or a planar "
+                "manipulator)",
+            )
+        )
+    if problems:
+        raise InputError(problems)
+    circles = tuple(
+        (np.asarray(o.centre, float), o.radius) for o in spec.obstacles if o.shape == "circle"
+    )
+    boxes = tuple(
+        box_corners(o.centre, o.size, o.rotation) for o in spec.obstacles if o.shape == "box"
+    )
+    return Constraints(
+        lower, upper, rate, acc, spec.self_collision, spec.clearance, spec.link_radius,
+        circles, boxes, spec.model_dump(mode="json"),
+    )  # fmt: skip
+
+
+# --------------------------------------------------------------------------------------------
+# Rates: time scaling
+# --------------------------------------------------------------------------------------------
+
+
+def _peak(values: np.ndarray) -> np.ndarray:
+    """Per column, the largest |value|, refined by a parabola through an interior sampled
+    maximum and its neighbours (a sampled peak of a Fourier series is low by O(h²)); a
+    maximum at either end is exact."""
+    a = np.abs(values)
+    k = a.argmax(axis=0)
+    interior = (k > 0) & (k < len(a) - 1)
+    k = np.clip(k, 1, len(a) - 2)
+    cols = np.arange(a.shape[1])
+    y0, y1, y2 = a[k - 1, cols], a[k, cols], a[k + 1, cols]
+    curve = y0 - 2 * y1 + y2
+    refine = interior & (curve < 0)
+    vertex = y1 - (y2 - y0) ** 2 / np.where(refine, 8 * curve, -np.inf)
+    return np.maximum(a.max(axis=0), np.where(refine, vertex, 0.0))
+
+
+def peaks(plan, samples: int = 20 * VERIFY_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """Largest |u_j| and |du_j/dt| over the plan, per input (controls only: no integration)."""
+    m = len(plan.inputs)
+    u_peak, du_peak = np.zeros(m), np.zeros(m)
+    for leg in plan.legs:
+        tau = np.linspace(0.0, float(leg.duration), samples)
+        u_peak = np.maximum(u_peak, _peak(leg.controls(tau)))
+        du_peak = np.maximum(du_peak, _peak(leg.controls(tau, derivative=True)))
+    return u_peak, du_peak
+
+
+def rate_limited(plan, constraints: Constraints) -> tuple[float, str]:
+    """The speed-up s ≤ 1 that makes the plan meet its rate and acceleration limits exactly
+    (1 when it meets them already) and which limit sets it ("" when none does)."""
+    if (constraints.max_rate is None and constraints.max_acceleration is None) or not plan.legs:
+        return 1.0, ""
+    u_peak, du_peak = peaks(plan)
+    options = [(1.0, "")]
+    for j, name in enumerate(plan.inputs):
+        if constraints.max_rate is not None and u_peak[j] > 0:
+            limit = constraints.max_rate[j]
+            options.append((limit / u_peak[j], f"the rate limit of {name} ({limit:g} rad/s)"))
+        if constraints.max_acceleration is not None and du_peak[j] > 0:
+            limit = constraints.max_acceleration[j]
+            options.append(
+                (
+                    math.sqrt(limit / du_peak[j]),
+                    f"the acceleration limit of {name} ({limit:g} rad/s²)",
+                )
+            )
+    return min(options, key=lambda o: o[0])
+
+
+# --------------------------------------------------------------------------------------------
+# Margins on a dense re-integration
+# --------------------------------------------------------------------------------------------
+
+
+def _clearances(robot, q: np.ndarray, c: Constraints) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample: smallest surface distance between non-adjacent bodies, and from any body
+    to any obstacle (inf where there is nothing to measure)."""
+    geo = world_geometry(robot, q)
+    a, b = geo["proximal"], geo["distal"]  # (N, k, 2)
+    corners = geo["base_corners"]  # (N, 4, 2)
+    arm = geo["arm_of_link"]
+    r = c.link_radius
+    k = a.shape[1]
+    own = np.full(len(q), np.inf)
+    if c.self_collision:
+        first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
+        for i in range(k):
+            if i not in first:  # a first link is mounted on the base: not checked against it
+                d = segment_polygon_distance(a[:, i], b[:, i], corners) - r
+                own = np.minimum(own, d)
+            for j in range(i + 1, k):
+                if arm[j] == arm[i] and j == i + 1:
+                    continue  # neighbours share a joint
+                d = segment_segment_distance(a[:, i], b[:, i], a[:, j], b[:, j]) - 2 * r
+                own = np.minimum(own, d)
+    world = np.full(len(q), np.inf)
+    for centre, radius in c.circles:
+        world = np.minimum(
+            world, point_polygon_distance(np.broadcast_to(centre, (len(q), 2)), corners) - radius
+        )
+        for i in range(k):
+            d = point_segment_distance(centre, a[:, i], b[:, i]) - r - radius
+            world = np.minimum(world, d)
+    for box in c.boxes:
+        world = np.minimum(
+            world, polygon_polygon_distance(corners, np.broadcast_to(box, (len(q), 4, 2)))
+        )
+        for i in range(k):
+            d = segment_polygon_distance(a[:, i], b[:, i], np.broadcast_to(box, (len(q), 4, 2))) - r
+            world = np.minimum(world, d)
+    return own - c.clearance, world - c.clearance
+
+
+def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> list[Problem]:
+    """Problems (naming `where`) if configuration q breaks a joint limit or a clearance:
+    the start and every via must be inside the limits for a plan to exist."""
+    problems = []
+    q = np.asarray(q, dtype=float)
+    for i, name in enumerate(system.states):
+        if np.isfinite(q[i]) and not c.lower[i] <= q[i] <= c.upper[i]:
+            problems.append(
+                Problem(
+                    where,
+                    f"{name} = {q[i]:.4g} is outside its joint limits "
+                    f"[{c.lower[i]:g}, {c.upper[i]:g}]",
+                )
+            )
+    robot = getattr(system, "robot", None)
+    if c.geometric and robot is not None and np.all(np.isfinite(q)):
+        own, world = _clearances(robot, q[None, :], c)
+        if own[0] < 0:
+            problems.append(
+                Problem(
+                    where,
+                    f"the robot collides with itself here (clearance "
+                    f"{c.clearance:g}, link radius {c.link_radius:g})",
+                )
+            )
+        if world[0] < 0:
+            problems.append(Problem(where, "the robot touches an obstacle here"))
+    return problems
+
+
+def _first(values: np.ndarray, t: np.ndarray) -> tuple[float, float]:
+    k = int(np.argmin(values))
+    return float(values[k]), float(t[k])
+
+
+def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintReport:
+    """Smallest margins per leg on an independent re-integration (`samples` per leg) and the
+    first violation, named by limit, leg and time."""
+    trajectory = sample(plan, samples)
+    robot = getattr(plan.system, "robot", None)
+    margins, violated = [], ""
+    for leg in plan.legs:
+        sel = trajectory.leg == leg.index
+        t, q, u, du = trajectory.t[sel], trajectory.q[sel], trajectory.u[sel], trajectory.du[sel]
+        found: dict[str, tuple[float, float, str]] = {}
+        limited = np.isfinite(c.lower) | np.isfinite(c.upper)
+        if limited.any():
+            room = np.minimum(q - c.lower, c.upper - q)[:, limited]
+            j = int(np.unravel_index(np.argmin(room), room.shape)[1])
+            name = np.asarray(plan.coordinates)[limited][j]
+            found["joint_limit"] = (*_first(room[:, j], t), f"the joint limits of {name}")
+        for key, limit, values, unit in (
+            ("rate", c.max_rate, u, "rad/s"),
+            ("acceleration", c.max_acceleration, du, "rad/s²"),
+        ):
+            if limit is not None:
+                room = limit - np.abs(values)
+                j = int(np.unravel_index(np.argmin(room), room.shape)[1])
+                found[key] = (
+                    *_first(room[:, j], t),
+                    f"the {key} limit of {plan.inputs[j]} ({limit[j]:g} {unit})",
+                )
+        if c.geometric and robot is not None:
+            own, world = _clearances(robot, q, c)
+            if c.self_collision:
+                found["self_clearance"] = (*_first(own, t), "self-collision")
+            if c.circles or c.boxes:
+                found["obstacle_clearance"] = (*_first(world, t), "an obstacle")
+        margins.append(LegMargins(**{k: v[0] for k, v in found.items()}))
+        for value, when, what in found.values():
+            if not violated and value < -VIOLATION_TOL:
+                violated = (
+                    f"leg {leg.index + 1} ({leg.stratum}) violates {what} by "
+                    f"{-value:.3g} at t = {when:.3f} s"
+                )
+    return ConstraintReport(c.spec, tuple(margins), samples, violated)
+
+
+def enforce(plan, c: Constraints):
+    """The plan slowed down to its rate and acceleration limits (time scaling, exact for a
+    driftless system) and verified against every limit; a violation fails the plan."""
+    s, which = rate_limited(plan, c)
+    if s < 1.0:
+        plan = time_scaled(plan, s)
+        plan = replace(plan, notes=(*plan.notes, f"slowed {1 / s:.4g}x to meet {which}"))
+    report = replace(verify(plan, c), duration_set_by=which if s < 1.0 else "")
+    plan = replace(plan, constraints=report)
+    if not report.ok and plan.legs and all(leg.converged for leg in plan.legs):
+        plan = replace(plan, message=f"{report.violated}; {plan.status.value}")
+    return plan

@@ -1,0 +1,104 @@
+"""What a scenario with a `[model] kind = "urdf"` needs before validation: the URDF's path
+made absolute (relative to the scenario file) and configurations given by joint name turned
+into lists in coordinate order (`spatial.configuration_list`)."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+from pydantic import TypeAdapter, ValidationError
+
+from .. import so3
+from ..errors import InputError, Problem
+from .specs import UrdfModel, build_system
+from .system import System
+
+__all__ = ["configuration_list", "prepare_urdf"]
+
+
+def prepare_urdf(raw: dict[str, Any], base_dir: Path | None) -> tuple[dict, System | None]:
+    """(raw with the URDF path absolute and named configurations as lists, the system built
+    from it), or (raw, None) when the [model] table is invalid (validation reports it)."""
+    raw = copy.deepcopy(raw)
+    model = raw["model"]
+    path = model.get("path")
+    if isinstance(path, str) and path:
+        full = Path(path).expanduser()
+        if not full.is_absolute():
+            full = (base_dir or Path.cwd()) / full
+        model["path"] = str(full.resolve())
+    try:
+        spec = TypeAdapter(UrdfModel).validate_python(model)
+    except ValidationError:
+        return raw, None
+    system = build_system(spec)
+    task = raw.get("task")
+    if isinstance(task, dict):
+        for key in ("start", "goal"):
+            if isinstance(task.get(key), dict):
+                task[key] = configuration_list(task[key], system, f"task.{key}")
+    for i, leg in enumerate(raw.get("legs") or []):
+        if isinstance(leg, dict) and leg.get("method") == "lie":
+            raise InputError(
+                [
+                    Problem(
+                        f"legs[{i}].method",
+                        'Lie-algebraic legs are not supported on URDF models yet (use "newton")',
+                    )
+                ]
+            )
+        if isinstance(leg, dict) and isinstance(leg.get("goal"), dict):
+            leg["goal"] = configuration_list(leg["goal"], system, f"legs[{i}].goal")
+    return raw, system
+
+
+def _angle(value, where: str, problems: list[Problem]):
+    from .numbers import parse_number
+
+    if isinstance(value, str) and value.strip() == "*":
+        return "*"
+    try:
+        return parse_number(value)
+    except (ValueError, TypeError) as exc:
+        problems.append(Problem(where, f"{exc} (got {value!r})"))
+        return 0.0
+
+
+def configuration_list(table: dict, system: System, where: str) -> list:
+    """A configuration given by name (`{j1 = 0.3, ..., attitude = [rx, ry, rz]}` or with
+    `rpy = [roll, pitch, yaw]`) as the list in coordinate order; raises `InputError`.
+
+    The attitude is a rotation vector (rad, world frame) or URDF roll-pitch-yaw
+    (`Rz(yaw) Ry(pitch) Rx(roll)`); `"*"` leaves a coordinate (or the whole attitude) free.
+    """
+    problems: list[Problem] = []
+    joints = system.spatial.joint_names
+    allowed = (*joints, "attitude", "rpy")
+    unknown = [key for key in table if key not in allowed]
+    if unknown:
+        problems.append(
+            Problem(where, f"unknown names {', '.join(unknown)} (allowed: {', '.join(allowed)})")
+        )
+    missing = [j for j in joints if j not in table]
+    if missing:
+        problems.append(Problem(where, f'missing joints {", ".join(missing)} ("*" if free)'))
+    if "attitude" in table and "rpy" in table:
+        problems.append(Problem(where, "give either attitude or rpy, not both"))
+    out = [table.get(j, 0.0) for j in joints]
+    key = "rpy" if "rpy" in table else "attitude"
+    value = table.get(key, [0.0, 0.0, 0.0])
+    if isinstance(value, str) and value.strip() == "*":
+        value = ["*"] * 3
+    if not isinstance(value, list) or len(value) != 3:
+        problems.append(Problem(f"{where}.{key}", f"needs 3 angles (rad), got {value!r}"))
+        value = [0.0] * 3
+    angles = [_angle(v, f"{where}.{key}[{i}]", problems) for i, v in enumerate(value)]
+    if problems:
+        raise InputError(problems)
+    if key == "rpy" and "*" not in angles:
+        angles = so3.log(so3.rpy_to_matrix(angles)).tolist()
+    elif key == "rpy" and any(a != "*" for a in angles):
+        raise InputError([Problem(f"{where}.rpy", 'either all three angles or "*" for all')])
+    return out + angles

@@ -1,0 +1,66 @@
+"""`/tf` of a spatial (URDF) plan: world → base → links, frames named after the URDF links.
+
+Foxglove's 3-D panel draws a URDF itself and moves its links from `FrameTransforms` whose
+`child_frame_id`s are the link names (SPATIAL.md); the record attaches the URDF. Each sample's
+configuration is the re-integrated `(q, log R)`; the base sits at `−R c(q)` (the system CoM
+is the world origin). Link poses come from Pinocchio's forward kinematics.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import so3
+
+__all__ = ["is_spatial", "spatial_transforms", "urdf_attachment"]
+
+
+def is_spatial(plan) -> bool:
+    """Whether the plan's model is a URDF robot."""
+    return getattr(plan.system, "spatial", None) is not None
+
+
+def _quat(R: np.ndarray) -> dict[str, float]:
+    w, x, y, z = so3.quaternion_from_matrix(R)
+    return {"x": float(x), "y": float(y), "z": float(z), "w": float(w)}
+
+
+def _vec(p: np.ndarray) -> dict[str, float]:
+    return {"x": float(p[0]), "y": float(p[1]), "z": float(p[2])}
+
+
+def spatial_transforms(plan, q: np.ndarray, ns: int) -> dict[str, Any] | None:
+    """The `FrameTransforms` message of configuration `q` (None if it is not finite)."""
+    if not np.all(np.isfinite(q)):
+        return None
+    robot = plan.system.spatial
+    k = robot.n_joints
+    poses = robot.link_poses(q[:k], so3.exp(q[k:]))
+    parents = {j.child: j.parent for j in robot.summary.joints}
+    stamp = {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+    out = []
+    for name, (p, R) in poses.items():
+        parent = parents.get(name, "world") if name != robot.base else "world"
+        if parent != "world" and parent in poses:
+            pp, Rp = poses[parent]
+            p, R = Rp.T @ (p - pp), Rp.T @ R
+        elif parent != "world":
+            parent = "world"
+        out.append(
+            {
+                "timestamp": stamp,
+                "parent_frame_id": parent,
+                "child_frame_id": name,
+                "translation": _vec(p),
+                "rotation": _quat(R),
+            }
+        )
+    return {"transforms": out}
+
+
+def urdf_attachment(plan) -> tuple[str, bytes]:
+    """(file name, bytes) of the robot's URDF."""
+    robot = plan.system.spatial
+    return f"{robot.summary.name}.urdf", robot.text.encode("utf-8")

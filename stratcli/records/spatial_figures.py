@@ -1,0 +1,87 @@
+"""`stroboscope.png` of a URDF robot: the robot at regular instants, projected on the two
+principal planes of its motion.
+
+The robot is drawn as its kinematic tree (a line from each link's origin to its children's)
+with the system CoM, fixed at the origin, marked. The planes are those of the two largest
+principal axes of all drawn points (PCA over the whole motion) and of the first and third: the
+view in which the motion spreads most, and the one across it. Instants fade from light to dark
+along the motion; each leg has its own colour.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .. import so3
+
+__all__ = ["reach", "spatial_stroboscope_figure"]
+
+INSTANTS_PER_LEG = 6
+COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
+
+
+def _poses(plan, traj, indices):
+    robot = plan.system.spatial
+    k = robot.n_joints
+    parents = {j.child: j.parent for j in robot.summary.joints}
+    drawn = []
+    for i in indices:
+        q = traj.q[i]
+        poses = robot.link_poses(q[:k], so3.exp(q[k:]))
+        segments = [
+            (poses[parents[name]][0], p)
+            for name, (p, _) in poses.items()
+            if parents.get(name) in poses
+        ]
+        drawn.append((np.array([p for p, _ in poses.values()]), segments))
+    return drawn
+
+
+def reach(plan, q) -> float:
+    """The largest distance of a link origin from the system CoM at configuration q (m)."""
+    robot = plan.system.spatial
+    k = robot.n_joints
+    if not np.all(np.isfinite(q)):
+        return 0.0
+    poses = robot.link_poses(np.asarray(q)[:k], so3.exp(np.asarray(q)[k:]))
+    return float(max(np.linalg.norm(p) for p, _ in poses.values()))
+
+
+def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
+    """The stroboscope of a URDF robot's motion on its two principal planes."""
+    picks = []
+    for k in range(len(plan.legs)):
+        s = traj.leg_slice(k)
+        if s.stop > s.start:
+            picks += [(k, int(i)) for i in np.linspace(s.start, s.stop - 1, INSTANTS_PER_LEG)]
+    drawn = _poses(plan, traj, [i for _, i in picks])
+    points = np.concatenate([p for p, _ in drawn])
+    if not np.all(np.isfinite(points)):
+        raise ValueError("non-finite samples")
+    centre = points.mean(axis=0)
+    _, _, Vt = np.linalg.svd(points - centre, full_matrices=False)
+    planes = ((0, 1), (0, 2))
+    fig = Figure(figsize=(10, 5))
+    axes = fig.subplots(1, 2)
+    for ax, (a, b) in zip(axes, planes, strict=True):
+        for n, ((leg, _), (_, segments)) in enumerate(zip(picks, drawn, strict=True)):
+            position = (n % INSTANTS_PER_LEG + 1) / INSTANTS_PER_LEG
+            color = COLORS[leg % len(COLORS)]
+            for p0, p1 in segments:
+                x = np.array([p0 - centre, p1 - centre]) @ Vt[[a, b]].T
+                ax.plot(x[:, 0], x[:, 1], color=color, alpha=0.15 + 0.85 * position, lw=1.5)
+        com = -centre @ Vt[[a, b]].T
+        ax.plot(*com, marker="+", color="k", ms=10, label="system CoM (fixed)")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel(f"principal axis {a + 1} [m]")
+        ax.set_ylabel(f"principal axis {b + 1} [m]")
+        ax.grid(alpha=0.3)
+    for k, leg in enumerate(plan.legs):
+        axes[0].plot([], [], color=COLORS[k % len(COLORS)], label=f"leg {k + 1} ({leg.stratum})")
+    axes[0].legend(loc="best", fontsize=8)
+    fig.suptitle(
+        f"{title or plan.scenario}: stroboscope on the principal planes (light to dark in time)",
+        fontsize=11,
+    )
+    return fig

@@ -1,0 +1,162 @@
+"""The [constraints] table: validation, rate limits met by time scaling, margins verified on
+an independent re-integration, and plans that violate a limit failed with their record."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from reintegrate import controls, verify
+from typer.testing import CliRunner
+
+from stratcli import load_scenario, plan
+from stratcli.api import plan_run
+from stratcli.cli import app
+from stratcli.errors import InputError
+from stratcli.models.geometry import world_geometry
+
+ROOT = Path(__file__).resolve().parents[1]
+TASK_D = ROOT / "scenarios" / "sim4_task_d.toml"
+runner = CliRunner()
+
+
+def _task_d(**constraints) -> dict:
+    raw = tomllib.loads(TASK_D.read_text())
+    raw["planner"]["objective"] = "newton"  # fast; constraints do not depend on it
+    raw["constraints"] = constraints
+    return raw
+
+
+def _problems(raw: dict) -> list[str]:
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    return [f"{p.path}: {p.message}" for p in info.value.problems]
+
+
+@pytest.mark.parametrize(
+    ("constraints", "field"),
+    [
+        ({"joint_limits": [2.0, -2.0]}, "constraints.joint_limits[0]"),
+        ({"joint_limits": [[-1, 1], [-1, 1]]}, "constraints.joint_limits"),
+        ({"joint_limits": {"q9": [-1, 1]}}, "constraints.joint_limits.q9"),
+        ({"max_rate": -1.0}, "constraints.max_rate"),
+        ({"max_rate": [1.0, 2.0]}, "constraints.max_rate"),
+        ({"self_collision": "yes"}, "constraints.self_collision"),
+        ({"clearance": float("nan")}, "constraints.clearance"),
+        ({"obstacles": [{"shape": "circle", "centre": [0, 1]}]}, "constraints.obstacles"),
+        ({"speed": 1.0}, "constraints.speed"),
+    ],
+)
+def test_bad_constraints_name_their_field(constraints, field):
+    problems = _problems(_task_d(**constraints))
+    assert any(p.startswith(field) for p in problems), problems
+
+
+def test_a_start_outside_the_joint_limits_is_bad_input():
+    # Sim 4 D starts at q2 = pi/4 and its via has q1 = -pi/3
+    problems = _problems(_task_d(joint_limits={"q2": [-0.5, 0.5], "q1": [-0.5, 0.5]}))
+    assert any(p.startswith("task.start: q2 = 0.7854 is outside") for p in problems), problems
+    assert any(p.startswith("legs[0].goal: q1 = -1.047") for p in problems), problems
+
+
+def test_the_cli_reports_bad_constraints_with_exit_2(tmp_path):
+    text = TASK_D.read_text() + '\n[constraints]\nmax_rate = "fast"\n'
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
+    assert result.exit_code == 2, result.output
+    assert "constraints.max_rate" in result.output
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "runs").exists() or not any((tmp_path / "runs").iterdir())
+
+
+def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():
+    free = plan(_task_d())
+    task = load_scenario(_task_d(max_rate=0.8, max_acceleration=[3.0, 3.0, 3.0]))
+    outcome = plan_run(task, check=False)
+    limited = outcome.result
+    assert limited.ok, limited.message
+    report = limited.constraints
+    assert report.duration_set_by.startswith("the ")
+    assert limited.duration > free.duration
+    # energy × duration is invariant under time scaling
+    assert limited.total_energy * limited.duration == pytest.approx(
+        free.total_energy * free.duration, rel=1e-9
+    )
+    # independently: the controls rebuilt from result.json, on a denser grid than the margins
+    doc = outcome.document
+    for leg in doc["legs"]:
+        t = np.linspace(0.0, leg["duration"], 20001)
+        (piece,) = leg["pieces"]
+        u = np.array([controls(piece, doc["inputs"], s) for s in t])
+        du = np.array([controls(piece, doc["inputs"], s, derivative=True) for s in t])
+        assert np.abs(u).max() <= 0.8 * (1 + 1e-6)
+        assert np.abs(du).max() <= 3.0 * (1 + 1e-6)
+    # one of the two limits is met with equality (up to the peak's estimate)
+    peaks = [min(m.rate, m.acceleration) for m in report.legs]
+    assert min(peaks) == pytest.approx(0.0, abs=1e-5)
+    verify(task, doc)  # the slowed plan still reaches every goal on re-integration
+
+
+def test_self_collision_of_a_shipped_plan_is_found_and_fails_the_plan(tmp_path):
+    raw = _task_d(self_collision=True, clearance=0.05)
+    path = tmp_path / "collides.toml"
+    from stratcli.tomlwrite import dumps
+
+    path.write_text(dumps(raw))
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path), "-q", "--no-animation"])
+    assert result.exit_code == 1, result.output
+    assert "self-collision" in result.output and "leg " in result.output
+    (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
+    doc = json.loads((run / "result.json").read_text())
+    assert doc["status"] == "failed"
+    assert all(leg["status"] == "success" for leg in doc["legs"])  # goals were reached
+    worst = min(m["self_clearance"] for m in doc["constraints"]["legs"])
+    assert worst < 0
+    # independently: some sample has a link within 2 radii + clearance of another body
+    task = load_scenario(raw)
+    trajectory = plan(task).sample(400)
+    geo = world_geometry(task.system.robot, trajectory.q)
+    a, b = geo["proximal"], geo["distal"]
+    s = np.linspace(0, 1, 200)[:, None, None]
+    link0 = a[None, :, 0] + s * (b - a)[None, :, 0]  # (200, N, 2)
+    link2 = a[None, :, 2] + s * (b - a)[None, :, 2]
+    base = geo["base_corners"]
+    near = np.linalg.norm(link0[:, None] - link2[None], axis=-1).min(axis=(0, 1)) < 0.15
+    inside = _points_in_boxes(link2, base).any(axis=0) | _points_in_boxes(
+        a[None, :, 1] + s * (b - a)[None, :, 1], base
+    ).any(axis=0)
+    assert (near | inside).any()
+
+
+def _points_in_boxes(points, boxes):
+    """points (S, N, 2) inside boxes (N, 4, 2)."""
+    edges = np.roll(boxes, -1, axis=1) - boxes  # (N, 4, 2)
+    rel = points[:, :, None, :] - boxes[None]  # (S, N, 4, 2)
+    side = edges[None, ..., 0] * rel[..., 1] - edges[None, ..., 1] * rel[..., 0]
+    return np.all(side >= 0, axis=-1) | np.all(side <= 0, axis=-1)
+
+
+def test_margins_are_the_smallest_distance_to_the_joint_limits():
+    task = load_scenario(_task_d(joint_limits=[-3.0, 3.0], max_rate=50.0))
+    result = plan_run(task, check=False).result
+    trajectory = result.sample(2000)
+    for leg, margins in zip(result.legs, result.constraints.legs, strict=True):
+        q = trajectory.q[trajectory.leg == leg.index][:, :3]
+        want = np.minimum(q + 3.0, 3.0 - q).min()
+        assert margins.joint_limit == pytest.approx(want, abs=1e-12)
+        assert margins.self_clearance is None and margins.obstacle_clearance is None
+
+
+def test_the_constraint_report_round_trips_through_result_json(tmp_path):
+    from stratcli import load_run, write_record
+
+    task = load_scenario(_task_d(joint_limits=[-3.0, 3.0], max_rate=2.0))
+    outcome = plan_run(task, check=False)
+    run = write_record(tmp_path, outcome)
+    loaded = load_run(run)
+    assert loaded.to_dict()["constraints"] == outcome.document["constraints"]
+    assert loaded.constraints == outcome.result.constraints

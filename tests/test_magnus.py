@@ -1,0 +1,157 @@
+"""The spatial end-point map: the golden case of SPATIAL.md, 4th order, an independent
+integration on (joints, quaternion) and the Jacobian by finite differences."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pinocchio")
+
+from scipy.integrate import solve_ivp
+
+from stratcli import so3
+from stratcli.controls import FourierBasis
+from stratcli.models.spatial import load_spatial
+
+ROBOTS = Path(__file__).resolve().parents[1] / "robots"
+GOLDEN = {  # SPATIAL.md: final base rotation vector and position after the joint cycle
+    (1, 2): ([0.0, -0.006566044, 0.0], [0.001976985, 0.0, -0.002182199]),
+    (0, 1): ([0.094376884, 0.002846003, 0.037572737], [-0.001147343, 0.015700905, 0.001692659]),
+}
+
+
+@pytest.fixture(scope="module")
+def arm3():
+    return load_spatial(ROBOTS / "arm3.urdf")
+
+
+def _cycle(system, i, j, steps=None):
+    """+a e_i, +a e_j, −a e_i, −a e_j at 0.5 rad/s for 1 s each, on the stratum locking the
+    third joint; returns the final configuration."""
+    other = ({0, 1, 2} - {i, j}).pop()
+    cs = system.compiled(f"S{other + 1}")
+    basis = FourierBasis(harmonics=1, period=2.0)
+    y = np.zeros(6)
+    for joint, sign in ((i, 1), (j, 1), (i, -1), (j, -1)):
+        L = np.zeros((2, 3))
+        L[list(cs.act).index(joint), 0] = 0.5 * sign
+        ep = cs.endpoint(y, basis, 1.0)
+        ep.steps_override = steps
+        y, _ = ep(L.ravel(), jacobian=False)
+    return y
+
+
+@pytest.mark.parametrize("cycle", sorted(GOLDEN))
+def test_golden_case(arm3, cycle):
+    rotation, position = GOLDEN[cycle]
+    y = _cycle(arm3, *cycle)
+    np.testing.assert_allclose(y[:3], 0.0, atol=1e-15)
+    np.testing.assert_allclose(y[3:], rotation, atol=1e-8, rtol=0)
+    c0 = arm3.spatial.com_in_base(np.zeros(3))[0]  # the base starts at the origin
+    moved = c0 - so3.exp(y[3:]) @ c0
+    np.testing.assert_allclose(moved, position, atol=1e-8, rtol=0)
+
+
+def test_fourth_order(arm3):
+    """Halving the step divides the error by ~16 (the wrong commutator sign gives 4)."""
+    exact = _cycle(arm3, 0, 1, steps=256)[3:]
+    e1 = np.linalg.norm(_cycle(arm3, 0, 1, steps=2)[3:] - exact)
+    e2 = np.linalg.norm(_cycle(arm3, 0, 1, steps=4)[3:] - exact)
+    assert 10 < e1 / e2 < 24, (e1, e2)
+
+
+def _quaternion_reference(system, cs, q0, basis, duration, lam):
+    """solve_ivp on (joints, quaternion), renormalised, rtol 1e-12 (no Magnus, no log map)."""
+    k, L = cs.k, lam.reshape(len(cs.act), basis.size)
+    robot = system.spatial
+
+    def rhs(t, y):
+        u = cs.C_explicit @ (L @ basis.values(t))
+        quat = y[k:] / np.linalg.norm(y[k:])
+        S, _ = robot.connection(y[:k][None])
+        w, x, yq, z = quat
+        xi = S[0, 3:] @ u
+        # q' = 1/2 q ⊗ (0, ξ): body-frame rate
+        dq = 0.5 * np.array(
+            [
+                -x * xi[0] - yq * xi[1] - z * xi[2],
+                w * xi[0] + yq * xi[2] - z * xi[1],
+                w * xi[1] + z * xi[0] - x * xi[2],
+                w * xi[2] + x * xi[1] - yq * xi[0],
+            ]
+        )
+        return np.concatenate([u, dq])
+
+    y0 = np.concatenate([q0[:k], so3.quaternion_from_matrix(so3.exp(q0[k:]))])
+    sol = solve_ivp(rhs, (0, duration), y0, method="DOP853", rtol=1e-12, atol=1e-14)
+    assert sol.success
+    quat = sol.y[k:, -1] / np.linalg.norm(sol.y[k:, -1])
+    return sol.y[:k, -1], so3.matrix_from_quaternion(quat)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_endpoint_matches_independent_integration(arm3, seed):
+    rng = np.random.default_rng(seed)
+    basis = FourierBasis(harmonics=3, period=2.17)
+    cs = arm3.compiled(["S1", "S2", "S3"][seed])
+    q0 = np.concatenate([rng.uniform(-1, 1, 3), rng.uniform(-0.5, 0.5, 3)])
+    lam = rng.normal(0.0, 0.6, len(cs.act) * basis.size)
+    end, _ = cs.endpoint(q0, basis, 2.0)(lam, jacobian=False)
+    joints, R = _quaternion_reference(arm3, cs, q0, basis, 2.0, lam)
+    np.testing.assert_allclose(end[:3], joints, atol=1e-11, rtol=0)
+    group_error = np.linalg.norm(so3.log(R.T @ so3.exp(end[3:])))
+    assert group_error < 1e-9, group_error
+
+
+def test_jacobian_matches_finite_differences(arm3):
+    rng = np.random.default_rng(7)
+    basis = FourierBasis(harmonics=2, period=2.17)
+    cs = arm3.compiled("S2")
+    q0 = np.array([0.2, -0.1, 0.4, 0.1, -0.2, 0.3])
+    ep = cs.endpoint(q0, basis, 1.5)
+    ep.steps_override = 64  # a fixed discretisation: the Jacobian is its exact derivative
+    lam = rng.normal(0.0, 0.5, ep.n_coefficients)
+    _, J = ep(lam)
+    h = 1e-6
+    fd = np.column_stack(
+        [
+            (ep(lam + h * e, False)[0] - ep(lam - h * e, False)[0]) / (2 * h)
+            for e in np.eye(lam.size)
+        ]
+    )
+    np.testing.assert_allclose(J, fd, atol=1e-8, rtol=0)
+
+
+def test_seven_joint_arm_matches_independent_integration():
+    """Fewer steps where the arm turns the bus less (`MagnusEndpoint.coupling`): still 1e-9."""
+    arm7 = load_spatial(ROBOTS / "bus_arm7.urdf")
+    rng = np.random.default_rng(5)
+    basis = FourierBasis(harmonics=3, period=2.17)
+    cs = arm7.compiled("S4")
+    q0 = np.concatenate([rng.uniform(-1, 1, 7), rng.uniform(-0.5, 0.5, 3)])
+    lam = rng.normal(0.0, 0.6, len(cs.act) * basis.size)
+    end, _ = cs.endpoint(q0, basis, 2.0)(lam, jacobian=False)
+    joints, R = _quaternion_reference(arm7, cs, q0, basis, 2.0, lam)
+    np.testing.assert_allclose(end[:7], joints, atol=1e-11, rtol=0)
+    assert np.linalg.norm(so3.log(R.T @ so3.exp(end[7:]))) < 1e-9
+
+
+def test_far_from_the_goal_the_map_is_coarse_but_accurate_to_its_error(arm3):
+    basis = FourierBasis(harmonics=3, period=2.17)
+    cs = arm3.compiled("S3")
+    q0 = np.array([0.3, -0.2, 0.0, 0.1, 0.0, -0.1])
+    lam = np.random.default_rng(3).normal(0.0, 0.3, 2 * basis.size)
+    ep = cs.endpoint(q0, basis, 2.0)
+    exact = ep.refined(lam)
+    targets = np.arange(6)
+    far = exact.copy()
+    far[3:] += 0.3  # a goal 0.5 rad away
+    ep.residual(exact, None, far[targets], targets)
+    calls = []
+    march = ep._march
+    ep._march = lambda L, jac, steps=None: calls.append(steps) or march(L, jac, steps)
+    end, _ = ep(lam, jacobian=False)
+    assert calls[0] < ep.steps(lam.reshape(2, -1)) // 2  # coarse
+    gap = np.linalg.norm(so3.log(so3.exp(exact[3:]).T @ so3.exp(end[3:])))
+    assert gap <= 1e-3 * 0.5

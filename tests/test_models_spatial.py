@@ -1,0 +1,99 @@
+"""Spatial models from URDF: the connection and its derivative, strata, the audit, pickling,
+and the exit-2 install hint without Pinocchio."""
+
+import builtins
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stratcli.errors import InputError
+from stratcli.models import spatial
+from stratcli.models.spatial import INSTALL, load_spatial
+
+ROBOTS = Path(__file__).resolve().parents[1] / "robots"
+
+
+def test_without_pinocchio_the_install_command_is_given(monkeypatch):
+    real = builtins.__import__
+
+    def no_pin(name, *args, **kwargs):
+        if name == "pinocchio":
+            raise ImportError("no pinocchio")
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_pin)
+    with pytest.raises(InputError) as err:
+        spatial.load_pinocchio()
+    assert INSTALL == "pip install 'stratplan[spatial]'"
+    assert INSTALL in str(err.value)
+
+
+pin = pytest.importorskip("pinocchio")
+
+
+@pytest.fixture(scope="module")
+def arm3():
+    return load_spatial(ROBOTS / "arm3.urdf")
+
+
+def test_joints_strata_and_limits(arm3):
+    assert arm3.states == ("j1", "j2", "j3", "rx", "ry", "rz")
+    assert list(arm3.strata) == ["S1", "S2", "S3"]
+    assert arm3.strata["S2"].active == (0, 2)
+    np.testing.assert_allclose(arm3.spatial.lower, [-3.14, -2.0, -2.5])
+    named = load_spatial(ROBOTS / "arm3.urdf", strata=[["j1", "j3"]])
+    assert list(named.strata) == ["S13"]
+    with pytest.raises(InputError, match="unknown: jx"):
+        load_spatial(ROBOTS / "arm3.urdf", strata=[["jx"]])
+
+
+def test_connection_derivative_matches_finite_differences(arm3):
+    rng = np.random.default_rng(0)
+    robot = arm3.spatial
+    q, u = rng.uniform(-1, 1, (4, 3)), rng.normal(size=(4, 3))
+    _, D = robot.connection(q, u)
+    h = 1e-6
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = h
+        fd = (robot.connection(q + e)[0] - robot.connection(q - e)[0])[:, 3:] @ u[:, :, None]
+        np.testing.assert_allclose(D[:, :, k], fd[:, :, 0] / (2 * h), atol=1e-8)
+
+
+def test_zero_momentum_and_fixed_centre_of_mass(arm3):
+    from stratcli import so3
+
+    robot = arm3.spatial
+    q, R = np.array([0.3, -0.7, 1.1]), so3.exp([0.2, -0.4, 0.9])
+    h = robot.momentum(q, R, np.array([0.5, -1.0, 2.0]))
+    assert np.abs(h).max() < 1e-13
+    p = robot.base_position(q[None], R)[0]
+    x = robot.configuration(q, R, p)
+    np.testing.assert_allclose(pin.centerOfMass(robot.model, robot.data, x), 0.0, atol=1e-14)
+
+
+def test_system_pickles_and_rebuilds(arm3):
+    again = pickle.loads(pickle.dumps(arm3))
+    q = np.array([[0.1, 0.2, 0.3]])
+    np.testing.assert_array_equal(again.spatial.connection(q)[0], arm3.spatial.connection(q)[0])
+
+
+def test_reserved_and_unsupported(tmp_path):
+    text = (ROBOTS / "arm3.urdf").read_text().replace('name="j2"', 'name="rx"')
+    (tmp_path / "r.urdf").write_text(text)
+    with pytest.raises(InputError, match="reserved"):
+        load_spatial(tmp_path / "r.urdf")
+    with pytest.raises(InputError, match="root link 'base'"):
+        load_spatial(ROBOTS / "arm3.urdf", base="l1")
+
+
+def test_angular_rows_alone_give_the_same_rate_and_derivative():
+    robot = load_spatial(ROBOTS / "bus_arm7.urdf").spatial
+    rng = np.random.default_rng(1)
+    q, u = rng.uniform(-2, 2, (5, 7)), rng.normal(size=(5, 7))
+    S, D = robot.connection(q, u)
+    S_w, D_w = robot.angular(q, u)
+    np.testing.assert_allclose(S_w, S[:, 3:], atol=1e-14)
+    np.testing.assert_allclose(D_w, D, atol=1e-14)

@@ -1,0 +1,188 @@
+"""Scenarios with `[model] kind = "urdf"`: the path relative to the file, configurations by
+joint name with `attitude` or `rpy`, one-line errors, and plans verified independently."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from stratcli.cli import app
+from stratcli.errors import InputError
+from stratcli.scenario import load_scenario, parse_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+SPATIAL = ROOT / "scenarios" / "spatial"
+
+pin = pytest.importorskip("pinocchio")
+
+from spatial_reintegrate import verify_spatial  # noqa: E402
+
+from stratcli import so3  # noqa: E402
+from stratcli.api import plan_run  # noqa: E402
+
+TEXT = """
+name = "t"
+[model]
+kind = "urdf"
+path = "{path}"
+[task]
+start = {start}
+goal = {goal}
+[[legs]]
+stratum = "S3"
+"""
+
+
+def _text(start="[0, 0, 0, 0, 0, 0]", goal='[0, 0, "*", 0.1, 0, 0]', path=None):
+    return TEXT.format(path=path or (ROOT / "robots" / "arm3.urdf"), start=start, goal=goal)
+
+
+def test_configuration_by_name_with_rpy_and_free_coordinates():
+    start = '{ j1 = "10deg", j2 = 0, j3 = 0.5, rpy = [0.1, -0.2, 0.3] }'
+    goal = '{ j1 = 0, j2 = 0, j3 = "*", attitude = [0.1, "*", 0] }'
+    task = parse_scenario(_text(start, goal))
+    assert task.system.states == ("j1", "j2", "j3", "rx", "ry", "rz")
+    np.testing.assert_allclose(task.start[:3], [np.radians(10), 0, 0.5])
+    np.testing.assert_allclose(so3.exp(task.start[3:]), so3.rpy_to_matrix([0.1, -0.2, 0.3]))
+    assert np.isnan(task.goal[2]) and np.isnan(task.goal[4]) and task.goal[3] == 0.1
+
+
+def test_path_is_relative_to_the_scenario_file(tmp_path):
+    (tmp_path / "robots").mkdir()
+    (tmp_path / "robots" / "r.urdf").write_text((ROOT / "robots" / "arm3.urdf").read_text())
+    (tmp_path / "s.toml").write_text(_text(path="robots/r.urdf"))
+    task = load_scenario(tmp_path / "s.toml")
+    assert Path(task.scenario.model.path) == (tmp_path / "robots" / "r.urdf").resolve()
+
+
+@pytest.mark.parametrize(
+    "start, words",
+    [
+        ("{ j1 = 0, j2 = 0, jx = 0, j3 = 0 }", "task.start: unknown names jx"),
+        ("{ j1 = 0, j2 = 0 }", "task.start: missing joints j3"),
+        ("{ j1 = 0, j2 = 0, j3 = 0, rpy = [0, 0] }", "task.start.rpy: needs 3 angles"),
+        ('{ j1 = 0, j2 = 0, j3 = 0, rpy = [0, "*", 0] }', "task.start.rpy: either all three"),
+    ],
+)
+def test_bad_configurations_name_the_field(start, words):
+    with pytest.raises(InputError) as err:
+        parse_scenario(_text(start=start))
+    assert words in str(err.value)
+
+
+def test_unsupported_joint_and_missing_pinocchio_exit_2(tmp_path, monkeypatch):
+    text = (
+        (ROOT / "robots" / "arm3.urdf")
+        .read_text()
+        .replace('name="j2" type="revolute"', 'name="j2" type="prismatic"')
+    )
+    (tmp_path / "r.urdf").write_text(text)
+    (tmp_path / "s.toml").write_text(_text(path="r.urdf"))
+    runner = CliRunner()
+    result = runner.invoke(app, ["plan", str(tmp_path / "s.toml")])
+    assert result.exit_code == 2 and "joint 'j2' is prismatic" in result.output
+    assert "Traceback" not in result.output
+
+    from stratcli.models import spatial
+
+    def missing():
+        raise InputError("model.kind: URDF models need Pinocchio; " + spatial.INSTALL)
+
+    monkeypatch.setattr(spatial, "load_pinocchio", missing)
+    (tmp_path / "ok.toml").write_text(_text())
+    result = runner.invoke(app, ["plan", str(tmp_path / "ok.toml")])
+    assert result.exit_code == 2 and "pip install 'stratplan[spatial]'" in result.output
+
+
+def _planned(name, objective="newton", **settings):
+    task = load_scenario(SPATIAL / f"{name}.toml")
+    task.settings = dataclasses.replace(task.settings, objective=objective, **settings)
+    return task, plan_run(task, check=False)
+
+
+def test_reorientation_by_joint_cycles_verifies_independently():
+    task, out = _planned("arm3_reorient")
+    doc = out.document
+    verify_spatial(doc, task.system.spatial)
+    start, end = np.array(doc["start"]), np.array(doc["legs"][-1]["end"])
+    np.testing.assert_allclose(end[:3], start[:3], atol=1e-6)  # the joints come back
+    assert np.linalg.norm(end[3:]) > 0.3  # the base turned
+    att = doc["attitude"]
+    assert att["end"]["quaternion"][0] > 0 and len(att["end"]["rotation_vector"]) == 3
+    assert att["legs"][0]["goal_error"] <= doc["tolerance"]
+
+
+@pytest.mark.parametrize("mode", ["none", "l-C0", "l-C1", "lr-C0", "lr-C1"])
+def test_every_continuity_mode_with_soft_start_and_full_stop(mode):
+    task, out = _planned("arm3_reorient", continuity=mode, soft_start=True, full_stop=True)
+    doc = out.document
+    verify_spatial(doc, task.system.spatial)
+    first, last = doc["legs"][0]["pieces"][0], doc["legs"][-1]["pieces"][-1]
+    from reintegrate import controls
+
+    u0 = controls(first, doc["inputs"], 0.0)
+    du0 = controls(first, doc["inputs"], 0.0, derivative=True)
+    uT = controls(last, doc["inputs"], last["duration"])
+    duT = controls(last, doc["inputs"], last["duration"], derivative=True)
+    assert max(np.abs(u0).max(), np.abs(du0).max(), np.abs(uT).max(), np.abs(duT).max()) < 1e-9
+
+
+def test_three_leg_task_on_the_seven_joint_arm_verifies_independently():
+    task, out = _planned("arm7_three_legs")
+    verify_spatial(out.document, task.system.spatial)
+    assert out.document["attitude"]["legs"][0]["goal"] is None  # left free on leg 1
+
+
+@pytest.mark.slow
+def test_energy_objective_lowers_the_energy_and_still_verifies():
+    task, out = _planned("arm3_reorient", objective="energy")
+    doc = out.document
+    verify_spatial(doc, task.system.spatial)
+    assert doc["total_energy"] <= doc["optimisation"]["newton_energy"]
+
+
+def test_models_lists_joints_limits_and_strata():
+    result = CliRunner().invoke(app, ["models", str(SPATIAL / "arm7_three_legs.toml")])
+    assert result.exit_code == 0, result.output
+    out = result.output
+    assert "joint_1 [-2.97, 2.97]" in out and "rotation vector" in out
+    assert "S12" in out and "magnus" in out  # pair locks from four joints on
+
+
+@pytest.mark.slow
+def test_regress_covers_the_spatial_scenarios():
+    result = CliRunner().invoke(
+        app, ["regress", str(SPATIAL), "--baseline", str(SPATIAL / "baseline.json")]
+    )
+    assert result.exit_code == 0, result.output
+    assert "all 3 scenarios match" in result.output
+
+
+def test_lie_legs_are_rejected_on_urdf_models():
+    text = _text() + 'method = "lie"\n'
+    with pytest.raises(InputError, match=r"legs\[0\]\.method: Lie-algebraic legs are not"):
+        parse_scenario(text)
+
+
+def test_auto_mode_ranks_spatial_sequences_and_the_best_verifies():
+    from stratcli.api import plan_auto
+
+    outcome = plan_auto(SPATIAL / "arm3_auto.toml", jobs=1)
+    assert outcome.ok
+    best = outcome.best
+    verify_spatial(best.document, best.task.system.spatial)
+    goal = np.array(best.document["goal"])
+    end = np.array(best.document["end"])
+    assert np.linalg.norm(so3.log(so3.exp(goal[3:]).T @ so3.exp(end[3:]))) <= 1e-6
+
+
+def test_plan_command_prints_the_audit_per_leg(tmp_path):
+    path = SPATIAL / "arm7_three_legs.toml"
+    result = CliRunner().invoke(app, ["plan", str(path), "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert "leg 3 on SO(3): attitude error" in result.output
+    assert "leg 1 on SO(3): attitude error (partly free)" in result.output
+    (run,) = tmp_path.iterdir()
+    assert {"run.mcap", "stroboscope.png", "result.json"} <= {p.name for p in run.iterdir()}

@@ -1,0 +1,60 @@
+"""The MCAP of a spatial plan: /tf frames named after the URDF links, the URDF attached."""
+
+import dataclasses
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import mcap_messages
+from mcap.reader import make_reader
+
+pytest.importorskip("pinocchio")
+
+from stratcli import so3
+from stratcli.api import plan_run
+from stratcli.records.mcap_log import mcap_bytes
+from stratcli.records.trajectory import sample
+from stratcli.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def spatial_run():
+    task = load_scenario(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
+    task.settings = dataclasses.replace(task.settings, objective="newton")
+    out = plan_run(task, check=False)
+    traj = sample(out.result, samples_per_leg=20)
+    data = mcap_bytes(out.result, traj, out.document, {}, task.text, "arm3_reorient")
+    return task, out, traj, data
+
+
+def test_tf_frames_are_the_urdf_links(spatial_run):
+    _, out, traj, data = spatial_run
+    messages = mcap_messages(data, "/tf")
+    assert len(messages) == traj.size
+    frames = {(t["parent_frame_id"], t["child_frame_id"]) for t in messages[-1][1]["transforms"]}
+    assert frames == {("world", "base"), ("base", "l1"), ("l1", "l2"), ("l2", "l3")}
+    # the last base rotation is the plan's end attitude (re-integrated samples)
+    base = next(t for t in messages[-1][1]["transforms"] if t["child_frame_id"] == "base")
+    r = base["rotation"]
+    R = so3.matrix_from_quaternion([r["w"], r["x"], r["y"], r["z"]])
+    end = np.array(out.document["end"])
+    assert np.linalg.norm(so3.log(so3.exp(end[3:]).T @ R)) < 1e-7
+
+
+def test_urdf_is_attached(spatial_run):
+    task, _, _, data = spatial_run
+    attachments = {a.name: a for a in make_reader(io.BytesIO(data)).iter_attachments()}
+    assert attachments["ff_arm3.urdf"].data.decode() == task.system.spatial.text
+
+
+def test_layout_draws_the_urdf_in_the_3d_panel(spatial_run):
+    task, out, traj, _ = spatial_run
+    from stratcli.records.foxglove_layout import THREE_D, run_layout
+
+    layout = run_layout(out.result, traj)
+    layer = layout["configById"][THREE_D]["layers"]["urdf"]
+    assert layer["layerId"] == "foxglove.Urdf" and layer["sourceType"] == "filePath"
+    assert Path(layer["filePath"]).read_text() == task.system.spatial.text
