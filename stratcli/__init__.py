@@ -11,7 +11,8 @@ The public API, in full (everything else is internal)::
     again = stratcli.load_run(run)          # -> SequencePlan, nothing re-planned
 
 Use cases: `load_scenario`, `plan`, `plan_auto`, `decompose`, `compare_sequences`,
-`check_controllability`, `load_run`, `write_record`, `time_scaled`. Values: `SequencePlan`,
+`check_controllability`, `load_run`, `write_record`, `time_scaled`, `run_sweep`,
+`read_sweep`. Values: `SequencePlan`,
 `LegPlan`, `Piece`, `Switch`, `Optimisation`, `StartOutcome`, `ModelRef`, `Timings`,
 `Trajectory`, `Task`, `LegSpec`, and the settings `PlannerSettings`, `LieSettings`,
 `DecomposeSettings`, `FourierBasis`. Models: `System`, `Stratum`, `PlanarManipulator`, `Arm`,
@@ -42,6 +43,8 @@ _PUBLIC = {
     "check_controllability": "api",
     "load_run": "api",
     "write_record": "api",
+    "run_sweep": "api",
+    "read_sweep": "api",
     "time_scaled": "stratified",
     "LegSpec": "stratified",
     "SequencePlan": "sequence",
@@ -95,6 +98,8 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .api import load_run as load_run
     from .api import plan as plan
     from .api import plan_auto as plan_auto
+    from .api import read_sweep as read_sweep
+    from .api import run_sweep as run_sweep
     from .api import write_record as write_record
     from .controls import FourierBasis as FourierBasis
     from .errors import InputError as InputError

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -177,6 +178,7 @@ def compare(
     jobs: int = 1,
     progress: Callable[[int], None] | None = None,
     screen: int | None = None,
+    executor: Executor | None = None,
 ) -> Comparison:
     """Plan every candidate (sharing work), measure it, rank by `criterion`.
 
@@ -184,6 +186,9 @@ def compare(
     strata first (`system.compiled`) so that forked workers inherit them. `screen` (K, used
     with the energy objective and criterion only): the K best by Newton energy are searched
     fully, the others against their minimum (see the module's docstring); None: all fully.
+    `executor` (any `concurrent.futures.Executor`, e.g. a Dask cluster's): plan the sub-tries
+    there instead of in forked processes; its workers rebuild the model from its `[model]`
+    table (a model made in Python has none: use `jobs`).
     """
     if criterion not in CRITERIA:
         raise ValueError(f"unknown criterion {criterion!r} (known: {', '.join(CRITERIA)})")
@@ -209,7 +214,7 @@ def compare(
                 _ = cs.G, cs.dG  # the general path's functions are generated on first use
     durations = [sum(leg.duration for leg in cand.legs) for cand in candidates]
     reference = min((d for d in durations if d > 0), default=math.nan)
-    STATE.update(system=system, settings=settings, start=start)
+    STATE.update(system=system, settings=settings, start=start, executor=executor)
     try:
         if is_newton(settings):
             planned, requested, plans, times = compare_shared(

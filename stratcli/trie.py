@@ -201,13 +201,52 @@ def _stop(pool: ProcessPoolExecutor, futures) -> None:
             worker.kill()
 
 
+def _remote(func: Callable, state: dict[str, Any], unit: Any) -> Any:
+    """`func(unit)` on another executor's worker: the parent's STATE, with the model rebuilt
+    from its `[model]` table once per process (`models.specs.system_from_ref`)."""
+    if state["parent"] != os.getpid():  # in the parent's own process (threads): STATE is set
+        from .models.specs import system_from_ref
+
+        STATE.update(state, system=system_from_ref(state["model"]))
+    return func(unit)
+
+
+def _run_on(executor, func: Callable, units, on_unit: Callable[[int], None]) -> list[Any]:
+    """Run `func(unit)` for every (unit, weight) on a given `concurrent.futures.Executor`
+    (`STATE["executor"]`: e.g. a Dask cluster's), the state passed along with each unit."""
+    from .models.specs import system_from_ref
+    from .results import ModelRef
+
+    system = STATE["system"]
+    model = ModelRef(system.name, getattr(system, "spec", None))
+    system_from_ref(model)  # ValueError here, not in a worker, for a model made in Python
+    state = {k: v for k, v in STATE.items() if k not in ("system", "executor")}
+    state.update(model=model, parent=os.getpid())
+    results: list[Any] = [None] * len(units)
+    futures = {executor.submit(_remote, func, state, unit): k for k, (unit, _) in enumerate(units)}
+    try:
+        for future in as_completed(futures):
+            k = futures[future]
+            results[k] = future.result()
+            on_unit(units[k][1])
+            checkpoint()
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        raise
+    return results
+
+
 def _run(
     func: Callable,
     units: list[tuple[Any, int]],
     jobs: int,
     on_unit: Callable[[int], None],
 ) -> list[Any]:
-    """Run `func(unit)` for every (unit, weight); in processes when jobs > 1."""
+    """Run `func(unit)` for every (unit, weight): on `STATE["executor"]` when one is set,
+    else in forked processes when jobs > 1."""
+    if STATE.get("executor") is not None:
+        return _run_on(STATE["executor"], func, units, on_unit)
     results: list[Any] = [None] * len(units)
     if jobs <= 1 or len(units) <= 1 or "fork" not in multiprocessing.get_all_start_methods():
         for k, (unit, weight) in enumerate(units):

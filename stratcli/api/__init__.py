@@ -28,6 +28,9 @@ _NAMES = {
     "plan_auto": "planning",
     "plan_run": "planning",
     "RegressReport": "runs",
+    "SweepReport": "sweeps",
+    "read_sweep": "sweeps",
+    "run_sweep": "sweeps",
     "list_runs": "runs",
     "load_run": "runs",
     "prepare_out": "runs",
@@ -72,3 +75,6 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .runs import read_run as read_run
     from .runs import regress as regress
     from .runs import write_record as write_record
+    from .sweeps import SweepReport as SweepReport
+    from .sweeps import read_sweep as read_sweep
+    from .sweeps import run_sweep as run_sweep

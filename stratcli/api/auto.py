@@ -76,14 +76,32 @@ def decompose_task(task: Task, auto: AutoSettings) -> Decomposition:
 
 
 def compare_decomposition(
-    task, auto, decomposition, *, jobs: int = 1, progress=None, exhaustive: bool = False
+    task,
+    auto,
+    decomposition,
+    *,
+    jobs: int = 1,
+    progress=None,
+    exhaustive: bool = False,
+    executor=None,
+    dask: str | None = None,
 ) -> tuple[Comparison, float]:
     """Compile the candidates' strata, then plan and rank every candidate of `decomposition`
     by `auto.criterion`; returns the comparison and the compile time. InputError when no
     candidate could even be planned (all were rejected before planning).
 
     With the energy objective and criterion the candidates are screened (`compare.compare`,
-    `screen=SCREEN_TOP`) unless `exhaustive`: every candidate searched to its minimum."""
+    `screen=SCREEN_TOP`) unless `exhaustive`: every candidate searched to its minimum.
+    `executor` (any concurrent.futures.Executor) or `dask` (a scheduler's address or file):
+    plan there instead of in `jobs` forked processes."""
+    if dask is not None and executor is None:  # on a Dask cluster (`sweep.run.dask_executor`)
+        from ..sweep.run import dask_executor
+
+        with dask_executor(dask) as (cluster, _):
+            return compare_decomposition(
+                task, auto, decomposition, jobs=jobs, progress=progress,
+                exhaustive=exhaustive, executor=cluster,
+            )  # fmt: skip
     compile_time = compile_strata(task.system, decomposition.candidates_strata)
     comparison = compare(
         task.system,
@@ -94,6 +112,7 @@ def compare_decomposition(
         jobs=jobs,
         progress=progress,
         screen=None if exhaustive else SCREEN_TOP,
+        executor=executor,
     )
     best = comparison.best
     if best is None or best.plan is None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -243,6 +244,8 @@ def compare_sequences(
     jobs: int | None = None,
     progress: Progress | None = None,
     exhaustive: bool = False,
+    executor: Executor | None = None,
+    dask: str | None = None,
 ) -> ComparisonOutcome:
     """Plan every candidate sequence of strata in parallel and rank them.
 
@@ -264,6 +267,9 @@ def compare_sequences(
         With the energy objective and criterion: search every candidate to its minimum
         instead of screening them (`compare.compare`, `screen`; the rows cut short are
         marked `screened` in comparison.json).
+    executor, dask : concurrent.futures.Executor or str, optional
+        Plan on this executor, or on the Dask cluster of this scheduler address or file,
+        instead of `jobs` forked processes (the same results; a scenario's model only).
 
     Returns
     -------
@@ -284,8 +290,9 @@ def compare_sequences(
     if progress is not None:
         progress(0, total)
     comparison, compile_time = compare_decomposition(
-        task, auto, dec, jobs=jobs or default_jobs(), progress=advance, exhaustive=exhaustive
-    )
+        task, auto, dec, jobs=jobs or default_jobs(), progress=advance, exhaustive=exhaustive,
+        executor=executor, dask=dask,
+    )  # fmt: skip
     doc = comparison_document(
         comparison,
         dec,

@@ -11,6 +11,7 @@ from typer.core import TyperCommand, TyperGroup
 
 from .. import __version__
 from . import commands
+from . import sweep as sweep_command
 
 # Start-up speed: a command is a short process whose heap is mostly the module graphs of sympy,
 # scipy and matplotlib, alive until it exits. The cyclic collector's default threshold (700
@@ -78,3 +79,4 @@ app.command(cls=_Command)(commands.regress)
 app.command("decompose", cls=_Command)(commands.decompose)
 app.command("compare-sequences", cls=_Command)(commands.compare_sequences)
 app.command(cls=_Command)(commands.check)
+app.command("sweep", cls=_Command)(sweep_command.sweep)

@@ -140,6 +140,14 @@ def compare_sequences(
     jobs: Annotated[
         int | None, typer.Option(help="Worker processes (default: all cores).", min=1)
     ] = None,
+    dask: Annotated[
+        str | None,
+        typer.Option(
+            metavar="ADDRESS|FILE",
+            help="Plan the sequences on a Dask cluster (scheduler address or JSON file) instead "
+            "of --jobs local processes; needs stratplan[dask].",
+        ),
+    ] = None,
     exhaustive: Annotated[
         bool,
         typer.Option(
@@ -174,7 +182,7 @@ def compare_sequences(
     with render.reported(), render.progress_bar(interactive) as bar:
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(
-            task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive
+            task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
         )
     with render.phases(interactive) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
@@ -261,11 +269,20 @@ def _warning(message: str) -> None:
 
 
 def show(
-    run: Annotated[Path, typer.Argument(help="Run directory (as printed by plan).")],
+    run: Annotated[
+        Path, typer.Argument(help="Run directory (as printed by plan), or a sweep directory.")
+    ],
     json_output: Json = False,
 ) -> None:
-    """Show a run record (read back from its files, not re-planned)."""
+    """Show a run record (read back from its files, not re-planned), or a sweep directory."""
     from .. import api  # start-up speed
+    from ..records.sweepdir import is_sweep_dir
+
+    if is_sweep_dir(run):
+        from .sweep import show_sweep
+
+        show_sweep(run, json_output)
+        return
 
     with render.reported():
         record, log = api.read_run(run)

@@ -1,0 +1,117 @@
+"""Sweep use cases: plan a sweep file's tasks into a sweep directory; read one back."""
+
+from __future__ import annotations
+
+from concurrent.futures import Executor
+from contextlib import nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..records import sweepdir
+from ..sweep.outputs import summarise
+from ..sweep.run import ExecutorInfo, Progress, SweepOutcome, dask_executor
+from ..sweep.run import run_sweep as run_tasks
+from ..sweep.spec import Sweep, load_sweep
+
+
+@dataclass(frozen=True)
+class SweepReport:
+    """A sweep directory read back: spec.json, the rows, and the summary of them."""
+
+    path: Path
+    spec: dict[str, Any]
+    rows: dict[int, dict[str, Any]]
+    summary: dict[str, Any]  # sweep.json when the sweep finished, else computed from the rows
+    finished: bool  # sweep.json was written (the last run got to the end)
+
+
+def run_sweep(
+    file: str | Path | Sweep,
+    out: str | Path | None = None,
+    *,
+    jobs: int | None = None,
+    dask: str | None = None,
+    executor: Executor | None = None,
+    resume: bool = False,
+    records: str = "failed",
+    progress: Progress | None = None,
+) -> SweepOutcome:
+    """Plan every task of a sweep file (durably, resumably) and write its table and plots.
+
+    Parameters
+    ----------
+    file : str, Path or Sweep
+        The sweep file (TOML), or one already loaded (`stratcli.sweep.load_sweep`).
+    out : str or Path, optional
+        The sweep directory (default: ``sweeps/<name>``).
+    jobs : int, optional
+        Local worker processes (default: all cores); ignored with `dask` or `executor`.
+    dask : str, optional
+        A Dask scheduler's address or scheduler JSON file: run the tasks on that cluster.
+    executor : concurrent.futures.Executor, optional
+        Any executor to run the tasks on (not shut down here).
+    resume : bool
+        Finish the sweep in `out`: plan only the tasks it has no row of.
+    records : str
+        Full run records under ``out/records``: best | failed | all | none.
+    progress : callable, optional
+        Called as `progress(done, total)` as tasks finish.
+
+    Returns
+    -------
+    SweepOutcome
+        Every row, sweep.json, and the tasks still missing (their worker died).
+
+    Raises
+    ------
+    InputError
+        A bad sweep file (every problem, one line each), a bad `out`, or `resume` on a
+        directory of another sweep.
+    """
+    loaded = file if isinstance(file, Sweep) else load_sweep(file)
+    target = Path(out) if out is not None else Path("sweeps") / loaded.name
+    context = dask_executor(dask) if dask and executor is None else nullcontext((executor, None))
+    with context as (chosen, info):
+        return run_tasks(
+            loaded,
+            target,
+            executor=chosen,
+            info=info if chosen is not None else None,
+            jobs=jobs,
+            resume=resume,
+            records=records,
+            progress=progress,
+        )
+
+
+def read_sweep(path: str | Path) -> SweepReport:
+    """Read a sweep directory back (also one whose run was killed: its rows so far).
+
+    Parameters
+    ----------
+    path : str or Path
+        A sweep directory (`sweep`'s `out`).
+
+    Returns
+    -------
+    SweepReport
+
+    Raises
+    ------
+    InputError
+        Not a sweep directory, or its spec.json is damaged.
+    """
+    path = Path(path)
+    if not sweepdir.is_sweep_dir(path):
+        from ..errors import InputError
+
+        raise InputError(f"{path}: not a sweep directory (no {sweepdir.SPEC})")
+    spec, rows, summary = sweepdir.read_sweep_dir(path)
+    finished = summary is not None and summary.get("done") == len(rows)
+    if not finished:
+        summary = {**(summary or {}), **summarise(spec, rows)}
+    return SweepReport(path, spec, rows, summary, finished)
+
+
+__all__ = ["ExecutorInfo", "SweepReport", "read_sweep", "run_sweep"]

@@ -1,0 +1,178 @@
+"""`stratplan sweep` and the sweep view of `stratplan show`: parse, call the API, render."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import typer
+from rich.markup import escape
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    ProgressColumn,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+from rich.text import Text
+
+from . import render
+from .options import Quiet
+
+
+class _Rate(ProgressColumn):
+    """Tasks per second over the last half minute."""
+
+    def render(self, task) -> Text:
+        speed = task.speed
+        return Text("– tasks/s" if speed is None else f"{speed:.2f} tasks/s", style="cyan")
+
+
+@contextmanager
+def progress_bar(enabled: bool) -> Iterator[Any]:
+    """A `progress(done, total)` callback drawing tasks done, tasks/s and the time left on
+    stderr (None when disabled); refreshed as rows arrive, no refresh thread."""
+    if not enabled:
+        yield None
+        return
+    columns = (
+        TextColumn("sweep"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        _Rate(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        TextColumn("left"),
+    )
+    with Progress(*columns, console=render.err_console, auto_refresh=False, transient=True) as bar:
+        job = bar.add_task("sweep", total=None)
+        first: list[int] = []
+
+        def update(done: int, total: int) -> None:
+            if not first:  # rows found by --resume are not this run's speed
+                first.append(done)
+                bar.update(job, total=total - done)
+            bar.update(job, completed=done - first[0])
+            bar.refresh()
+
+        yield update
+
+
+def sweep(
+    file: Annotated[Path, typer.Argument(help="Sweep file (TOML).")],
+    jobs: Annotated[
+        int | None, typer.Option(help="Local worker processes (default: all cores).", min=1)
+    ] = None,
+    dask: Annotated[
+        str | None,
+        typer.Option(
+            metavar="ADDRESS|FILE",
+            help="Run on a Dask cluster: its scheduler's address (tcp://host:8786) or "
+            "scheduler JSON file (needs stratplan[dask]).",
+        ),
+    ] = None,
+    resume: Annotated[
+        bool,
+        typer.Option(
+            "--resume", metavar="", help="Finish the sweep in OUT: plan only the missing tasks."
+        ),
+    ] = False,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Sweep directory (default: sweeps/NAME, NAME from the sweep file)."),
+    ] = None,
+    records: Annotated[
+        Literal["best", "failed", "all", "none"],
+        typer.Option(help="Full run records written under OUT/records for these tasks."),
+    ] = "failed",
+    json_output: Annotated[
+        bool, typer.Option("--json", metavar="", help="Print sweep.json instead of the summary.")
+    ] = False,
+    quiet: Quiet = False,
+) -> None:
+    """Plan many tasks of one base scenario (a grid, random tasks or a table of them).
+
+    Tasks run on local worker processes or a Dask cluster; each task's row is written to
+    OUT/rows.jsonl as it finishes (fsync'd), so a sweep that was killed continues with
+    --resume. At the end: results.csv (one row per task, in task order), sweep.json (counts,
+    success rate, executor, wall time) and plots. Exits 0 when every task has its row (a
+    task that failed is a row, with its status and message), 1 when tasks are missing
+    because a worker died (run again with --resume), 2 on a bad sweep file.
+    """
+    from .. import api  # start-up speed
+
+    with render.reported():
+        from ..sweep import load_sweep
+
+        loaded = load_sweep(file)
+    with render.reported(), progress_bar(render.interactive(quiet, json_output)) as bar:
+        outcome = api.run_sweep(
+            loaded, out, jobs=jobs, dask=dask, resume=resume, records=records, progress=bar
+        )
+    if json_output:
+        render.print_json(outcome.summary)
+    elif not quiet:
+        summary(outcome.summary, outcome.out)
+    if outcome.missing:
+        render.error(
+            "incomplete",
+            f"{len(outcome.missing)} tasks have no row (their worker died); "
+            f"stratplan sweep {file} --out {outcome.out} --resume plans them",
+        )
+    raise typer.Exit(1 if outcome.missing else 0)
+
+
+def summary(doc: dict[str, Any], path: Path) -> None:
+    """A sweep's summary (sweep.json, or computed from the rows of an unfinished one)."""
+    say = render.say
+    fmt = render.fmt
+    say(f"[bold]sweep {escape(str(doc['name']))}[/] ({doc['mode']} mode, {doc['kind']}): "
+        f"{doc['done']} of {doc['tasks']} tasks done")  # fmt: skip
+    counts = ", ".join(f"{n} {s}" for s, n in doc["counts"].items() if n)
+    rate = doc.get("success_rate")
+    say(f"  status   {counts or 'none'}" + (f"  (success {100 * rate:.1f} %)" if rate else ""))
+    e = doc.get("energy") or {}
+    if e.get("min") is not None:
+        say(f"  energy   min {fmt(e['min'])}  median {fmt(e['median'])}  max {fmt(e['max'])}")
+    best = doc.get("best")
+    if best:
+        inputs = ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}"
+                           for k, v in best["inputs"].items())  # fmt: skip
+        seq = f" ({best['sequence']})" if best.get("sequence") else ""
+        say(f"  best     task {best['index']}{seq}: energy {fmt(best['energy'])} at {inputs}")
+    if doc.get("sequences") and doc["mode"] != "legs":
+        shown = ", ".join(f"({k}) {n}" for k, n in doc["sequences"].items())
+        say(f"  chosen   {shown}")
+    ex = doc.get("executor")
+    if ex:
+        wall = doc.get("wall_time_s") or 0.0
+        speed = doc.get("tasks_per_s")
+        say(f"  ran on   {ex['kind']}, {ex['workers']} workers: {doc.get('planned_this_run')} "
+            f"tasks in {wall:.1f} s" + (f" ({speed:.2f} tasks/s)" if speed else ""))  # fmt: skip
+    if doc.get("missing"):
+        say(f"  missing  {doc['missing']} tasks (stratplan sweep FILE --out {path} --resume)")
+    for name in ("results.csv", *doc.get("plots", [])):
+        if (Path(path) / name).exists():
+            say(f"  file     {escape(str(Path(path) / name))}")
+    if (Path(path) / "records").is_dir():
+        n = sum(1 for p in (Path(path) / "records").iterdir() if not p.name.startswith("."))
+        say(f"  records  {n} under {escape(str(Path(path) / 'records'))}")
+
+
+def show_sweep(path: Path, json_output: bool) -> None:
+    """`stratplan show SWEEPDIR`."""
+    from .. import api  # start-up speed
+
+    with render.reported():
+        report = api.read_sweep(path)
+    if json_output:
+        render.print_json(report.summary)
+        return
+    summary(report.summary, path)
+    if not report.finished:
+        say = render.say
+        say("  (not finished: the counts are of the rows written so far)")

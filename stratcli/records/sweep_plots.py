@@ -1,0 +1,178 @@
+"""Plots of a sweep's rows, as image bytes (matplotlib's object-oriented API, no pyplot).
+
+* 2-D grid: `energy_map.png`, the energy of each task over the two coordinates (log colour
+  scale; a task that did not reach its goal is a grey cell with a cross), and, when the tasks
+  chose their sequence (auto and compare modes), `sequence_map.png`, the chosen sequence of
+  strata as categorical colours.
+* 1-D grid: `energy.png`, energy against the coordinate (failed tasks marked).
+* random tasks (and explicit ones): `energy_hist.png`, a histogram of the energy ratios (to
+  the base scenario's reference energy when it has one, else to the median) with the
+  success rate and the counts by status in the title.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from matplotlib.colors import ListedColormap, LogNorm
+from matplotlib.figure import Figure
+
+from .figure_common import save_figure
+
+FAILED = "0.8"
+PALETTE = (
+    "#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3",
+    "#937860", "#da8bc3", "#17becf", "#ccb974", "#64b5cd",
+)  # fmt: skip
+
+
+def _energy(row: dict[str, Any]) -> float:
+    e = row.get("energy")
+    return float(e) if row.get("status") == "ok" and e is not None else math.nan
+
+
+def _title(spec: dict[str, Any], rows: dict[int, dict]) -> str:
+    done = len(rows)
+    ok = sum(r["status"] == "ok" for r in rows.values())
+    rate = f"{100 * ok / done:.0f} %" if done else "–"
+    return f"{spec['name']} ({spec['mode']} mode): {ok} of {done} tasks reached the goal ({rate})"
+
+
+def _grid(spec: dict[str, Any], rows: dict[int, dict], value) -> np.ndarray:
+    """value(row) of each task as an array (rows: the second axis, columns: the first)."""
+    nx, ny = (len(a) for a in spec["axes"])
+    out = np.full((ny, nx), np.nan)
+    for k, row in rows.items():
+        i, j = divmod(k, ny)  # the first axis is the slowest
+        out[j, i] = value(row)
+    return out
+
+
+def _edges(values: list[float]) -> np.ndarray:
+    v = np.asarray(values, dtype=float)
+    if len(v) == 1:
+        return np.array([v[0] - 0.5, v[0] + 0.5])
+    mid = (v[1:] + v[:-1]) / 2
+    return np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]])
+
+
+def _failed_marks(ax, spec, rows) -> None:
+    xs, ys = spec["axes"]
+    ny = len(ys)
+    pts = [(xs[k // ny], ys[k % ny]) for k, r in rows.items() if r["status"] != "ok"]
+    if pts:
+        px, py = zip(*pts, strict=True)
+        ax.scatter(px, py, marker="x", s=14, color="0.3", linewidths=0.8, label="not reached")
+        ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
+
+
+def energy_map(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
+    """Heat map of the energy over a 2-D grid."""
+    xs, ys = spec["axes"]
+    grid = _grid(spec, rows, _energy)
+    fig = Figure(figsize=(7.0, 5.6), layout="constrained")
+    ax = fig.add_subplot()
+    ax.set_facecolor(FAILED)
+    finite = grid[np.isfinite(grid)]
+    norm = None
+    if finite.size and finite.min() > 0 and finite.max() > finite.min():
+        norm = LogNorm(finite.min(), finite.max())
+    mesh = ax.pcolormesh(_edges(xs), _edges(ys), np.ma.masked_invalid(grid), norm=norm,
+                         cmap="viridis", shading="flat")  # fmt: skip
+    fig.colorbar(mesh, ax=ax, label="energy ∫|u|² dt")
+    _failed_marks(ax, spec, rows)
+    ax.set_xlabel(spec["keys"][0])
+    ax.set_ylabel(spec["keys"][1])
+    ax.set_title(_title(spec, rows), fontsize=9)
+    return fig
+
+
+def sequence_map(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
+    """The chosen sequence of strata over a 2-D grid, one colour per sequence."""
+    xs, ys = spec["axes"]
+    ok = {k: r for k, r in rows.items() if r["status"] == "ok" and r.get("sequence")}
+    names = sorted({r["sequence"] for r in ok.values()})
+    ny = len(ys)
+    codes = np.full((ny, len(xs)), np.nan)
+    for k, r in ok.items():
+        codes[k % ny, k // ny] = names.index(r["sequence"])
+    fig = Figure(figsize=(7.0, 5.6), layout="constrained")
+    ax = fig.add_subplot()
+    ax.set_facecolor(FAILED)
+    colours = [PALETTE[i % len(PALETTE)] for i in range(max(1, len(names)))]
+    cmap = ListedColormap(colours)
+    ax.pcolormesh(_edges(xs), _edges(ys), np.ma.masked_invalid(codes), cmap=cmap,
+                  vmin=-0.5, vmax=len(colours) - 0.5, shading="flat")  # fmt: skip
+    counts = {n: sum(r["sequence"] == n for r in ok.values()) for n in names}
+    for i, name in enumerate(names):
+        ax.scatter([], [], marker="s", s=60, color=colours[i], label=f"({name}): {counts[name]}")
+    if names:
+        fig.legend(loc="outside right center", fontsize=8, title="best sequence", title_fontsize=8)
+    _failed_marks(ax, spec, rows)
+    ax.set_xlabel(spec["keys"][0])
+    ax.set_ylabel(spec["keys"][1])
+    ax.set_title(_title(spec, rows), fontsize=9)
+    return fig
+
+
+def energy_line(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
+    """Energy against the one coordinate of a 1-D grid."""
+    xs = spec["axes"][0]
+    fig = Figure(figsize=(7.0, 4.2), layout="constrained")
+    ax = fig.add_subplot()
+    e = [(_energy(rows[k]) if k in rows else math.nan) for k in range(len(xs))]
+    ax.plot(xs, e, "o-", ms=3)
+    bad = [xs[k] for k, r in rows.items() if r["status"] != "ok"]
+    for x in bad:
+        ax.axvline(x, color="0.6", lw=0.7, ls=":")
+    ax.set_yscale("log" if any(v > 0 for v in e if v == v) else "linear")
+    ax.set_xlabel(spec["keys"][0])
+    ax.set_ylabel("energy ∫|u|² dt")
+    ax.set_title(_title(spec, rows), fontsize=9)
+    return fig
+
+
+def energy_hist(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
+    """Histogram of energy ratios (to the reference energy, else the median) and success."""
+    e = np.array([_energy(r) for r in rows.values()])
+    e = e[np.isfinite(e)]
+    ref = spec.get("reference_energy")
+    label = "reference energy" if ref else "median energy"
+    ref = ref or (float(np.median(e)) if e.size else 1.0)
+    fig = Figure(figsize=(7.0, 4.2), layout="constrained")
+    ax = fig.add_subplot()
+    if e.size:
+        ratios = e / ref
+        bins = np.geomspace(ratios.min(), ratios.max(), 30) if ratios.min() > 0 else 30
+        if ratios.min() > 0 and ratios.max() > ratios.min():
+            ax.set_xscale("log")
+        else:
+            bins = 30
+        ax.hist(ratios, bins=bins, color=PALETTE[0])
+        ax.axvline(1.0, color="0.3", ls="--", lw=0.8)
+    counts: dict[str, int] = {}
+    for r in rows.values():
+        counts[r["status"]] = counts.get(r["status"], 0) + 1
+    ax.set_xlabel(f"energy / {label} ({ref:.4g})")
+    ax.set_ylabel("tasks")
+    detail = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
+    ax.set_title(f"{_title(spec, rows)}\n{detail}", fontsize=9)
+    return fig
+
+
+def sweep_figures(spec: dict[str, Any], rows: dict[int, dict], fmt: str = "png") -> dict:
+    """File name -> image bytes of every plot that fits the sweep (see the module)."""
+    out: dict[str, bytes] = {}
+    if not rows:
+        return out
+    if spec["kind"] == "grid" and len(spec["axes"]) == 2:
+        out[f"energy_map.{fmt}"] = save_figure(energy_map(spec, rows), fmt)
+        if spec["mode"] != "legs":
+            out[f"sequence_map.{fmt}"] = save_figure(sequence_map(spec, rows), fmt)
+    elif spec["kind"] == "grid" and len(spec["axes"]) == 1:
+        out[f"energy.{fmt}"] = save_figure(energy_line(spec, rows), fmt)
+    else:
+        out[f"energy_hist.{fmt}"] = save_figure(energy_hist(spec, rows), fmt)
+    return out

@@ -1,0 +1,232 @@
+"""A sweep directory: the durable log of rows, the results table and the summary.
+
+Layout of ``SWEEPDIR``::
+
+    sweep.toml      the sweep file as given          spec.json   what --resume must match
+    rows.jsonl      one JSON object per finished task, appended and fsync'd as it completes
+    results.csv     the rows in task order (written at the end, rewritten by --resume)
+    sweep.json      summary: counts, success rate, executor and workers, wall time
+    *.png           plots (`sweep_plots`)                 records/    run records asked for
+
+`rows.jsonl` is the only file the planning writes while it runs: a task's row is one line,
+written whole with one `write`, flushed and fsync'd before the next task's row. A sweep killed
+at any instant leaves complete lines and at most one torn last line, which `read_rows` ignores
+(and `RowLog` cuts off before appending), so the task is planned again on `--resume`.
+
+The table is CSV, not Parquet: a sweep of thousands of tasks is well under a megabyte of CSV,
+every tool reads it, and floats are written with `repr` (they read back exactly). pyarrow
+would add a ~100 MB dependency for typed columns and compression that this size does not need.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+
+ROWS = "rows.jsonl"
+SPEC = "spec.json"
+TABLE = "results.csv"
+SUMMARY = "sweep.json"
+FILE_TEXT = "sweep.toml"
+FORMAT = "stratplan.sweep/1"
+# the columns after the task's inputs, in order; compare mode adds "ranking"
+COLUMNS = (
+    "status",
+    "energy",
+    "peak_control",
+    "excursion",
+    "duration",
+    "legs",
+    "sequence",
+    "candidates",
+    "reached",
+    "seed",
+    "planning_time_s",
+    "task_time_s",
+    "worker",
+    "message",
+)
+
+
+def is_sweep_dir(path: Path) -> bool:
+    """Whether `path` is a sweep directory (it holds spec.json and rows.jsonl)."""
+    return (Path(path) / SPEC).is_file()
+
+
+def _clean(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:  # pragma: no cover - not every platform opens directories
+        return
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write `path` whole or not at all (temporary file, fsync, rename)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    _fsync_dir(path.parent)
+
+
+def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> dict[int, dict]:
+    """Create (or, with `resume`, reopen) the sweep directory; the rows already in it.
+
+    Raises
+    ------
+    InputError
+        `out` is not a usable directory, already holds a sweep (without `resume`), or holds a
+        different sweep than `spec` (with `resume`).
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: not a directory")
+    existing = out / SPEC
+    if existing.exists():
+        if not resume:
+            raise InputError(
+                f"--out {out}: already holds a sweep; add --resume to finish it, or choose "
+                "another --out"
+            )
+        try:
+            found = json.loads(existing.read_text())
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{existing}: cannot be read ({exc})") from None
+        if found.get("digest") != spec["digest"]:
+            raise InputError(
+                f"--resume: {out} holds the sweep of another sweep file (or a changed one); "
+                "use the same file, or another --out"
+            )
+        return read_rows(out / ROWS)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        write_atomic(out / FILE_TEXT, file_text.encode())
+        write_atomic(out / SPEC, (json.dumps(spec, indent=2) + "\n").encode())
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
+    return {}
+
+
+def read_rows(path: Path) -> dict[int, dict[str, Any]]:
+    """The complete rows of a rows.jsonl, by task index (a torn or damaged line is skipped;
+    the first row of an index wins)."""
+    rows: dict[int, dict[str, Any]] = {}
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        return rows
+    for line in data.split(b"\n"):
+        try:
+            row = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(row, dict) and isinstance(row.get("index"), int):
+            rows.setdefault(row["index"], row)
+    return rows
+
+
+class RowLog:
+    """rows.jsonl opened for appending: `append(row)` returns once the row is on disk."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._fh = open(self.path, "ab")  # closed by close()
+        self._cut_torn_tail()
+        _fsync_dir(self.path.parent)
+
+    def _cut_torn_tail(self) -> None:
+        size = self._fh.seek(0, os.SEEK_END)
+        if size == 0:
+            return
+        with open(self.path, "rb") as fh:
+            data = fh.read()
+        keep = data.rfind(b"\n") + 1
+        if keep != size:  # a line torn by a kill: cut it, the task is planned again
+            self._fh.truncate(keep)
+            self._fh.seek(keep)
+
+    def append(self, row: dict[str, Any]) -> None:
+        line = json.dumps({k: _clean(v) for k, v in row.items()}, allow_nan=False) + "\n"
+        self._fh.write(line.encode())
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def close(self) -> None:
+        self._fh.close()
+
+    def __enter__(self) -> RowLog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def columns(keys: list[str], rows: list[dict[str, Any]]) -> list[str]:
+    """The table's columns: index, the inputs, then `COLUMNS` (and any other key rows have)."""
+    cols = ["index", *keys, *COLUMNS]
+    for row in rows:
+        cols.extend(k for k in row if k not in cols)
+    return cols
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def table_text(keys: list[str], rows: dict[int, dict[str, Any]]) -> str:
+    """The rows as CSV, in task order."""
+    ordered = [rows[k] for k in sorted(rows)]
+    cols = columns(keys, ordered)
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(cols)
+    for row in ordered:
+        writer.writerow([_cell(row.get(c)) for c in cols])
+    return buf.getvalue()
+
+
+def write_outputs(out: Path, keys: list[str], rows: dict[int, dict], summary: dict) -> None:
+    """results.csv and sweep.json, each written atomically."""
+    write_atomic(Path(out) / TABLE, table_text(keys, rows).encode())
+    doc = {k: _clean(v) for k, v in summary.items()}
+    write_atomic(Path(out) / SUMMARY, (json.dumps(doc, indent=2) + "\n").encode())
+
+
+def read_sweep_dir(out: Path) -> tuple[dict[str, Any], dict[int, dict], dict[str, Any] | None]:
+    """(spec.json, the rows, sweep.json or None when the sweep never finished)."""
+    out = Path(out)
+    try:
+        spec = json.loads((out / SPEC).read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{out / SPEC}: not a sweep directory's spec ({exc})") from None
+    if not isinstance(spec, dict) or spec.get("format") != FORMAT:
+        raise InputError(f"{out / SPEC}: not a {FORMAT} file")
+    summary = None
+    try:
+        summary = json.loads((out / SUMMARY).read_text())
+    except (OSError, ValueError):
+        summary = None
+    return spec, read_rows(out / ROWS), summary

@@ -1,0 +1,300 @@
+"""Running a sweep's tasks on any `concurrent.futures.Executor`, durably and resumably.
+
+Each task is a call of `worker.run_task` on the executor: a local process pool
+(`local_executor`, the default), a Dask cluster's executor (`dask_executor`), or any other.
+Rows come back as tasks complete and are appended to rows.jsonl (fsync'd) at once, so a sweep
+killed at any instant loses only the tasks that were running; `resume=True` plans only the
+tasks without a row. A task that fails or raises is a row (its status and message); a task
+whose worker died (a killed process, Dask's `KilledWorker`) gets no row and is counted as
+missing: the sweep says so, and `--resume` plans it again.
+
+Results do not depend on the executor: every task is planned in a worker process that does
+nothing else, with single-threaded BLAS (the local pool's processes are spawned with
+`OPENBLAS_NUM_THREADS=1` and friends; a Dask nanny sets the same variables before its worker
+starts), and a row holds only the task's own numbers besides `TIMING_COLUMNS`.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+from ..records import sweepdir
+from ..records.rundir import write_run
+from .spec import Sweep
+from .worker import run_task
+
+RECORDS = ("best", "failed", "all", "none")
+CONNECT_TIMEOUT = "20s"  # to reach a Dask scheduler
+# tasks submitted ahead of the rows that came back: enough to keep every worker busy, few
+# enough that a sweep of a million tasks does not build a million scenario dicts up front
+IN_FLIGHT_PER_WORKER = 8
+MIN_IN_FLIGHT = 16
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+Progress = Callable[[int, int], None]  # (tasks done, tasks in all)
+
+
+@dataclass(frozen=True)
+class ExecutorInfo:
+    """What ran the tasks (recorded in sweep.json)."""
+
+    kind: str  # "process-pool", "dask" or the executor's class name
+    workers: int
+    address: str | None = None
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """A sweep run: every row so far, the summary and the files written."""
+
+    out: Path
+    rows: dict[int, dict[str, Any]]  # task index -> row (all of the sweep's, by index)
+    summary: dict[str, Any]  # sweep.json
+    planned: int  # tasks planned by this call
+    resumed: int  # rows that were already there (--resume)
+    missing: list[int]  # tasks still without a row (their worker died)
+    files: list[Path] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        return not self.missing
+
+
+def _single_threaded_blas() -> None:
+    for var in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(var, "1")
+
+
+def local_executor(jobs: int) -> ProcessPoolExecutor:
+    """A pool of `jobs` fresh worker processes with single-threaded BLAS.
+
+    Spawned, not forked: a worker imports numpy itself, after the BLAS variables are set,
+    whatever threads the calling process already runs (a notebook, Dask's client). Workers
+    die with the process that started them and leave SIGINT to it (`trie._worker_init`).
+    """
+    from ..trie import _worker_init
+
+    _single_threaded_blas()
+    context = multiprocessing.get_context("spawn")
+    return ProcessPoolExecutor(
+        max_workers=jobs, mp_context=context, initializer=_worker_init, initargs=(os.getpid(),)
+    )
+
+
+@contextmanager
+def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
+    """A Dask cluster's executor: `address` is a scheduler address or a scheduler JSON file.
+
+    Raises
+    ------
+    InputError
+        Dask is not installed (the `stratplan[dask]` extra) or the scheduler cannot be reached.
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError(
+            "--dask: dask.distributed is not installed (pip install 'stratplan[dask]')"
+        ) from None
+    target = address
+    if address.endswith(".json") or Path(address).is_file():  # a scheduler file: its address
+        try:
+            target = json.loads(Path(address).read_text())["address"]
+            assert isinstance(target, str)
+        except (OSError, ValueError, KeyError, TypeError, AssertionError):
+            raise InputError(
+                f"--dask {address}: not a readable Dask scheduler file (JSON with an address)"
+            ) from None
+    try:
+        client = Client(target, timeout=CONNECT_TIMEOUT)
+    except Exception as exc:  # whatever distributed raises for an address it cannot use
+        raise InputError(f"--dask {address}: cannot reach the scheduler ({exc})") from None
+    try:
+        workers = len(client.scheduler_info().get("workers", {}))
+        info = ExecutorInfo("dask", workers, str(client.scheduler.address))
+        yield client.get_executor(pure=False), info
+    finally:
+        client.close()
+
+
+def spec_document(sweep: Sweep) -> dict[str, Any]:
+    """spec.json: what the sweep is (its digest is what --resume checks)."""
+    return {
+        "format": sweepdir.FORMAT,
+        "name": sweep.name,
+        "description": sweep.description,
+        "mode": sweep.mode,
+        "kind": sweep.kind,
+        "keys": list(sweep.keys),
+        "axes": [list(a) for a in sweep.axes],
+        "count": sweep.count,
+        "random": sweep.random.model_dump() if sweep.random else None,
+        "states": list(sweep.states),
+        "reference_energy": sweep.reference_energy,
+        "source": sweep.source,
+        "digest": sweep.digest,
+        "created": datetime.now(UTC).isoformat(),
+    }
+
+
+def _stop(executor: Executor, futures: dict[Future, int]) -> None:
+    """Cancel what is queued and end the local workers now (a foreign executor: shut down)."""
+    if isinstance(executor, ProcessPoolExecutor):
+        from ..trie import _stop as stop_pool
+
+        stop_pool(executor, futures)
+        return
+    for future in futures:
+        future.cancel()
+    executor.shutdown(wait=False, cancel_futures=True)
+
+
+def run_sweep(
+    sweep: Sweep,
+    out: str | Path,
+    *,
+    executor: Executor | None = None,
+    info: ExecutorInfo | None = None,
+    jobs: int | None = None,
+    resume: bool = False,
+    records: str = "failed",
+    progress: Progress | None = None,
+) -> SweepOutcome:
+    """Plan every task of `sweep` (those without a row, with `resume`) into `out`.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        A validated sweep (`load_sweep`).
+    out : str or Path
+        The sweep directory (created; with `resume`, the one of an earlier run).
+    executor : Executor, optional
+        Where tasks run (not shut down here); default: `local_executor(jobs)`.
+    info : ExecutorInfo, optional
+        What `executor` is, for sweep.json (default: its class name and worker count).
+    jobs : int, optional
+        Worker processes of the default executor (default: all cores).
+    resume : bool
+        Reopen `out` and plan only the tasks it has no row of.
+    records : str
+        Run records written under `out/records`: best | failed | all | none.
+    progress : callable, optional
+        Called as `progress(done, total)` as rows arrive.
+
+    Returns
+    -------
+    SweepOutcome
+        The rows, sweep.json and the tasks still missing (a worker died: resume).
+    """
+    from ..trie import default_jobs
+    from .outputs import finish
+
+    if records not in RECORDS:
+        raise InputError(f"--records: one of {', '.join(RECORDS)} (got {records!r})")
+    out = Path(out)
+    clock, started = time.perf_counter(), datetime.now(UTC)
+    rows = sweepdir.prepare(out, spec_document(sweep), sweep.text, resume)
+    rows = {k: v for k, v in rows.items() if 0 <= k < sweep.count}
+    resumed = len(rows)
+    own = executor is None
+    if own:
+        jobs = jobs or default_jobs()
+        executor = local_executor(jobs)
+        info = ExecutorInfo("process-pool", jobs)
+    elif info is None:
+        workers = getattr(executor, "_max_workers", None) or 0
+        info = ExecutorInfo(type(executor).__name__, int(workers))
+    advance = progress or (lambda done, total: None)
+    per_task = "all" if records == "all" else "failed" if records == "failed" else "none"
+    futures: dict[Future, int] = {}
+    written: list[Path] = []
+    try:
+        advance(len(rows), sweep.count)
+        with sweepdir.RowLog(out / sweepdir.ROWS) as log:
+            todo = sweep.tasks(skip=set(rows))
+            window = max(MIN_IN_FLIGHT, IN_FLIGHT_PER_WORKER * max(1, info.workers))
+            accepting = _submit(executor, futures, todo, window, sweep, per_task)
+            while futures:
+                finished, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for future in sorted(finished, key=futures.get):
+                    index = futures.pop(future)
+                    try:
+                        result = future.result()
+                    except Exception:  # the worker died (not the task: run_task gives rows)
+                        continue
+                    if result["record"] is not None:  # before the row: a row means it is there
+                        written.append(_write_record(out, *result["record"]))
+                    log.append(result["row"])
+                    rows[index] = result["row"]
+                    advance(len(rows), sweep.count)
+                if accepting:
+                    accepting = _submit(executor, futures, todo, window, sweep, per_task)
+        if records == "best":
+            best = _best(rows)
+            if best is not None and not (out / "records" / f"task-{best:06d}").exists():
+                task = next(t for t in sweep.tasks() if t.index == best)
+                result = executor.submit(run_task, _payload(sweep, task, "all")).result()
+                if result["record"] is not None:
+                    written.append(_write_record(out, *result["record"]))
+    except BaseException:  # an interrupt: the rows written so far stay; stop the workers
+        _stop(executor, futures)
+        raise
+    finally:
+        if own:
+            executor.shutdown(wait=True, cancel_futures=True)
+    wall = time.perf_counter() - clock
+    planned = len(rows) - resumed
+    missing = [k for k in range(sweep.count) if k not in rows]  # their workers died
+    summary, files = finish(
+        sweep, out, rows, info, wall, planned, resumed, missing, started.isoformat()
+    )
+    return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)
+
+
+def _submit(executor, futures: dict, todo: Iterator, window: int, sweep: Sweep, records) -> bool:
+    """Submit tasks from `todo` until `window` are in flight (bounded memory and queue);
+    False when the executor refuses work (a broken pool: the rest stays missing)."""
+    while len(futures) < window:
+        task = next(todo, None)
+        if task is None:
+            return True
+        try:
+            futures[executor.submit(run_task, _payload(sweep, task, records))] = task.index
+        except Exception:  # e.g. BrokenProcessPool after a worker was killed
+            return False
+    return True
+
+
+def _payload(sweep: Sweep, task, records: str) -> dict[str, Any]:
+    return {
+        "index": task.index,
+        "inputs": task.inputs,
+        "seed": task.seed,
+        "scenario": task.scenario,
+        "mode": sweep.mode,
+        "check": sweep.check,
+        "exhaustive": sweep.exhaustive,
+        "records": records,
+        "name": sweep.name,
+    }
+
+
+def _write_record(out: Path, name: str, files: dict[str, bytes]) -> Path:
+    return write_run(out / "records", name, files)
+
+
+def _best(rows: dict[int, dict[str, Any]]) -> int | None:
+    """The task that reached its goal with the lowest energy (ties: the lower index)."""
+    ok = [(r["energy"], k) for k, r in rows.items() if r["status"] == "ok"]
+    ok = [(e, k) for e, k in ok if e is not None]
+    return min(ok)[1] if ok else None

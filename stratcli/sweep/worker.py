@@ -1,0 +1,124 @@
+"""One sweep task, planned in a worker process: the public API, and a row of plain values.
+
+`run_task` never raises for anything a task can cause: a plan that misses its goal is a row
+with status "failed", a scenario the task's values make invalid is "invalid", a stratum that
+cannot steer the task is "not-controllable", any other exception is "error" with its type and
+message. What it returns is plain data (JSON-able; floats exact), so it crosses a process pool
+or a Dask cluster unchanged and the row is the same wherever it was planned.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+STATUSES = ("ok", "failed", "invalid", "not-controllable", "error")
+# columns that depend on the machine and the moment, not on the task (left out of comparisons)
+TIMING_COLUMNS = ("planning_time_s", "task_time_s", "worker")
+
+
+def _finite(x: Any) -> float | None:
+    return float(x) if x is not None and math.isfinite(float(x)) else None
+
+
+def run_task(payload: dict[str, Any]) -> dict[str, Any]:
+    """Plan one task; `{"row": {...}, "record": None | (name, {file: bytes})}`.
+
+    Parameters
+    ----------
+    payload : dict
+        `index`, `inputs`, `seed`, `scenario` (a scenario dict), `mode` (legs | auto |
+        compare), `check`, `exhaustive`, `records` (all | failed | none: which tasks' run
+        records to return, as file contents), `name` (the sweep's name).
+    """
+    from ..api import compare_sequences, plan_auto, plan_run, write_record  # in the worker
+    from ..compare import _peak_and_excursion
+    from ..errors import InputError, NotControllableError
+    from ..scenario import load_scenario
+
+    clock = time.perf_counter()
+    index = payload["index"]
+    row: dict[str, Any] = {
+        "index": index,
+        **payload["inputs"],
+        "seed": payload["seed"],
+        "status": "error",
+        "message": "",
+        "energy": None,
+        "peak_control": None,
+        "excursion": None,
+        "duration": None,
+        "legs": None,
+        "sequence": None,
+        "candidates": None,
+        "reached": None,
+    }
+    outcome = None
+    try:
+        task = load_scenario(payload["scenario"], name=f"task {index}")
+        mode = payload["mode"]
+        if mode == "legs":
+            outcome = plan_run(task, check=payload["check"])
+            plan = outcome.result
+            peak, excursion = _peak_and_excursion(plan, task.system, task.settings)
+            row.update(peak_control=_finite(peak), excursion=_finite(excursion))
+            planning = outcome.planning_time
+        else:
+            if mode == "auto":
+                outcome = plan_auto(task, check=payload["check"], jobs=1)
+            else:
+                outcome = compare_sequences(task, jobs=1, exhaustive=payload["exhaustive"])
+            comparison = outcome.comparison
+            best = comparison.best
+            plan = outcome.best.result
+            row.update(
+                peak_control=_finite(best.peak_control),
+                excursion=_finite(best.excursion),
+                candidates=len(comparison.outcomes),
+                reached=sum(o.ok for o in comparison.outcomes),
+            )
+            if mode == "compare":
+                row["ranking"] = " > ".join(
+                    comparison.outcomes[k].candidate.label for k in comparison.ranking
+                )
+            planning = comparison.wall_time
+        row.update(
+            status="ok" if plan.ok else "failed",
+            message="" if plan.ok else plan.message,
+            energy=_finite(plan.total_energy),
+            duration=_finite(plan.duration),
+            legs=len(plan.legs),
+            sequence=",".join(leg.stratum for leg in plan.legs),
+            planning_time_s=planning,
+        )
+    except InputError as exc:
+        row.update(status="invalid", message=str(exc).replace("\n", "; "))
+    except NotControllableError as exc:
+        row.update(status="not-controllable", message="; ".join(exc.problems))
+    except Exception as exc:  # a task's failure is a row, never a lost task
+        row.update(status="error", message=f"{type(exc).__name__}: {exc}")
+    record = None
+    wanted = payload["records"]
+    if outcome is not None and (wanted == "all" or (wanted == "failed" and not outcome.ok)):
+        record = _record_files(outcome, write_record, payload)
+    row.setdefault("planning_time_s", None)
+    row["task_time_s"] = time.perf_counter() - clock
+    row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+    return {"row": row, "record": record}
+
+
+def _record_files(outcome, write_record, payload) -> tuple[str, dict[str, bytes]] | None:
+    """The task's run record as file contents (the sweep's process writes them), or None."""
+    argv = ["stratplan", "sweep", payload.get("name", ""), "--task", str(payload["index"])]
+    try:
+        with tempfile.TemporaryDirectory(prefix="stratplan-sweep-") as tmp:
+            run_dir = write_record(tmp, outcome, argv=argv)
+            files = {p.name: p.read_bytes() for p in Path(run_dir).iterdir() if p.is_file()}
+        return f"task-{payload['index']:06d}", files
+    except Exception:  # a record that cannot be drawn or written loses no row
+        return None

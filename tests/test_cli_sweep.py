@@ -1,0 +1,70 @@
+"""`stratplan sweep` and `stratplan show SWEEPDIR`: the summary, --json, records, plots."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+from sweep_files import AUTO, GRID, RANDOM, write
+from typer.testing import CliRunner
+
+from stratcli.cli import app
+from stratcli.records.store import read_record
+
+runner = CliRunner()
+
+
+def test_sweep_writes_table_summary_plots_and_the_records_asked_for(tmp_path):
+    path = write(tmp_path, GRID, scenario=AUTO, mode="auto")
+    out = tmp_path / "grid"
+    result = runner.invoke(
+        app, ["sweep", str(path), "--out", str(out), "--jobs", "2", "--records", "best", "--json"]
+    )
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert summary["done"] == summary["tasks"] == 6 and summary["counts"]["ok"] == 6
+    assert summary["success_rate"] == 1.0 and summary["executor"]["workers"] == 2
+    assert summary["wall_time_s"] > 0 and sum(summary["sequences"].values()) == 6
+    assert summary["plots"] == ["energy_map.png", "sequence_map.png"]
+    for name in summary["plots"]:
+        assert (out / name).read_bytes().startswith(b"\x89PNG")
+    with open(out / "results.csv") as fh:
+        table = list(csv.DictReader(fh))
+    assert [int(r["index"]) for r in table] == list(range(6))
+    best = min(table, key=lambda r: float(r["energy"]))
+    assert summary["best"]["index"] == int(best["index"])
+    records = list((out / "records").iterdir())  # only the best task's
+    assert [p.name for p in records] == [f"task-{int(best['index']):06d}"]
+    record = read_record(records[0])
+    assert record.result["total_energy"] == float(best["energy"])
+
+    shown = runner.invoke(app, ["show", str(out)])
+    assert shown.exit_code == 0, shown.output
+    assert "6 of 6 tasks done" in shown.output and "success 100.0 %" in shown.output
+    assert "results.csv" in shown.output and "records  1" in shown.output
+    as_json = json.loads(runner.invoke(app, ["show", str(out), "--json"]).output)
+    assert as_json["best"] == summary["best"]
+
+
+def test_random_sweep_histogram_and_records_of_all_tasks(tmp_path):
+    path = write(tmp_path, RANDOM)
+    out = tmp_path / "random"
+    result = runner.invoke(
+        app, ["sweep", str(path), "--out", str(out), "--jobs", "1", "--records", "all"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "4 of 4 tasks done" in result.output and "process-pool, 1 workers" in result.output
+    assert (out / "energy_hist.png").read_bytes().startswith(b"\x89PNG")
+    assert len(list((out / "records").iterdir())) == 4
+
+
+def test_show_of_an_unfinished_sweep_counts_its_rows(tmp_path):
+    path = write(tmp_path, GRID)
+    out = tmp_path / "o"
+    assert runner.invoke(app, ["sweep", str(path), "--out", str(out), "-q"]).exit_code == 0
+    (out / "sweep.json").unlink()  # as if killed before the end
+    lines = (out / "rows.jsonl").read_text().splitlines()
+    (out / "rows.jsonl").write_text("\n".join(lines[:4]) + "\n")
+    shown = runner.invoke(app, ["show", str(out)])
+    assert shown.exit_code == 0 and "4 of 6 tasks done" in shown.output
+    assert "not finished" in shown.output

@@ -1,0 +1,39 @@
+"""Plots of a sweep: which figures a sweep gets, drawn from rows (failed cells included)."""
+
+from __future__ import annotations
+
+from stratcli.records.sweep_plots import energy_map, sequence_map, sweep_figures
+
+
+def _spec(kind="grid", axes=((0.0, 1.0, 2.0), (-1.0, 1.0)), mode="auto"):
+    keys = ["goal.q1", "goal.theta"][: len(axes)]
+    return {"name": "t", "mode": mode, "kind": kind, "axes": [list(a) for a in axes],
+            "keys": keys, "reference_energy": None}  # fmt: skip
+
+
+def _rows(n):
+    rows = {}
+    for k in range(n):
+        status = "failed" if k == 3 else "ok"
+        rows[k] = {"index": k, "status": status, "energy": 10.0 + k, "sequence": "S1,S2"}
+    rows[4]["sequence"] = "S3,S1"
+    return rows
+
+
+def test_a_2d_grid_gets_an_energy_map_and_a_sequence_map():
+    rows = _rows(6)
+    figures = sweep_figures(_spec(), rows)
+    assert sorted(figures) == ["energy_map.png", "sequence_map.png"]
+    assert all(data.startswith(b"\x89PNG") for data in figures.values())
+    mesh = energy_map(_spec(), rows).axes[0].collections[0]
+    values = mesh.get_array()
+    assert values.count() == 5 and values.max() == 15.0  # the failed cell is masked
+    legend = sequence_map(_spec(), rows).legends[0]
+    assert sorted(t.get_text() for t in legend.get_texts()) == ["(S1,S2): 4", "(S3,S1): 1"]
+    assert sorted(sweep_figures(_spec(mode="legs"), rows)) == ["energy_map.png"]
+
+
+def test_a_1d_grid_and_random_tasks():
+    assert sorted(sweep_figures(_spec(axes=((0.0, 1, 2, 3, 4, 5),)), _rows(6))) == ["energy.png"]
+    assert sorted(sweep_figures(_spec(kind="random", axes=()), _rows(6))) == ["energy_hist.png"]
+    assert sweep_figures(_spec(), {}) == {}

@@ -1,0 +1,57 @@
+"""The sweep directory's files: rows appended whole and fsync'd, a torn last line ignored
+and cut before appending, the table in task order with exact floats, atomic outputs."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+
+from stratcli.errors import InputError
+from stratcli.records import sweepdir
+
+
+def test_a_torn_last_line_is_ignored_and_cut_before_appending(tmp_path):
+    path = tmp_path / sweepdir.ROWS
+    with sweepdir.RowLog(path) as log:
+        log.append({"index": 1, "status": "ok", "energy": 0.1 + 0.2})
+        log.append({"index": 0, "status": "failed", "energy": float("nan")})
+    with open(path, "ab") as fh:
+        fh.write(b'{"index": 2, "sta')  # killed while writing
+    rows = sweepdir.read_rows(path)
+    assert sorted(rows) == [0, 1] and rows[1]["energy"] == 0.1 + 0.2
+    assert rows[0]["energy"] is None  # not finite: null
+    with sweepdir.RowLog(path) as log:
+        log.append({"index": 2, "status": "ok", "energy": 3.0})
+    assert path.read_bytes().count(b"\n") == 3 and b"sta\n" not in path.read_bytes()
+    assert sorted(sweepdir.read_rows(path)) == [0, 1, 2]
+
+
+def test_the_table_is_in_task_order_and_reads_back_exactly(tmp_path):
+    rows = {
+        2: {"index": 2, "goal.q1": 1 / 3, "status": "ok", "energy": 2 / 7, "sequence": "S1,S2"},
+        0: {"index": 0, "goal.q1": -1e-17, "status": "invalid", "message": "a, b\nc"},
+    }
+    text = sweepdir.table_text(["goal.q1"], rows)
+    table = list(csv.DictReader(io.StringIO(text)))
+    assert [r["index"] for r in table] == ["0", "2"]
+    assert list(table[0])[:4] == ["index", "goal.q1", "status", "energy"]
+    assert float(table[1]["energy"]) == 2 / 7 and float(table[0]["goal.q1"]) == -1e-17
+    assert table[0]["message"] == "a, b\nc" and table[0]["energy"] == ""
+    assert table[1]["sequence"] == "S1,S2"
+
+
+def test_prepare_refuses_an_existing_or_different_sweep(tmp_path):
+    spec = {"format": sweepdir.FORMAT, "digest": "a"}
+    assert sweepdir.prepare(tmp_path / "s", spec, "text", resume=False) == {}
+    assert sweepdir.is_sweep_dir(tmp_path / "s")
+    assert (tmp_path / "s" / sweepdir.FILE_TEXT).read_text() == "text"
+    with pytest.raises(InputError, match="--resume"):
+        sweepdir.prepare(tmp_path / "s", spec, "text", resume=False)
+    with pytest.raises(InputError, match="another sweep file"):
+        sweepdir.prepare(tmp_path / "s", {**spec, "digest": "b"}, "text", resume=True)
+    assert sweepdir.prepare(tmp_path / "s", spec, "text", resume=True) == {}
+    (tmp_path / "f").write_text("")
+    with pytest.raises(InputError, match="not a directory"):
+        sweepdir.prepare(tmp_path / "f", spec, "text", resume=False)

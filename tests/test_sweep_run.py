@@ -1,0 +1,209 @@
+"""Running sweeps: the same rows on 1 or 2 local processes, a Dask cluster and any executor;
+rows written as tasks finish, so a sweep killed mid-way and resumed ends with the same table;
+a task whose worker died is missing (not a row) and planned by --resume."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import pytest
+from sweep_files import GRID, strip, write
+
+import stratcli
+from stratcli.errors import InputError
+from stratcli.records.sweepdir import ROWS, TABLE, read_rows
+from stratcli.sweep import load_sweep, run_sweep
+
+KILLED_GRID = """[sweep.grid]
+"goal.q1" = { linspace = ["-pi/2", 0, 5] }
+"goal.theta" = [-0.3, -0.2, "-pi/12"]
+"""
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The small grid planned on 2 local processes."""
+    tmp = tmp_path_factory.mktemp("reference")
+    return run_sweep(load_sweep(write(tmp, GRID)), tmp / "out", jobs=2)
+
+
+def _table(out) -> list[dict]:
+    """results.csv without the timing columns, as text cells."""
+    import csv
+
+    with open(out / TABLE) as fh:
+        rows = list(csv.DictReader(fh))
+    return [{k: v for k, v in r.items() if k not in stratcli.sweep.TIMING_COLUMNS} for r in rows]
+
+
+def test_rows_are_identical_on_one_and_two_processes(reference, tmp_path):
+    one = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "one", jobs=1)
+    assert reference.complete and one.complete
+    assert all(r["status"] == "ok" for r in one.rows.values())
+    assert strip(one.rows) == strip(reference.rows)  # bit for bit: floats compared exactly
+    assert _table(tmp_path / "one") == _table(reference.out)
+    assert one.summary["executor"] == {"kind": "process-pool", "workers": 1, "address": None}
+    assert reference.summary["executor"]["workers"] == 2
+
+
+def test_any_executor_gives_the_same_rows(reference, tmp_path):
+    with ThreadPoolExecutor(2) as pool:
+        threads = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "t", executor=pool)
+    assert strip(threads.rows) == strip(reference.rows)
+    assert threads.summary["executor"]["kind"] == "ThreadPoolExecutor"
+
+
+@pytest.mark.slow
+def test_a_dask_cluster_gives_the_same_rows(reference, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        path = write(tmp_path, GRID)
+        scheduler = tmp_path / "scheduler.json"  # as `dask scheduler --scheduler-file` writes
+        scheduler.write_text(
+            json.dumps({"type": "Scheduler", "address": cluster.scheduler_address})
+        )
+        outcome = stratcli.run_sweep(path, tmp_path / "d", dask=str(scheduler))
+        with distributed.Client(cluster) as client:  # workers' BLAS is single-threaded
+            blas = client.run(lambda: os.environ.get("OPENBLAS_NUM_THREADS"))
+    assert set(blas.values()) == {"1"}
+    assert outcome.summary["executor"]["kind"] == "dask"
+    assert outcome.summary["executor"]["workers"] == 2
+    assert strip(outcome.rows) == strip(reference.rows)
+
+
+class _DyingWorker(ThreadPoolExecutor):
+    """Task 2's worker dies (its future fails, as with a killed process or KilledWorker)."""
+
+    def submit(self, fn, payload, *args, **kwargs):
+        if payload["index"] == 2:
+            future: Future = Future()
+            future.set_exception(RuntimeError("worker died"))
+            return future
+        return super().submit(fn, payload, *args, **kwargs)
+
+
+def test_a_dead_worker_leaves_its_task_missing_and_resume_plans_it(reference, tmp_path):
+    path = write(tmp_path, GRID)
+    with _DyingWorker(2) as pool:
+        first = run_sweep(load_sweep(path), tmp_path / "o", executor=pool)
+    assert first.missing == [2] and not first.complete and 2 not in first.rows
+    assert first.summary["missing"] == 1
+    with pytest.raises(InputError, match="already holds a sweep"):
+        run_sweep(load_sweep(path), tmp_path / "o", jobs=1)
+    again = run_sweep(load_sweep(path), tmp_path / "o", jobs=1, resume=True)
+    assert again.planned == 1 and again.resumed == 5 and again.complete
+    assert strip(again.rows) == strip(reference.rows)
+
+
+class _BreakingPool(ThreadPoolExecutor):
+    """Refuses work after 3 tasks, as a process pool does once a worker was killed."""
+
+    submitted = 0
+
+    def submit(self, fn, *args, **kwargs):
+        self.submitted += 1
+        if self.submitted > 3:
+            raise RuntimeError("pool broken")
+        return super().submit(fn, *args, **kwargs)
+
+
+def test_a_broken_pool_leaves_the_rest_missing_and_resume_plans_it(reference, tmp_path):
+    path = write(tmp_path, GRID)
+    with _BreakingPool(1) as pool:
+        first = run_sweep(load_sweep(path), tmp_path / "o", executor=pool)
+    assert sorted(first.rows) == [0, 1, 2] and first.missing == [3, 4, 5]
+    again = run_sweep(load_sweep(path), tmp_path / "o", jobs=2, resume=True)
+    assert again.planned == 3 and strip(again.rows) == strip(reference.rows)
+
+
+def test_resume_refuses_another_sweep(reference, tmp_path):
+    other = write(tmp_path, GRID.replace("-0.2", "-0.1"))
+    with pytest.raises(InputError, match="another sweep file"):
+        run_sweep(load_sweep(other), reference.out, jobs=1, resume=True)
+
+
+def _kill_after(command, out, rows: int, signum: int) -> int:
+    """Run the sweep command until `rows` rows are written, then send it `signum`."""
+    # SIGINT as a terminal's Ctrl-C delivers it, even where this test was started ignoring it
+    proc = subprocess.Popen(
+        command, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)
+    )
+    deadline = time.monotonic() + 120
+    while len(read_rows(out / ROWS)) < rows and time.monotonic() < deadline:
+        assert proc.poll() is None, "the sweep ended before it could be killed"
+        time.sleep(0.01)
+    proc.send_signal(signum)
+    return proc.wait()
+
+
+@pytest.mark.slow
+def test_a_sweep_killed_mid_way_resumes_to_the_same_table(tmp_path):
+    path = write(tmp_path, KILLED_GRID, objective="energy")
+    whole = run_sweep(load_sweep(path), tmp_path / "whole", jobs=2)
+    out = tmp_path / "killed"
+    command = [sys.executable, "-m", "stratcli", "sweep", str(path), "--out", str(out)]
+    assert _kill_after([*command, "--jobs", "1", "-q"], out, 2, signal.SIGINT) == 130
+    first = read_rows(out / ROWS)
+    code = _kill_after(
+        [*command, "--jobs", "1", "-q", "--resume"], out, len(first) + 2, signal.SIGKILL
+    )
+    assert code == -signal.SIGKILL
+    done = read_rows(out / ROWS)
+    assert len(first) + 2 <= len(done) < 15  # killed mid-way: some rows, not all
+    with open(out / ROWS, "ab") as fh:  # and as if killed while writing a row
+        fh.write(b'{"index": 14, "status": "ok", "ener')
+    resumed = subprocess.run([*command, "--resume", "--jobs", "2", "--json"], capture_output=True)
+    assert resumed.returncode == 0, resumed.stderr.decode()
+    summary = json.loads(resumed.stdout)
+    assert summary["resumed_rows"] == len(done) and summary["done"] == 15
+    assert _table(out) == _table(whole.out)
+    assert strip(read_rows(out / ROWS)) == strip(whole.rows)
+
+
+@pytest.mark.slow
+def test_a_dead_dask_worker_loses_no_task(reference, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        pids = list(client.run(os.getpid).values())
+        killed = []
+
+        def kill_one(done: int, total: int) -> None:  # SIGKILL a worker once 2 rows are in
+            if done >= 2 and not killed:
+                os.kill(pids[0], signal.SIGKILL)
+                killed.append(pids[0])
+
+        path = write(tmp_path, GRID)
+        outcome = stratcli.run_sweep(
+            path, tmp_path / "d", dask=cluster.scheduler_address, progress=kill_one
+        )
+    assert killed and outcome.complete  # Dask ran the dead worker's task again elsewhere
+    assert strip(outcome.rows) == strip(reference.rows)
+
+
+def test_a_bad_dask_scheduler_file_is_bad_input(tmp_path):
+    (tmp_path / "scheduler.json").write_text("{}")
+    with pytest.raises(InputError, match="not a readable Dask scheduler file"):
+        stratcli.run_sweep(
+            write(tmp_path, GRID), tmp_path / "o", dask=str(tmp_path / "scheduler.json")
+        )
+
+
+def test_local_workers_run_blas_single_threaded(monkeypatch):
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.delenv(var, raising=False)
+    with stratcli.sweep.local_executor(1) as pool:
+        seen = pool.submit(os.getenv, "OPENBLAS_NUM_THREADS").result()
+    assert seen == "1"

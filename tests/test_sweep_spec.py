@@ -1,0 +1,138 @@
+"""Sweep files: grids, seeded random tasks and task tables expand into the right scenarios;
+bad files give one line per problem naming the field (exit 2 on the command line)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sweep_files import AUTO, GRID, RANDOM, ROOT, TASK_A, write
+from typer.testing import CliRunner
+
+from stratcli.cli import app
+from stratcli.errors import InputError
+from stratcli.models.numbers import parse_number
+from stratcli.scenario import load_scenario
+from stratcli.sweep import load_sweep
+
+
+def test_a_grid_is_the_product_of_its_axes_first_axis_slowest(tmp_path):
+    sweep = load_sweep(write(tmp_path, GRID))
+    tasks = list(sweep.tasks())
+    assert sweep.count == len(tasks) == 6 and sweep.keys == ("goal.q1", "goal.theta")
+    q1 = np.linspace(parse_number("-pi/3"), 0, 3)
+    for task in tasks:
+        i, j = divmod(task.index, 2)
+        assert task.inputs == {"goal.q1": q1[i], "goal.theta": [-0.2, parse_number("-pi/12")][j]}
+        loaded = load_scenario(task.scenario)  # the task is a valid scenario with its values
+        assert loaded.goal[0] == q1[i] and loaded.goal[3] == task.inputs["goal.theta"]
+        assert loaded.settings.objective == "newton"  # `set` applies to every task
+    assert [t.index for t in sweep.tasks(skip={0, 3})] == [1, 2, 4, 5]
+
+
+def test_random_tasks_draw_from_per_task_seed_sequences(tmp_path):
+    sweep = load_sweep(write(tmp_path, RANDOM))
+    more = load_sweep(write(tmp_path, RANDOM.replace("count = 4", "count = 9"), name="more"))
+    tasks, longer = list(sweep.tasks()), list(more.tasks())
+    for k, task in enumerate(tasks):
+        seq = np.random.SeedSequence(11, spawn_key=(k,))
+        rng = np.random.default_rng(seq)
+        assert task.inputs == {
+            "goal.q1": rng.uniform(parse_number("-pi/2"), 0),
+            "goal.theta": rng.uniform(-0.4, 0.0),
+        }
+        assert task.seed == int(seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
+        assert task.scenario["planner"]["seed"] == task.seed
+        assert longer[k].inputs == task.inputs  # a task does not depend on the count
+    assert len({t.seed for t in tasks}) == len(tasks)
+
+
+def test_a_task_table_and_an_inline_scenario(tmp_path):
+    base = TASK_A.read_text().replace("[model]", "[scenario.model]")
+    for table in ("task", "planner", "legs", "reference"):
+        base = base.replace(f"[{table}]", f"[scenario.{table}]")
+    path = tmp_path / "inline.toml"
+    path.write_text(
+        '[sweep]\nname = "inline"\n\n[[sweep.task]]\n"goal.q1" = -0.5\n'
+        '"planner.tolerance" = 1e-4\n\n[[sweep.task]]\n"goal.q1" = "-pi/4"\n'
+        '"planner.tolerance" = 1e-3\n\n[scenario]\n' + base.replace("[[legs]]", "[[scenario.legs]]")
+    )
+    sweep = load_sweep(path)
+    tasks = list(sweep.tasks())
+    assert [t.inputs for t in tasks] == [
+        {"goal.q1": -0.5, "planner.tolerance": 1e-4},
+        {"goal.q1": parse_number("-pi/4"), "planner.tolerance": 1e-3},
+    ]
+    assert load_scenario(tasks[0].scenario).settings.tolerance == 1e-4
+
+
+def test_auto_mode_plans_the_base_without_its_legs(tmp_path):
+    sweep = load_sweep(write(tmp_path, GRID, mode="auto"))
+    task = next(sweep.tasks())
+    assert "legs" not in task.scenario and "decompose" in task.scenario
+    assert not load_scenario(task.scenario).legs
+    sweep = load_sweep(write(tmp_path, GRID, scenario=AUTO, mode="compare", name="c"))
+    assert sweep.mode == "compare"
+
+
+BAD = [
+    ("[sweep.grid]\n\"goal.q9\" = [1, 2]\n", 'sweep.grid."goal.q9": unknown coordinate'),
+    ("[sweep.grid]\n\"goal.q1\" = [1, \"abc\"]\n", 'sweep.grid."goal.q1"[1]:'),
+    ("[sweep.grid]\n\"planner.continuity\" = [\"C7\"]\n", 'sweep.grid."planner.continuity"[0]'),
+    ("[sweep.grid]\n\"goal.q1\" = { linspace = [0, 1, 0] }\n", "linspace[2]: a count"),
+    ("[sweep.grid]\n\"goal.q1\" = { linspace = [0, 1, 2] }\n[sweep.random]\ncount = 2\n"
+     "ranges = { \"goal.q1\" = [0, 1] }\n", "sweep: give only one of"),
+    ("[sweep.random]\ncount = 2\nranges = { \"goal.q1\" = [1, 0] }\n", "low must be below high"),
+    ("[sweep.random]\ncount = 0\nranges = { \"goal.q1\" = [0, 1] }\n", "sweep.random.count"),
+    ("[sweep.random]\ncount = 2\nranges = { \"planner.seed\" = [0, 1] }\n", "are for coordinates"),
+    ("[[sweep.task]]\n\"goal.q1\" = 1\n[[sweep.task]]\n\"goal.q2\" = 1\n", "sweep.task[0]: misses"),
+    ("[sweep.grid]\n\"legs[5].goal.q1\" = [0]\n", "the scenario has no legs[5]"),
+    ("grod = 1\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.grod: unknown key (allowed: name, "),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("body", "expected"), BAD)
+def test_a_bad_sweep_file_names_the_field(tmp_path, body, expected):
+    path = write(tmp_path, body)
+    with pytest.raises(InputError) as exc:
+        load_sweep(path)
+    lines = str(exc.value).splitlines()
+    assert all(line.startswith(f"{path}: ") for line in lines)
+    assert any(expected in line for line in lines), lines
+
+
+def test_the_command_exits_2_with_one_line_per_problem(tmp_path):
+    path = write(tmp_path, '[sweep.grid]\n"goal.q9" = [1]\n"goal.q1" = ["x", 0]\n')
+    text = path.read_text().replace('mode = "legs"', 'mode = "legs"\ncheck = "maybe"')
+    path.write_text(text)
+    result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    lines = [x for x in result.output.splitlines() if x.startswith("error:")]
+    assert len(lines) == 1 and "sweep.check" in lines[0]  # the schema first
+    path.write_text(text.replace('check = "maybe"', "check = true"))
+    result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o")])
+    lines = [x for x in result.output.splitlines() if x.startswith("error:")]
+    assert result.exit_code == 2 and len(lines) == 2, result.output
+    assert 'sweep.grid."goal.q9"' in lines[0] and 'sweep.grid."goal.q1"[0]' in lines[1]
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_shipped_goal_map_is_a_21_by_21_auto_grid_around_the_papers_goal():
+    sweep = load_sweep(ROOT / "scenarios" / "sweeps" / "sim4_goal_map.toml")
+    assert sweep.mode == "auto" and sweep.count == 441 and sweep.keys == ("goal.q1", "goal.theta")
+    middle = next(sweep.tasks(skip=set(range(220))))  # task 220: the middle of the grid
+    goal = load_scenario(middle.scenario).goal
+    assert np.allclose(goal, [-np.pi / 3, np.pi / 3, np.pi / 4, -np.pi / 12], atol=1e-12)
+
+
+def test_problems_of_the_base_scenario_name_its_file(tmp_path):
+    base = tmp_path / "base.toml"
+    base.write_text(TASK_A.read_text().replace("tolerance = 1e-3", "tolerance = 7"))
+    with pytest.raises(InputError) as exc:
+        load_sweep(write(tmp_path, GRID, scenario=base))
+    assert "sweep.scenario: " in str(exc.value) and "planner.tolerance" in str(exc.value)
+    assert str(base) in str(exc.value)
+    base.write_text('name = "nolegs"\n[model]\nkind = "preset"\nname = "one-arm"\n'
+                    "[task]\nstart = [0, 0, 0, 0]\ngoal = [1, 0, 0, 0]\n")  # fmt: skip
+    with pytest.raises(InputError, match=r"sweep\.mode: legs mode needs"):
+        load_sweep(write(tmp_path, GRID, scenario=base))
+    assert load_sweep(write(tmp_path, GRID, scenario=base, mode="auto")).count == 6

@@ -1,0 +1,63 @@
+"""One sweep task: a row of the plan's own numbers, the same as planning the task's scenario
+directly; a task that fails or raises is a row with its status and message."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+from reintegrate import verify
+from sweep_files import AUTO, GRID, write
+
+from stratcli.api import plan_auto, plan_run
+from stratcli.scenario import load_scenario
+from stratcli.sweep import load_sweep, run_task
+
+
+def _payload(task, mode="legs", records="none", **changes):
+    scenario = copy.deepcopy(task.scenario)
+    for key, value in changes.items():
+        scenario["planner"][key] = value
+    return {
+        "index": task.index, "inputs": task.inputs, "seed": task.seed, "scenario": scenario,
+        "mode": mode, "check": True, "exhaustive": False, "records": records, "name": "t",
+    }  # fmt: skip
+
+
+def test_a_row_holds_the_plan_of_the_tasks_scenario(tmp_path):
+    task = list(load_sweep(write(tmp_path, GRID)).tasks())[3]
+    result = run_task(_payload(task))
+    row = result["row"]
+    direct = plan_run(load_scenario(task.scenario))
+    assert row["status"] == "ok" and result["record"] is None
+    assert row["energy"] == direct.result.total_energy and row["legs"] == 2
+    assert row["sequence"] == "S1,S2" and row["goal.q1"] == task.inputs["goal.q1"]
+    assert row["peak_control"] > 0 and row["excursion"] > 0
+    json.dumps(row, allow_nan=False)  # plain, finite data
+    loaded = load_scenario(task.scenario)
+    verify(loaded, direct.document)  # the goal is reached on independent re-integration
+
+
+def test_auto_mode_rows_name_the_sequence_chosen(tmp_path):
+    task = next(load_sweep(write(tmp_path, GRID, scenario=AUTO, mode="auto")).tasks())
+    row = run_task(_payload(task, mode="auto"))["row"]
+    direct = plan_auto(load_scenario(task.scenario), jobs=1)
+    assert row["status"] == "ok"
+    assert row["sequence"] == ",".join(leg.stratum for leg in direct.best.result.legs)
+    assert row["energy"] == direct.best.result.total_energy
+    assert row["candidates"] == len(direct.comparison.outcomes) and row["reached"] >= 1
+
+
+def test_failed_invalid_and_erroring_tasks_are_rows(tmp_path):
+    task = next(load_sweep(write(tmp_path, GRID)).tasks())
+    failed = run_task(_payload(task, records="failed", max_iterations=1, restarts=0))
+    assert failed["row"]["status"] == "failed" and failed["row"]["message"]
+    name, files = failed["record"]  # the failed task's run record, as file contents
+    assert name == "task-000000" and "result.json" in files
+    assert json.loads(files["result.json"])["status"] == "failed"
+    invalid = run_task(_payload(task, tolerance=7))["row"]
+    assert invalid["status"] == "invalid" and "planner.tolerance" in invalid["message"]
+    broken = _payload(task)
+    broken["scenario"] = None  # not a scenario at all: an exception inside the task
+    row = run_task(broken)["row"]
+    assert row["status"] == "error" and row["message"]
