@@ -17,8 +17,8 @@ import stratcli.simulate as simulate
 from stratcli.cli import app
 from stratcli.models.presets import preset
 from stratcli.objectives import plan_sequence
-from stratcli.records.comparison import ranking_figure, ranking_png
 from stratcli.records.plots import render_plots
+from stratcli.records.ranking import ranking_figure, ranking_png
 from stratcli.records.robot_figures import (
     HOLD_MS,
     frame_schedule,

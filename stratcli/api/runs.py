@@ -78,8 +78,9 @@ def write_record(
         the record's parts, `write` and `total` (see `stratcli.records.manifest`).
     """
     from ..records import run as run_files  # start-up speed (module comment)
-    from ..records.comparison import comparison_csv, ranking_png
+    from ..records.comparison import comparison_csv
     from ..records.manifest import manifest, phase, since_start
+    from ..records.ranking import ranking_png
     from ..sequence import SequencePlan
     from .planning import ComparisonOutcome
 

@@ -14,12 +14,8 @@ import io
 import math
 from typing import Any
 
-from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter, LogLocator
-
-from ..compare import CRITERION_LABELS, Comparison, Outcome
+from ..compare import Comparison, Outcome
 from ..decompose import Decomposition, pi_fraction
-from .figure_common import save_figure
 
 SCHEMA = "stratplan.comparison/1"
 TIMING_KEYS = ("planning_time_s",)  # the only row entries that vary between identical runs
@@ -150,122 +146,6 @@ def comparison_csv(doc: dict[str, Any]) -> str:
             ]
         )
     return buf.getvalue()
-
-
-def _short(x: float) -> str:
-    return f"{x:,.0f}" if abs(x) >= 1000 else f"{x:.4g}"
-
-
-LOG_RATIO = 10.0  # ranking.png: a log axis whenever the plotted values span more than this
-BEST_COLOR = "#2e7d32"
-OTHER_COLOR = "#4a6fa5"
-FAILED_COLOR = "#c0392b"
-# units of the ranking quantities for the presets and physical planar models (rad, rad/s)
-_UNITS = {"energy": "rad²/s", "peak-control": "rad/s", "excursion": "rad", "duration": "s"}
-_KEYS = {
-    "energy": "energy_equal_time",
-    "peak-control": "peak_control",
-    "excursion": "excursion",
-    "duration": "duration",
-}
-
-
-def _axis_label(doc: dict[str, Any]) -> str:
-    criterion = doc["criterion"]
-    label = CRITERION_LABELS[criterion]
-    if criterion == "energy":
-        label += " ∫|u|² dt"
-        if doc.get("reference_duration_s") is not None:
-            label += f", each path run in {doc['reference_duration_s']:g} s"
-    if criterion == "duration" or doc.get("model") != "custom":
-        return f"{label} [{_UNITS[criterion]}]"
-    return f"{label} (the model's units)"
-
-
-def ranking_figure(doc: dict[str, Any]) -> Figure:
-    """Horizontal bars of the criterion per sequence, best on top and highlighted.
-
-    One rule for the scale: a log axis whenever the largest plotted value exceeds `LOG_RATIO`
-    times the smallest (positive) one, as the axis label and a note say; linear otherwise.
-    Failed sequences get their reason instead of a bar.
-    """
-    key = _KEYS[doc["criterion"]]
-    rows = doc["rows"]
-    if rows and key not in rows[0]:  # a record written before energies were compared so
-        key = doc["criterion"]
-    labels = [f"{'→'.join(r['sequence'])} · {r['strategy'][:4]}." for r in rows]
-    ok = [i for i, r in enumerate(rows) if r["status"] == "ok" and r[key] is not None]
-    values = [rows[i][key] for i in ok]
-    positive = [v for v in values if v > 0]
-    if not positive:  # nothing, or all zero
-        ratio = 1.0
-    else:  # a zero among positive values: an infinite range
-        ratio = max(positive) / min(positive) if len(positive) == len(values) else math.inf
-    log = ratio > LOG_RATIO
-    floor = min(positive) / 2 if log else 0.0
-    height = max(3.0, 0.26 * len(rows) + 1.5)
-    fig = Figure(figsize=(8.0, height), layout="constrained")
-    ax = fig.add_subplot()
-    best = 0 if doc.get("best") == 0 and 0 in ok else None
-    colors = [BEST_COLOR if i == best else OTHER_COLOR for i in ok]
-    shown = [max(v, floor) for v in values]  # a zero on a log axis sits at the floor
-    bars = ax.barh(ok, [v - floor for v in shown], left=floor, color=colors, height=0.7)
-    for i, v, x in zip(ok, values, shown, strict=True):
-        ax.text(x, i, f" {_short(v)}", va="center", fontsize=7.5)
-    failed = False
-    for i, r in enumerate(rows):
-        if i not in ok:
-            failed = True
-            reason = " failed: " + (r["reason"] or r["status"])[:60]
-            ax.text(floor, i, reason, va="center", fontsize=7.5, color=FAILED_COLOR)
-    if log:
-        ax.set_xscale("log")
-        plain = FuncFormatter(lambda x, _: f"{x:,.10g}")
-        ax.xaxis.set_major_formatter(plain)
-        if ratio < 1000:  # labels at 2 and 5 too: a bar's length can be read off the axis
-            ax.xaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
-            ax.xaxis.set_minor_formatter(plain)
-            ax.tick_params(axis="x", which="minor", labelsize=8)
-    ax.set_yticks(range(len(rows)), labels, fontsize=7.5)
-    ax.set_ylim(len(rows) - 0.5, -0.5)
-    ax.set_xlabel(_axis_label(doc) + (" — log scale" if log else ""), fontsize=9)
-    ax.set_title(
-        f"{doc['scenario']}: {len(rows)} sequences ranked by {CRITERION_LABELS[doc['criterion']]}",
-        fontsize=10,
-    )
-    ax.grid(axis="x", alpha=0.3)
-    if values:
-        ax.set_xlim(floor if log else 0.0, max(shown) * (1.7 if log else 1.18))
-    handles = []
-    if best is not None:
-        handles.append(bars[ok.index(best)])
-        bars[ok.index(best)].set_label(f"best: {labels[best]}")
-    if len(ok) > (best is not None):
-        other = next(b for b, i in zip(bars, ok, strict=True) if i != best)
-        other.set_label("reached the goal")
-        handles.append(other)
-    if failed:
-        from matplotlib.lines import Line2D
-
-        handles.append(Line2D([], [], color=FAILED_COLOR, ls="none", marker="$x$", label="failed"))
-    span = "from 0" if math.isinf(ratio) else f"{ratio:,.3g}×"
-    relation = ">" if log else "≤"
-    scale = f"{'log' if log else 'linear'} scale: values span {span} ({relation} {LOG_RATIO:g}×)"
-    fig.legend(
-        handles=handles,
-        loc="outside lower center",
-        ncols=len(handles),
-        fontsize=8,
-        title=scale,
-        title_fontsize=8,
-        frameon=False,
-    )
-    return fig
-
-
-def ranking_png(doc: dict[str, Any], fmt: str = "png") -> bytes:
-    """`ranking_figure` as PNG (or SVG or PDF) bytes."""
-    return save_figure(ranking_figure(doc), fmt)
 
 
 def without_timings(doc: dict[str, Any]) -> dict[str, Any]:

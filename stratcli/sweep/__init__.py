@@ -5,9 +5,33 @@ tasks on an executor into a sweep directory (durable, resumable), `outputs` writ
 summary and plots. The use cases are `stratcli.api.run_sweep` and `stratcli.api.read_sweep`.
 """
 
-from .run import ExecutorInfo, SweepOutcome, dask_executor, local_executor, run_sweep
-from .spec import Sweep, SweepTask, load_sweep
-from .worker import STATUSES, TIMING_COLUMNS, run_task
+from importlib import import_module
+from typing import Any
+
+# Names are imported on first use (PEP 562): a worker process imports `sweep.worker` alone,
+# not the sweep files' schema and the executors (start-up speed of every worker).
+_WHERE = {
+    "ExecutorInfo": "run",
+    "SweepOutcome": "run",
+    "dask_executor": "run",
+    "local_executor": "run",
+    "run_sweep": "run",
+    "Sweep": "spec",
+    "SweepTask": "spec",
+    "load_sweep": "spec",
+    "STATUSES": "worker",
+    "TIMING_COLUMNS": "worker",
+    "run_task": "worker",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(f".{_WHERE[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "STATUSES",
