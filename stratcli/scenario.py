@@ -285,6 +285,27 @@ def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[P
     return None
 
 
+def _duration_problems(scenario: Scenario, legs: list[LegSpec]) -> list[Problem]:
+    """`durations = "optimise"` needs the energy objective, Newton legs and [[legs]]."""
+    p = scenario.planner
+    if p.durations == "fixed":
+        if p.total_duration is not None:
+            return [Problem("planner.total_duration", 'only with durations = "optimise"')]
+        return []
+    problems = []
+    if p.objective != "energy":
+        problems.append(
+            Problem("planner.durations", '"optimise" needs objective = "energy" (the default)')
+        )
+    if scenario.legs is None:
+        problems.append(Problem("planner.durations", '"optimise" needs [[legs]] (not auto mode)'))
+    if any(leg.method != "newton" for leg in legs):
+        problems.append(
+            Problem("planner.durations", '"optimise" needs Newton legs (a Lie leg sets its own)')
+        )
+    return problems
+
+
 def _resolve(scenario: Scenario, source: str, text: str, system: System | None = None) -> Task:
     if system is None:
         system = build_system(scenario.model)
@@ -395,6 +416,7 @@ def _resolve(scenario: Scenario, source: str, text: str, system: System | None =
             )
         if entry.method != "lie" and entry.lie is not None:
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
+    problems.extend(_duration_problems(scenario, legs))
     if constraints is not None:
         if start is not None:
             problems.extend(check_configuration(system, start, constraints, "task.start"))

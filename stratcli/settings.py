@@ -85,6 +85,9 @@ class PlannerSettings:
     starts : deterministic starts of the energy search.
     time_scale : run the planned path this many times faster after planning (paper §6).
     lie : defaults of the legs planned with the Lie-algebraic method.
+    durations : "fixed" (each leg's own duration) or "optimise": the energy objective also
+        chooses how `total_duration` is shared among the legs (`stratcli.durations`).
+    total_duration : the time budget of "optimise", s (default: the sum of the legs' own).
     """
 
     continuity: Continuity = "lr-C1"
@@ -101,6 +104,8 @@ class PlannerSettings:
     starts: Annotated[Int, Field(ge=1, le=64)] = 6
     time_scale: Annotated[Float, Field(ge=1.0 / MAX_TIME_SCALE, le=MAX_TIME_SCALE)] = 1.0
     lie: LieSettings = LieSettings()
+    durations: Literal["fixed", "optimise"] = "fixed"
+    total_duration: Annotated[Float, Field(ge=MIN_DURATION, le=100 * MAX_DURATION)] | None = None
 
 
 @dataclass(frozen=True, config=CONFIG)

@@ -13,6 +13,7 @@ from typing import Any
 from ..compare import CRITERIA, Comparison
 from ..constraints import enforce
 from ..decompose import STRATEGIES, Decomposition, pi_fraction
+from ..durations import optimise_durations
 from ..errors import InputError, Problem
 from ..objectives import plan_sequence
 from ..records.comparison import comparison_document
@@ -182,7 +183,15 @@ def plan_run(
             task.system.compiled(leg.stratum)
     compile_time = phases["compile"]["wall_s"] + check_time  # incl. the brackets of the check
     with phase(phases, "planning"):
-        result = plan_sequence(task.system, task.start, task.legs, task.settings, progress=progress)
+        if task.settings.durations == "optimise":
+            total = task.settings.total_duration or sum(leg.duration for leg in task.legs)
+            result = optimise_durations(
+                task.system, task.start, task.legs, task.settings, total, progress
+            )
+        else:
+            result = plan_sequence(
+                task.system, task.start, task.legs, task.settings, progress=progress
+            )
     planning_time = phases["planning"]["wall_s"]
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale != 1.0:

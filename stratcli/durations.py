@@ -1,0 +1,120 @@
+"""Leg durations as decision variables: the energy objective shares a time budget among legs.
+
+With free durations the energy of a driftless plan falls as time grows (a path run s times
+slower costs 1/s of the energy), so the problem is posed with a budget: the durations sum to
+`total_duration`. They are parametrised by softmax weights `T_i = total · e^{y_i} / Σ e^{y_j}`
+(y_0 = 0), so every choice meets the budget exactly and every leg keeps a positive duration;
+for each choice the energy objective plans the whole sequence (its starts, its continuity at
+every switch), and Nelder–Mead minimises the resulting energy over y. The search starts from
+equal durations, whose energy the note reports beside the optimum's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from .models.system import System
+from .objectives import plan_sequence
+from .sequence import SequencePlan
+from .settings import MIN_DURATION, PlannerSettings
+from .stratified import LegSpec
+
+__all__ = ["optimise_durations", "shares"]
+
+EVALUATIONS_PER_LEG = 25  # Nelder–Mead budget: plans of the sequence per free duration
+X_TOL = 2e-3  # in the softmax weights: durations to ~0.1 % of the budget
+F_TOL = 1e-6  # relative energy
+
+
+def shares(y: np.ndarray, total: float) -> np.ndarray:
+    """Durations (k,) summing to `total` from softmax weights y (k − 1,) (the first is 0)."""
+    w = np.concatenate([[0.0], np.asarray(y, dtype=float)])
+    e = np.exp(w - w.max())
+    return total * e / e.sum()
+
+
+def optimise_durations(
+    system: System,
+    start: np.ndarray,
+    legs: list[LegSpec],
+    settings: PlannerSettings,
+    total: float,
+    progress: Callable[[str], None] | None = None,
+) -> SequencePlan:
+    """The minimum-energy plan over the legs' controls and their durations, which sum to
+    `total` (s).
+
+    Parameters
+    ----------
+    system, start, legs, settings
+        As for `objectives.plan_sequence` (the energy objective is used whatever
+        `settings.objective` says).
+    total : float
+        The time budget, s.
+    progress : callable, optional
+        Told each evaluation as it begins.
+
+    Returns
+    -------
+    SequencePlan
+        The best plan found, with a note giving the chosen durations and the energy at equal
+        durations; the plan at equal durations if no other choice could be planned.
+    """
+    from scipy.optimize import minimize  # only this opt-in search needs scipy (start-up)
+
+    settings = replace(settings, objective="energy")
+    plans: dict[tuple[float, ...], SequencePlan] = {}
+    say = progress or (lambda phase: None)
+
+    def planned(y: np.ndarray) -> SequencePlan | None:
+        durations = shares(y, total)
+        key = tuple(np.round(durations, 12))
+        if key not in plans:
+            if durations.min() < MIN_DURATION:
+                return None
+            say(f"durations: plan {len(plans) + 1} ({', '.join(f'{d:.3g}' for d in durations)} s)")
+            timed = [
+                replace(leg, duration=float(d)) for leg, d in zip(legs, durations, strict=True)
+            ]
+            plans[key] = plan_sequence(system, start, timed, settings)
+        return plans[key]
+
+    def energy(y: np.ndarray) -> float:
+        plan = planned(y)
+        return plan.total_energy if plan is not None and plan.ok else np.inf
+
+    k = len(legs)
+    equal = planned(np.zeros(k - 1))
+    if k == 1:
+        return equal
+    scale = equal.total_energy if equal.ok else 1.0
+    minimize(
+        energy,
+        np.zeros(k - 1),
+        method="Nelder-Mead",
+        options={
+            "xatol": X_TOL,
+            "fatol": F_TOL * scale,
+            "maxfev": EVALUATIONS_PER_LEG * (k - 1),
+            "initial_simplex": np.vstack([np.zeros(k - 1), 0.5 * np.eye(k - 1)]),
+        },
+    )
+    ok = [p for p in plans.values() if p.ok]
+    if not ok:
+        return equal
+    best = min(ok, key=lambda p: p.total_energy)
+    chosen = ", ".join(f"{leg.duration:.4g}" for leg in best.legs)
+    reference = (
+        f"{equal.total_energy:.6g} at equal durations ({total / k:.4g} s each), "
+        f"{100 * (1 - best.total_energy / equal.total_energy):.1f} % less"
+        if equal.ok
+        else "equal durations could not be planned"
+    )
+    note = (
+        f"durations optimised within the {total:g} s budget over {len(plans)} plans of the "
+        f"sequence: {chosen} s; energy {best.total_energy:.6g} against {reference}"
+    )
+    return replace(best, notes=(*best.notes, note))

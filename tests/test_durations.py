@@ -1,0 +1,60 @@
+"""Leg durations as decision variables: the budget is met exactly, the energy does not rise
+above equal durations, and the plan re-integrates to every goal with continuous controls."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from reintegrate import verify
+
+from stratcli import load_scenario
+from stratcli.api import plan_run
+from stratcli.durations import shares
+from stratcli.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _task_d(**planner) -> dict:
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d.toml").read_text())
+    raw["planner"].update(planner)
+    return raw
+
+
+def test_shares_meet_the_budget_and_stay_positive():
+    rng = np.random.default_rng(3)
+    for k in range(1, 6):
+        d = shares(rng.normal(scale=5.0, size=k - 1), 2.5)
+        assert d.sum() == pytest.approx(2.5, abs=1e-12)
+        assert np.all(d > 0)
+    np.testing.assert_allclose(shares(np.zeros(2), 3.0), [1.0, 1.0, 1.0])
+
+
+def test_optimised_durations_beat_equal_ones_and_verify_independently():
+    task = load_scenario(_task_d(durations="optimise", total_duration=2.0))
+    outcome = plan_run(task, check=False)
+    plan = outcome.result
+    assert plan.ok, plan.message
+    assert sum(leg.duration for leg in plan.legs) == pytest.approx(2.0, abs=1e-9)
+    equal = plan_run(load_scenario(_task_d()), check=False).result  # 1 s + 1 s
+    assert plan.total_energy <= equal.total_energy * (1 + 1e-9)
+    assert any(note.startswith("durations optimised within the 2 s budget") for note in plan.notes)
+    verify(task, outcome.document)  # goals, chaining, energies, continuity at the switch
+
+
+@pytest.mark.parametrize(
+    ("planner", "field"),
+    [
+        ({"durations": "optimise", "objective": "newton"}, "planner.durations"),
+        ({"total_duration": 3.0}, "planner.total_duration"),
+        ({"durations": "optimise", "total_duration": -1.0}, "planner.total_duration"),
+        ({"durations": "free"}, "planner.durations"),
+    ],
+)
+def test_bad_duration_settings_name_their_field(planner, field):
+    with pytest.raises(InputError) as info:
+        load_scenario(_task_d(**planner))
+    assert any(p.path.startswith(field) for p in info.value.problems), info.value.problems
