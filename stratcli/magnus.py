@@ -119,7 +119,7 @@ class MagnusEndpoint:
         S_w = S[:, :, self.act]  # (2N, 3, m)
         xi = (S_w @ u[:, :, None])[:, :, 0]
         x1, x2 = xi[0::2], xi[1::2]
-        Omega = 0.5 * h * (x1 + x2) + (SQRT3 * h * h / 12.0) * np.cross(x1, x2)
+        Omega = 0.5 * h * (x1 + x2) + (SQRT3 * h * h / 12.0) * so3.cross(x1, x2)
         E = so3.exp(Omega)
         R = np.empty((E.shape[0] + 1, 3, 3))
         R[0] = so3.exp(self.q0[self.k :])

@@ -221,7 +221,7 @@ class SpatialRobot:
 def _inverse3(A: np.ndarray) -> np.ndarray:
     """Inverses of 3×3 matrices (K, 3, 3) by cross products (adjugate over determinant)."""
     a0, a1, a2 = A[:, :, 0], A[:, :, 1], A[:, :, 2]
-    rows = np.stack([np.cross(a1, a2), np.cross(a2, a0), np.cross(a0, a1)], axis=1)
+    rows = np.stack([so3.cross(a1, a2), so3.cross(a2, a0), so3.cross(a0, a1)], axis=1)
     det = np.einsum("ki,ki->k", a0, rows[:, 0])
     return rows / det[:, None, None]
 
