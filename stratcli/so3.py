@@ -51,9 +51,21 @@ def hat(v: np.ndarray) -> np.ndarray:
     return out
 
 
-def _coefficients(theta: np.ndarray):
-    """sin θ / θ, (1 − cos θ)/θ², (θ − sin θ)/θ³ with series below `_SMALL`."""
+def _norm(v: np.ndarray) -> np.ndarray:
+    """`np.linalg.norm(v, axis=-1)` for real v: its arithmetic, without its dispatch."""
+    return np.sqrt(np.add.reduce(v * v, axis=-1))
+
+
+def _coefficients(theta: np.ndarray, wanted: str = "abc"):
+    """sin θ / θ, (1 − cos θ)/θ², (θ − sin θ)/θ³ with series below `_SMALL` (those in
+    `wanted`, None for the others)."""
     small = theta < _SMALL
+    if not small.any():  # the same values as the general case below, fewer operations
+        t = theta
+        a = np.sin(t) / t if "a" in wanted else None
+        b = (1 - np.cos(t)) / (t * t) if "b" in wanted else None
+        c = (t - np.sin(t)) / (t * t * t) if "c" in wanted else None
+        return np.asarray(a), np.asarray(b), np.asarray(c)
     t = np.where(small, 1.0, theta)
     t2 = theta * theta
     a = np.where(small, 1 - t2 / 6 + t2 * t2 / 120, np.sin(t) / t)
@@ -66,7 +78,7 @@ def exp(phi: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) (Rodrigues)."""
     phi = np.asarray(phi, dtype=float)
     K = hat(phi)
-    a, b, _ = _coefficients(np.linalg.norm(phi, axis=-1))
+    a, b, _ = _coefficients(_norm(phi), "ab")
     return _EYE + a[..., None, None] * K + b[..., None, None] * (K @ K)
 
 
@@ -77,7 +89,7 @@ def log(R: np.ndarray) -> np.ndarray:
     """
     q = quaternion_from_matrix(R)
     w, v = q[..., 0], q[..., 1:]
-    s = np.linalg.norm(v, axis=-1)
+    s = _norm(v)
     angle = 2.0 * np.arctan2(s, w)  # w ≥ 0: angle in [0, π]
     scale = np.where(s < 1e-12, 2.0 / np.where(w == 0, 1.0, w), angle / np.where(s == 0, 1, s))
     return v * scale[..., None]
@@ -87,7 +99,7 @@ def right_jacobian(phi: np.ndarray) -> np.ndarray:
     """`J_r(φ) = I − (1 − cos θ)/θ² [φ]× + (θ − sin θ)/θ³ [φ]×²`, shape (..., 3, 3)."""
     phi = np.asarray(phi, dtype=float)
     K = hat(phi)
-    _, b, c = _coefficients(np.linalg.norm(phi, axis=-1))
+    _, b, c = _coefficients(_norm(phi), "bc")
     return _EYE - b[..., None, None] * K + c[..., None, None] * (K @ K)
 
 
@@ -95,7 +107,7 @@ def right_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
     """`J_r⁻¹(φ) = I + [φ]×/2 + (1/θ² − (1 + cos θ)/(2θ sin θ)) [φ]×²` (|φ| < 2π)."""
     phi = np.asarray(phi, dtype=float)
     K = hat(phi)
-    theta = np.linalg.norm(phi, axis=-1)
+    theta = _norm(phi)
     small = theta < _SMALL
     t = np.where(small, 1.0, theta)
     t2 = theta * theta
