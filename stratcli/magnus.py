@@ -99,7 +99,7 @@ class MagnusEndpoint:
         self._error = np.inf  # the goal error of the last evaluation
         self._full: tuple | None = None  # ((λ, steps), end) of the last full-step evaluation
         self._marches: dict[tuple, tuple[np.ndarray, _March]] = {}  # (λ, steps): (end, march)
-        self._last: tuple | None = None  # (λ, end, march) of the last evaluation
+        self._last: dict[bytes, tuple] = {}  # λ: (end, march) of the last two evaluations
 
     @cached_property
     def coupling(self) -> float:
@@ -150,7 +150,7 @@ class MagnusEndpoint:
         R = np.empty((E.shape[0] + 1, 3, 3))
         R[0] = so3.exp(self.q0[self.k :])
         for i in range(E.shape[0]):
-            R[i + 1] = R[i] @ E[i]
+            np.matmul(R[i], E[i], out=R[i + 1])
         march = _March(h, Phi, Psi, S_w, x1, x2, Omega, R, (self.robot, state, S, u @ self.C.T))
         if jacobian:
             march.D  # noqa: B018 (computed now, as the caller asked)
@@ -178,21 +178,28 @@ class MagnusEndpoint:
             end, march = self._end(L, coarse)
             error = np.linalg.norm(residual_on_group(end, None, *self._aim, self.k)[0])
             if RELATIVE_ACCURACY * error >= ACCURACY * (full / coarse) ** 4:
-                self._last = (L.tobytes(), end, march)
+                self._remember(L, end, march)
                 return end.copy(), (self._jacobian(end, march) if jacobian else None)
         end, march = self._end(L, full)
         self._full = ((L.tobytes(), full), end.copy())
-        self._last = (L.tobytes(), end, march)
+        self._remember(L, end, march)
         return end.copy(), (self._jacobian(end, march) if jacobian else None)
 
     def jacobian_of_last(self, lam: np.ndarray):
-        """End point and Jacobian of the last evaluation (`__call__`) if it was at `lam`, on
-        the steps it used, the Jacobian added now; else a new evaluation with it."""
+        """End point and Jacobian of the last evaluation (`__call__`) at `lam` (one of the
+        last two), on the steps it used, the Jacobian added now; else a new evaluation."""
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
-        if self._last is not None and self._last[0] == L.tobytes():
-            _, end, march = self._last
-            return end.copy(), self._jacobian(end, march)
+        last = self._last.get(L.tobytes())
+        if last is not None:
+            return last[0].copy(), self._jacobian(*last)
         return self(lam, True)
+
+    def _remember(self, L: np.ndarray, end: np.ndarray, march: _March) -> None:
+        key = L.tobytes()
+        self._last.pop(key, None)
+        if len(self._last) >= 2:
+            del self._last[next(iter(self._last))]
+        self._last[key] = (end, march)
 
     def _coarse_steps(self, full: int) -> int:
         if self._aim is None or self.steps_override or not np.isfinite(self._error):
