@@ -53,6 +53,29 @@ def _effective_frequency(L: np.ndarray, basis: FourierBasis) -> float:
     return float((amplitude.sum(axis=0) @ basis.omega**4 / total) ** 0.25)
 
 
+class _March:
+    """One attitude march: the nodes' rates and the steps' rotations; the momentum
+    derivatives `D` at the nodes and the Jacobian `J` are added on demand."""
+
+    def __init__(self, h, Phi, Psi, S_w, x1, x2, Omega, R, pending):
+        self.h, self.Phi, self.Psi, self.S_w = h, Phi, Psi, S_w
+        self.x1, self.x2, self.Omega, self.R = x1, x2, Omega, R
+        self._pending = pending  # (robot, its state at the nodes, S, joint rates)
+        self._D = None
+        self.J = None
+
+    @property
+    def D(self) -> np.ndarray:
+        if self._D is None:
+            robot, state, S, u = self._pending
+            self._D = robot.angular_derivative(state, S, u)
+        return self._D
+
+    def parts(self):
+        """(h, Φ, Ψ, S_ω at the nodes, D at the nodes, ξ1, ξ2, Ω, R_0..R_N)."""
+        return (self.h, self.Phi, self.Psi, self.S_w, self.D, self.x1, self.x2, self.Omega, self.R)
+
+
 class MagnusEndpoint:
     """`k(λ)` and `∂k/∂λ` of a spatial leg; `kind = "magnus"`. Interface of `endpoint`'s."""
 
@@ -75,6 +98,8 @@ class MagnusEndpoint:
         self._aim: tuple[np.ndarray, np.ndarray] | None = None  # goal values, targets
         self._error = np.inf  # the goal error of the last evaluation
         self._full: tuple | None = None  # ((λ, steps), end) of the last full-step evaluation
+        self._marches: dict[tuple, tuple[np.ndarray, _March]] = {}  # (λ, steps): (end, march)
+        self._last: dict[bytes, tuple] = {}  # λ: (end, march) of the last two evaluations
 
     @cached_property
     def coupling(self) -> float:
@@ -110,22 +135,26 @@ class MagnusEndpoint:
             self._tables[N] = (h, t, self.basis.values(t), self.basis.integrals(t))
         return self._tables[N]
 
-    def _march(self, L: np.ndarray, jacobian: bool, steps: int | None = None):
-        """(h, Φ, Ψ, S_ω at the nodes, D at the nodes, ξ1, ξ2, Ω, R_0..R_N)."""
+    def _march(self, L: np.ndarray, jacobian: bool, steps: int | None = None) -> _March:
+        """The attitude march on `steps` (default: the full ones); with `jacobian` the
+        momentum derivatives at the nodes come with it, else `_March.D` adds them later."""
         h, _, Phi, Psi = self._table(self.steps(L) if steps is None else steps)
         u = Phi @ L.T  # (2N, m)
         q = self.q0[: self.k] + Psi @ (L.T @ self.C.T)  # (2N, k)
-        S, D = self.robot.angular(q, u @ self.C.T if jacobian else None)
+        S, state = self.robot.angular_map(q)
         S_w = S[:, :, self.act]  # (2N, 3, m)
         xi = (S_w @ u[:, :, None])[:, :, 0]
         x1, x2 = xi[0::2], xi[1::2]
-        Omega = 0.5 * h * (x1 + x2) + (SQRT3 * h * h / 12.0) * np.cross(x1, x2)
+        Omega = 0.5 * h * (x1 + x2) + (SQRT3 * h * h / 12.0) * so3.cross(x1, x2)
         E = so3.exp(Omega)
         R = np.empty((E.shape[0] + 1, 3, 3))
         R[0] = so3.exp(self.q0[self.k :])
         for i in range(E.shape[0]):
-            R[i + 1] = R[i] @ E[i]
-        return h, Phi, Psi, S_w, D, x1, x2, Omega, R
+            np.matmul(R[i], E[i], out=R[i + 1])
+        march = _March(h, Phi, Psi, S_w, x1, x2, Omega, R, (self.robot, state, S, u @ self.C.T))
+        if jacobian:
+            march.D  # noqa: B018 (computed now, as the caller asked)
+        return march
 
     def __call__(self, lam: np.ndarray, jacobian: bool = True):
         """End point and (with `jacobian`) its Jacobian; far from the goal on coarser steps.
@@ -135,6 +164,9 @@ class MagnusEndpoint:
         (the Magnus error falls as N⁻⁴), kept only if it is below `RELATIVE_ACCURACY` × the
         error it then finds, else evaluated again on the full steps. Near the goal every
         evaluation is on the full steps; `refined` gives the full-step end of any λ.
+        The Jacobian is added only to the evaluation that is kept (`jacobian_of_last` adds
+        it later); the last two marches are remembered (a map asked again at the same λ and
+        steps, e.g. for its Jacobian after its value, is not integrated again).
         """
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
         if not np.all(np.isfinite(L)):
@@ -143,13 +175,31 @@ class MagnusEndpoint:
         full = self.steps(L)
         coarse = self._coarse_steps(full)
         if coarse < full:
-            end, J = self._evaluate(L, jacobian, coarse)
+            end, march = self._end(L, coarse)
             error = np.linalg.norm(residual_on_group(end, None, *self._aim, self.k)[0])
             if RELATIVE_ACCURACY * error >= ACCURACY * (full / coarse) ** 4:
-                return end, J
-        end, J = self._evaluate(L, jacobian, full)
+                self._remember(L, end, march)
+                return end.copy(), (self._jacobian(end, march) if jacobian else None)
+        end, march = self._end(L, full)
         self._full = ((L.tobytes(), full), end.copy())
-        return end, J
+        self._remember(L, end, march)
+        return end.copy(), (self._jacobian(end, march) if jacobian else None)
+
+    def jacobian_of_last(self, lam: np.ndarray):
+        """End point and Jacobian of the last evaluation (`__call__`) at `lam` (one of the
+        last two), on the steps it used, the Jacobian added now; else a new evaluation."""
+        L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
+        last = self._last.get(L.tobytes())
+        if last is not None:
+            return last[0].copy(), self._jacobian(*last)
+        return self(lam, True)
+
+    def _remember(self, L: np.ndarray, end: np.ndarray, march: _March) -> None:
+        key = L.tobytes()
+        self._last.pop(key, None)
+        if len(self._last) >= 2:
+            del self._last[next(iter(self._last))]
+        self._last[key] = (end, march)
 
     def _coarse_steps(self, full: int) -> int:
         if self._aim is None or self.steps_override or not np.isfinite(self._error):
@@ -166,29 +216,43 @@ class MagnusEndpoint:
         steps = self.steps(L)
         if self._full is not None and self._full[0] == (L.tobytes(), steps):
             return self._full[1].copy()  # its last evaluation was this one, on the full steps
-        return self._evaluate(L, False, steps)[0]
+        return self._end(L, steps)[0].copy()
 
-    def _evaluate(self, L: np.ndarray, jacobian: bool, steps: int):
+    def _end(self, L: np.ndarray, steps: int) -> tuple[np.ndarray, _March]:
+        """The end point on `steps` and its march (remembered: the last two)."""
+        key = (L.tobytes(), steps)
+        if key in self._marches:
+            return self._marches[key]
         k = self.k
         end = self.q0.copy()
         end[:k] += self.C @ (L @ self.psi_T)
-        h, Phi, Psi, S_w, D, x1, x2, Omega, R = self._march(L, jacobian, steps)
-        phi = so3.log(R[-1])
-        end[k:] = phi
-        if not jacobian:
-            return end, None
-        c = SQRT3 * h * h / 12.0
-        W = np.swapaxes(R[-1], -1, -2) @ R[1:] @ so3.right_jacobian(Omega)  # (N, 3, 3)
-        M = np.empty((2 * W.shape[0], 3, 3))
-        M[0::2] = W @ (0.5 * h * np.eye(3) - c * so3.hat(x2))
-        M[1::2] = W @ (0.5 * h * np.eye(3) + c * so3.hat(x1))
-        A1 = M @ S_w  # (2N, 3, m): through u
-        A2 = M @ (D @ self.C)  # (2N, 3, m): through q
-        K = M.shape[0]
-        eta = A1.reshape(K, -1).T @ Phi + A2.reshape(K, -1).T @ Psi  # (3 * m, size)
-        J = np.array(self._J_explicit)
-        J[k:] = so3.right_jacobian_inverse(phi) @ eta.reshape(3, -1)
-        return end, J
+        march = self._march(L, False, steps)
+        end[k:] = so3.log(march.R[-1])
+        end.setflags(write=False)
+        if len(self._marches) >= 2:
+            del self._marches[next(iter(self._marches))]
+        self._marches[key] = (end, march)
+        return end, march
+
+    def _jacobian(self, end: np.ndarray, march: _March) -> np.ndarray:
+        """`∂k/∂λ` of the end `end` of `march` (the exact derivative of the discrete map)."""
+        if march.J is None:
+            k = self.k
+            h, Phi, Psi, S_w, D, x1, x2, Omega, R = march.parts()
+            c = SQRT3 * h * h / 12.0
+            W = np.swapaxes(R[-1], -1, -2) @ R[1:] @ so3.right_jacobian(Omega)  # (N, 3, 3)
+            M = np.empty((2 * W.shape[0], 3, 3))
+            M[0::2] = W @ (0.5 * h * np.eye(3) - c * so3.hat(x2))
+            M[1::2] = W @ (0.5 * h * np.eye(3) + c * so3.hat(x1))
+            A1 = M @ S_w  # (2N, 3, m): through u
+            A2 = M @ (D @ self.C)  # (2N, 3, m): through q
+            K = M.shape[0]
+            eta = A1.reshape(K, -1).T @ Phi + A2.reshape(K, -1).T @ Psi  # (3 * m, size)
+            J = np.array(self._J_explicit)
+            J[k:] = so3.right_jacobian_inverse(end[k:]) @ eta.reshape(3, -1)
+            J.setflags(write=False)
+            march.J = J
+        return march.J.copy()
 
     def residual(self, end, J, aim, targets):
         """`residual_on_group` for this leg's coordinates; remembers the goal and the error
@@ -201,7 +265,7 @@ class MagnusEndpoint:
     def attitudes(self, lam: np.ndarray) -> np.ndarray:
         """R at the step boundaries (N + 1, 3, 3) for coefficients λ."""
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
-        return self._march(L, False)[-1]
+        return self._march(L, False).R
 
     @cached_property
     def _J_explicit(self) -> np.ndarray:

@@ -155,3 +155,78 @@ def test_far_from_the_goal_the_map_is_coarse_but_accurate_to_its_error(arm3):
     assert calls[0] < ep.steps(lam.reshape(2, -1)) // 2  # coarse
     gap = np.linalg.norm(so3.log(so3.exp(exact[3:]).T @ so3.exp(end[3:])))
     assert gap <= 1e-3 * 0.5
+
+
+@pytest.mark.parametrize("far", [False, True])
+def test_a_jacobian_added_later_is_the_one_evaluated_with_the_end(arm3, far):
+    """Value first, Jacobian afterwards (`jacobian_of_last`): bitwise what one evaluation
+    with both gives, also on coarse steps far from the goal; a repeated call is remembered."""
+    basis = FourierBasis(harmonics=3, period=2.17)
+    cs = arm3.compiled("S3")
+    q0 = np.array([0.3, -0.2, 0.0, 0.1, 0.0, -0.1])
+    lam = np.random.default_rng(5).normal(0.0, 0.3, 2 * basis.size)
+    targets = np.arange(6)
+    both, later = cs.endpoint(q0, basis, 2.0), cs.endpoint(q0, basis, 2.0)
+    if far:  # a goal 0.5 rad away: coarse steps (else the full ones, no goal known yet)
+        goal = both.refined(lam) + 0.3
+        for ep in (both, later):
+            ep.residual(goal, None, goal[targets] + 1e-3, targets)
+    steps = []
+    march = later._march
+    later._march = lambda L, jac, n=None: steps.append(n) or march(L, jac, n)
+    end, J = both(lam, True)
+    end_only, none = later(lam, False)
+    assert none is None
+    full = later.steps(lam.reshape(2, -1))
+    assert (steps[-1] < full // 2) if far else (steps[-1] == full)
+    end_later, J_later = later.jacobian_of_last(lam)
+    np.testing.assert_array_equal(end_only, end)
+    np.testing.assert_array_equal(end_later, end)
+    np.testing.assert_array_equal(J_later, J)
+    calls = len(steps)
+    again, J_again = later(lam, True)
+    assert len(steps) == calls  # not marched again
+    np.testing.assert_array_equal(again, end)
+    np.testing.assert_array_equal(J_again, J)
+
+
+def test_newton_with_jacobians_added_later_takes_the_same_steps(arm3):
+    """`damped_gauss_newton` with `jacobian_after` (Jacobians only of accepted steps) ends
+    bitwise where it ends with every full step's Jacobian evaluated eagerly."""
+    from stratcli.planners.base import damped_gauss_newton
+
+    basis = FourierBasis(harmonics=2, period=2.0)
+    cs = arm3.compiled("S3")
+    q0 = np.zeros(6)
+    targets = np.arange(6)
+    goal = np.array([0.4, -0.3, 0.0, 0.02, -0.01, 0.03])
+    results = []
+    for deferred in (False, True):
+        ep = cs.endpoint(q0, basis, 2.0)
+        last = []
+
+        def evaluate(z, jacobian, ep=ep, last=last):
+            last[:] = [z]
+            end, J = ep(z, jacobian)
+            r, Jt = ep.residual(end, J, goal[targets], targets)
+            return -r, Jt, (z, end)
+
+        def jacobian_after(ep=ep, last=last):
+            end, J = ep.jacobian_of_last(last[0])
+            return ep.residual(end, J, goal[targets], targets)[1]
+
+        z0 = np.random.default_rng(2).normal(0.0, 0.1, 2 * basis.size)
+        results.append(
+            damped_gauss_newton(
+                evaluate,
+                z0,
+                tolerance=1e-9,
+                max_iterations=30,
+                mu=1e-3,
+                jacobian_after=jacobian_after if deferred else None,
+            )
+        )
+    eager, deferred = results
+    assert eager.error <= 1e-9
+    assert eager.iterations == deferred.iterations
+    np.testing.assert_array_equal(deferred.z, eager.z)

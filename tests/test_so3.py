@@ -50,3 +50,19 @@ def test_rpy_is_fixed_axes_x_then_y_then_z():
     np.testing.assert_allclose(R, expected, atol=1e-15)
     # URDF: roll about x first: a roll alone is exp([r, 0, 0])
     np.testing.assert_allclose(so3.rpy_to_matrix([r, 0, 0]), so3.exp([r, 0, 0]), atol=1e-15)
+
+
+def test_cross_is_numpys_bit_for_bit(phis):
+    a, b = phis, np.roll(phis, 1, axis=0) * 1.7
+    np.testing.assert_array_equal(so3.cross(a, b), np.cross(a, b))
+    np.testing.assert_array_equal(so3.cross(a[0], b[3]), np.cross(a[0], b[3]))
+
+
+def test_quaternions_of_few_and_of_many_matrices_agree_bit_for_bit(phis):
+    """The Python-float path (up to 8 matrices) and the vectorised one (more) run the same
+    arithmetic, every Shepperd case included (angles up to π, about every axis)."""
+    R = so3.exp(np.vstack([phis, np.pi * np.eye(3), -2.5 * np.eye(3)]))
+    many = so3.quaternion_from_matrix(R)
+    few = np.array([so3.quaternion_from_matrix(Ri) for Ri in R])
+    np.testing.assert_array_equal(few, many)
+    np.testing.assert_allclose(so3.matrix_from_quaternion(many), R, atol=1e-15)

@@ -161,6 +161,11 @@ class SpatialRobot:
         translation), so the angular rows of the centroidal map alone fix `ω`:
         `S_ω = −A_ωω⁻¹ A_ωq`, a 3×3 solve (in closed form here) instead of the 6×6 one.
         """
+        S, state = self.angular_map(q)
+        return S, (None if u is None else self.angular_derivative(state, S, u))
+
+    def angular_map(self, q: np.ndarray) -> tuple[np.ndarray, tuple]:
+        """`S_ω(q)` (K, 3, k) and what `angular_derivative` needs at the same points."""
         pin, model, data = self._pin, self.model, self.data
         q = np.atleast_2d(np.asarray(q, dtype=float))
         K = q.shape[0]
@@ -171,9 +176,14 @@ class SpatialRobot:
         for i, x in enumerate(X):  # iterating rows: no index arithmetic per point
             Ag[i] = centroidal_map(model, data, x)
         inverse = _inverse3(Ag[:, 3:, 3:6])
-        S = -inverse @ Ag[:, 3:, self.iv]
-        if u is None:
-            return S, None
+        return -inverse @ Ag[:, 3:, self.iv], (X, inverse)
+
+    def angular_derivative(self, state: tuple, S: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """`D = ∂(S_ω u)/∂q` (K, 3, k) at the points of `angular_map` (its `S` and state),
+        for joint rates `u` (K, k): added only when a Jacobian is wanted."""
+        pin, model, data = self._pin, self.model, self.data
+        X, inverse = state
+        K = X.shape[0]
         u = np.atleast_2d(np.asarray(u, dtype=float))
         V = np.zeros((K, model.nv))
         V[:, 3:6] = (S @ u[:, :, None])[:, :, 0]  # the base's linear velocity changes no
@@ -183,7 +193,7 @@ class SpatialRobot:
         derivatives = pin.computeCentroidalDynamicsDerivatives
         for i, (x, v) in enumerate(zip(X, V, strict=True)):
             dh[i] = derivatives(model, data, x, v, zero)[0]
-        return S, -inverse @ dh[:, 3:, self.iv]
+        return -inverse @ dh[:, 3:, self.iv]
 
     def com_in_base(self, q: np.ndarray) -> np.ndarray:
         """The system CoM in the base frame (K, 3) at joint angles q (K, k)."""
@@ -221,7 +231,7 @@ class SpatialRobot:
 def _inverse3(A: np.ndarray) -> np.ndarray:
     """Inverses of 3×3 matrices (K, 3, 3) by cross products (adjugate over determinant)."""
     a0, a1, a2 = A[:, :, 0], A[:, :, 1], A[:, :, 2]
-    rows = np.stack([np.cross(a1, a2), np.cross(a2, a0), np.cross(a0, a1)], axis=1)
+    rows = np.stack([so3.cross(a1, a2), so3.cross(a2, a0), so3.cross(a0, a1)], axis=1)
     det = np.einsum("ki,ki->k", a0, rows[:, 0])
     return rows / det[:, None, None]
 

@@ -271,6 +271,7 @@ def damped_gauss_newton(
     stall_window: int | None = None,
     stall_ratio: float = 0.5,
     diverged: Callable[[object], str | None] | None = None,
+    jacobian_after: Callable[[], np.ndarray] | None = None,
 ) -> GaussNewtonResult:
     """Drive the residual `e(z)` to zero: damped pseudo-inverse steps with backtracking.
 
@@ -285,6 +286,11 @@ def damped_gauss_newton(
     search ran away (a reason) or not (None): the loop then stops with the reason in the
     result's `diverged`. Without `diverged`, the built-in check `runaway` (payloads
     ``(λ, end)`` only) raises `SearchDiverged` instead: the whole leg is abandoned.
+
+    With `jacobian_after` (the Jacobian of the latest `evaluate`, added to it afterwards:
+    an end-point map that keeps its last evaluation), the full step too is evaluated without
+    its Jacobian, which is added only once the step is accepted short of the tolerance (the
+    same numbers, without the Jacobians of rejected and of final steps).
     """
     e, J, payload = evaluate(z, True)
     first = payload
@@ -307,7 +313,7 @@ def damped_gauss_newton(
         while gamma > min_step:
             z_new = z + gamma * step
             # the full step is usually accepted: its Jacobian comes with it at little cost
-            e_new, J_new, payload_new = evaluate(z_new, gamma == 1.0)
+            e_new, J_new, payload_new = evaluate(z_new, gamma == 1.0 and jacobian_after is None)
             err_new = float(np.linalg.norm(e_new))
             if np.isfinite(err_new) and err_new < err:
                 accepted = True
@@ -326,7 +332,10 @@ def damped_gauss_newton(
                     raise SearchDiverged(ran[0], f"{ran[1]} after {iterations} iterations")
             elif reason := diverged(payload):
                 return GaussNewtonResult(z, err, iterations, payload, reason)
-            J = J_new if J_new is not None else evaluate(z, True)[1]
+            if J_new is None:
+                later = jacobian_after is not None and gamma == 1.0
+                J_new = jacobian_after() if later else evaluate(z, True)[1]
+            J = J_new
         mu = max(mu / 10.0, 1e-12) if gamma == 1.0 else min(mu * 2.0, 1.0)
         history.append(err)
     return GaussNewtonResult(z, err, iterations, payload)

@@ -118,6 +118,8 @@ class _Problem:
         """Goal residuals (and their Jacobian in z), cached for the last z."""
         if self._z is None or not np.array_equal(z, self._z):
             self._z, self._c, self._J = z.copy(), None, None
+        if self._c is not None and jacobian and self._J is None:
+            self._J = self._late_jacobian(z)
         if self._c is None or (jacobian and self._J is None):
             lam = self.coefficients(z)
             res = []
@@ -136,6 +138,22 @@ class _Problem:
             if jacobian:
                 self._J = J @ self.null
         return self._c, self._J
+
+    def _late_jacobian(self, z):
+        """The Jacobian in z of the residuals already evaluated at z, from the legs' last
+        evaluations (their marches), or None if a leg's map cannot add it afterwards."""
+        if not all(hasattr(ep, "jacobian_of_last") for ep in self.endpoints):
+            return None
+        lam = self.coefficients(z)
+        J = np.zeros((self.n_residuals, lam.size))
+        row = 0
+        for i, (ep, t, g) in enumerate(zip(self.endpoints, self.targets, self.goals, strict=True)):
+            end, Ji = ep.jacobian_of_last(lam[self.offsets[i] : self.offsets[i + 1]])
+            J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = goal_residual(
+                ep, end, Ji, g, t
+            )[1]
+            row += t.size
+        return J @ self.null
 
     def constraint(self, z):
         return self._evaluate(z, False)[0]
@@ -281,6 +299,8 @@ class _Descent:
         self.H0 = problem.H0
         self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
         self.c_tol = min(1e-10, 1e-3 * tol)
+        # maps that keep their last evaluation add the Jacobian later at no extra march
+        self.eager = not all(hasattr(ep, "jacobian_of_last") for ep in problem.endpoints)
         self.iterations = 0
         self.best_pg, self.since = np.inf, 0
         start = self._restore(z)
@@ -298,13 +318,15 @@ class _Descent:
         """Back onto the goals: Newton steps of least energy norm, quadratically convergent."""
         problem, previous = self.problem, np.inf
         for _ in range(RESTORATION_STEPS):
-            c, J = problem._evaluate(z, True)
+            c, J = problem._evaluate(z, self.eager)  # else the Jacobian only if needed
             violation = np.abs(c).max(initial=0.0)
             if violation <= self.c_tol:
                 return z
             if violation > 0.5 * previous:
                 return None  # not converging fast: let the line search shorten the step
             previous = violation
+            if J is None:
+                J = problem._evaluate(z, True)[1]
             HJ = 0.5 * J.T  # H0⁻¹ Jᵀ (H0 = 2 I: the energy is |z|² in the whitened z)
             try:
                 L = np.linalg.cholesky(J @ HJ)

@@ -119,6 +119,19 @@ class NewtonPlanner(LegPlanner):
             return evaluate
 
         evaluate = evaluate_for(goal[targets])
+        jacobian_after = None
+        if hasattr(endpoint, "jacobian_of_last"):  # the Jacobian only of steps kept (magnus)
+            last = []  # the latest evaluation's λ
+            plain = evaluate
+
+            def evaluate(z, jacobian):
+                out = plain(z, jacobian)
+                last[:] = [out[2][0]]
+                return out
+
+            def jacobian_after():
+                end, J = endpoint.jacobian_of_last(last[0])
+                return goal_residual(endpoint, end, J, goal[targets], targets)[1] @ N
 
         z_line = elimination.project(_initial_coefficients(endpoint, goal, targets))
         scale = 1.0 + float(np.abs(goal[targets] - endpoint.q0[targets]).max(initial=0.0))
@@ -140,6 +153,7 @@ class NewtonPlanner(LegPlanner):
                 mu=DAMPING[mu0],
                 stall_window=STALL_WINDOW,
                 stall_ratio=STALL_RATIO,
+                jacobian_after=jacobian_after,
             )
             total += result.iterations
             if best is None or _rank(result.error) < _rank(best.error):
