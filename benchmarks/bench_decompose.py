@@ -33,7 +33,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from stratcli.compare import compare, compile_strata
-from stratcli.decompose import decompose
+from stratcli.decomposition import decompose
 from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
 

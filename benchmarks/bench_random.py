@@ -7,7 +7,7 @@ Each task (issue 14, item 5) draws from its own `numpy.random.default_rng(task_s
 seeds from `--seed`: the one-arm or the two-arm preset; a sequence of 2-4 strata (one-arm
 S1..S3; two-arm S1..S4 and S12..S34), never the same stratum twice in a row; a start within
 ±π/2 per coordinate; a change of up to ±2.5 rad for every joint the sequence moves and up to
-±0.6 rad for θ. Vias are conservative, as `stratcli.decompose.boundary_configurations` makes
+±0.6 rad for θ. Vias are conservative, as `stratcli.decomposition.boundary_configurations` makes
 them (checked equal on the 200 default tasks): a leg sets every coordinate it can move to its
 goal value, locked joints keep theirs; θ moves on every stratum, so it is at its goal from the
 first leg on. `--theta-vias free` leaves θ free ("*") on the intermediate vias instead and the

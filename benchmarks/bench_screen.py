@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from stratcli.compare import SCREEN_TOP, compare, compile_strata
-from stratcli.decompose import decompose
+from stratcli.decomposition import decompose
 from stratcli.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

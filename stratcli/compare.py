@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .decompose import Candidate
+from .decomposition import Candidate
 from .errors import InputError
 from .models.system import System
 from .planners.energy import SCREEN_RATIO

@@ -10,7 +10,7 @@ from conftest import (
 )
 
 from stratcli.compare import compare
-from stratcli.decompose import (
+from stratcli.decomposition import (
     decompose,
     moved_coordinates,
 )

@@ -82,3 +82,24 @@ def test_public_functions_document_their_parameters(name):
     returns_none = signature.return_annotation in (None, "None")
     if not returns_none:
         assert _section(doc, "Returns") is not None, f"{name}: no Returns section"
+
+
+def test_no_submodule_hides_a_public_name():
+    """Importing a submodule sets it as an attribute of its package, so a submodule named
+    like a public function (once `stratcli/decompose.py` beside `stratcli.decompose`) would
+    replace the function as soon as anything imported it. Import every module, then check."""
+    import importlib
+    import pkgutil
+    import types
+
+    import stratcli
+
+    for info in pkgutil.walk_packages(stratcli.__path__, "stratcli."):
+        if info.name.endswith("__main__"):
+            continue
+        try:
+            importlib.import_module(info.name)
+        except ImportError:  # an optional extra that is not installed
+            continue
+    for name in stratcli.__all__:
+        assert not isinstance(getattr(stratcli, name), types.ModuleType), name

@@ -250,3 +250,33 @@ def test_plan_format_svg_writes_svg_files(tmp_path):
     assert (run / "configuration.svg").read_bytes().startswith((b"<?xml", b"<svg"))
     bad = CliRunner().invoke(app, [*args, "--format", "gif"])
     assert bad.exit_code == 2
+
+
+def _texts(fig) -> list[str]:
+    return [t.get_text() for ax in fig.axes for t in ax.texts] + [t.get_text() for t in fig.texts]
+
+
+@pytest.mark.parametrize("constraints", [None, {"joint_limits": [-3.2, 3.2], "max_rate": 50.0}])
+def test_off_labels_mark_inputs_only_and_limits_show_on_the_configuration(constraints):
+    """'off (u = 0)' belongs to the controls figure (an input off on a leg), never to the
+    configuration figure, whose rows are coordinates; joint limits draw dashed lines there."""
+    import tomllib
+
+    import stratcli
+
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d.toml").read_text())
+    raw["planner"]["objective"] = "newton"
+    if constraints:
+        raw["constraints"] = constraints
+    task = stratcli.load_scenario(raw)
+    plan = stratcli.api.plan_run(task, check=False).result
+    traj = plan.sample(100)
+    configuration = plots.configuration_figure(plan, traj)
+    controls = plots.controls_figure(plan, traj)
+    assert not any("off (u = 0)" in t for t in _texts(configuration))
+    assert any("off (u = 0)" in t for t in _texts(controls))
+    dashed = [
+        line for ax in configuration.axes for line in ax.get_lines() if line.get_linestyle() == "--"
+    ]
+    limit_lines = [line for line in dashed if np.allclose(line.get_ydata(), 3.2)]
+    assert bool(limit_lines) == bool(constraints)

@@ -9,7 +9,7 @@ import pytest
 
 from stratcli import api
 from stratcli.compare import SCREEN_TOP, compare
-from stratcli.decompose import decompose
+from stratcli.decomposition import decompose
 from stratcli.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..compare import SCREEN_TOP, Comparison, compare, compile_strata
-from ..decompose import STRATEGIES, Decomposition, decompose
+from ..decomposition import STRATEGIES, Decomposition, decompose
 from ..errors import InputError, Problem
 from ..scenario import Task
 from ..settings import DecomposeSettings

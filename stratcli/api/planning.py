@@ -12,7 +12,7 @@ from typing import Any
 
 from ..compare import CRITERIA, Comparison
 from ..constraints import enforce
-from ..decompose import STRATEGIES, Decomposition, pi_fraction
+from ..decomposition import STRATEGIES, Decomposition, pi_fraction
 from ..durations import optimise_durations
 from ..errors import InputError, Problem
 from ..objectives import plan_sequence

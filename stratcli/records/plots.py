@@ -181,10 +181,10 @@ def _time_series(
         title = f"{title} ({len(plan.legs)} legs; leg labels omitted above {MAX_LABELLED_LEGS})"
     elif kind == "configuration":
         _mark_goals(plan, axes)
-    if kind == "configuration" and plan.constraints is not None:
-        _shade_limits(plan, traj, axes)
     else:
         _mark_off_inputs(plan, axes)
+    if kind == "configuration" and plan.constraints is not None:
+        _shade_limits(plan, traj, axes)
     if not plan.ok:
         title += " — FAILED"
     fig.suptitle(title, fontsize=11, fontweight="bold", color="k" if plan.ok else FAILED_COLOR)
@@ -222,27 +222,38 @@ def _mark_goals(plan: SequencePlan, axes: list[Any]) -> None:
 
 
 def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any]) -> None:
-    """Joint limits of [constraints] as shaded bands, and each joint's closest approach."""
+    """Joint limits of [constraints]: a dashed line at each limit near the data, the region
+    beyond it shaded, and each limited joint's closest approach marked ×."""
     limits = resolved_constraints(plan)
+    shown = False
     for i, ax in enumerate(axes):
         lo, hi = limits.lower[i], limits.upper[i]
         if not (np.isfinite(lo) or np.isfinite(hi)):
             continue
         y0, y1 = ax.get_ylim()
-        for a, b in ((hi, max(y1, hi + 0.05 * (y1 - y0))), (min(y0, lo - 0.05 * (y1 - y0)), lo)):
-            if np.isfinite(a) and np.isfinite(b):
-                ax.axhspan(a, b, color=FAILED_COLOR, alpha=0.12, lw=0, zorder=1)
+        span = y1 - y0
+        near = [v for v in (lo, hi) if np.isfinite(v) and y0 - span <= v <= y1 + span]
+        if near:  # a limit far from the data would squash the curve: leave it out
+            top, bottom = (
+                max([y1, *[v + 0.12 * span for v in near]]),
+                min([y0, *[v - 0.12 * span for v in near]]),
+            )
+            for v in near:
+                ax.axhline(v, color=FAILED_COLOR, lw=0.9, ls="--", zorder=2)
+                band = (v, top) if v == hi else (bottom, v)
+                ax.axhspan(*band, color=FAILED_COLOR, alpha=0.12, lw=0, zorder=1)
+            ax.set_ylim(bottom, top)
+            shown = True
         room = np.minimum(traj.q[:, i] - lo, hi - traj.q[:, i])
-        k = int(np.nanargmin(room))
-        ax.plot(traj.t[k], traj.q[k, i], "x", color=FAILED_COLOR, ms=6, mew=1.4, zorder=5)
-        ax.set_ylim(
-            min(y0, lo - 0.05 * (y1 - y0)) if np.isfinite(lo) else y0,
-            max(y1, hi + 0.05 * (y1 - y0)) if np.isfinite(hi) else y1,
-        )
-    axes[0].figure.text(
-        0.005, 0.005, "shaded: beyond a joint limit; × closest approach", color=FAILED_COLOR,
-        ha="left", va="bottom", fontsize=8,
-    )  # fmt: skip
+        if np.isfinite(room).any():
+            k = int(np.nanargmin(room))
+            ax.plot(traj.t[k], traj.q[k, i], "x", color=FAILED_COLOR, ms=6, mew=1.4, zorder=5)
+            shown = True
+    if shown:
+        axes[0].figure.text(
+            0.005, 0.005, "- - joint limit (shaded beyond it); × closest approach",
+            color=FAILED_COLOR, ha="left", va="bottom", fontsize=8,
+        )  # fmt: skip
 
 
 def _mark_off_inputs(plan: SequencePlan, axes: list[Any]) -> None:

@@ -13,7 +13,7 @@ from conftest import (
 )
 
 from stratcli.compare import compare
-from stratcli.decompose import (
+from stratcli.decomposition import (
     boundary_configurations,
     candidate_strata,
     decompose,
