@@ -53,7 +53,7 @@ def test_random_sweep_histogram_and_records_of_all_tasks(tmp_path):
         app, ["sweep", str(path), "--out", str(out), "--jobs", "1", "--records", "all"]
     )
     assert result.exit_code == 0, result.output
-    assert "4 of 4 tasks done" in result.output and "process-pool, 1 workers" in result.output
+    assert "4 of 4 tasks done" in result.output and "process-pool, 1 worker:" in result.output
     assert (out / "energy_hist.png").read_bytes().startswith(b"\x89PNG")
     assert len(list((out / "records").iterdir())) == 4
 

@@ -21,12 +21,18 @@ def ranking(task, doc: dict) -> None:
     from ..compare import CRITERION_LABELS  # here, not at the top: start-up speed
 
     s = task.settings
+    reference = doc.get("reference_duration_s")
+    durations = {row["duration"] for row in doc["rows"] if row["duration"] is not None}
+    scaled = doc["criterion"] == "energy" and reference is not None and durations != {reference}
+    ranked = CRITERION_LABELS[doc["criterion"]]
+    if scaled:
+        ranked = f"energy at an equal total duration of {reference:g} s"
     render.out_console.print(
         f"[bold]{doc['scenario']}[/] · model {doc['model']} · {s.continuity} · objective "
         f"{getattr(s, 'objective', 'newton')} · tolerance {s.tolerance:g} · essential "
         f"{', '.join(doc['essential'])} · {doc['sequences']} "
         f"sequences (max length {doc['max_length']}, {' + '.join(doc['strategies'])}) · "
-        f"ranked by {CRITERION_LABELS[doc['criterion']]}",
+        f"ranked by {ranked}",
         highlight=False,
     )
     both = len(doc["strategies"]) > 1
@@ -37,9 +43,6 @@ def ranking(task, doc: dict) -> None:
     else:
         text_column(rows, "sequence")
     number_column(rows, "status", justify="left")
-    reference = doc.get("reference_duration_s")
-    durations = {row["duration"] for row in doc["rows"] if row["duration"] is not None}
-    scaled = doc["criterion"] == "energy" and reference is not None and durations != {reference}
     headers = ["energy"] + ([f"energy\nin {reference:g} s"] if scaled else [])
     for header in (*headers, "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
         number_column(rows, header)

@@ -151,7 +151,8 @@ def summary(doc: dict[str, Any], path: Path) -> None:
     if ex:
         wall = doc.get("wall_time_s") or 0.0
         speed = doc.get("tasks_per_s")
-        say(f"  ran on   {ex['kind']}, {ex['workers']} workers: {doc.get('planned_this_run')} "
+        workers = f"{ex['workers']} worker" + ("" if ex["workers"] == 1 else "s")
+        say(f"  ran on   {ex['kind']}, {workers}: {doc.get('planned_this_run')} "
             f"tasks in {wall:.1f} s" + (f" ({speed:.2f} tasks/s)" if speed else ""))  # fmt: skip
     if doc.get("missing"):
         say(f"  missing  {doc['missing']} tasks (stratplan sweep FILE --out {path} --resume)")

@@ -31,7 +31,7 @@ from .urdf import UrdfSummary, read_urdf
 
 __all__ = ["INSTALL", "SpatialRobot", "SpatialStratum", "SpatialSystem", "load_pinocchio"]
 
-INSTALL = "pip install 'stratplan[spatial]'"
+INSTALL = "pip install 'stratplan[spatial]' (in a source checkout: pip install -e '.[spatial]')"
 ATTITUDE = ("rx", "ry", "rz")
 
 

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from matplotlib.colors import ListedColormap, LogNorm
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from .figure_common import save_figure
 
@@ -157,6 +158,7 @@ def energy_hist(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
         counts[r["status"]] = counts.get(r["status"], 0) + 1
     ax.set_xlabel(f"energy / {label} ({ref:.4g})")
     ax.set_ylabel("tasks")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts are whole tasks
     detail = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
     ax.set_title(f"{_title(spec, rows)}\n{detail}", fontsize=9)
     return fig

@@ -104,7 +104,8 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
         from distributed import Client
     except ImportError:
         raise InputError(
-            "--dask: dask.distributed is not installed (pip install 'stratplan[dask]')"
+            "--dask: dask.distributed is not installed (pip install 'stratplan[dask]'; in a "
+            "source checkout: pip install -e '.[dask]')"
         ) from None
     target = address
     if address.endswith(".json") or Path(address).is_file():  # a scheduler file: its address
