@@ -252,7 +252,7 @@ def test_plan_format_svg_writes_svg_files(tmp_path):
     assert bad.exit_code == 2
 
 
-def _texts(fig) -> list[str]:
+def _annotations(fig) -> list[str]:
     return [t.get_text() for ax in fig.axes for t in ax.texts] + [t.get_text() for t in fig.texts]
 
 
@@ -273,8 +273,8 @@ def test_off_labels_mark_inputs_only_and_limits_show_on_the_configuration(constr
     traj = plan.sample(100)
     configuration = plots.configuration_figure(plan, traj)
     controls = plots.controls_figure(plan, traj)
-    assert not any("off (u = 0)" in t for t in _texts(configuration))
-    assert any("off (u = 0)" in t for t in _texts(controls))
+    assert not any("off (u = 0)" in t for t in _annotations(configuration))
+    assert any("off (u = 0)" in t for t in _annotations(controls))
     dashed = [
         line for ax in configuration.axes for line in ax.get_lines() if line.get_linestyle() == "--"
     ]
