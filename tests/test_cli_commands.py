@@ -60,6 +60,7 @@ def test_time_scaled_plan_is_compared_with_the_paper_at_its_own_speed(tmp_path):
     text = " ".join(result.output.split())
     assert f"at time scale 1: {own:,.2f}; paper: 124.59, ratio {own / 124.59:.2f}" in text
     assert "before time scaling" in text
+    assert f"duration {doc['duration']:.4g} s" in text and doc["duration"] == 1.0  # 2 s / 2
 
 
 def test_json_output_is_the_result_document(tmp_path):

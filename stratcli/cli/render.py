@@ -215,6 +215,8 @@ def plan_summary(doc: dict) -> None:
         jumps = [abs(v) for sw in doc["switches"] for v in sw["jump"].values() if v is not None]
         worst = max(jumps, default=0.0)  # null: a jump that is not a number (a failed leg)
         line += f" · largest control jump at a switch {worst:.1e}"
+    if scale != 1.0 and doc.get("duration") is not None:  # slowed or sped up: its new length
+        line += f" · duration {doc['duration']:.4g} s"
     status = "[green]ok[/]" if doc["status"] == "ok" else "[red]failed[/]"
     out_console.print(f"{line} · status {status}", highlight=False)
     for note in doc.get("notes") or []:
