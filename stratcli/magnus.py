@@ -21,7 +21,7 @@ import numpy as np
 
 from . import so3
 from .controls import FourierBasis
-from .endpoint import _speed_grid
+from .endpoint import _Endpoint, _speed_grid
 
 __all__ = ["MagnusEndpoint", "attitude_path", "residual_on_group"]
 
@@ -76,18 +76,13 @@ class _March:
         return (self.h, self.Phi, self.Psi, self.S_w, self.D, self.x1, self.x2, self.Omega, self.R)
 
 
-class MagnusEndpoint:
+class MagnusEndpoint(_Endpoint):
     """`k(λ)` and `∂k/∂λ` of a spatial leg; `kind = "magnus"`. Interface of `endpoint`'s."""
 
     kind = "magnus"
 
     def __init__(self, cs, q0: np.ndarray, basis: FourierBasis, duration: float):
-        self.cs = cs
-        self.q0 = np.asarray(q0, dtype=float)
-        self.basis = basis
-        self.duration = float(duration)
-        self.m = len(cs.stratum.active)
-        self.size = basis.size
+        super().__init__(cs, q0, basis, duration)
         self.k = cs.k
         self.C = cs.C_explicit
         self.act = cs.act
@@ -106,10 +101,6 @@ class MagnusEndpoint:
         """Spectral norm of the active columns of `S_ω` at the start (one Pinocchio call)."""
         S, _ = self.robot.angular(self.q0[None, : self.k])
         return float(np.linalg.norm(S[0][:, self.act], 2)) if self.act.size else 0.0
-
-    @property
-    def n_coefficients(self) -> int:
-        return self.m * self.size
 
     def steps(self, L: np.ndarray) -> int:
         """Magnus steps: `STEPS_PER_RADIAN` per radian of `T (max Σ|u| + ω_eff)`."""

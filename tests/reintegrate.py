@@ -176,9 +176,14 @@ def verify(task, doc):
         assert leg["energy"] == pytest.approx(again["energy"], rel=1e-6, abs=1e-9)
         previous_end = np.array(leg["end"])
     assert doc["total_energy"] == pytest.approx(sum(r["energy"] for r in replay), rel=1e-6)
+    check_switches(doc)
+
+
+def check_switches(doc: dict) -> None:
+    """Jumps ≤ 1e-9 at every switch where the continuity mode promises continuity: l-modes
+    of the inputs the next leg uses, lr-modes of all inputs (value, and derivative for C1)."""
     order = mode_order(doc["continuity"])
     for sw in doc["switches"]:
-        # l-modes promise continuity of the inputs the next leg uses; lr-modes of all inputs
         nxt = doc["legs"][sw["after_leg"] + 1]["active_inputs"]
         promised = doc["inputs"] if doc["continuity"].startswith("lr") else nxt
         if order >= 0:

@@ -11,11 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from reintegrate import controls
+from reintegrate import check_switches, controls
 from scipy.integrate import solve_ivp
 
 from stratcli import so3
-from stratcli.continuity import mode_order
 
 
 def _quaternion_rate(quat, xi):
@@ -97,11 +96,4 @@ def verify_spatial(doc: dict, robot) -> None:
         assert audit["max_momentum"] < 1e-10 and audit["orthogonality"] < 1e-12
         assert audit["com_drift"] < 1e-6
         previous = np.array(leg["end"])
-    order = mode_order(doc["continuity"])
-    for sw in doc["switches"]:
-        nxt = doc["legs"][sw["after_leg"] + 1]["active_inputs"]
-        promised = doc["inputs"] if doc["continuity"].startswith("lr") else nxt
-        if order >= 0:
-            assert max(abs(sw["jump"][u]) for u in promised) <= 1e-9
-        if order >= 1:
-            assert max(abs(sw["jump_derivative"][u]) for u in promised) <= 1e-9
+    check_switches(doc)

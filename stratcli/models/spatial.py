@@ -121,20 +121,27 @@ class SpatialRobot:
             x[:3] = p
         return x
 
+    def _centroidal_maps(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pinocchio configurations X (K, nq) for joint angles q (K, k) and the centroidal
+        momentum maps there (K, 6, nv)."""
+        model, data = self.model, self.data
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        X = np.repeat(self._neutral[None], q.shape[0], axis=0)
+        X[:, self.iq] = q
+        Ag = np.empty((q.shape[0], 6, model.nv))
+        centroidal_map = self._pin.computeCentroidalMap
+        for i, x in enumerate(X):  # the per-point cost is this loop's own: keep it bare
+            Ag[i] = centroidal_map(model, data, x)
+        return X, Ag
+
     def connection(
         self, q: np.ndarray, u: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray | None]:
         """`S(q)` (K, 6, k) at joint angles q (K, k), and with rates `u` (K, k) also
         `D = ∂(S_ω u)/∂q` (K, 3, k), the angular rows' derivative along the joints."""
         pin, model, data = self._pin, self.model, self.data
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        K = q.shape[0]
-        X = np.repeat(self._neutral[None], K, axis=0)
-        X[:, self.iq] = q
-        Ag = np.empty((K, 6, model.nv))
-        centroidal_map = pin.computeCentroidalMap
-        for i in range(K):  # the per-point cost is mostly this loop's own: keep it bare
-            Ag[i] = centroidal_map(model, data, X[i])
+        X, Ag = self._centroidal_maps(q)
+        K = X.shape[0]
         Ab = Ag[:, :, :6]
         S = -np.linalg.solve(Ab, Ag[:, :, self.iv])
         if u is None:
@@ -166,15 +173,7 @@ class SpatialRobot:
 
     def angular_map(self, q: np.ndarray) -> tuple[np.ndarray, tuple]:
         """`S_ω(q)` (K, 3, k) and what `angular_derivative` needs at the same points."""
-        pin, model, data = self._pin, self.model, self.data
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        K = q.shape[0]
-        X = np.repeat(self._neutral[None], K, axis=0)
-        X[:, self.iq] = q
-        Ag = np.empty((K, 6, model.nv))
-        centroidal_map = pin.computeCentroidalMap
-        for i, x in enumerate(X):  # iterating rows: no index arithmetic per point
-            Ag[i] = centroidal_map(model, data, x)
+        X, Ag = self._centroidal_maps(q)
         inverse = _inverse3(Ag[:, 3:, 3:6])
         return -inverse @ Ag[:, 3:, self.iv], (X, inverse)
 

@@ -69,6 +69,14 @@ def _failed_marks(ax, spec, rows) -> None:
         ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
 
 
+def _finish_map(ax, spec: dict[str, Any], rows: dict[int, dict]) -> None:
+    """What both 2-D maps end with: failed tasks marked, axes named, the sweep's title."""
+    _failed_marks(ax, spec, rows)
+    ax.set_xlabel(spec["keys"][0])
+    ax.set_ylabel(spec["keys"][1])
+    ax.set_title(_title(spec, rows), fontsize=9)
+
+
 def energy_map(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     """Heat map of the energy over a 2-D grid."""
     xs, ys = spec["axes"]
@@ -83,10 +91,7 @@ def energy_map(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     mesh = ax.pcolormesh(_edges(xs), _edges(ys), np.ma.masked_invalid(grid), norm=norm,
                          cmap="viridis", shading="flat")  # fmt: skip
     fig.colorbar(mesh, ax=ax, label="energy ∫|u|² dt")
-    _failed_marks(ax, spec, rows)
-    ax.set_xlabel(spec["keys"][0])
-    ax.set_ylabel(spec["keys"][1])
-    ax.set_title(_title(spec, rows), fontsize=9)
+    _finish_map(ax, spec, rows)
     return fig
 
 
@@ -111,10 +116,7 @@ def sequence_map(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
         ax.scatter([], [], marker="s", s=60, color=colours[i], label=f"({name}): {counts[name]}")
     if names:
         fig.legend(loc="outside right center", fontsize=8, title="best sequence", title_fontsize=8)
-    _failed_marks(ax, spec, rows)
-    ax.set_xlabel(spec["keys"][0])
-    ax.set_ylabel(spec["keys"][1])
-    ax.set_title(_title(spec, rows), fontsize=9)
+    _finish_map(ax, spec, rows)
     return fig
 
 
