@@ -114,14 +114,24 @@ def _edge_normals(poly: np.ndarray) -> np.ndarray:
 def penetration(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Depth of overlap of convex shapes p (..., V, 2) and q (..., W, 2) (points, segments or
     polygons): the shortest translation that separates them, by the separating-axis theorem
-    (axes: the edge normals of both); negative where some axis separates them."""
+    (axes: the edge normals of both, and a segment's own direction); where they are apart,
+    minus the widest gap along those axes (a lower bound of their distance, equal to it
+    unless the closest points are two corners)."""
     lead = np.broadcast_shapes(p.shape[:-2], q.shape[:-2])
     p = np.broadcast_to(p, (*lead, *p.shape[-2:]))
     q = np.broadcast_to(q, (*lead, *q.shape[-2:]))
-    axes = [_edge_normals(s) for s in (p, q) if s.shape[-2] > 1]
+    axes = []
+    for s in (p, q):
+        if s.shape[-2] == 2:  # a segment: its normal and its direction
+            d = s[..., 1, :] - s[..., 0, :]
+            d = d / np.maximum(np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2), 1e-300)[..., None]
+            axes += [np.stack((-d[..., 1], d[..., 0]), axis=-1)[..., None, :], d[..., None, :]]
+        elif s.shape[-2] > 2:
+            axes.append(_edge_normals(s))
     axes = np.concatenate(axes, axis=-2)  # (..., K, 2)
-    pp = np.einsum("...vi,...ki->...kv", p, axes)
-    qq = np.einsum("...vi,...ki->...kv", q, axes)
+    ax, ay = axes[..., :, None, 0], axes[..., :, None, 1]
+    pp = p[..., None, :, 0] * ax + p[..., None, :, 1] * ay  # (..., K, V)
+    qq = q[..., None, :, 0] * ax + q[..., None, :, 1] * ay
     overlap = np.minimum(pp.max(-1) - qq.min(-1), qq.max(-1) - pp.min(-1))
     return overlap.min(-1)
 

@@ -23,12 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .clearance import (
-    signed_point_polygon,
-    signed_polygon_polygon,
-    signed_segment_polygon,
-    signed_segment_segment,
-)
+from .clearance import penetration
 from .models.geometry import world_geometry
 
 __all__ = ["CUSHION", "NODES", "NodeMargins", "searchable"]
@@ -50,37 +45,43 @@ def searchable(constraints) -> bool:
 
 def geometric_margins(robot, q: np.ndarray, c) -> tuple[np.ndarray, list[str]]:
     """Signed clearances (N, P) at configurations q (N, n) less the link radius and the
-    clearance, one column per pair of bodies (the pairs `constraints._clearances` checks), and
+    clearance (separating-axis gaps: exact inside, never above the distance apart, so a
+    plan with positive margins here has them in `constraints.verify` too), one column per
+    pair of bodies (the pairs `constraints._clearances` checks), and
     each column's kind ("self-collision" or "an obstacle")."""
     geo = world_geometry(robot, q)
     a, b, corners, arm = geo["proximal"], geo["distal"], geo["base_corners"], geo["arm_of_link"]
     r, k = c.link_radius, a.shape[1]
+    links = np.stack((a, b), axis=2)  # (N, k, 2, 2)
     cols, kinds = [], []
+
+    def gap(p, q):  # signed: minus the depth of overlap, a lower bound of the distance apart
+        return -penetration(p, q)
+
     if c.self_collision:
         first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
         for i in range(k):
             if i not in first:
-                cols.append(signed_segment_polygon(a[:, i], b[:, i], corners) - r)
+                cols.append(gap(links[:, i], corners) - r)
                 kinds.append("self-collision")
             for j in range(i + 1, k):
                 if arm[j] == arm[i] and j == i + 1:
                     continue
-                cols.append(signed_segment_segment(a[:, i], b[:, i], a[:, j], b[:, j]) - 2 * r)
+                cols.append(gap(links[:, i], links[:, j]) - 2 * r)
                 kinds.append("self-collision")
     for centre, radius in c.circles:
         centre = np.broadcast_to(centre, (len(q), 2))
-        cols.append(signed_point_polygon(centre, corners) - radius)
+        cols.append(gap(centre[:, None, :], corners) - radius)
         kinds.append("an obstacle")
         for i in range(k):
             d = np.linalg.norm(centre - _closest(centre, a[:, i], b[:, i]), axis=-1)
             cols.append(d - r - radius)
             kinds.append("an obstacle")
     for box in c.boxes:
-        box = np.broadcast_to(box, (len(q), 4, 2))
-        cols.append(signed_polygon_polygon(corners, box))
+        cols.append(gap(corners, box[None]))
         kinds.append("an obstacle")
         for i in range(k):
-            cols.append(signed_segment_polygon(a[:, i], b[:, i], box) - r)
+            cols.append(gap(links[:, i], box[None]) - r)
             kinds.append("an obstacle")
     out = np.stack(cols, axis=1) if cols else np.zeros((len(q), 0))
     return out - c.clearance, kinds

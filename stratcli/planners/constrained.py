@@ -40,7 +40,7 @@ FEASIBILITY_ITERATIONS = 60
 DAMPING_MAX = 1e8  # relative Levenberg damping at which the feasibility phase gives up
 ROUNDS = 3  # barrier weights μ0, μ0/10, ...
 BARRIER_START = 1e-2  # μ0 as a fraction of the feasible plan's energy
-ROUND_ITERATIONS = 15
+ROUND_ITERATIONS = 50
 REACH = 0.3  # the barrier ignores margins above this (rad or length unit)
 FRACTION_TO_BOUNDARY = 0.9
 
