@@ -87,6 +87,67 @@ def _self_clearance(robot, q, radius):
     return worst
 
 
+def _inside(p, box):
+    """Points p (N, 2) inside convex polygons box (N, 4, 2)."""
+    side = []
+    for j in range(4):
+        e, r = box[:, (j + 1) % 4] - box[:, j], p - box[:, j]
+        side.append(e[:, 0] * r[:, 1] - e[:, 1] * r[:, 0])
+    side = np.array(side)
+    return np.all(side >= 0, axis=0) | np.all(side <= 0, axis=0)
+
+
+def _to_polygon(a, b, box):
+    """Segments [a, b] to convex polygons (0 where they overlap), from edges and ends."""
+    edges = [(box[:, i], box[:, (i + 1) % 4]) for i in range(4)]
+    d = np.min([_between(a, b, c, e) for c, e in edges], axis=0)
+    return np.where(_inside(a, box) | _inside(b, box), 0.0, d)
+
+
+def _obstacle_clearance(robot, q, radius, circles, boxes):
+    """Smallest distance from any body (capsule links, base rectangle) to the obstacles."""
+    geo = world_geometry(robot, q)
+    a, b, base = geo["proximal"], geo["distal"], geo["base_corners"]
+    worst = np.full(len(q), np.inf)
+    for centre, r in circles:
+        c = np.broadcast_to(np.asarray(centre, float), (len(q), 2))
+        edges = [_segment_distance(c, base[:, i], base[:, (i + 1) % 4]) for i in range(4)]
+        worst = np.minimum(worst, np.where(_inside(c, base), 0.0, np.min(edges, axis=0)) - r)
+        for i in range(a.shape[1]):
+            worst = np.minimum(worst, _segment_distance(c, a[:, i], b[:, i]) - radius - r)
+    for box in boxes:
+        box = np.broadcast_to(box, (len(q), 4, 2))
+        for i in range(a.shape[1]):
+            worst = np.minimum(worst, _to_polygon(a[:, i], b[:, i], box) - radius)
+        for i in range(4):
+            worst = np.minimum(worst, _to_polygon(base[:, i], base[:, (i + 1) % 4], box))
+    return worst
+
+
+@pytest.mark.slow
+def test_the_obstacle_task_is_planned_clear_of_the_obstacles_that_the_free_plan_hits():
+    from stratcli.clearance import box_corners
+
+    task = load_scenario(SCENARIOS / "sim4_task_d_obstacles.toml")
+    spec = tomllib.loads((SCENARIOS / "sim4_task_d_obstacles.toml").read_text())["constraints"]
+    circles = [(o["centre"], o["radius"]) for o in spec["obstacles"] if o["shape"] == "circle"]
+    boxes = [
+        box_corners(o["centre"], o["size"], o["rotation"])
+        for o in spec["obstacles"]
+        if o["shape"] == "box"
+    ]
+    free_task = load_scenario(SCENARIOS / "sim4_task_d.toml")
+    free = plan_run(free_task, check=False)
+    q_free = _dense(free_task, free.document)
+    assert _obstacle_clearance(task.system.robot, q_free, 0.05, circles, boxes).min() < 0
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    verify(task, outcome.document)
+    q = _dense(task, outcome.document)
+    clearance = _obstacle_clearance(task.system.robot, q, 0.05, circles, boxes)
+    assert clearance.min() >= spec["clearance"] - 1e-6
+
+
 def _raw(name: str, **planner) -> dict:
     raw = tomllib.loads((SCENARIOS / name).read_text())
     raw["planner"].update(planner)
