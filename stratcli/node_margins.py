@@ -28,7 +28,8 @@ from .models.geometry import world_geometry
 
 __all__ = ["CUSHION", "NODES", "NodeMargins", "searchable"]
 
-NODES = 128  # per leg (t = 0 is the leg's fixed start and is left out)
+NODES = 128  # per leg at least (t = 0 is the leg's fixed start and is left out)
+NODES_PER_RADIAN = 13  # and at least this many per radian of the top harmonic's phase
 GAUSS = 4  # Gauss points per node interval for the base angle's quadrature
 CUSHION = 2e-3  # margin kept at the nodes, for the samples between them
 FD_STEP = 1e-7  # forward differences of the clearances in the configuration
@@ -92,6 +93,11 @@ def _closest(p, a, b):
     length2 = np.einsum("...i,...i->...", d, d)
     t = np.clip(np.einsum("...i,...i->...", p - a, d) / np.where(length2 > 0, length2, 1), 0, 1)
     return a + t[..., None] * d
+
+
+def _per_phase(ep) -> int:
+    omega = float(ep.basis.omega[-1]) if ep.basis.harmonics else 0.0
+    return int(np.ceil(NODES_PER_RADIAN * omega * ep.duration))
 
 
 class _Leg:
@@ -171,8 +177,11 @@ class NodeMargins:
         k = self.robot.n_joints if self.robot is not None else limited.size
         need_theta = bool(constraints.circles or constraints.boxes or limited[k:].any())
         offsets = problem.offsets
-        if isinstance(nodes, int):
-            nodes = [np.linspace(0.0, ep.duration, nodes)[1:] for ep in problem.endpoints]
+        if isinstance(nodes, int):  # more for fast harmonics: (ω h)² / 8 of their amplitude
+            nodes = [
+                np.linspace(0.0, ep.duration, max(nodes, _per_phase(ep)))[1:]
+                for ep in problem.endpoints
+            ]
         self.legs = [
             _Leg(ep, slice(offsets[i], offsets[i + 1]), t, need_theta)
             for i, (ep, t) in enumerate(zip(problem.endpoints, nodes, strict=True))

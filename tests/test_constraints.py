@@ -101,6 +101,7 @@ def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():
     verify(task, doc)  # the slowed plan still reaches every goal on re-integration
 
 
+@pytest.mark.slow  # the constrained search tries four starts before it gives up
 def test_self_collision_of_a_shipped_plan_is_found_and_fails_the_plan(tmp_path):
     raw = _task_d(self_collision=True, clearance=0.05)
     path = tmp_path / "collides.toml"

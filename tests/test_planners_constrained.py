@@ -180,13 +180,31 @@ def test_a_shipped_plan_that_self_collides_is_planned_clear_with_the_constraints
 
 @pytest.mark.slow
 def test_a_task_the_search_cannot_plan_fails_naming_the_limit_and_the_leg(tmp_path):
-    path = SCENARIOS / "sim4_task_a_constrained.toml"
+    # task A within ±2.5 rad with the paper's 3 harmonics: the S2 leg's loops do not fit
+    raw = tomllib.loads((SCENARIOS / "sim4_task_a_constrained.toml").read_text())
+    del raw["planner"]["basis"]
+    from stratcli.tomlwrite import dumps
+
+    path = tmp_path / "sim4_task_a_h3.toml"
+    path.write_text(dumps(raw))
     result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path), "-q", "--no-animation"])
     assert result.exit_code == 1, result.output
     assert "stalled on leg 2" in result.output and "joint limits of q1" in result.output
     (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
     doc = json.loads((run / "result.json").read_text())
     assert doc["status"] == "failed" and doc["constraints"]["violated"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["a", "b", "c"])
+def test_each_shipped_constrained_sim4_task_keeps_its_limits_on_re_integration(name):
+    task = load_scenario(SCENARIOS / f"sim4_task_{name}_constrained.toml")
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    verify(task, outcome.document)
+    q = _dense(task, outcome.document)
+    assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
+    assert _self_clearance(task.system.robot, q, 0.05).min() >= 0.05 - 1e-6
 
 
 def test_lie_legs_are_refused_with_joint_limits_and_collisions(tmp_path):
