@@ -29,6 +29,7 @@ __all__ = ["plan_sequence", "plan_with_objective", "within_limits"]
 
 SEED_RESTARTS = 2  # Newton restarts allowed for the extra starts of the energy objective
 CONSTRAINED_SEEDS = 3  # further starts of the constrained search when the plan's own stalls
+AUXILIARY_LIMIT = 2.5  # rad: joint limits of the start for self-collision alone
 
 
 def plan_sequence(
@@ -173,6 +174,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         )
     ]
     say("constrained search: moving the plan inside the limits")
+    tried = []  # every start, for `_folding_start`
     coefficients, notes, stalled = None, [], ""
     for k in range(CONSTRAINED_SEEDS + 1):
         if k:  # another start: a Newton plan from a seed, as the energy search's starts
@@ -186,6 +188,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
             seeds = [
                 ("seeded Newton", np.concatenate([g.coefficients.ravel() for g in other.legs]))
             ]
+        tried += seeds
         try:
             coefficients, notes, stalled = constrained_search(
                 system, nominal, legs, settings, targets, seeds, constraints,
@@ -199,6 +202,14 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
             break  # found, or (k = 0) inside the limits already
     if coefficients is None and not stalled:
         return plan  # inside the limits already (then it is also the constrained minimum)
+    if coefficients is None:  # self-collision without joint limits: a start within some
+        found = _folding_start(system, nominal, legs, settings, targets, tried, constraints)
+        if found is not None:
+            say("constrained search: from a plan within auxiliary joint limits")
+            coefficients, notes, _ = constrained_search(
+                system, nominal, legs, settings, targets, found, constraints,
+                lower_energy=settings.objective == "energy", first=False,
+            )  # fmt: skip
     if coefficients is None:
         return replace(plan, message=stalled, notes=(*plan.notes, stalled))
     final = chain_legs(system, start, legs, settings, initial=coefficients)
@@ -206,6 +217,35 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         note = "the constrained plan did not re-chain onto the goals; " + final.message
         return replace(plan, message=note, notes=(*plan.notes, note))
     return replace(final, optimisation=plan.optimisation, notes=(*final.notes, *notes))
+
+
+def _folding_start(system, nominal, legs, settings, targets, seeds, constraints):
+    """A start for self-collision without joint limits: the constrained search with
+    auxiliary joint limits of ±`AUXILIARY_LIMIT` rad added, which keep an arm from folding
+    through the base (the free plans of Sim 4 C and D do; the way out of that overlap leads
+    away from the goals). Its plan is inside the original limits too. None if it does not
+    apply or fails."""
+    robot = getattr(system, "robot", None)
+    if robot is None or not constraints.self_collision:
+        return None
+    joints = np.arange(robot.n_joints)
+    if np.isfinite(constraints.lower[joints]).any() or np.isfinite(constraints.upper[joints]).any():
+        return None
+    if any(np.abs(np.asarray(q)[joints]).max() >= AUXILIARY_LIMIT for q in nominal):
+        return None
+    lower, upper = constraints.lower.copy(), constraints.upper.copy()
+    lower[joints], upper[joints] = -AUXILIARY_LIMIT, AUXILIARY_LIMIT
+    auxiliary = replace(constraints, lower=lower, upper=upper)
+    try:
+        coefficients, _, _ = constrained_search(
+            system, nominal, legs, settings, targets, seeds, auxiliary, lower_energy=False,
+            first=False,
+        )  # fmt: skip
+    except NUMERICAL_ERRORS:
+        return None
+    if coefficients is None:
+        return None
+    return [("joint-limited", np.concatenate([np.ravel(c) for c in coefficients]))]
 
 
 def _exact_hessians(system: System, legs: list[LegSpec], settings: PlannerSettings) -> bool:
