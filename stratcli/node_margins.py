@@ -234,14 +234,24 @@ class NodeMargins:
         if self.geometric:  # every leg in one evaluation, then the differences near contact
             q = np.concatenate([c[0] for c in configurations])
             g_all, kinds = geometric_margins(self.robot, q, self.c)
-            if jacobian:
+            if jacobian:  # differences at nodes near contact, in coordinates that move there
                 slopes = np.zeros((len(self.geo_coords), *g_all.shape))
-                near = np.flatnonzero((g_all < self.reach).any(axis=1))
-                if near.size:
-                    steps = [q[near] + FD_STEP * np.eye(q.shape[1])[c] for c in self.geo_coords]
+                leg_of = np.repeat(np.arange(len(self.legs)), [len(c[0]) for c in configurations])
+                near = (g_all < self.reach).any(axis=1)
+                where = []
+                for cidx in self.geo_coords:
+                    moves = [i for i, leg in enumerate(self.legs) if cidx in leg.moving]
+                    where.append(np.flatnonzero(near & np.isin(leg_of, moves)))
+                steps = [
+                    q[w] + FD_STEP * np.eye(q.shape[1])[c]
+                    for c, w in zip(self.geo_coords, where, strict=True)
+                ]
+                if sum(len(w) for w in where):
                     moved = geometric_margins(self.robot, np.concatenate(steps), self.c)[0]
-                    moved = moved.reshape(len(steps), near.size, -1)
-                    slopes[:, near] = (moved - g_all[near]) / FD_STEP
+                    start = 0
+                    for k, w in enumerate(where):
+                        slopes[k, w] = (moved[start : start + len(w)] - g_all[w]) / FD_STEP
+                        start += len(w)
             row = 0
             for index, (qi, dqz) in enumerate(configurations):
                 rows = slice(row, row + len(qi))
