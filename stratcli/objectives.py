@@ -19,7 +19,7 @@ from .models.system import System
 from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.base import ENERGY_RUNAWAY
-from .planners.constrained import constrained_search
+from .planners.constrained import NotSearchable, constrained_search
 from .planners.energy import optimise_energy
 from .sequence import SequencePlan
 from .settings import PlannerSettings
@@ -194,6 +194,12 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
                 system, nominal, legs, settings, targets, seeds, constraints,
                 lower_energy=settings.objective == "energy", first=k == 0,
             )  # fmt: skip
+        except NotSearchable:
+            note = (
+                "the limits were verified, not searched for: the constrained search needs "
+                "quadrature end-point maps (not spatial or ODE-path legs)"
+            )
+            return replace(plan, notes=(*plan.notes, note))
         except NUMERICAL_ERRORS as exc:
             stalled = (
                 f"the constrained search stopped on a numerical failure ({type(exc).__name__})"

@@ -226,3 +226,13 @@ def test_lie_legs_are_refused_with_joint_limits_and_collisions(tmp_path):
     result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path), "-q"])
     assert result.exit_code == 2 and "Lie leg" in result.output
     assert "Traceback" not in result.output
+
+
+def test_spatial_legs_are_verified_not_searched_and_say_so():
+    raw = tomllib.loads((SCENARIOS / "spatial" / "arm3_reorient.toml").read_text())
+    raw["model"]["path"] = str((SCENARIOS / "spatial" / raw["model"]["path"]).resolve())
+    raw["constraints"] = {"max_rate": 5.0}  # the URDF's joint limits apply
+    outcome = plan_run(load_scenario(raw), check=False)
+    assert outcome.ok, outcome.result.message
+    assert any("verified, not searched for" in note for note in outcome.result.notes)
+    assert all(m.joint_limit >= 0 for m in outcome.result.constraints.legs)

@@ -30,10 +30,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..endpoint import QuadratureEndpoint
 from ..node_margins import CUSHION, NODES, NodeMargins
 from .energy import CURVATURE_FLOOR, STEP_LIMIT, _Descent, _Problem
 
-__all__ = ["constrained_search"]
+__all__ = ["NotSearchable", "constrained_search"]
 
 PUSH = 1e-3  # the feasibility phase ends with every node margin at least this
 FEASIBILITY_ITERATIONS = 60
@@ -43,6 +44,11 @@ BARRIER_START = 1e-2  # μ0 as a fraction of the feasible plan's energy
 ROUND_ITERATIONS = 50
 REACH = 0.3  # the barrier ignores margins above this (rad or length unit)
 FRACTION_TO_BOUNDARY = 0.9
+
+
+class NotSearchable(Exception):
+    """The legs' end-point maps are not quadrature maps (ODE path, spatial models): their
+    joints are not closed-form, and the search does not apply (the limits are verified)."""
 
 
 class _Search(_Descent):
@@ -198,6 +204,8 @@ def constrained_search(
     inside the limits by the barrier method.
     """
     problem = _Problem(system, starts, legs, settings, targets)
+    if not all(isinstance(ep, QuadratureEndpoint) for ep in problem.endpoints):
+        raise NotSearchable
     margins = NodeMargins(problem, system, constraints, reach=REACH + CUSHION)
     stalled = ""
     z = problem.project(seeds[0][1])
