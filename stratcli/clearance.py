@@ -99,7 +99,7 @@ def box_corners(centre, size, rotation: float) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------
-# Signed distances: negative where shapes overlap, with a gradient there too
+# Separating-axis depth: negative where shapes are apart, with a gradient inside too
 # --------------------------------------------------------------------------------------------
 
 
@@ -149,30 +149,3 @@ def _extent(s: np.ndarray, ax: np.ndarray, ay: np.ndarray):
         np.minimum(lo, x, out=lo)
         np.maximum(hi, x, out=hi)
     return lo, hi
-
-
-def signed_segment_polygon(a: np.ndarray, b: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance from segments [a, b] to convex polygons; minus the penetration depth where
-    they overlap (continuous, and not flat inside as `segment_polygon_distance` is)."""
-    depth = penetration(np.stack(np.broadcast_arrays(a, b), axis=-2), poly)
-    return np.where(depth > 0, -depth, segment_polygon_distance(a, b, poly))
-
-
-def signed_segment_segment(a, b, c, d) -> np.ndarray:
-    """Distance between segments; minus the depth of their crossing where they cross."""
-    depth = penetration(
-        np.stack(np.broadcast_arrays(a, b), axis=-2), np.stack(np.broadcast_arrays(c, d), axis=-2)
-    )
-    return np.where(depth > 0, -depth, segment_segment_distance(a, b, c, d))
-
-
-def signed_point_polygon(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance from points to convex polygons; minus the depth inside."""
-    depth = penetration(p[..., None, :], poly)
-    return np.where(depth > 0, -depth, point_polygon_distance(p, poly))
-
-
-def signed_polygon_polygon(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Distance between convex polygons; minus the penetration depth where they overlap."""
-    depth = penetration(p, q)
-    return np.where(depth > 0, -depth, polygon_polygon_distance(p, q))

@@ -3,20 +3,22 @@ derivatives in the coefficients of the stacked energy problem (no I/O).
 
 The constrained search (`planners.constrained`) works in the free coordinates z of the stacked
 problem (`planners.energy._Problem`: λ = λp + N z, the continuity terms eliminated). Along each
-leg, at `NODES` equally spaced times:
+leg, at `NODES` equally spaced times (more for fast harmonics, `NODES_PER_RADIAN`):
 
 * the joints are closed-form integrals of the Fourier controls, affine in λ: their margins to
   the joint limits and the derivatives of those are exact;
 * the base angle θ (needed only for obstacles: self-collision depends on the joints alone) is
   a quadrature of the connection, accumulated over the node intervals with `GAUSS` Gauss
   points each, its derivative by the same quadrature (as `endpoint.QuadratureEndpoint`);
-* the clearances are signed distances (`clearance.signed_*`: minus the penetration depth where
-  bodies overlap, so that a colliding plan still has a direction out), differentiated in the
-  configuration by central differences and chained with the above.
+* the clearances are separating-axis gaps (`clearance.penetration`): minus the depth of
+  overlap where bodies overlap, so that a colliding plan still has a direction out, and a
+  lower bound of the distance where they are apart (so a plan with positive margins here
+  has them in `constraints.verify` too); differentiated in the configuration by forward
+  differences and chained with the above.
 
 Every margin is reduced by `CUSHION` (rad or length unit) so that a plan that keeps every node
 margin positive keeps the dense re-integration's (`constraints.verify`, 2000 samples a leg)
-non-negative between the nodes too.
+non-negative between the nodes too; `NodeMargins.refined` adds nodes where it does not.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""Node margins of the constrained search: values equal the verification's clearances where
-bodies are apart, signed distances keep a gradient where they overlap, and the Jacobian in the
-search's coordinates equals finite differences (joints, self-collision, obstacles via θ)."""
+"""Node margins of the constrained search: the separating-axis gap is a lower bound of the
+distance apart and minus the depth inside, and the Jacobian in the search's coordinates equals
+finite differences (joints, self-collision, obstacles via θ)."""
 
 from __future__ import annotations
 
@@ -13,10 +13,9 @@ import pytest
 from stratcli import load_scenario, plan
 from stratcli.clearance import (
     box_corners,
+    penetration,
     segment_polygon_distance,
     segment_segment_distance,
-    signed_segment_polygon,
-    signed_segment_segment,
 )
 from stratcli.node_margins import NodeMargins
 from stratcli.planners.energy import _Problem
@@ -24,22 +23,26 @@ from stratcli.planners.energy import _Problem
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_signed_distances_equal_the_distances_apart_and_are_negative_inside():
+def test_the_separating_axis_gap_bounds_the_distance_apart_and_is_the_depth_inside():
     rng = np.random.default_rng(3)
-    a, b = rng.normal(size=(2, 500, 2)) * 1.5
-    c, d = rng.normal(size=(2, 500, 2)) * 1.5
-    box = np.broadcast_to(box_corners([0.2, -0.1], [1.0, 0.6], 0.4), (500, 4, 2))
-    for signed, plain in (
-        (signed_segment_polygon(a, b, box), segment_polygon_distance(a, b, box)),
-        (signed_segment_segment(a, b, c, d), segment_segment_distance(a, b, c, d)),
+    a, b = rng.normal(size=(2, 2000, 2)) * 1.5
+    c, d = rng.normal(size=(2, 2000, 2)) * 1.5
+    box = np.broadcast_to(box_corners([0.2, -0.1], [1.0, 0.6], 0.4), (2000, 4, 2))
+    link, other = np.stack((a, b), axis=1), np.stack((c, d), axis=1)
+    for gap, plain in (
+        (-penetration(link, box), segment_polygon_distance(a, b, box)),
+        (-penetration(link, other), segment_segment_distance(a, b, c, d)),
     ):
         apart = plain > 0
-        np.testing.assert_allclose(signed[apart], plain[apart], atol=1e-12)
-        assert np.all(signed[~apart] <= 0) and np.any(signed[~apart] < 0)
-    # inside: a segment through a box's middle must move by half the box to get out
-    depth = signed_segment_polygon(np.array([0.0, -3.0]), np.array([0.0, 3.0]), box[0] * 0 +
-                                   box_corners([0, 0], [2.0, 2.0], 0.0))  # fmt: skip
-    assert depth == pytest.approx(-1.0)
+        # apart: a lower bound of the distance (conservative), positive, and equal to it
+        # unless the closest points are two corners
+        assert np.all(gap[apart] <= plain[apart] + 1e-12) and np.all(gap[apart] > 0)
+        assert np.mean(np.isclose(gap[apart], plain[apart])) > 0.5
+        assert np.all(gap[~apart] <= 1e-12)  # overlapping: minus a depth
+    # a segment through the middle of a 2 x 2 box must move by 1 to get out
+    square = box_corners([0, 0], [2.0, 2.0], 0.0)
+    assert penetration(np.array([[0.0, -3.0], [0.0, 3.0]]), square) == pytest.approx(1.0)
+    assert penetration(np.array([[0.5, -3.0], [0.5, 3.0]]), square) == pytest.approx(0.5)
 
 
 def _problem(raw):
