@@ -25,10 +25,12 @@ FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
 PG_TOL = 1e-10  # relative projected gradient at convergence (the issue asks ≤ 1e-8)
 CURVATURE_FLOOR = 1e-2  # reduced Hessian ≥ this x the energy's own, on the tangent space
 RESTORATION_STEPS = 12
+LOOSE_RESTORATION, RESTORATION_PG = 1e-6, 1e-3  # trial points' goal tolerance, far from minima
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SCREEN_RATIO = 2.0  # drop a start this far above another sequence's minimum (`bound`)
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
+KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
 
@@ -299,6 +301,7 @@ class _Descent:
         self.H0 = problem.H0
         self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
         self.c_tol = min(1e-10, 1e-3 * tol)
+        self.c_now = LOOSE_RESTORATION  # restoration tolerance of the current iteration
         # maps that keep their last evaluation add the Jacobian later at no extra march
         self.eager = not all(hasattr(ep, "jacobian_of_last") for ep in problem.endpoints)
         self.iterations = 0
@@ -313,6 +316,13 @@ class _Descent:
 
     def stop(self, reason: str) -> None:
         self.done, self.reason = True, reason
+        if self.feasible and self.c_now > self.c_tol and reason in KEPT:
+            self.c_now = self.c_tol  # a result: onto the goals to rounding
+            z = self._restore(self.z)
+            if z is None:
+                self.reason = "not restored onto the goals"
+            else:
+                self.z, self.energy = z, self.problem.energy(z)
 
     def _restore(self, z):
         """Back onto the goals: Newton steps of least energy norm, quadratically convergent."""
@@ -320,7 +330,7 @@ class _Descent:
         for _ in range(RESTORATION_STEPS):
             c, J = problem._evaluate(z, self.eager)  # else the Jacobian only if needed
             violation = np.abs(c).max(initial=0.0)
-            if violation <= self.c_tol:
+            if violation <= self.c_now:
                 return z
             if violation > 0.5 * previous:
                 return None  # not converging fast: let the line search shorten the step
@@ -358,6 +368,9 @@ class _Descent:
         pg = np.linalg.norm(reduced) / max(np.linalg.norm(g), 1e-300)
         if pg <= PG_TOL:
             return self.stop("converged")
+        # far from a minimum the trial points need not meet the goals to rounding: the
+        # Lagrangian merit sees violations to first order only, and they shrink with pg
+        self.c_now = max(self.c_tol, min(LOOSE_RESTORATION, RESTORATION_PG * pg))
         if pg < 0.5 * self.best_pg:
             self.best_pg, self.since = pg, 0
         else:
