@@ -59,6 +59,28 @@ def _nodes_for_speed(peak: float, duration: float, basis: FourierBasis) -> int:
     return PANEL * int(np.ceil(need / PANEL))
 
 
+@lru_cache(maxsize=256)
+def _quadrature_tables(basis: FourierBasis, duration: float, K: int) -> tuple:
+    """(t, w, Φ, Ψ, [wΦ; wΨ]) of the K-node rule on [0, duration], shared by every end point
+    with this basis and duration (a plan makes many: each Newton attempt, each start)."""
+    t, w = gauss_legendre(K, duration)
+    Phi, Psi = basis.values(t), basis.integrals(t)
+    out = (t, w, Phi, Psi, np.concatenate([w[:, None] * Phi, w[:, None] * Psi]))
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=64)
+def _pair_products(basis: FourierBasis, duration: float, K: int) -> np.ndarray:
+    """[w Φ⊗Ψ; w Ψ⊗Ψ] of the K-node rule, (2K, size²), shared like `_quadrature_tables`."""
+    _, w, Phi, Psi, _ = _quadrature_tables(basis, duration, K)
+    B = np.concatenate([Phi[:, :, None] * Psi[:, None, :], Psi[:, :, None] * Psi[:, None, :]])
+    out = np.tile(w, 2)[:, None] * B.reshape(2 * K, -1)
+    out.setflags(write=False)
+    return out
+
+
 @lru_cache(maxsize=64)
 def _speed_grid(basis: FourierBasis, duration: float) -> np.ndarray:
     return basis.values(np.linspace(0.0, duration, 97))
@@ -126,10 +148,7 @@ class QuadratureEndpoint(_Endpoint):
         """The rule (t, w), the basis values Φ and integrals Ψ at t, and [wΦ; wΨ] (the
         Jacobian's quadrature in one product) for K nodes."""
         if K not in self._tables:
-            t, w = gauss_legendre(K, self.duration)
-            Phi, Psi = self.basis.values(t), self.basis.integrals(t)
-            weighted = np.concatenate([w[:, None] * Phi, w[:, None] * Psi])
-            self._tables[K] = (t, w, Phi, Psi, weighted)
+            self._tables[K] = _quadrature_tables(self.basis, self.duration, K)
         return self._tables[K]
 
     def _nodes(self, lam: np.ndarray):
@@ -209,11 +228,7 @@ class QuadratureEndpoint(_Endpoint):
     def _products(self, K: int) -> np.ndarray:
         """[w Φ⊗Ψ; w Ψ⊗Ψ] at K nodes, (2K, size²): the Hessian's quadrature of basis pairs."""
         if K not in self._pair_tables:
-            _, w, Phi, Psi, _ = self._table(K)
-            B = np.concatenate(
-                [Phi[:, :, None] * Psi[:, None, :], Psi[:, :, None] * Psi[:, None, :]]
-            )
-            self._pair_tables[K] = np.tile(w, 2)[:, None] * B.reshape(2 * K, -1)
+            self._pair_tables[K] = _pair_products(self.basis, self.duration, K)
         return self._pair_tables[K]
 
     @cached_property

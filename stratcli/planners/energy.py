@@ -269,7 +269,7 @@ def optimise_energy(
                 seeds[k][0],
                 energy,
                 err,
-                problem.projected_gradient(z),
+                run.pg if run.pg_at is z else problem.projected_gradient(z),
                 run.iterations,
                 ok,
                 run.seconds,
@@ -306,6 +306,7 @@ class _Descent:
         self.eager = not all(hasattr(ep, "jacobian_of_last") for ep in problem.endpoints)
         self.iterations = 0
         self.best_pg, self.since = np.inf, 0
+        self.pg, self.pg_at = np.nan, None  # the last projected gradient and its point
         start = self._restore(z)
         self.feasible = start is not None
         self.z = z if start is None else start
@@ -366,6 +367,7 @@ class _Descent:
         Z = Vt[rank:].T
         reduced = Z.T @ g
         pg = np.linalg.norm(reduced) / max(np.linalg.norm(g), 1e-300)
+        self.pg, self.pg_at = float(pg), z  # the record's, if the run ends here
         if pg <= PG_TOL:
             return self.stop("converged")
         # far from a minimum the trial points need not meet the goals to rounding: the
