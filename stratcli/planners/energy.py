@@ -362,7 +362,7 @@ class _Descent:
         self.iterations += 1
         _, J = problem._evaluate(z, True)
         g = problem.energy_grad(z)
-        _, S, Vt = np.linalg.svd(J)
+        U, S, Vt = np.linalg.svd(J)
         rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
         Z = Vt[rank:].T
         reduced = Z.T @ g
@@ -380,7 +380,8 @@ class _Descent:
             if pg <= 1e-6 and self.since >= STALL_ITERATIONS:
                 return self.stop("noise floor")  # the end-point map allows no further progress
 
-        mu = -np.linalg.lstsq(J.T, g, rcond=None)[0]
+        # least-squares multipliers Jᵀμ = -g from the same decomposition
+        mu = -(U[:, :rank] / S[:rank]) @ (Vt[:rank] @ g)
         W = H0 + problem.constraint_hessian(z, mu) if self.exact else H0
         R = Z.T @ W @ Z
         R0 = Z.T @ H0 @ Z
