@@ -25,7 +25,9 @@ FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
 PG_TOL = 1e-10  # relative projected gradient at convergence (the issue asks ≤ 1e-8)
 CURVATURE_FLOOR = 1e-2  # reduced Hessian ≥ this x the energy's own, on the tangent space
 RESTORATION_STEPS = 12
-LOOSE_RESTORATION, RESTORATION_PG = 1e-6, 1e-3  # trial points' goal tolerance, far from minima
+# far from a minimum (projected gradient above LOOSE_ABOVE) iterates meet the goals to
+# LOOSE_RESTORATION only; nearer, and every result, to rounding (`_Descent.c_tol`)
+LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SCREEN_RATIO = 2.0  # drop a start this far above another sequence's minimum (`bound`)
@@ -302,6 +304,7 @@ class _Descent:
         self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
         self.c_tol = min(1e-10, 1e-3 * tol)
         self.c_now = LOOSE_RESTORATION  # restoration tolerance of the current iteration
+        self.z_tol = self.c_now  # ... and the one the current iterate was restored to
         # maps that keep their last evaluation add the Jacobian later at no extra march
         self.eager = not all(hasattr(ep, "jacobian_of_last") for ep in problem.endpoints)
         self.iterations = 0
@@ -317,8 +320,8 @@ class _Descent:
 
     def stop(self, reason: str) -> None:
         self.done, self.reason = True, reason
-        if self.feasible and self.c_now > self.c_tol and reason in KEPT:
-            self.c_now = self.c_tol  # a result: onto the goals to rounding
+        if self.feasible and self.z_tol > self.c_tol and reason in KEPT:
+            self.c_now = self.z_tol = self.c_tol  # a result: onto the goals to rounding
             z = self._restore(self.z)
             if z is None:
                 self.reason = "not restored onto the goals"
@@ -368,11 +371,19 @@ class _Descent:
         reduced = Z.T @ g
         pg = np.linalg.norm(reduced) / max(np.linalg.norm(g), 1e-300)
         self.pg, self.pg_at = float(pg), z  # the record's, if the run ends here
+        # Far from a minimum the iterates need not meet the goals to rounding (the Lagrangian
+        # merit sees a violation to first order only); near one they must, or the decrease
+        # left drowns in it: the iterate itself is then restored again first.
+        self.c_now = LOOSE_RESTORATION if pg > LOOSE_ABOVE else self.c_tol
+        if self.c_now < self.z_tol:
+            self.z_tol = self.c_now
+            tight = self._restore(z)
+            if tight is not None:
+                self.z, self.energy = tight, problem.energy(tight)
+                self.iterations -= 1
+                return self._step()
         if pg <= PG_TOL:
             return self.stop("converged")
-        # far from a minimum the trial points need not meet the goals to rounding: the
-        # Lagrangian merit sees violations to first order only, and they shrink with pg
-        self.c_now = max(self.c_tol, min(LOOSE_RESTORATION, RESTORATION_PG * pg))
         if pg < 0.5 * self.best_pg:
             self.best_pg, self.since = pg, 0
         else:
@@ -415,7 +426,7 @@ class _Descent:
                 # close to the solution a full Newton step is trusted up to rounding
                 allowed = 1e-12 * energy if near else 1e-4 * alpha * slope + 1e-15 * energy
                 if m <= merit + allowed:
-                    self.z, self.energy = trial, e
+                    self.z, self.energy, self.z_tol = trial, e, self.c_now
                     return None
             alpha *= 0.5
         return self.stop("line search")
