@@ -121,6 +121,25 @@ def _apply(D: np.ndarray, C: np.ndarray, select) -> np.ndarray:
     return D @ C if select is None else D[..., select]
 
 
+def _layout(cs) -> tuple:
+    """(E, Q, C, C's selection, C_terms, its selection) of a stratum, kept on it: every Newton
+    attempt and every start makes end points of the same strata.
+
+    C_terms: the rows of C the compiled rows differentiate along (`derivatives_along`, the
+    explicit coordinates that move); closed-form physical connections along all of them."""
+    layout = cs.__dict__.get("_endpoint_layout")
+    if layout is None:
+        C = cs.C_explicit
+        along = getattr(cs, "derivatives_along", None)
+        C_terms = C if along is None else C[list(along)]
+        E, Q = np.array(cs.explicit, dtype=int), np.array(cs.quadrature, dtype=int)
+        for a in (E, Q):
+            a.setflags(write=False)
+        layout = (E, Q, C, _selection(C), C_terms, _selection(C_terms))
+        cs.__dict__["_endpoint_layout"] = layout
+    return layout
+
+
 class QuadratureEndpoint(_Endpoint):
     """Closed-form joints plus one quadrature for the rest; exact Jacobian by quadrature."""
 
@@ -130,15 +149,7 @@ class QuadratureEndpoint(_Endpoint):
         if not cs.supports_quadrature:
             raise ValueError(f"stratum {cs.stratum.name} does not allow the quadrature path")
         super().__init__(cs, q0, basis, duration)
-        self.E = np.array(cs.explicit, dtype=int)
-        self.Q = np.array(cs.quadrature, dtype=int)
-        self.C = cs.C_explicit
-        self._select = _selection(self.C)
-        # compiled rows differentiate only along the explicit coordinates that move (the rows
-        # `derivatives_along` of C); closed-form physical connections along all of them
-        along = getattr(cs, "derivatives_along", None)
-        self._C_terms = self.C if along is None else self.C[list(along)]
-        self._select_terms = _selection(self._C_terms)
+        self.E, self.Q, self.C, self._select, self._C_terms, self._select_terms = _layout(cs)
         self.psi_T = basis.integrals(self.duration)
         self._tables: dict[int, tuple] = {}
         self._pair_tables: dict[int, np.ndarray] = {}
