@@ -97,11 +97,15 @@ def plan_with_objective(
     newton = chain_legs(system, start, legs, settings)
     if settings.objective == "newton" or not newton.ok:
         return newton
-    # Starts: the Newton plan, then Newton plans from more widely perturbed seeded starts
-    # (cheap, feasible, and in different basins: energy varies by orders of magnitude).
+    # Starts: the Newton plan pulled toward least energy (made by the search,
+    # `planners.energy.pulled_start`), the Newton plan itself, then Newton plans from more
+    # widely perturbed seeded starts (feasible, and in different basins).
     seeds = [newton]
-    for k in range(1, settings.starts if _exact_hessians(system, legs, settings) else 1):
-        say(f"energy search: start {k + 1} of {settings.starts} (a Newton plan from a seed)")
+    exact = _exact_hessians(system, legs, settings)
+    if exact:
+        say(f"energy search: start 1 of {settings.starts} (the Newton plan, pulled to low energy)")
+    for k in range(1, settings.starts - 1 if exact else 1):
+        say(f"energy search: start {k + 2} of {settings.starts} (a Newton plan from a seed)")
         other = chain_legs(
             system,
             start,

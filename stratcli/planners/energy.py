@@ -18,7 +18,7 @@ from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
-from .base import ENERGY_RUNAWAY, goal_residual
+from .base import ENERGY_RUNAWAY, damped_gauss_newton, goal_residual
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
@@ -32,6 +32,11 @@ STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy nor
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SCREEN_RATIO = 2.0  # drop a start this far above another sequence's minimum (`bound`)
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
+# The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
+# w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
+# back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
+PULL_WEIGHTS = (0.316, 0.1, 0.0316)
+PULL_ITERATIONS, RESTORE_ITERATIONS, RESTORED = 15, 30, 1e-9
 KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
@@ -227,6 +232,8 @@ def optimise_energy(
     problem = _Problem(system, starts, legs, settings, targets)
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
         seeds = seeds[:1]
+    else:
+        seeds = _with_pulled_start(problem, seeds, settings.starts)
     runs = [_Descent(problem, problem.project(lam), settings.tolerance) for _, lam in seeds]
     found: list[np.ndarray] = []  # minima reached by finished starts
     best = [np.inf]
@@ -285,6 +292,71 @@ def optimise_energy(
             best_index = k
             coefficients = problem.split(problem.coefficients(z))
     return coefficients, Optimisation(tuple(outcomes), best_index, None)
+
+
+def pulled_start(problem: _Problem, z: np.ndarray) -> np.ndarray | None:
+    """A start made from `z` by a quadratic-penalty continuation toward least energy, or None
+    if it cannot be brought back onto the goals.
+
+    Gauss-Newton on the residuals (c(z), w (z - z*)), z* the minimiser of the energy alone
+    (which is |z - z*|² plus a constant in the whitened coordinates), for each weight of
+    PULL_WEIGHTS in turn, then minimum-norm Gauss-Newton steps back onto the goals. The path
+    leaves the goals on the way, which the feasible-point descent never does: from every
+    plain Newton plan of the paper's scenarios it ends in the basin of the lowest minimum
+    that the seeded Newton plans had found, or of a lower one.
+    """
+    target = -0.5 * problem._b
+    eye = np.eye(z.size)
+    for w in PULL_WEIGHTS:
+
+        def pulled(x, jacobian, w=w):
+            c, J = problem._evaluate(x, jacobian)
+            r = np.concatenate([c, w * (x - target)])
+            return -r, (None if J is None else np.vstack([J, w * eye])), None
+
+        z = damped_gauss_newton(
+            pulled,
+            z,
+            tolerance=0.0,
+            max_iterations=PULL_ITERATIONS,
+            mu=1e-3,
+            stall_window=5,
+            diverged=_never,
+        ).z
+
+    def residual(x, jacobian):
+        c, J = problem._evaluate(x, jacobian)
+        return -c, J, None
+
+    back = damped_gauss_newton(
+        residual,
+        z,
+        tolerance=RESTORED,
+        max_iterations=RESTORE_ITERATIONS,
+        mu=1e-2,
+        diverged=_never,
+    )
+    return back.z if back.error <= RESTORED and np.all(np.isfinite(back.z)) else None
+
+
+def _never(payload) -> None:
+    """No divergence check (the payloads of `pulled_start` carry nothing to check)."""
+    return None
+
+
+def _with_pulled_start(problem: _Problem, seeds: list, count: int) -> list:
+    """`seeds` with the pulled start of the first Newton plan before it (`pulled_start`);
+    with a single start wanted (`count` 1) it replaces that plan. Unchanged if there is no
+    Newton plan or its pulled start cannot be made."""
+    k = next((i for i, (kind, _) in enumerate(seeds) if kind == "newton"), None)
+    if k is None:
+        return seeds
+    with np.errstate(all="ignore"):
+        z = pulled_start(problem, problem.project(seeds[k][1]))
+    if z is None:
+        return seeds
+    pulled = ("pulled", problem.coefficients(z))
+    return [*seeds[:k], pulled, *seeds[k + (1 if count <= 1 else 0) :]]
 
 
 class _Descent:
