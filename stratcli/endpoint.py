@@ -48,10 +48,37 @@ def node_count(coefficients: np.ndarray, duration: float, basis: FourierBasis) -
     be large and cancel: the basis is far from orthogonal on a leg shorter than its period).
     """
     u = _speed_grid(basis, float(duration)) @ np.atleast_2d(coefficients).T
-    speed = 1.1 * float(np.abs(u).sum(axis=1).max())
+    return _nodes_for_speed(float(np.abs(u).sum(axis=1).max()), float(duration), basis)
+
+
+def _nodes_for_speed(peak: float, duration: float, basis: FourierBasis) -> int:
+    """`node_count` for controls whose Σ_k |u_k| peaks at `peak` on the grid."""
+    speed = 1.1 * peak
     wiggles = duration * (4.0 * speed + 4.0 * basis.omega[-1] if basis.harmonics else speed)
     need = min(max(MIN_NODES, int(np.ceil(wiggles))), MAX_NODES)
     return PANEL * int(np.ceil(need / PANEL))
+
+
+@lru_cache(maxsize=256)
+def _quadrature_tables(basis: FourierBasis, duration: float, K: int) -> tuple:
+    """(t, w, Φ, Ψ, [wΦ; wΨ]) of the K-node rule on [0, duration], shared by every end point
+    with this basis and duration (a plan makes many: each Newton attempt, each start)."""
+    t, w = gauss_legendre(K, duration)
+    Phi, Psi = basis.values(t), basis.integrals(t)
+    out = (t, w, Phi, Psi, np.concatenate([w[:, None] * Phi, w[:, None] * Psi]))
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=64)
+def _pair_products(basis: FourierBasis, duration: float, K: int) -> np.ndarray:
+    """[w Φ⊗Ψ; w Ψ⊗Ψ] of the K-node rule, (2K, size²), shared like `_quadrature_tables`."""
+    _, w, Phi, Psi, _ = _quadrature_tables(basis, duration, K)
+    B = np.concatenate([Phi[:, :, None] * Psi[:, None, :], Psi[:, :, None] * Psi[:, None, :]])
+    out = np.tile(w, 2)[:, None] * B.reshape(2 * K, -1)
+    out.setflags(write=False)
+    return out
 
 
 @lru_cache(maxsize=64)
@@ -78,6 +105,41 @@ class _Endpoint:
         raise NotImplementedError
 
 
+def _selection(C: np.ndarray):
+    """Column a of C as an index when C only selects (q_j' = u_j, every manipulator: products
+    with C are then gathers), else None; None too when the gather would be the identity."""
+    selects = C.size and np.all((C == 0.0) | (C == 1.0)) and np.all(C.sum(axis=0) == 1.0)
+    if not selects:
+        return None
+    index = C.argmax(axis=0)
+    identity = C.shape[0] == C.shape[1] and np.array_equal(index, np.arange(C.shape[1]))
+    return slice(None) if identity else index
+
+
+def _apply(D: np.ndarray, C: np.ndarray, select) -> np.ndarray:
+    """`D @ C` over the last axis of D, a gather when C only selects (`_selection`)."""
+    return D @ C if select is None else D[..., select]
+
+
+def _layout(cs) -> tuple:
+    """(E, Q, C, C's selection, C_terms, its selection) of a stratum, kept on it: every Newton
+    attempt and every start makes end points of the same strata.
+
+    C_terms: the rows of C the compiled rows differentiate along (`derivatives_along`, the
+    explicit coordinates that move); closed-form physical connections along all of them."""
+    layout = cs.__dict__.get("_endpoint_layout")
+    if layout is None:
+        C = cs.C_explicit
+        along = getattr(cs, "derivatives_along", None)
+        C_terms = C if along is None else C[list(along)]
+        E, Q = np.array(cs.explicit, dtype=int), np.array(cs.quadrature, dtype=int)
+        for a in (E, Q):
+            a.setflags(write=False)
+        layout = (E, Q, C, _selection(C), C_terms, _selection(C_terms))
+        cs.__dict__["_endpoint_layout"] = layout
+    return layout
+
+
 class QuadratureEndpoint(_Endpoint):
     """Closed-form joints plus one quadrature for the rest; exact Jacobian by quadrature."""
 
@@ -87,55 +149,54 @@ class QuadratureEndpoint(_Endpoint):
         if not cs.supports_quadrature:
             raise ValueError(f"stratum {cs.stratum.name} does not allow the quadrature path")
         super().__init__(cs, q0, basis, duration)
-        self.E = np.array(cs.explicit, dtype=int)
-        self.Q = np.array(cs.quadrature, dtype=int)
-        self.C = cs.C_explicit
-        # q_j' = u_j (every manipulator): C only selects, so products with it are gathers
-        C = self.C
-        selects = C.size and np.all((C == 0.0) | (C == 1.0)) and np.all(C.sum(axis=0) == 1.0)
-        self._select = C.argmax(axis=0) if selects else None
+        self.E, self.Q, self.C, self._select, self._C_terms, self._select_terms = _layout(cs)
         self.psi_T = basis.integrals(self.duration)
         self._tables: dict[int, tuple] = {}
+        self._pair_tables: dict[int, np.ndarray] = {}
+        self._grid = _speed_grid(basis, self.duration)  # node_count's, looked up once
 
     def _table(self, K: int):
+        """The rule (t, w), the basis values Φ and integrals Ψ at t, and [wΦ; wΨ] (the
+        Jacobian's quadrature in one product) for K nodes."""
         if K not in self._tables:
-            t, w = gauss_legendre(K, self.duration)
-            self._tables[K] = (t, w, self.basis.values(t), self.basis.integrals(t))
+            self._tables[K] = _quadrature_tables(self.basis, self.duration, K)
         return self._tables[K]
 
     def _nodes(self, lam: np.ndarray):
         """Coefficients (m, size), the quadrature rule and its tables, and the controls u and
         configurations q at the nodes (explicit coordinates in closed form)."""
         L = np.asarray(lam, dtype=float).reshape(self.m, self.size)
-        t, w, Phi, Psi = self._table(node_count(L, self.duration, self.basis))
+        peak = float(np.abs(self._grid @ L.T).sum(axis=1).max())  # node_count, inlined
+        t, w, Phi, Psi, _ = self._table(_nodes_for_speed(peak, self.duration, self.basis))
         q = np.empty((t.size, self.q0.size))
         q[:, self.E] = self.q0[self.E] + Psi @ (L.T @ self.C.T)
         q[:, self.Q] = self.q0[self.Q]
         return L, w, Phi, Psi, Phi @ L.T, q
 
     def __call__(self, lam: np.ndarray, jacobian: bool = True):
-        L, w, Phi, Psi, u, q = self._nodes(lam)
+        L, w, _, _, u, q = self._nodes(lam)
         end = self.q0.copy()
         end[self.E] += self.C @ (L @ self.psi_T)
         if self.Q.size == 0:
             return (end, self._J_explicit.copy()) if jacobian else (end, None)
         if jacobian and hasattr(self.cs, "quadrature_jacobian"):  # physical models
             GQ, Du = self.cs.quadrature_jacobian(q, u[:, None, :])  # Du: (K, nQ, nE)
+            D = _apply(Du, self.C, self._select)  # (K, nQ, m)
         else:
             terms = self.cs.quadrature_terms(q, 1 if jacobian else 0)
             GQ = terms[0]  # (K, nQ, m)
             if jacobian:
-                Du = (u[:, None, None, :] @ terms[1])[:, :, 0, :]
+                Du = np.einsum("km,kimd->kid", u, terms[1])  # Σ_a u_a ∂G_ia/∂q_d
+                D = _apply(Du, self._C_terms, self._select_terms)
         end[self.Q] += w @ (GQ @ u[:, :, None])[..., 0]
         if not jacobian:
             return end, None
         J = self._J_explicit.copy()
-        # ∂(G u)/∂λ: directly through u (basis values Φ) and through q_E (basis integrals Ψ)
-        D = Du @ self.C if self._select is None else Du[..., self._select]  # (K, nQ, m)
+        # ∂(G u)/∂λ: directly through u (basis values Φ) and through q_E (basis integrals Ψ),
+        # both quadratures in one product with [wΦ; wΨ]
         K = w.size
-        JQ = (GQ * w[:, None, None]).reshape(K, -1).T @ Phi
-        JQ += (D * w[:, None, None]).reshape(K, -1).T @ Psi  # (nQ * m, size)
-        J[self.Q] = JQ.reshape(self.Q.size, -1)
+        JQ = np.concatenate([GQ.reshape(K, -1), D.reshape(K, -1)]).T @ self._tables[K][4]
+        J[self.Q] = JQ.reshape(self.Q.size, -1)  # (nQ, m * size)
         return end, J
 
     def hessian(self, lam: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -148,28 +209,38 @@ class QuadratureEndpoint(_Endpoint):
         omega = np.asarray(weights, dtype=float)[self.Q]
         if self.Q.size == 0 or not np.any(omega):
             return np.zeros((p, p))
-        _, w, Phi, Psi, u, q = self._nodes(lam)
-        K, m, s, nE = w.size, self.m, self.size, self.E.size
+        _, w, _, _, u, q = self._nodes(lam)
+        K, m, s = w.size, self.m, self.size
         if hasattr(self.cs, "quadrature_hessian"):  # the contraction only (physical models)
             dGQ, D2 = self.cs.quadrature_hessian(q, omega[None, :, None] * u[:, None, :])
+            C, sel = self.C, self._select
         else:
             _, dGQ, ddGQ = self.cs.quadrature_terms(q, 2)
-            D2 = u[:, None, :] @ np.tensordot(ddGQ, omega, axes=(1, 0)).reshape(K, m, nE * nE)
-        D1 = np.tensordot(dGQ, omega, axes=(1, 0))  # (K, m, nE)
+            nd = dGQ.shape[-1]  # the coordinates it differentiates along
+            D2 = u[:, None, :] @ (omega @ ddGQ.reshape(K, omega.size, -1)).reshape(K, m, nd * nd)
+            C, sel = self._C_terms, self._select_terms
+        nE = dGQ.shape[-1]
+        D1 = (omega @ dGQ.reshape(K, omega.size, -1)).reshape(K, m, nE)  # Σ_i ω_i ∂G_i/∂q
         D2 = D2.reshape(K, nE, nE)
-        if self._select is None:  # W1: ∂G_a/∂q · ∂q/∂λ_a', W2: C'ᵀ ∂²G C', both (K, m, m)
-            W1, W2 = D1 @ self.C, self.C.T @ D2 @ self.C
+        # W1: ∂G_a/∂q · ∂q/∂λ_a', W2: C'ᵀ ∂²G C', both (K, m, m)
+        if sel is None:
+            W1, W2 = D1 @ C, C.T @ D2 @ C
+        elif isinstance(sel, slice):
+            W1, W2 = D1, D2
         else:
-            sel = self._select
             W1, W2 = D1[..., sel], D2[:, sel[:, None], sel[None, :]]
-        W1, W2 = W1 * w[:, None, None], W2 * w[:, None, None]
-        # H[a,b,c,d] = Σ_k W1[k,a,c] Φ[k,b] Ψ[k,d] (+ transpose) + Σ_k W2[k,a,c] Ψ[k,b] Ψ[k,d]:
+        # H[a,b,c,d] = Σ_k w_k (W1[k,a,c] Φ[k,b] Ψ[k,d] (+ transpose) + W2[k,a,c] Ψ[k,b] Ψ[k,d]):
         # one product (m², 2K) @ (2K, s²), which is cheaper than forming (K, m, s, m) arrays
         W = np.concatenate([W1, 0.5 * W2]).reshape(2 * K, m * m)
-        B = np.concatenate([Phi[:, :, None] * Psi[:, None, :], Psi[:, :, None] * Psi[:, None, :]])
-        H = (W.T @ B.reshape(2 * K, s * s)).reshape(m, m, s, s).transpose(0, 2, 1, 3)
+        H = (W.T @ self._products(K)).reshape(m, m, s, s).transpose(0, 2, 1, 3)
         H = H + H.transpose(2, 3, 0, 1)
         return H.reshape(p, p)
+
+    def _products(self, K: int) -> np.ndarray:
+        """[w Φ⊗Ψ; w Ψ⊗Ψ] at K nodes, (2K, size²): the Hessian's quadrature of basis pairs."""
+        if K not in self._pair_tables:
+            self._pair_tables[K] = _pair_products(self.basis, self.duration, K)
+        return self._pair_tables[K]
 
     @cached_property
     def _J_explicit(self) -> np.ndarray:

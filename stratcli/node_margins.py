@@ -142,13 +142,15 @@ class _Leg:
             u = self.Phi_g @ L.T  # (K, m)
             if hasattr(ep.cs, "quadrature_jacobian"):
                 GQ, Du = ep.cs.quadrature_jacobian(qg, u[:, None, :])
-            else:
+                C = ep.C
+            else:  # compiled rows: derivatives along the moving joints only (`_C_terms`)
                 terms = ep.cs.quadrature_terms(qg, 1)
                 GQ, Du = terms[0], (u[:, None, None, :] @ terms[1])[:, :, 0, :]
+                C = ep._C_terms
             f = (GQ @ u[:, :, None])[..., 0] * self.wg[:, None]  # (K, nQ)
             q[:, ep.Q] += np.cumsum(f.reshape(N, GAUSS, -1).sum(axis=1), axis=0)
             if jacobian:
-                D = Du @ ep.C  # (K, nQ, m)
+                D = Du @ C  # (K, nQ, m)
                 g = (GQ * self.wg[:, None, None])[..., None] * self.Phi_g[:, None, None, :]
                 g += (D * self.wg[:, None, None])[..., None] * self.Psi_g[:, None, None, :]
                 g = g.reshape(N, GAUSS, ep.Q.size, -1).sum(axis=1)

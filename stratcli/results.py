@@ -171,7 +171,8 @@ class StartOutcome:
     """One start of the energy objective's multi-start search, as in result.json."""
 
     index: int
-    kind: str  # where the start came from: "newton" (a seeded Newton plan) or "warm start"
+    kind: str  # where the start came from: "pulled" (the Newton plan pulled toward least
+    # energy), "newton" (a Newton plan, seeded or not) or "warm start"
     energy: float
     goal_error: float
     projected_gradient: float

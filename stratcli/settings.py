@@ -82,7 +82,8 @@ class PlannerSettings:
         "ode".
     objective : "energy" (minimum ∫|u|² over all legs, beyond the paper) or "newton" (the
         paper's method, leg by leg).
-    starts : deterministic starts of the energy search.
+    starts : deterministic starts of the energy search: the Newton plan pulled toward least
+        energy, the Newton plan, then Newton plans from seeded starts.
     time_scale : run the planned path this many times faster after planning (paper §6).
     lie : defaults of the legs planned with the Lie-algebraic method.
     durations : "fixed" (each leg's own duration) or "optimise": the energy objective also
@@ -101,7 +102,7 @@ class PlannerSettings:
     seed: Annotated[Int, Field(ge=0, lt=2**63)] = 0
     evaluator: Literal["auto", "quadrature", "ode"] = "auto"
     objective: Literal["energy", "newton"] = "energy"
-    starts: Annotated[Int, Field(ge=1, le=64)] = 6
+    starts: Annotated[Int, Field(ge=1, le=64)] = 2
     time_scale: Annotated[Float, Field(ge=1.0 / MAX_TIME_SCALE, le=MAX_TIME_SCALE)] = 1.0
     lie: LieSettings = LieSettings()
     durations: Literal["fixed", "optimise"] = "fixed"

@@ -125,3 +125,43 @@ def test_evaluator_is_chosen_from_structure():
         parse_scenario(
             NON_QUADRATURE.replace("[[legs]]", '[planner]\nevaluator = "quadrature"\n[[legs]]')
         )
+
+
+LOCKED_AND_MIXED = """
+name = "m"
+[model]
+kind = "custom"
+states = ["x", "a", "b"]
+inputs = ["u1", "u2"]
+fields = {{ u1 = ["cos(a) + sin(b)", {c1}, 0], u2 = ["sin(a) * cos(b)", 1, 0] }}
+strata = [{{ name = "A", active = ["u1", "u2"] }}]
+[task]
+start = [0, 0, 0.4]
+goal = [0.5, 0.2, 0.4]
+[[legs]]
+stratum = "A"
+"""
+
+
+@pytest.mark.parametrize("c1", [1, 2])  # a' = u1 + u2 (C selects), a' = 2 u1 + u2 (it does not)
+def test_derivatives_of_a_stratum_with_an_unmoved_explicit_coordinate(c1):
+    """b has a constant (zero) row: explicit but never moved, so the compiled rows are not
+    differentiated along it; the Jacobian and Hessian still equal finite differences."""
+    cs = parse_scenario(LOCKED_AND_MIXED.format(c1=c1)).system.compiled("A")
+    assert cs.explicit == (1, 2) and cs.derivatives_along == (0,)
+    ep = QuadratureEndpoint(cs, np.array([0.1, -0.3, 0.4]), BASIS, 1.1)
+    rng = np.random.default_rng(c1)
+    lam = rng.normal(0, 1.5, ep.n_coefficients)
+    h = 1e-6
+    steps = np.eye(lam.size)
+    fd = np.column_stack(
+        [(ep(lam + h * e, False)[0] - ep(lam - h * e, False)[0]) / (2 * h) for e in steps]
+    )
+    np.testing.assert_allclose(ep(lam)[1], fd, atol=1e-7)
+    weights = np.array([0.7, 0.0, 0.0])
+    H = ep.hessian(lam, weights)
+    fd2 = np.column_stack(
+        [weights @ (ep(lam + h * e)[1] - ep(lam - h * e)[1]) / (2 * h) for e in steps]
+    )
+    np.testing.assert_allclose(H, fd2, atol=1e-6 * max(1.0, np.abs(H).max()))
+    assert np.abs(H).max() > 1e-3

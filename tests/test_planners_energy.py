@@ -82,3 +82,24 @@ def test_a_start_far_above_the_first_is_abandoned_as_diverged(task_d, monkeypatc
     costlier = [s for s in starts[1:] if s.energy > starts[0].energy * (1 + 1e-6)]
     assert costlier and all(s.stopped == "diverged" and s.iterations == 0 for s in costlier)
     assert again.total_energy == pytest.approx(optimal.total_energy, rel=1e-9)
+
+
+def test_the_first_start_is_the_newton_plan_pulled_toward_least_energy(task_d):
+    """By default the search starts from the Newton plan pulled toward least energy and from
+    the Newton plan itself; the pulled start meets the goals and costs no more."""
+    _, newton, optimal = task_d
+    pulled, plain = optimal.optimisation.starts
+    assert (pulled.kind, plain.kind) == ("pulled", "newton")
+    assert pulled.converged and pulled.goal_error <= 1e-9
+    assert pulled.energy <= plain.energy * (1 + 1e-9) < newton.total_energy
+
+
+def test_a_single_start_is_the_pulled_one_and_extra_starts_are_seeded_newton_plans(task_d):
+    task, _, optimal = task_d
+    one = plan_sequence(task.system, task.start, task.legs, replace(task.settings, starts=1))
+    assert [s.kind for s in one.optimisation.starts] == ["pulled"]
+    assert one.total_energy == pytest.approx(optimal.total_energy, rel=1e-9)
+    four = plan_sequence(task.system, task.start, task.legs, replace(task.settings, starts=4))
+    kinds = [s.kind for s in four.optimisation.starts]
+    assert kinds == ["pulled", "newton", "newton", "newton"]
+    assert four.total_energy <= optimal.total_energy * (1 + 1e-9)

@@ -95,7 +95,8 @@ def _derivatives(exprs: list[sp.Expr], symbols: list[sp.Symbol]) -> list[sp.Expr
 
 class _FusedRows:
     """The quadrature rows `G_Q(q)` and their first and second derivatives along the explicit
-    coordinates, each order one numpy function with common subexpressions shared (DESIGN §1).
+    coordinates `explicit` (the stratum's moving ones), each order one numpy function with
+    common subexpressions shared (DESIGN §1).
 
     On the few hundred quadrature nodes of a leg the cost is the number of numpy operations,
     not the array length, so fusing the derivatives with the rows (and stacking rather than
@@ -184,6 +185,9 @@ class CompiledStratum:
     explicit: tuple[int, ...] = field(init=False)
     quadrature: tuple[int, ...] = field(init=False)
     C_explicit: np.ndarray = field(init=False)  # |E| x m_active constant rows
+    # rows of `explicit` that `quadrature_terms` differentiates along: those an active input
+    # moves (a locked joint stays where it is, so derivatives along it are never needed)
+    derivatives_along: tuple[int, ...] = field(init=False)
     quadrature_terms: _FusedRows | None = field(init=False)  # None: no quadrature path
     _key: str = field(init=False, repr=False)  # of the disk cache (codecache)
     _entry: dict = field(init=False, repr=False)  # what the cache holds of this stratum
@@ -205,6 +209,7 @@ class CompiledStratum:
             explicit=self.explicit,
             quadrature=self.quadrature,
             C_explicit=self.C_explicit.tolist(),
+            along=self.derivatives_along,
             rows=rows,
             sizes=self.quadrature_terms._sizes if self.quadrature_terms else None,
         )
@@ -219,6 +224,7 @@ class CompiledStratum:
         self.quadrature = tuple(entry["quadrature"])
         m = len(self.stratum.active)
         self.C_explicit = np.array(entry["C_explicit"], dtype=float).reshape(len(self.explicit), m)
+        self.derivatives_along = tuple(entry["along"])
         self.quadrature_terms = None
         if entry["sizes"] is not None:
             self.quadrature_terms = _FusedRows.restored(entry["sizes"], entry["rows"])
@@ -239,10 +245,14 @@ class CompiledStratum:
         self.C_explicit = np.array(
             [[float(G[i, j]) for j in range(m)] for i in explicit], dtype=float
         ).reshape(len(explicit), m)
+        self.derivatives_along = tuple(
+            r for r in range(len(explicit)) if np.any(self.C_explicit[r] != 0.0)
+        )
         self.quadrature_terms = None
         if all(depends[i] <= explicit_syms for i in quad):
             rows = G.extract(list(quad), list(range(m)))
-            self.quadrature_terms = _FusedRows(rows, q, explicit)
+            along = tuple(explicit[r] for r in self.derivatives_along)
+            self.quadrature_terms = _FusedRows(rows, q, along)
             self.quadrature_terms.compile(2)
         else:
             _ = self.G, self.dG  # the ODE path is the only one: compile now

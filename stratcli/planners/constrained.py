@@ -54,6 +54,8 @@ class NotSearchable(Exception):
 class _Search(_Descent):
     """One start of the constrained search: restoration and bookkeeping from `_Descent`."""
 
+    loose = False  # its own steps: every restoration to rounding
+
     def __init__(self, problem: _Problem, margins: NodeMargins, z: np.ndarray, tol: float):
         super().__init__(problem, z, tol)
         self.margins = margins

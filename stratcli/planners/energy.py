@@ -18,17 +18,26 @@ from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
-from .base import ENERGY_RUNAWAY, goal_residual
+from .base import ENERGY_RUNAWAY, damped_gauss_newton, goal_residual
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
 PG_TOL = 1e-10  # relative projected gradient at convergence (the issue asks ≤ 1e-8)
 CURVATURE_FLOOR = 1e-2  # reduced Hessian ≥ this x the energy's own, on the tangent space
 RESTORATION_STEPS = 12
+# far from a minimum (projected gradient above LOOSE_ABOVE) iterates meet the goals to
+# LOOSE_RESTORATION only; nearer, and every result, to rounding (`_Descent.c_tol`)
+LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SCREEN_RATIO = 2.0  # drop a start this far above another sequence's minimum (`bound`)
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
+# The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
+# w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
+# back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
+PULL_WEIGHTS = (0.316, 0.1, 0.0316)
+PULL_ITERATIONS, RESTORE_ITERATIONS, RESTORED = 15, 30, 1e-9
+KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
 
@@ -223,6 +232,8 @@ def optimise_energy(
     problem = _Problem(system, starts, legs, settings, targets)
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
         seeds = seeds[:1]
+    else:
+        seeds = _with_pulled_start(problem, seeds, settings.starts)
     runs = [_Descent(problem, problem.project(lam), settings.tolerance) for _, lam in seeds]
     found: list[np.ndarray] = []  # minima reached by finished starts
     best = [np.inf]
@@ -267,7 +278,7 @@ def optimise_energy(
                 seeds[k][0],
                 energy,
                 err,
-                problem.projected_gradient(z),
+                run.pg if run.pg_at is z else problem.projected_gradient(z),
                 run.iterations,
                 ok,
                 run.seconds,
@@ -281,6 +292,71 @@ def optimise_energy(
             best_index = k
             coefficients = problem.split(problem.coefficients(z))
     return coefficients, Optimisation(tuple(outcomes), best_index, None)
+
+
+def pulled_start(problem: _Problem, z: np.ndarray) -> np.ndarray | None:
+    """A start made from `z` by a quadratic-penalty continuation toward least energy, or None
+    if it cannot be brought back onto the goals.
+
+    Gauss-Newton on the residuals (c(z), w (z - z*)), z* the minimiser of the energy alone
+    (which is |z - z*|² plus a constant in the whitened coordinates), for each weight of
+    PULL_WEIGHTS in turn, then minimum-norm Gauss-Newton steps back onto the goals. The path
+    leaves the goals on the way, which the feasible-point descent never does: from every
+    plain Newton plan of the paper's scenarios it ends in the basin of the lowest minimum
+    that the seeded Newton plans had found, or of a lower one.
+    """
+    target = -0.5 * problem._b
+    eye = np.eye(z.size)
+    for w in PULL_WEIGHTS:
+
+        def pulled(x, jacobian, w=w):
+            c, J = problem._evaluate(x, jacobian)
+            r = np.concatenate([c, w * (x - target)])
+            return -r, (None if J is None else np.vstack([J, w * eye])), None
+
+        z = damped_gauss_newton(
+            pulled,
+            z,
+            tolerance=0.0,
+            max_iterations=PULL_ITERATIONS,
+            mu=1e-3,
+            stall_window=5,
+            diverged=_never,
+        ).z
+
+    def residual(x, jacobian):
+        c, J = problem._evaluate(x, jacobian)
+        return -c, J, None
+
+    back = damped_gauss_newton(
+        residual,
+        z,
+        tolerance=RESTORED,
+        max_iterations=RESTORE_ITERATIONS,
+        mu=1e-2,
+        diverged=_never,
+    )
+    return back.z if back.error <= RESTORED and np.all(np.isfinite(back.z)) else None
+
+
+def _never(payload) -> None:
+    """No divergence check (the payloads of `pulled_start` carry nothing to check)."""
+    return None
+
+
+def _with_pulled_start(problem: _Problem, seeds: list, count: int) -> list:
+    """`seeds` with the pulled start of the first Newton plan before it (`pulled_start`);
+    with a single start wanted (`count` 1) it replaces that plan. Unchanged if there is no
+    Newton plan or its pulled start cannot be made."""
+    k = next((i for i, (kind, _) in enumerate(seeds) if kind == "newton"), None)
+    if k is None:
+        return seeds
+    with np.errstate(all="ignore"):
+        z = pulled_start(problem, problem.project(seeds[k][1]))
+    if z is None:
+        return seeds
+    pulled = ("pulled", problem.coefficients(z))
+    return [*seeds[:k], pulled, *seeds[k + (1 if count <= 1 else 0) :]]
 
 
 class _Descent:
@@ -299,10 +375,13 @@ class _Descent:
         self.H0 = problem.H0
         self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
         self.c_tol = min(1e-10, 1e-3 * tol)
+        self.c_now = LOOSE_RESTORATION  # restoration tolerance of the current iteration
+        self.z_tol = self.c_now  # ... and the one the current iterate was restored to
         # maps that keep their last evaluation add the Jacobian later at no extra march
         self.eager = not all(hasattr(ep, "jacobian_of_last") for ep in problem.endpoints)
         self.iterations = 0
         self.best_pg, self.since = np.inf, 0
+        self.pg, self.pg_at = np.nan, None  # the last projected gradient and its point
         start = self._restore(z)
         self.feasible = start is not None
         self.z = z if start is None else start
@@ -313,6 +392,13 @@ class _Descent:
 
     def stop(self, reason: str) -> None:
         self.done, self.reason = True, reason
+        if self.feasible and self.z_tol > self.c_tol and reason in KEPT:
+            self.c_now = self.z_tol = self.c_tol  # a result: onto the goals to rounding
+            z = self._restore(self.z)
+            if z is None:
+                self.reason = "not restored onto the goals"
+            else:
+                self.z, self.energy = z, self.problem.energy(z)
 
     def _restore(self, z):
         """Back onto the goals: Newton steps of least energy norm, quadratically convergent."""
@@ -320,7 +406,7 @@ class _Descent:
         for _ in range(RESTORATION_STEPS):
             c, J = problem._evaluate(z, self.eager)  # else the Jacobian only if needed
             violation = np.abs(c).max(initial=0.0)
-            if violation <= self.c_tol:
+            if violation <= self.c_now:
                 return z
             if violation > 0.5 * previous:
                 return None  # not converging fast: let the line search shorten the step
@@ -351,11 +437,23 @@ class _Descent:
         self.iterations += 1
         _, J = problem._evaluate(z, True)
         g = problem.energy_grad(z)
-        _, S, Vt = np.linalg.svd(J)
+        U, S, Vt = np.linalg.svd(J)
         rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
         Z = Vt[rank:].T
         reduced = Z.T @ g
         pg = np.linalg.norm(reduced) / max(np.linalg.norm(g), 1e-300)
+        self.pg, self.pg_at = float(pg), z  # the record's, if the run ends here
+        # Far from a minimum the iterates need not meet the goals to rounding (the Lagrangian
+        # merit sees a violation to first order only); near one they must, or the decrease
+        # left drowns in it: the iterate itself is then restored again first.
+        self.c_now = LOOSE_RESTORATION if pg > LOOSE_ABOVE else self.c_tol
+        if self.c_now < self.z_tol:
+            self.z_tol = self.c_now
+            tight = self._restore(z)
+            if tight is not None:
+                self.z, self.energy = tight, problem.energy(tight)
+                self.iterations -= 1
+                return self._step()
         if pg <= PG_TOL:
             return self.stop("converged")
         if pg < 0.5 * self.best_pg:
@@ -365,7 +463,8 @@ class _Descent:
             if pg <= 1e-6 and self.since >= STALL_ITERATIONS:
                 return self.stop("noise floor")  # the end-point map allows no further progress
 
-        mu = -np.linalg.lstsq(J.T, g, rcond=None)[0]
+        # least-squares multipliers Jᵀμ = -g from the same decomposition
+        mu = -(U[:, :rank] / S[:rank]) @ (Vt[:rank] @ g)
         W = H0 + problem.constraint_hessian(z, mu) if self.exact else H0
         R = Z.T @ W @ Z
         R0 = Z.T @ H0 @ Z
@@ -399,7 +498,7 @@ class _Descent:
                 # close to the solution a full Newton step is trusted up to rounding
                 allowed = 1e-12 * energy if near else 1e-4 * alpha * slope + 1e-15 * energy
                 if m <= merit + allowed:
-                    self.z, self.energy = trial, e
+                    self.z, self.energy, self.z_tol = trial, e, self.c_now
                     return None
             alpha *= 0.5
         return self.stop("line search")

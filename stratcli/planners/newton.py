@@ -70,6 +70,9 @@ class NewtonPlanner(LegPlanner):
     continuation : bool or None
         Follow a homotopy when every attempt failed; default: unless `seed` is given (the
         energy objective's extra starts stay cheap and behave as before).
+    budget : int or None
+        Newton iterations allowed over all attempts of a leg (the energy objective's extra
+        starts: a seed that needs more is dropped); default: no limit.
     """
 
     method = "newton"
@@ -87,8 +90,10 @@ class NewtonPlanner(LegPlanner):
         spread: float = 0.02,
         seed: int | None = None,
         continuation: bool | None = None,
+        budget: int | None = None,
     ):
         self.max_iterations = max_iterations
+        self.budget = budget
         self.restarts = restarts
         self.spread = spread
         self.seed = seed
@@ -145,11 +150,12 @@ class NewtonPlanner(LegPlanner):
             z0 = z_line + rng.normal(0.0, spread, elimination.free)
             if attempt == 0 and problem.initial is not None:
                 z0 = elimination.project(np.asarray(problem.initial, dtype=float))
+            left = self.max_iterations if self.budget is None else self.budget - total
             result = damped_gauss_newton(
                 evaluate,
                 z0,
                 tolerance=problem.tolerance,
-                max_iterations=self.max_iterations,
+                max_iterations=min(self.max_iterations, left),
                 mu=DAMPING[mu0],
                 stall_window=STALL_WINDOW,
                 stall_ratio=STALL_RATIO,
@@ -163,6 +169,8 @@ class NewtonPlanner(LegPlanner):
             broken = broken + 1 if not np.isfinite(result.error) else 0
             if broken >= BROKEN_STARTS:
                 break  # the model cannot even be evaluated here: more starts will not help
+            if self.budget is not None and total >= self.budget:
+                break  # the iterations allowed are spent: a seed this costly is dropped
         strategy = "newton"
         # The homotopy solves many legs' worth of Newton problems: affordable with the
         # quadrature end point (all space manipulators), not on the general ODE path, where
