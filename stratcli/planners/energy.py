@@ -369,13 +369,17 @@ class _Descent:
     Newton steps of the reduced problem: a handful of iterations, each a few endpoint calls.
     """
 
+    loose = True  # restore loosely far from a minimum (`_step`)
+
     def __init__(self, problem: _Problem, z: np.ndarray, tol: float):
         clock = time.perf_counter()
         self.problem = problem
         self.H0 = problem.H0
         self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
         self.c_tol = min(1e-10, 1e-3 * tol)
-        self.c_now = LOOSE_RESTORATION  # restoration tolerance of the current iteration
+        # restoration tolerance of the current iteration (loose only for this class's own
+        # steps, `_step`; subclasses that take other steps restore to rounding throughout)
+        self.c_now = LOOSE_RESTORATION if self.loose else self.c_tol
         self.z_tol = self.c_now  # ... and the one the current iterate was restored to
         # maps that keep their last evaluation add the Jacobian later at no extra march
         self.eager = not all(hasattr(ep, "jacobian_of_last") for ep in problem.endpoints)
