@@ -14,14 +14,21 @@ distinct legs), so the bounds cost one small energy search per distinct leg, sha
 candidates. At equal total duration (`compare`) the bound scales like the energy:
 `bound · duration / T`.
 
-Branch and bound: candidates are fully searched (`plan_sequence`, the energy objective as
-configured, the same search as the exhaustive comparison's) in the order of their bounds,
-each unless its bound is not below the best value found before it (the first `top` always).
-Every candidate not searched is *bounded*: its minimum is at least its bound, which is at least
-the best's value, so it cannot win. Its row reports the bound, not an energy (status
-"bounded", `screened`). Worker processes search ahead of that order (speculatively), and a
-result is used only where the serial algorithm would search: what is searched, and so the
-whole outcome, does not depend on the number of processes.
+Branch and bound, best first: a candidate's bound counts the legs bounded so far (0 for the
+others, still a lower bound), and candidates are taken in the order of their current bounds.
+One whose legs are not all bounded yet gets its first unbounded leg bounded (legs are bounded
+only when the candidate at the front needs them: on a two-arm task about a third of them);
+one whose legs all are is fully searched (`plan_sequence`, the energy objective as configured,
+the same search as the exhaustive comparison's). It stops when the front's bound is not below
+the best value found (after at least `top` searches). Every candidate not searched is
+*bounded*: its minimum is at least its bound, which is at least the best's value, so it cannot
+win. Its row reports the bound, not an energy (status "bounded", `screened`).
+
+Work goes in rounds, each run in parallel (one pool of forked workers for the whole screen):
+up to `SEARCH_BATCH` searches (the very first alone) and up to `LEG_BATCH` legs of the
+candidates behind them; a candidate is searched only when no candidate before it in the round
+has a leg still to bound. Rounds depend only on what earlier rounds found, never on the number
+of processes, so neither does the outcome.
 
 The bound is exact for exact leg minima; the leg searches are the same multi-start local
 search as the sequence's, so a leg's search may miss its global minimum. Safeguard: whenever a
@@ -33,6 +40,7 @@ leg whose search failed) contribute 0.
 
 from __future__ import annotations
 
+import heapq
 import math
 import multiprocessing
 import os
@@ -49,9 +57,11 @@ from .planners.energy import optimise_energy
 from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs
 from .trie import STATE, _plan_whole, _run, _stop, _worker_init
 
-__all__ = ["Screen", "leg_bounds", "leg_minimum", "screen_candidates"]
+__all__ = ["Screen", "leg_minimum", "screen_candidates"]
 
 START_RATIO = 100.0  # a leg's start this many times above its lowest start is not raced
+LEG_BATCH = 8  # legs bounded per round, at most (beside the round's searches)
+SEARCH_BATCH = 2  # candidates searched per round, at most (the same for any number of jobs)
 
 
 @dataclass(frozen=True)
@@ -62,7 +72,7 @@ class Screen:
     searched: tuple[int, ...]  # fully searched, in the order they were started
     legs: int  # distinct legs bounded (each one energy search)
     corrections: int  # leg bounds lowered by a searched sequence's own leg energy
-    seconds: float  # time spent on the leg bounds
+    seconds: float  # CPU time spent on the leg bounds (all processes)
 
 
 def _relaxed(settings):
@@ -126,16 +136,24 @@ def leg_minimum(system, at: np.ndarray, leg: LegSpec, settings) -> float:
     return float(min([low, *found]))
 
 
-def _plan_alone(items: list[tuple[tuple, np.ndarray, LegSpec]]) -> dict[tuple, float]:
-    """Each leg's minimum energy planned alone (0.0 when its search fails)."""
+def _plan_alone(items: list[tuple[tuple, np.ndarray, LegSpec]]) -> dict[tuple, tuple]:
+    """Each leg's minimum energy planned alone (0.0 when its search fails), and seconds."""
     system, settings = STATE["system"], _relaxed(STATE["settings"])
     out = {}
     for key, at, leg in items:
+        clock = time.process_time()
         try:
-            out[key] = leg_minimum(system, at, leg, settings)
+            value = leg_minimum(system, at, leg, settings)
         except (*NUMERICAL_ERRORS, ValueError):  # no bound from this leg
-            out[key] = 0.0
+            value = 0.0
+        out[key] = (value, time.process_time() - clock)
     return out
+
+
+def _unit(item: tuple[str, list]) -> dict:
+    """One unit of a round: ("leg", legs to bound) or ("search", sequences to plan)."""
+    kind, work = item
+    return _plan_alone(work) if kind == "leg" else _plan_whole(work)
 
 
 def _pool(jobs: int):
@@ -153,107 +171,124 @@ def _pool(jobs: int):
     )
 
 
-def leg_bounds(legs: dict[tuple, Any], jobs: int, pool=None) -> dict[tuple, float]:
-    """Every distinct leg's bound, planned in `pool` or `jobs` processes (`trie._run`)."""
-    todo = [(key, *item) for key, item in legs.items() if item is not None]
-    chunks = max(1, min(len(todo), 4 * jobs))  # several units per process: balanced load
-    units = [todo[c::chunks] for c in range(chunks)] if todo else []
-    found: dict[tuple, float] = {key: 0.0 for key in legs}
+def _round(items: list[tuple[str, list]], jobs: int, pool) -> list[dict]:
+    """Run one round's units (in `pool`, else `trie._run`: here or on STATE["executor"])."""
     if pool is None:
-        parts = _run(_plan_alone, [(u, 0) for u in units], jobs, lambda k: None)
-    else:
-        futures = [pool.submit(_plan_alone, u) for u in units]
-        parts = []
+        return _run(_unit, [(item, 0) for item in items], jobs, lambda k: None)
+    futures = [pool.submit(_unit, item) for item in items]
+    try:
+        results = []
         for future in futures:
-            parts.append(future.result())
+            results.append(future.result())
             checkpoint()
-    for part in parts:
-        found.update(part)
-    return found
+        return results
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        raise
 
 
 def screen_candidates(system, settings, start, candidates, valid, jobs, advance, top, reference):
     """Branch and bound over `valid` (see the module's docstring).
 
     Returns (planned, requested, plans, times, screen): the legs planned and requested, the
-    plans and planning times of the searched candidates only, and the `Screen`.
-
-    The outcome is that of the serial algorithm (candidates in the order of their bounds, each
-    searched unless its bound, lowered by the corrections so far, is not below the best value
-    so far): with a pool, candidates are searched ahead of that order, speculatively, and a
-    result is used only when the serial algorithm reaches its candidate and would search it.
-    So the outcome does not depend on the number of processes."""
+    plans and planning times of the searched candidates only, and the `Screen`."""
     pool = _pool(jobs)
-    futures: dict[int, Any] = {}
     try:
         return _branch_and_bound(
-            system, candidates, valid, jobs, advance, top, reference, start, pool, futures
+            system, candidates, valid, jobs, advance, top, reference, start, pool
         )
-    finally:  # done, interrupted or a worker's error: speculative searches are not waited for
+    finally:  # done, interrupted or a worker's error: nothing is waited for
         if pool is not None:
-            _stop(pool, futures.values())
+            _stop(pool, [])
 
 
-def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, start, pool,
-                      futures):  # fmt: skip
-    clock = time.perf_counter()
+def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, start, pool):
     legs, keys = _leg_items(candidates, valid, start)
-    leg_bound = leg_bounds(legs, jobs, pool)
-    seconds = time.perf_counter() - clock
+    known = {key: 0.0 for key, item in legs.items() if item is None}  # no search needed
+    uses: dict[tuple, list[int]] = {}
+    for k in valid:
+        for key in set(keys[k]):
+            uses.setdefault(key, []).append(k)
 
     def scale(k: int) -> float:  # energy -> energy at the comparison's total duration
         duration = sum(leg.duration for leg in candidates[k].legs)
         return duration / reference if math.isfinite(reference) and reference > 0 else 1.0
 
-    def bound(k: int) -> float:  # on the energy at the comparison's total duration
-        return sum(leg_bound[key] for key in keys[k]) * scale(k)
+    def bound(k: int) -> float:  # on the energy at equal duration; legs not bounded yet: 0
+        return sum(known.get(key, 0.0) for key in keys[k]) * scale(k)
 
-    order = sorted(valid, key=lambda k: (bound(k), k))
     plans: dict[int, Any] = {}
     times: dict[int, float] = {}
     planned = requested = corrections = 0
     searched: list[int] = []
+    bounded_legs: list[tuple] = []
+    seconds = 0.0
     best = math.inf
-
-    def submit(k: int) -> None:
-        futures[k] = pool.submit(_plan_whole, [(k, list(candidates[k].legs))])
-
-    def running() -> int:
-        return sum(not f.done() for f in futures.values())
-
-    for i, k in enumerate(order):
-        if len(searched) >= max(1, top) and bound(k) >= best:
-            advance(1)  # pruned
-            continue
-        if pool is None:  # here, or on STATE["executor"]
-            unit = [(k, list(candidates[k].legs))]
-            result = _run(_plan_whole, [(unit, 1)], jobs, lambda n: None)[0][k]
-        else:
-            for j in order[i:]:  # ahead of the serial order, as far as the workers allow
-                if running() >= jobs:
+    heap = [(bound(k), k) for k in valid]
+    heapq.heapify(heap)
+    done: set[int] = set()
+    while True:
+        new_legs: list[tuple] = []
+        searches: list[int] = []
+        held: list[int] = []
+        while heap:  # the round: candidates in the order of their current bounds
+            b, k = heap[0]
+            if k in done:
+                heapq.heappop(heap)
+                continue
+            if bound(k) > b:  # raised by legs bounded since: back in its place
+                heapq.heapreplace(heap, (bound(k), k))
+                continue
+            if len(searched) + len(searches) >= max(1, top) and b >= best:
+                break  # this one and every one after it cannot beat the best
+            unknown = [key for key in dict.fromkeys(keys[k]) if key not in known]
+            if not unknown:
+                if new_legs or len(searches) >= min(SEARCH_BATCH, 1 + len(searched)):
+                    break  # bound the legs before it first; the very first search alone
+                searches.append(k)
+            else:  # its first leg not bounded yet (prefixes are the most shared)
+                if len(new_legs) >= LEG_BATCH:
                     break
-                if j not in futures and (j == k or bound(j) < best):
-                    submit(j)
-            result = futures[k].result()[k]
-            checkpoint()
-        plan, elapsed, error = result
-        searched.append(k)
-        times[k] = elapsed
-        advance(1)
-        if plan is None:
-            plans[k] = error
-            continue
-        plans[k] = plan = plan.with_system(system)
-        requested += len(plan.legs)
-        planned += len(plan.legs)
-        if not plan.ok:
-            continue
-        best = min(best, plan.total_energy * scale(k))
-        for key, leg in zip(keys[k], plan.legs, strict=True):
-            if leg.energy < leg_bound[key] * (1 - 1e-9):  # the leg's search missed this
-                leg_bound[key] = float(leg.energy)
-                corrections += 1
+                if unknown[0] not in new_legs:
+                    new_legs.append(unknown[0])
+            held.append(heapq.heappop(heap)[1])
+        if not new_legs and not searches:
+            break
+        items = [("search", [(k, list(candidates[k].legs))]) for k in searches]
+        items += [("leg", [(key, *legs[key])]) for key in new_legs]
+        results = _round(items, jobs, pool)
+        for part in results[len(searches) :]:
+            for key, (value, elapsed) in part.items():
+                known[key] = value
+                bounded_legs.append(key)
+                seconds += elapsed
+        for k, part in zip(searches, results, strict=False):
+            plan, elapsed, error = part[k]
+            searched.append(k)
+            done.add(k)
+            times[k] = elapsed
+            advance(1)
+            if plan is None:
+                plans[k] = error
+                continue
+            plans[k] = plan = plan.with_system(system)
+            requested += len(plan.legs)
+            planned += len(plan.legs)
+            if not plan.ok:
+                continue
+            best = min(best, plan.total_energy * scale(k))
+            for key, leg in zip(keys[k], plan.legs, strict=True):
+                if leg.energy < known[key] * (1 - 1e-9):  # the leg's search missed this
+                    known[key] = float(leg.energy)
+                    corrections += 1
+                    for j in uses[key]:  # lowered: to the front again
+                        if j not in done:
+                            heapq.heappush(heap, (bound(j), j))
+        for k in held:
+            if k not in done:
+                heapq.heappush(heap, (bound(k), k))
+    advance(len(valid) - len(searched))
     bounds = {k: bound(k) / scale(k) for k in valid}
-    screen = Screen(bounds, tuple(searched), sum(v is not None for v in legs.values()),
-                    corrections, seconds)  # fmt: skip
+    screen = Screen(bounds, tuple(searched), len(bounded_legs), corrections, seconds)
     return planned, requested, plans, times, screen
