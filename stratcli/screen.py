@@ -2,33 +2,39 @@
 
 The energy objective plans a sequence with its via configurations fixed: it minimises
 Σ_i ∫|u_i|² subject to every leg i reaching its via from the previous one, and to the
-continuity conditions that couple neighbouring legs. Dropping the coupling (continuity
-"none", no soft start, no full stop) leaves independent legs, so the sequence's minimum is at
-least the sum of its legs' minima, each leg planned *alone*:
+boundary conditions of the sequence's continuity mode. Some of those involve one leg alone
+(an input not active on the next leg stops at its end under lr-continuity; soft start, full
+stop), the others tie neighbouring legs together (an input active on both sides continues).
+Dropping the ties leaves independent legs, so the sequence's minimum is at least the sum of
+its legs' minima, each leg planned *alone*:
 
     E*(sequence) ≥ Σ_i e*(leg i),  e*(leg) = min ∫|u|² from its start via to its goal via.
 
-The candidates of a decomposition share most of their legs (a leg is its stratum, its start
-and goal configurations and its duration: a 708-candidate two-arm task has about 110
-distinct legs), so the bounds cost one small energy search per distinct leg, shared by all
-candidates. At equal total duration (`compare`) the bound scales like the energy:
-`bound · duration / T`.
+Two such bounds per leg, the larger counts: *loose*, the leg free at both ends (it depends
+only on the leg: its stratum, start and goal configurations and duration, so it is shared by
+every candidate with that leg; a 708-candidate two-arm task has 88 of them), and *tight*,
+under the conditions that involve the leg alone (these depend on its neighbours' strata
+too). The tight bound is needed where stopping matters: a two-arm leg that costs 43 free at
+its end costs 5,681 when four of its inputs must stop there. At equal total duration
+(`compare`) a bound scales like the energy: `bound · duration / T`.
 
 Branch and bound, best first: a candidate's bound counts the legs bounded so far (0 for the
 others, still a lower bound), and candidates are taken in the order of their current bounds.
-One whose legs are not all bounded yet gets its first unbounded leg bounded (legs are bounded
-only when the candidate at the front needs them: on a two-arm task about a third of them);
-one whose legs all are is fully searched (`plan_sequence`, the energy objective as configured,
-the same search as the exhaustive comparison's). It stops when the front's bound is not below
-the best value found (after at least `top` searches). Every candidate not searched is
-*bounded*: its minimum is at least its bound, which is at least the best's value, so it cannot
-win. Its row reports the bound, not an energy (status "bounded", `screened`).
+The one at the front gets its first leg without a loose bound bounded, else its first leg
+without a tight bound, else it is fully searched (`plan_sequence`, the energy objective as
+configured, the same search as the exhaustive comparison's). It stops when the front's bound
+is not below the best value found (after at least `top` searches). Every candidate not
+searched is *bounded*: its minimum is at least its bound, which is at least the best's value,
+so it cannot win. Its row reports the bound, not an energy (status "bounded", `screened`).
+Legs are bounded only when some candidate near the front needs them (on the two-arm tasks of
+benchmarks/bench_screen.py 42-59 bounds of 88 loose and 510 tight ones).
 
 Work goes in rounds, each run in parallel (one pool of forked workers for the whole screen):
 up to `SEARCH_BATCH` searches (the very first alone) and up to `LEG_BATCH` legs of the
-candidates behind them; a candidate is searched only when no candidate before it in the round
-has a leg still to bound. Rounds depend only on what earlier rounds found, never on the number
-of processes, so neither does the outcome.
+candidates behind them, from candidates within `ROUND_SPAN` of the front's bound (or any, to
+keep two processes busy); a candidate is searched only when no candidate before it in the
+round has a leg still to bound. Rounds depend only on what earlier rounds found, never on the
+number of processes, so neither does the outcome.
 
 The bound is exact for exact leg minima; the leg searches are the same multi-start local
 search as the sequence's, so a leg's search may miss its global minimum. Safeguard: whenever a
@@ -51,10 +57,11 @@ from typing import Any
 
 import numpy as np
 
+from .continuity import Constraints, sequence_constraints
 from .interrupts import checkpoint
 from .objectives import SEED_RESTARTS, _exact_hessians
 from .planners.energy import optimise_energy
-from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs
+from .stratified import NUMERICAL_ERRORS, LegStart, plan_next_leg, planner_for
 from .trie import STATE, _plan_whole, _run, _stop, _worker_init
 
 __all__ = ["Screen", "leg_minimum", "screen_candidates"]
@@ -62,6 +69,8 @@ __all__ = ["Screen", "leg_minimum", "screen_candidates"]
 START_RATIO = 100.0  # a leg's start this many times above its lowest start is not raced
 LEG_BATCH = 8  # legs bounded per round, at most (beside the round's searches)
 SEARCH_BATCH = 2  # candidates searched per round, at most (the same for any number of jobs)
+ROUND_SPAN = 1.25  # a round takes candidates whose bound is within this factor of the front's
+ROUND_FILL = 2  # ... or, while it has fewer legs than this, any (two processes kept busy)
 
 
 @dataclass(frozen=True)
@@ -75,75 +84,128 @@ class Screen:
     seconds: float  # CPU time spent on the leg bounds (all processes)
 
 
+def _context(system, legs, i: int) -> tuple:
+    """What of leg i's neighbours enters its own boundary conditions: the inputs it must
+    start from rest (not active on the previous leg; "first": the sequence's start) and end
+    at rest (not active on the next one; "last": the sequence's end)."""
+    active = system.stratum(legs[i].stratum).active
+    if i == 0:
+        begin: tuple = ("first",)
+    else:
+        before = system.stratum(legs[i - 1].stratum).active
+        begin = tuple(k for k in active if k not in before)
+    if i + 1 == len(legs):
+        end: tuple = ("last",)
+    else:
+        after = system.stratum(legs[i + 1].stratum).active
+        end = tuple(k for k in active if k not in after)
+    return begin, end
+
+
 def _relaxed(settings):
-    """The leg alone: no continuity with neighbours, free at both ends."""
+    """The leg alone, free at both ends: no continuity with its neighbours, no soft start, no
+    full stop."""
     return replace(settings, continuity="none", soft_start=False, full_stop=False)
 
 
-def _leg_items(candidates, valid, start) -> tuple[dict[tuple, Any], dict[int, list[tuple]]]:
-    """Distinct legs (key -> (start, leg) or None when it gets no bound) and each candidate's
-    leg keys."""
+def _leg_items(system, candidates, valid, start):
+    """Distinct legs, two keys each: (loose, tight) -> (start, legs, i, relaxed) or None when
+    it gets no bound (leg i among `legs`, itself and its neighbours; relaxed: free at both
+    ends, else under its own boundary conditions), and each candidate's pairs of keys."""
     legs: dict[tuple, Any] = {}
     keys: dict[int, list[tuple]] = {}
     for k in valid:
         at = np.asarray(start, dtype=float)
         path = []
-        for leg in candidates[k].legs:
+        sequence = candidates[k].legs
+        for i, leg in enumerate(sequence):
             goal = np.asarray(leg.goal, dtype=float)
-            key = (leg.stratum, leg.method, float(leg.duration), at.tobytes(), goal.tobytes())
-            if key not in legs:
+            loose = (leg.stratum, leg.method, float(leg.duration), at.tobytes(), goal.tobytes())
+            tight = (*loose, _context(system, sequence, i))
+            if tight not in legs:
                 unknown = bool(np.isnan(at).any())  # a start left to the planner
                 loop = not np.isnan(goal).any() and np.array_equal(goal, at)  # u = 0 reaches it
-                legs[key] = None if unknown or loop or leg.method != "newton" else (at, leg)
-            path.append(key)
+                skip = unknown or loop or leg.method != "newton"
+                around = tuple(sequence[max(0, i - 1) : i + 2])
+                legs[tight] = None if skip else (at, around, i, False)
+                legs.setdefault(loose, None if skip else (at, (leg,), 0, True))
+            path.append((loose, tight))
             at = np.where(np.isnan(goal), np.nan, goal)
         keys[k] = path
     return legs, keys
 
 
-def leg_minimum(system, at: np.ndarray, leg: LegSpec, settings) -> float:
-    """The least energy found for one leg planned alone (`settings` as given: pass them
-    relaxed for a bound); 0.0 when no start reaches its goal.
+def _local_constraints(system, settings, around, mid: int) -> Constraints:
+    """The boundary conditions of `around[mid]` that involve it alone (`around`: it and its
+    neighbours): those of the whole sequence minus the ones that tie it to a neighbour."""
+    actives = [system.stratum(leg.stratum).active for leg in around]
+    cons = sequence_constraints(
+        settings.basis,
+        [leg.duration for leg in around],
+        actives,
+        system.inputs,
+        settings.continuity,
+        soft_start=settings.soft_start,
+        full_stop=settings.full_stop,
+    )
+    size = settings.basis.size
+    offsets = np.cumsum([0, *(len(a) * size for a in actives)])
+    inside = np.zeros(cons.C.shape[1], dtype=bool)
+    inside[offsets[mid] : offsets[mid + 1]] = True
+    own = [r for r in range(len(cons.C)) if cons.C[r].any() and not cons.C[r, ~inside].any()]
+    C = cons.C[own][:, inside].reshape(len(own), int(inside.sum()))
+    return Constraints(C, cons.c[own], tuple(cons.labels[r] for r in own))
 
-    The energy objective's multi-start search (`objectives.plan_with_objective`: the Newton
-    plan and `starts - 1` seeded Newton plans, raced by the feasible SQP), except that starts
-    `START_RATIO` times above the lowest are not raced (their iterations are the costliest:
-    the quadrature's nodes grow with the controls) and nothing is re-chained at the end."""
-    legs = [leg]
-    newton = chain_legs(system, at, legs, settings)
-    if not newton.ok:
-        return 0.0
-    seeds = [newton]
-    for k in range(1, settings.starts if _exact_hessians(system, legs, settings) else 1):
-        other = chain_legs(
-            system, at, legs, settings,
-            restarts=min(settings.restarts, SEED_RESTARTS),
-            seed=settings.seed + 7919 * k,
-            spread=0.02 + 0.3 * k,
-        )  # fmt: skip
-        if other.ok:
-            seeds.append(other)
-    low = min(p.total_energy for p in seeds)
-    stacked = [
-        ("newton", p.legs[0].coefficients.ravel())
-        for p in seeds
-        if p.total_energy <= START_RATIO * low
-    ]
-    targets = [np.array(newton.legs[0].targets, dtype=int)]
+
+def leg_minimum(system, at: np.ndarray, around, i: int, settings) -> float:
+    """The least energy found for leg i of a sequence planned alone, under the boundary
+    conditions that involve it alone (`_local_constraints`; `around`: it and its neighbours);
+    0.0 when no start reaches its goal.
+
+    The energy objective's multi-start search (`objectives.plan_with_objective`: a Newton plan
+    and `starts - 1` seeded Newton plans, raced by the feasible SQP), with Newton plans that
+    start at rest after a previous leg (feasible: they satisfy more conditions than needed),
+    except that starts `START_RATIO` times above the lowest are not raced (their iterations
+    are the costliest: the quadrature's nodes grow with the controls)."""
+    mid = 1 if i > 0 else 0
+    leg = around[mid]
+    after = around[mid + 1] if mid + 1 < len(around) else None
+    rest = (np.zeros(system.m), np.zeros(system.m))
+    begin = LegStart(at, rest, 0.0, 1) if i > 0 else LegStart(at)
+    seeds = []
+    for k in range(settings.starts if _exact_hessians(system, [leg], settings) else 1):
+        extra = {} if k == 0 else {
+            "restarts": min(settings.restarts, SEED_RESTARTS),
+            "seed": settings.seed + 7919 * k,
+            "spread": 0.02 + 0.3 * k,
+        }  # fmt: skip
+        planned = plan_next_leg(
+            system, settings, leg, begin, after, planner_for(leg, settings, **extra)
+        )
+        if planned.converged:
+            seeds.append(planned)
+        elif k == 0:
+            return 0.0  # as the sequence's search: no Newton plan, no search
+    low = min(p.energy for p in seeds)
+    stacked = [("newton", p.coefficients.ravel()) for p in seeds if p.energy <= START_RATIO * low]
+    targets = [np.array(seeds[0].targets, dtype=int)]
+    local = _local_constraints(system, settings, around, mid)
     with np.errstate(all="ignore"):
-        _, search = optimise_energy(system, [at], legs, settings, targets, stacked)
+        _, search = optimise_energy(
+            system, [at], [leg], settings, targets, stacked, constraints=local
+        )
     found = [s.energy for s in search.starts if s.converged and np.isfinite(s.energy)]
     return float(min([low, *found]))
 
 
-def _plan_alone(items: list[tuple[tuple, np.ndarray, LegSpec]]) -> dict[tuple, tuple]:
+def _plan_alone(items: list[tuple]) -> dict[tuple, tuple]:
     """Each leg's minimum energy planned alone (0.0 when its search fails), and seconds."""
-    system, settings = STATE["system"], _relaxed(STATE["settings"])
+    system, settings = STATE["system"], STATE["settings"]
     out = {}
-    for key, at, leg in items:
+    for key, at, around, i, relaxed in items:
         clock = time.process_time()
         try:
-            value = leg_minimum(system, at, leg, settings)
+            value = leg_minimum(system, at, around, i, _relaxed(settings) if relaxed else settings)
         except (*NUMERICAL_ERRORS, ValueError):  # no bound from this leg
             value = 0.0
         out[key] = (value, time.process_time() - clock)
@@ -204,11 +266,11 @@ def screen_candidates(system, settings, start, candidates, valid, jobs, advance,
 
 
 def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, start, pool):
-    legs, keys = _leg_items(candidates, valid, start)
+    legs, keys = _leg_items(system, candidates, valid, start)
     known = {key: 0.0 for key, item in legs.items() if item is None}  # no search needed
     uses: dict[tuple, list[int]] = {}
     for k in valid:
-        for key in set(keys[k]):
+        for key in {key for pair in keys[k] for key in pair}:
             uses.setdefault(key, []).append(k)
 
     def scale(k: int) -> float:  # energy -> energy at the comparison's total duration
@@ -216,7 +278,12 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
         return duration / reference if math.isfinite(reference) and reference > 0 else 1.0
 
     def bound(k: int) -> float:  # on the energy at equal duration; legs not bounded yet: 0
-        return sum(known.get(key, 0.0) for key in keys[k]) * scale(k)
+        legs_bound = (max(known.get(a, 0.0), known.get(b, 0.0)) for a, b in keys[k])
+        return sum(legs_bound) * scale(k)
+
+    def unbounded(k: int) -> list[tuple]:  # loose bounds first, then the tight ones
+        loose = [a for a, _ in keys[k] if a not in known]
+        return loose or [b for _, b in keys[k] if b not in known]
 
     plans: dict[int, Any] = {}
     times: dict[int, float] = {}
@@ -242,7 +309,9 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
                 continue
             if len(searched) + len(searches) >= max(1, top) and b >= best:
                 break  # this one and every one after it cannot beat the best
-            unknown = [key for key in dict.fromkeys(keys[k]) if key not in known]
+            if len(new_legs) >= ROUND_FILL and b > ROUND_SPAN * bound(held[0]):
+                break  # far behind the front: likely never needed
+            unknown = unbounded(k)
             if not unknown:
                 if new_legs or len(searches) >= min(SEARCH_BATCH, 1 + len(searched)):
                     break  # bound the legs before it first; the very first search alone
@@ -278,13 +347,14 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
             if not plan.ok:
                 continue
             best = min(best, plan.total_energy * scale(k))
-            for key, leg in zip(keys[k], plan.legs, strict=True):
-                if leg.energy < known[key] * (1 - 1e-9):  # the leg's search missed this
-                    known[key] = float(leg.energy)
-                    corrections += 1
-                    for j in uses[key]:  # lowered: to the front again
-                        if j not in done:
-                            heapq.heappush(heap, (bound(j), j))
+            for pair, leg in zip(keys[k], plan.legs, strict=True):
+                for key in pair:
+                    if leg.energy < known[key] * (1 - 1e-9):  # the leg's search missed this
+                        known[key] = float(leg.energy)
+                        corrections += 1
+                        for j in uses[key]:  # lowered: to the front again
+                            if j not in done:
+                                heapq.heappush(heap, (bound(j), j))
         for k in held:
             if k not in done:
                 heapq.heappush(heap, (bound(k), k))
