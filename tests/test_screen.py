@@ -88,3 +88,18 @@ def test_comparison_json_marks_screened_rows_and_exhaustive_has_none(sim4):
     full = api.compare_sequences(sim4, jobs=2, exhaustive=True).document
     assert not any(row["screened"] for row in full["rows"]) and full["screen"] is None
     assert full["rows"][0]["sequence"] == doc["rows"][0]["sequence"] == ["S1", "S3"]
+
+
+def test_the_screen_does_not_depend_on_the_processes_or_the_executor(sim4):
+    """Rounds depend only on what earlier rounds found: one process, two, or threads (the
+    executor path) give the same document."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stratcli.records.comparison import without_timings
+
+    one = api.compare_sequences(sim4, jobs=1).document
+    two = api.compare_sequences(sim4, jobs=2).document
+    with ThreadPoolExecutor(2) as pool:
+        threads = api.compare_sequences(sim4, executor=pool).document
+    assert one["screen"]["searched"] >= 1 and one["screen"]["bounded"] >= 1
+    assert without_timings(one) == without_timings(two) == without_timings(threads)
