@@ -157,10 +157,12 @@ def _local_constraints(system, settings, around, mid: int) -> Constraints:
     return Constraints(C, cons.c[own], tuple(cons.labels[r] for r in own))
 
 
-def leg_minimum(system, at: np.ndarray, around, i: int, settings) -> float:
+def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> tuple:
     """The least energy found for leg i of a sequence planned alone, under the boundary
     conditions that involve it alone (`_local_constraints`; `around`: it and its neighbours);
-    0.0 when no start reaches its goal.
+    (0.0, None) when no start reaches its goal; else (energy, its coefficients). `warm`
+    (flat coefficients, e.g. the leg's minimum free at both ends) is an extra first start,
+    projected onto the conditions.
 
     The energy objective's multi-start search (`objectives.plan_with_objective`: a Newton plan
     and `starts - 1` seeded Newton plans, raced by the feasible SQP), with Newton plans that
@@ -185,30 +187,37 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings) -> float:
         if planned.converged:
             seeds.append(planned)
         elif k == 0:
-            return 0.0  # as the sequence's search: no Newton plan, no search
+            return 0.0, None  # as the sequence's search: no Newton plan, no search
     low = min(p.energy for p in seeds)
     stacked = [("newton", p.coefficients.ravel()) for p in seeds if p.energy <= START_RATIO * low]
+    if warm is not None:
+        stacked.insert(0, ("warm start", np.ravel(warm)))
     targets = [np.array(seeds[0].targets, dtype=int)]
     local = _local_constraints(system, settings, around, mid)
     with np.errstate(all="ignore"):
-        _, search = optimise_energy(
+        coefficients, search = optimise_energy(
             system, [at], [leg], settings, targets, stacked, constraints=local
         )
     found = [s.energy for s in search.starts if s.converged and np.isfinite(s.energy)]
-    return float(min([low, *found]))
+    if coefficients is not None and found and min(found) <= low:
+        return float(min(found)), coefficients[0]
+    best = min(seeds, key=lambda p: p.energy)
+    return float(low), best.coefficients
 
 
 def _plan_alone(items: list[tuple]) -> dict[tuple, tuple]:
-    """Each leg's minimum energy planned alone (0.0 when its search fails), and seconds."""
+    """Each leg's minimum energy planned alone (0.0 when its search fails), the CPU seconds
+    and the coefficients (None when it failed)."""
     system, settings = STATE["system"], STATE["settings"]
     out = {}
-    for key, at, around, i, relaxed in items:
+    for key, at, around, i, relaxed, warm in items:
         clock = time.process_time()
+        own = _relaxed(settings) if relaxed else settings
         try:
-            value = leg_minimum(system, at, around, i, _relaxed(settings) if relaxed else settings)
+            value, coefficients = leg_minimum(system, at, around, i, own, warm)
         except (*NUMERICAL_ERRORS, ValueError):  # no bound from this leg
-            value = 0.0
-        out[key] = (value, time.process_time() - clock)
+            value, coefficients = 0.0, None
+        out[key] = (value, time.process_time() - clock, coefficients)
     return out
 
 
@@ -268,6 +277,7 @@ def screen_candidates(system, settings, start, candidates, valid, jobs, advance,
 def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, start, pool):
     legs, keys = _leg_items(system, candidates, valid, start)
     known = {key: 0.0 for key, item in legs.items() if item is None}  # no search needed
+    warm: dict[tuple, Any] = {}  # each bounded leg's minimising coefficients
     uses: dict[tuple, list[int]] = {}
     for k in valid:
         for key in {key for pair in keys[k] for key in pair}:
@@ -325,11 +335,13 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
         if not new_legs and not searches:
             break
         items = [("search", [(k, list(candidates[k].legs))]) for k in searches]
-        items += [("leg", [(key, *legs[key])]) for key in new_legs]
+        # a tight bound starts from the leg's loose minimum too (bounded before it)
+        items += [("leg", [(key, *legs[key], warm.get(key[:5]))]) for key in new_legs]
         results = _round(items, jobs, pool)
         for part in results[len(searches) :]:
-            for key, (value, elapsed) in part.items():
+            for key, (value, elapsed, coefficients) in part.items():
                 known[key] = value
+                warm[key] = coefficients
                 bounded_legs.append(key)
                 seconds += elapsed
         for k, part in zip(searches, results, strict=False):
