@@ -279,7 +279,8 @@ def _bounded(k, cand, bound) -> Outcome:
     reason = "not searched: its lower bound is at least the best's value"
     message = (
         f"not searched: its energy is at least {_show(bound, 'energy')} (the sum of its legs' "
-        "minima, each leg planned alone), which cannot beat the best sequence"
+        "minima, each leg planned alone without the conditions that tie it to its "
+        "neighbours), which cannot beat the best sequence"
     )
     return Outcome(k, cand, None, "bounded", reason, message, duration=duration, screened=True)
 
