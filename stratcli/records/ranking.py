@@ -83,11 +83,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     for i, r in enumerate(rows):
         if i in ok:
             continue
-        bound = (
-            r.get(f"{key.replace('energy', 'energy_bound', 1)}")
-            if r["status"] == "bounded"
-            else None
-        )
+        bounded = r["status"] == "bounded"  # energy_bound(_equal_time): no bar, its bound
+        bound = r.get(key.replace("energy", "energy_bound", 1)) if bounded else None
         if bound is not None:  # not searched: its lower bound, no bar
             ax.text(floor, i, f" ≥ {_short(bound)}, not searched (bound)", va="center",
                     fontsize=7.5, color=BOUNDED_COLOR)  # fmt: skip
