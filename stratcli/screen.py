@@ -34,7 +34,9 @@ up to `SEARCH_BATCH` searches (the very first alone) and up to `LEG_BATCH` legs 
 candidates behind them, from candidates within `ROUND_SPAN` of the front's bound (or any, to
 keep two processes busy); a candidate is searched only when no candidate before it in the
 round has a leg still to bound. Rounds depend only on what earlier rounds found, never on the
-number of processes, so neither does the outcome.
+number of processes, so neither does the outcome. A worker that would wait idle for a
+round's slowest leg (a hard leg's Newton plan can take seconds) bounds a leg the next rounds
+are likely to ask for; the round that asks for it takes the result.
 
 The bound is exact for exact leg minima; the leg searches are the same multi-start local
 search as the sequence's, so a leg's search may miss its global minimum. Safeguard: whenever a
@@ -51,7 +53,8 @@ import math
 import multiprocessing
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -61,7 +64,7 @@ from .continuity import Constraints, sequence_constraints
 from .interrupts import checkpoint
 from .objectives import SEED_RESTARTS, _exact_hessians
 from .planners.energy import optimise_energy
-from .stratified import NUMERICAL_ERRORS, LegStart, plan_next_leg, planner_for
+from .stratified import NUMERICAL_ERRORS, LegStart, _targets, plan_next_leg, planner_for
 from .trie import STATE, _plan_whole, _run, _stop, _worker_init
 
 __all__ = ["Screen", "leg_minimum", "screen_candidates"]
@@ -168,7 +171,10 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     and `starts - 1` seeded Newton plans, raced by the feasible SQP), with Newton plans that
     start at rest after a previous leg (feasible: they satisfy more conditions than needed),
     except that starts `START_RATIO` times above the lowest are not raced (their iterations
-    are the costliest: the quadrature's nodes grow with the controls)."""
+    are the costliest: the quadrature's nodes grow with the controls). With a `warm` start
+    (a tight bound: the loose one is known) no Newton plan falls back on continuation (seconds
+    on a hard leg; the warm start is a start already), and without any feasible start the
+    leg gets no tight bound (its loose one stands)."""
     mid = 1 if i > 0 else 0
     leg = around[mid]
     after = around[mid + 1] if mid + 1 < len(around) else None
@@ -181,18 +187,22 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
             "seed": settings.seed + 7919 * k,
             "spread": 0.02 + 0.3 * k,
         }  # fmt: skip
+        if warm is not None:
+            extra["continuation"] = False
         planned = plan_next_leg(
             system, settings, leg, begin, after, planner_for(leg, settings, **extra)
         )
         if planned.converged:
             seeds.append(planned)
-        elif k == 0:
+        elif k == 0 and warm is None:
             return 0.0, None  # as the sequence's search: no Newton plan, no search
-    low = min(p.energy for p in seeds)
+    if not seeds and warm is None:
+        return 0.0, None
+    low = min((p.energy for p in seeds), default=np.inf)
     stacked = [("newton", p.coefficients.ravel()) for p in seeds if p.energy <= START_RATIO * low]
     if warm is not None:
         stacked.insert(0, ("warm start", np.ravel(warm)))
-    targets = [np.array(seeds[0].targets, dtype=int)]
+    targets = [np.array(_targets(system, leg), dtype=int)]
     local = _local_constraints(system, settings, around, mid)
     with np.errstate(all="ignore"):
         coefficients, search = optimise_energy(
@@ -201,6 +211,8 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     found = [s.energy for s in search.starts if s.converged and np.isfinite(s.energy)]
     if coefficients is not None and found and min(found) <= low:
         return float(min(found)), coefficients[0]
+    if not seeds:
+        return 0.0, None
     best = min(seeds, key=lambda p: p.energy)
     return float(low), best.coefficients
 
@@ -242,21 +254,31 @@ def _pool(jobs: int):
     )
 
 
-def _round(items: list[tuple[str, list]], jobs: int, pool) -> list[dict]:
-    """Run one round's units (in `pool`, else `trie._run`: here or on STATE["executor"])."""
+def _round(items, jobs: int, pool, flight: dict, ahead: Callable) -> list[dict]:
+    """Run one round's units ((name, unit) pairs) in `pool`, else with `trie._run` (here or on
+    STATE["executor"]). With a pool, a worker that would wait idle for the round's slowest
+    unit takes a unit `ahead()` says later rounds are likely to ask for; `flight` (name ->
+    future, kept across rounds) hands its result to the round that asks for it. What a round
+    computes does not depend on it, only how soon it is known."""
     if pool is None:
-        return _run(_unit, [(item, 0) for item in items], jobs, lambda k: None)
-    futures = [pool.submit(_unit, item) for item in items]
-    try:
-        results = []
-        for future in futures:
-            results.append(future.result())
-            checkpoint()
-        return results
-    except BaseException:
-        for future in futures:
-            future.cancel()
-        raise
+        return _run(_unit, [(unit, 0) for _, unit in items], jobs, lambda k: None)
+    for name, unit in items:
+        if name not in flight:
+            flight[name] = pool.submit(_unit, unit)
+    wanted = [flight[name] for name, _ in items]
+    while not all(f.done() for f in wanted):
+        running = [f for f in flight.values() if not f.done()]
+        later = ahead()  # (name, unit) pairs, most likely first
+        while len(running) < jobs:  # a worker is free: start something likely needed next
+            name, unit = next(later, (None, None))
+            if name is None:
+                break
+            if name not in flight:
+                flight[name] = pool.submit(_unit, unit)
+                running.append(flight[name])
+        wait(running, return_when=FIRST_COMPLETED)
+        checkpoint()
+    return [f.result() for f in wanted]
 
 
 def screen_candidates(system, settings, start, candidates, valid, jobs, advance, top, reference):
@@ -305,6 +327,18 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
     heap = [(bound(k), k) for k in valid]
     heapq.heapify(heap)
     done: set[int] = set()
+    flight: dict[tuple, Any] = {}  # units started in the pool, by name
+
+    def leg_unit(key: tuple) -> tuple:  # a tight bound starts from the loose minimum too
+        return ("leg", [(key, *legs[key], warm.get(key[:5]))])
+
+    def ahead():  # legs the next rounds are likely to ask for: the front's, in order
+        for _, k in sorted(heap):
+            unknown = [] if k in done else unbounded(k)
+            key = unknown[0] if unknown else None
+            if key is not None and (len(key) == 5 or key[:5] in warm):  # tight: loose first
+                yield ("leg", key), leg_unit(key)
+
     while True:
         new_legs: list[tuple] = []
         searches: list[int] = []
@@ -334,10 +368,9 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
             held.append(heapq.heappop(heap)[1])
         if not new_legs and not searches:
             break
-        items = [("search", [(k, list(candidates[k].legs))]) for k in searches]
-        # a tight bound starts from the leg's loose minimum too (bounded before it)
-        items += [("leg", [(key, *legs[key], warm.get(key[:5]))]) for key in new_legs]
-        results = _round(items, jobs, pool)
+        items = [(("search", k), ("search", [(k, list(candidates[k].legs))])) for k in searches]
+        items += [(("leg", key), leg_unit(key)) for key in new_legs]
+        results = _round(items, jobs, pool, flight, ahead)
         for part in results[len(searches) :]:
             for key, (value, elapsed, coefficients) in part.items():
                 known[key] = value
