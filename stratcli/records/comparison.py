@@ -79,7 +79,7 @@ def _screen(comparison: Comparison) -> dict[str, Any] | None:
         "searched": len(screen.searched),
         "bounded": sum(o is not None and o.status == "bounded" for o in comparison.outcomes),
         "bound_corrections": screen.corrections,
-        "bound_time_s": screen.seconds,
+        "bound_cpu_s": screen.seconds,  # summed over the processes
     }
 
 
@@ -170,6 +170,6 @@ def without_timings(doc: dict[str, Any]) -> dict[str, Any]:
     """The document minus what varies between identical runs (timings, number of jobs)."""
     out = {k: v for k, v in doc.items() if k not in ("wall_time_s", "compile_time_s", "jobs")}
     if out.get("screen"):
-        out["screen"] = {k: v for k, v in out["screen"].items() if k != "bound_time_s"}
+        out["screen"] = {k: v for k, v in out["screen"].items() if k != "bound_cpu_s"}
     out["rows"] = [{k: v for k, v in r.items() if k not in TIMING_KEYS} for r in doc["rows"]]
     return out
