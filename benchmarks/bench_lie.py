@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from stratcli.api.check import check_document
-from stratcli.liealgebra import iterated_integrals, lie_basis
+from stratcli.iterated import iterated_integrals
+from stratcli.liealgebra import lie_basis
 from stratcli.models.presets import PRESETS
 from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario

@@ -10,6 +10,10 @@ before the signal gets `"interrupted": true` and that exit code in its manifest.
 signal while unwinding leaves at once, with the same line and code. A signal the process
 was started ignoring (`nohup`, `cmd &` in a script) stays ignored. A signal whose exception
 Python had to drop (it arrived inside a finaliser) is picked up by `stratcli.interrupts`.
+
+A reader that leaves early (`stratplan runs | head -1`) ends the output, not the command:
+what is left to print goes nowhere, the work (a record being written) finishes, and the exit
+code is the command's own, with no traceback or "Broken pipe" message.
 """
 
 import os
@@ -28,6 +32,37 @@ HANDLED = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
 
 
 _state = {"raised": False, "done": False}
+
+
+class ClosedPipeSafe:
+    """`sys.stdout` whose reader may leave: from the first broken pipe on, output goes to
+    /dev/null (the descriptor itself is redirected, so the final flush succeeds too)."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._to_devnull()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._to_devnull()
+
+    def _to_devnull(self) -> None:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, self._stream.fileno())
+        finally:
+            os.close(devnull)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
 
 
 def _on_signal(signum: int, frame) -> None:
@@ -72,6 +107,8 @@ def main() -> None:
         if signal.getsignal(sig) is not signal.SIG_IGN:  # e.g. `nohup`, or `cmd &` in a script
             signal.signal(sig, _on_signal)
     install()  # an Interrupted raised inside a finaliser is kept, not printed and lost
+    if sys.stdout is not None:
+        sys.stdout = ClosedPipeSafe(sys.stdout)
     try:
         single_threaded_blas()
         from .cli import app

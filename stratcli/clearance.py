@@ -96,3 +96,56 @@ def box_corners(centre, size, rotation: float) -> np.ndarray:
     local = np.array([[w, h], [-w, h], [-w, -h], [w, -h]])
     c, s = np.cos(rotation), np.sin(rotation)
     return local @ np.array([[c, s], [-s, c]]) + np.asarray(centre, dtype=float)
+
+
+# --------------------------------------------------------------------------------------------
+# Separating-axis depth: negative where shapes are apart, with a gradient inside too
+# --------------------------------------------------------------------------------------------
+
+
+def _edge_normals(poly: np.ndarray) -> np.ndarray:
+    """Unit normals of the edges of convex polygons (..., V, 2) (V = 2: a segment)."""
+    e = np.roll(poly, -1, axis=-2) - poly
+    n = np.stack((-e[..., 1], e[..., 0]), axis=-1)
+    length = np.linalg.norm(n, axis=-1, keepdims=True)
+    return n / np.where(length > 0, length, 1.0)
+
+
+def penetration(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Depth of overlap of convex shapes p (..., V, 2) and q (..., W, 2) (points, segments or
+    polygons): the shortest translation that separates them, by the separating-axis theorem
+    (axes: the edge normals of both, and a segment's own direction); where they are apart,
+    minus the widest gap along those axes (a lower bound of their distance, equal to it
+    unless the closest points are two corners)."""
+    lead = np.broadcast_shapes(p.shape[:-2], q.shape[:-2])
+    p = np.broadcast_to(p, (*lead, *p.shape[-2:]))
+    q = np.broadcast_to(q, (*lead, *q.shape[-2:]))
+    axes = []
+    for s in (p, q):
+        if s.shape[-2] == 2:  # a segment: its normal and its direction
+            d = s[..., 1, :] - s[..., 0, :]
+            d = d / np.maximum(np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2), 1e-300)[..., None]
+            axes += [np.stack((-d[..., 1], d[..., 0]), axis=-1)[..., None, :], d[..., None, :]]
+        elif s.shape[-2] > 2:
+            axes.append(_edge_normals(s))
+    axes = np.concatenate(axes, axis=-2)  # (..., K, 2)
+    ax, ay = axes[..., 0], axes[..., 1]
+    # extreme projections vertex by vertex (a few vertices: cheaper than reducing an axis)
+    p_lo, p_hi = _extent(p, ax, ay)
+    q_lo, q_hi = _extent(q, ax, ay)
+    overlap = np.minimum(p_hi - q_lo, q_hi - p_lo)  # (..., K)
+    depth = overlap[..., 0].copy()
+    for k in range(1, overlap.shape[-1]):
+        np.minimum(depth, overlap[..., k], out=depth)
+    return depth
+
+
+def _extent(s: np.ndarray, ax: np.ndarray, ay: np.ndarray):
+    """Smallest and largest projection of the vertices of s (..., V, 2) on axes (..., K)."""
+    lo = s[..., 0, 0, None] * ax + s[..., 0, 1, None] * ay
+    hi = lo.copy()
+    for v in range(1, s.shape[-2]):
+        x = s[..., v, 0, None] * ax + s[..., v, 1, None] * ay
+        np.minimum(lo, x, out=lo)
+        np.maximum(hi, x, out=hi)
+    return lo, hi

@@ -13,8 +13,9 @@ driftless system run s times slower has controls s times smaller and their deriv
 times smaller, `rate_limited`); the plan notes which limit set its duration. Every limit is
 then verified on a dense re-integration (`verify`: at least 2000 samples per leg), and a plan
 that violates one is failed (`Status.CONSTRAINT_VIOLATED`), its message naming the limit, the
-leg and the time. The search itself does not yet steer away from joint limits or collisions:
-a violating sequence is reported, and auto mode can choose another.
+leg and the time. Joint limits, self-collision and obstacles are kept by the search itself
+(`planners.constrained`, from `objectives.plan_sequence`); a plan it could not move inside
+them is reported here with the leg where that search stalled.
 """
 
 from __future__ import annotations
@@ -387,5 +388,6 @@ def enforce(plan, c: Constraints):
     report = replace(verify(plan, c), duration_set_by=which if s < 1.0 else "")
     plan = replace(plan, constraints=report)
     if not report.ok and plan.legs and all(leg.converged for leg in plan.legs):
-        plan = replace(plan, message=f"{report.violated}; {plan.status.value}")
+        why = f"{plan.message}; " if plan.message else ""  # where the search stalled
+        plan = replace(plan, message=f"{report.violated}; {why}{plan.status.value}")
     return plan

@@ -54,6 +54,7 @@ if TYPE_CHECKING:
 
 RANK_RTOL = 1e-9  # singular values below this times the largest count as zero
 MAX_SYMBOLIC_BRACKETS = 250  # custom models: largest degree-3 Hall basis derived by sympy
+ROW_CACHE_SIZE = 64  # sample sets remembered per system (`_rows`)
 
 
 def _cross_affordable(system: System, strata: list[str], degree: int) -> bool:
@@ -90,6 +91,26 @@ def _rank_and_sigma(B: np.ndarray, dim: int) -> tuple[np.ndarray, np.ndarray]:
     rank = np.where(top[..., 0] > 0, rank, 0)
     sigma = S[..., dim - 1] if S.shape[-1] >= dim else np.zeros(B.shape[:-2])
     return rank, sigma
+
+
+def _rows(system: System, what: tuple, Q: np.ndarray, compute) -> tuple[np.ndarray, ...]:
+    """`compute(Q)`, per-row arrays, with the rows after the first remembered per system.
+
+    Every check of a process draws the same seeded samples after its own first row (the
+    start): a sweep's tasks, auto mode's candidates. Rows are independent (one matrix, one
+    SVD each), so the rows computed alone equal those computed together, bit for bit.
+    """
+    if len(Q) < 3:
+        return compute(Q)
+    cache = system.__dict__.setdefault("_row_cache", {})
+    key = (what, Q[1:].tobytes())
+    rest = cache.get(key)
+    if rest is None:
+        if len(cache) >= ROW_CACHE_SIZE:
+            cache.clear()
+        rest = cache[key] = compute(Q[1:])
+    head = compute(Q[:1])
+    return tuple(np.concatenate([h, r]) for h, r in zip(head, rest, strict=True))
 
 
 @dataclass
@@ -131,15 +152,19 @@ def stratum_report(
     Q = np.atleast_2d(np.asarray(configurations, dtype=float))
     lb = lie_basis(system, s, degree)
     dim = len(lb.free)
-    B = lb.evaluate(Q)
-    rank, sigma = _rank_and_sigma(B, dim)
-    rank_requested = rank.copy()
-    used = np.full(len(Q), degree)
-    short = rank < dim
-    if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, s.name):
-        B3 = lie_basis(system, s, MAX_DEGREE).evaluate(Q[short])
-        r3, s3 = _rank_and_sigma(B3, dim)
-        rank[short], sigma[short], used[short] = r3, s3, MAX_DEGREE
+
+    def compute(R: np.ndarray) -> tuple[np.ndarray, ...]:
+        rank, sigma = _rank_and_sigma(lb.evaluate(R), dim)
+        rank_requested = rank.copy()
+        used = np.full(len(R), degree)
+        short = rank < dim
+        if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, s.name):
+            B3 = lie_basis(system, s, MAX_DEGREE).evaluate(R[short])
+            r3, s3 = _rank_and_sigma(B3, dim)
+            rank[short], sigma[short], used[short] = r3, s3, MAX_DEGREE
+        return rank, sigma, used, rank_requested
+
+    rank, sigma, used, rank_requested = _rows(system, ("eq4", s.name, degree), Q, compute)
     first = lb if used[0] == degree else lie_basis(system, s, MAX_DEGREE)
     spanning = _spanning(first.evaluate(Q[0]), first.labels)
     return StratumReport(
@@ -205,20 +230,29 @@ def sequence_report(
 ) -> SequenceReport:
     Q = np.atleast_2d(np.asarray(configurations, dtype=float))
     names = list(dict.fromkeys(strata))
-    blocks = []
-    for name in names:
-        lb = lie_basis(system, name, degree)
-        blocks.append(lb.full(Q))
-        short = _rank_and_sigma(blocks[-1][:, list(lb.free)], len(lb.free))[0] < len(lb.free)
-        if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, name):  # as eq. 4
-            blocks.append(lie_basis(system, name, MAX_DEGREE).full(Q))
-    sum_rank, _ = _rank_and_sigma(np.concatenate(blocks, axis=-1), system.n)
+
+    def summed(R: np.ndarray) -> tuple[np.ndarray]:
+        blocks = []
+        for name in names:
+            lb = lie_basis(system, name, degree)
+            blocks.append(lb.full(R))
+            free = list(lb.free)
+            short = _rank_and_sigma(blocks[-1][:, free], len(free))[0] < len(free)
+            if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, name):  # eq. 4
+                blocks.append(lie_basis(system, name, MAX_DEGREE).full(R))
+        return (_rank_and_sigma(np.concatenate(blocks, axis=-1), system.n)[0],)
+
+    (sum_rank,) = _rows(system, ("eq2", tuple(names), degree), Q, summed)
     report = SequenceReport(names, system.n, Q, sum_rank, None)
     if not report.eq2 and _cross_affordable(system, names, max(degree, 2)):
         cross = _cross_basis(system, tuple(names), max(degree, 2))
-        B = cross.evaluate(Q)
-        report.cross_rank = _rank_and_sigma(B, system.n)[0]
-        report.cross_spanning = _spanning(B[0], cross.labels)
+        (report.cross_rank,) = _rows(
+            system,
+            ("cross", tuple(names), degree),
+            Q,
+            lambda R: (_rank_and_sigma(cross.evaluate(R), system.n)[0],),
+        )
+        report.cross_spanning = _spanning(cross.evaluate(Q[:1])[0], cross.labels)
     return report
 
 
@@ -339,10 +373,14 @@ def _target_rank(system, stratum, targets, Q, degree):
     rows = [lb.free.index(j) for j in targets]
     if not rows:
         return np.zeros(len(Q), dtype=int), np.ones(len(Q))
-    rank, sigma = _rank_and_sigma(lb.evaluate(Q)[:, rows], len(rows))
-    short = rank < len(rows)
-    if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, stratum):
-        lb3 = lie_basis(system, stratum, MAX_DEGREE)
-        r3, s3 = _rank_and_sigma(lb3.evaluate(Q[short])[:, rows], len(rows))
-        rank[short], sigma[short] = r3, s3
-    return rank, sigma
+
+    def compute(R: np.ndarray) -> tuple[np.ndarray, ...]:
+        rank, sigma = _rank_and_sigma(lb.evaluate(R)[:, rows], len(rows))
+        short = rank < len(rows)
+        if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, stratum):
+            lb3 = lie_basis(system, stratum, MAX_DEGREE)
+            r3, s3 = _rank_and_sigma(lb3.evaluate(R[short])[:, rows], len(rows))
+            rank[short], sigma[short] = r3, s3
+        return rank, sigma
+
+    return _rows(system, ("leg", stratum, targets, degree), Q, compute)

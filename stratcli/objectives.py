@@ -16,16 +16,20 @@ import numpy as np
 
 from .errors import InputError
 from .models.system import System
+from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.base import ENERGY_RUNAWAY
+from .planners.constrained import NotSearchable, constrained_search
 from .planners.energy import optimise_energy
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
 
-__all__ = ["plan_sequence", "plan_with_objective"]
+__all__ = ["plan_sequence", "plan_with_objective", "within_limits"]
 
 SEED_RESTARTS = 2  # Newton restarts allowed for the extra starts of the energy objective
+CONSTRAINED_SEEDS = 3  # further starts of the constrained search when the plan's own stalls
+AUXILIARY_LIMIT = 2.5  # rad: joint limits of the start for self-collision alone
 
 
 def plan_sequence(
@@ -36,6 +40,7 @@ def plan_sequence(
     warm_start: list[np.ndarray] | None = None,
     progress: Callable[[str], None] | None = None,
     bound: float = np.inf,
+    constraints=None,
 ) -> SequencePlan:
     """Check the legs, then plan them with `settings.objective`.
 
@@ -57,6 +62,9 @@ def plan_sequence(
     bound : float, optional
         Another sequence's minimum energy (auto mode's screen): energy-search starts still
         far above it after a few iterations are stopped "screened"; default: infinite.
+    constraints : constraints.Constraints, optional
+        The resolved [constraints] table: joint limits, self-collision and obstacles are then
+        kept along every leg by the search (`planners.constrained`); default: none.
 
     Returns
     -------
@@ -70,7 +78,10 @@ def plan_sequence(
     """
     start = np.asarray(start, dtype=float)
     check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
-    return plan_with_objective(system, start, legs, settings, warm_start, progress, bound)
+    plan = plan_with_objective(system, start, legs, settings, warm_start, progress, bound)
+    if searchable(constraints) and plan.ok:
+        plan = within_limits(system, start, legs, settings, plan, constraints, progress)
+    return plan
 
 
 def plan_with_objective(
@@ -141,6 +152,106 @@ def plan_with_objective(
     final = chain_legs(system, start, legs, settings, initial=coefficients)
     final = replace(final, optimisation=search)
     return final if final.ok and final.total_energy <= newton.total_energy else newton
+
+
+def within_limits(system, start, legs, settings, plan, constraints, progress=None):
+    """`plan` (which reaches every goal) moved inside the joint limits, clear of itself and of
+    the obstacles along every leg (`planners.constrained`): from the plan itself, then from
+    its energy search's Newton plan. The energy objective then lowers the energy inside the
+    limits. If no start leads inside, `plan` is returned with a message naming the limit and
+    the leg where the search stalled (the verification then fails it)."""
+    say = progress or _silent
+    if not all(PLANNERS[leg.method].joint_optimisation for leg in legs):
+        return plan  # Lie legs are refused with [constraints] limits (scenario loading)
+    nominal = [np.asarray(start, dtype=float)]
+    for leg, planned in zip(legs[:-1], plan.legs[:-1], strict=True):
+        nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
+    targets = [np.array(leg.targets, dtype=int) for leg in plan.legs]
+    seeds = [
+        (
+            "planned" if settings.objective == "newton" else "minimum-energy",
+            np.concatenate([leg.coefficients.ravel() for leg in plan.legs]),
+        )
+    ]
+    say("constrained search: moving the plan inside the limits")
+    tried = []  # every start, for `_folding_start`
+    coefficients, notes, stalled = None, [], ""
+    for k in range(CONSTRAINED_SEEDS + 1):
+        if k:  # another start: a Newton plan from a seed, as the energy search's starts
+            say(f"constrained search: start {k + 1} (a Newton plan from a seed)")
+            other = chain_legs(
+                system, start, legs, settings, restarts=min(settings.restarts, SEED_RESTARTS),
+                seed=settings.seed + 7919 * k, spread=0.02 + 0.3 * k,
+            )  # fmt: skip
+            if not other.ok:
+                continue
+            seeds = [
+                ("seeded Newton", np.concatenate([g.coefficients.ravel() for g in other.legs]))
+            ]
+        tried += seeds
+        try:
+            coefficients, notes, stalled = constrained_search(
+                system, nominal, legs, settings, targets, seeds, constraints,
+                lower_energy=settings.objective == "energy", first=k == 0,
+            )  # fmt: skip
+        except NotSearchable:
+            note = (
+                "the limits were verified, not searched for: the constrained search needs "
+                "quadrature end-point maps (not spatial or ODE-path legs)"
+            )
+            return replace(plan, notes=(*plan.notes, note))
+        except NUMERICAL_ERRORS as exc:
+            stalled = (
+                f"the constrained search stopped on a numerical failure ({type(exc).__name__})"
+            )
+        if coefficients is not None or not stalled:
+            break  # found, or (k = 0) inside the limits already
+    if coefficients is None and not stalled:
+        return plan  # inside the limits already (then it is also the constrained minimum)
+    if coefficients is None:  # self-collision without joint limits: a start within some
+        found = _folding_start(system, nominal, legs, settings, targets, tried, constraints)
+        if found is not None:
+            say("constrained search: from a plan within auxiliary joint limits")
+            coefficients, notes, _ = constrained_search(
+                system, nominal, legs, settings, targets, found, constraints,
+                lower_energy=settings.objective == "energy", first=False,
+            )  # fmt: skip
+    if coefficients is None:
+        return replace(plan, message=stalled, notes=(*plan.notes, stalled))
+    final = chain_legs(system, start, legs, settings, initial=coefficients)
+    if not final.ok:
+        note = "the constrained plan did not re-chain onto the goals; " + final.message
+        return replace(plan, message=note, notes=(*plan.notes, note))
+    return replace(final, optimisation=plan.optimisation, notes=(*final.notes, *notes))
+
+
+def _folding_start(system, nominal, legs, settings, targets, seeds, constraints):
+    """A start for self-collision without joint limits: the constrained search with
+    auxiliary joint limits of ±`AUXILIARY_LIMIT` rad added, which keep an arm from folding
+    through the base (the free plans of Sim 4 C and D do; the way out of that overlap leads
+    away from the goals). Its plan is inside the original limits too. None if it does not
+    apply or fails."""
+    robot = getattr(system, "robot", None)
+    if robot is None or not constraints.self_collision:
+        return None
+    joints = np.arange(robot.n_joints)
+    if np.isfinite(constraints.lower[joints]).any() or np.isfinite(constraints.upper[joints]).any():
+        return None
+    if any(np.abs(np.asarray(q)[joints]).max() >= AUXILIARY_LIMIT for q in nominal):
+        return None
+    lower, upper = constraints.lower.copy(), constraints.upper.copy()
+    lower[joints], upper[joints] = -AUXILIARY_LIMIT, AUXILIARY_LIMIT
+    auxiliary = replace(constraints, lower=lower, upper=upper)
+    try:
+        coefficients, _, _ = constrained_search(
+            system, nominal, legs, settings, targets, seeds, auxiliary, lower_energy=False,
+            first=False,
+        )  # fmt: skip
+    except NUMERICAL_ERRORS:
+        return None
+    if coefficients is None:
+        return None
+    return [("joint-limited", np.concatenate([np.ravel(c) for c in coefficients]))]
 
 
 def _exact_hessians(system: System, legs: list[LegSpec], settings: PlannerSettings) -> bool:

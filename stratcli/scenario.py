@@ -38,6 +38,7 @@ from .models.specs import (
     build_system,
 )
 from .models.system import System
+from .node_margins import searchable
 from .planners import PLANNERS
 from .settings import (
     MAX_DURATION,
@@ -285,6 +286,22 @@ def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[P
     return None
 
 
+def _lie_problems(constraints: Constraints, legs: list[LegSpec]) -> list[Problem]:
+    """Lie legs are refused when [constraints] asks the search for joint limits,
+    self-collision or obstacles (rate limits are met by time scaling, which applies to them)."""
+    if not searchable(constraints):
+        return []
+    return [
+        Problem(
+            f"legs[{i}].method",
+            "a Lie leg cannot keep [constraints] joint limits, self-collision or obstacles "
+            '(its steps are planned where the system is); use method = "newton"',
+        )
+        for i, leg in enumerate(legs)
+        if leg.method == "lie"
+    ]
+
+
 def _duration_problems(scenario: Scenario, legs: list[LegSpec]) -> list[Problem]:
     """`durations = "optimise"` needs the energy objective, Newton legs and [[legs]]."""
     p = scenario.planner
@@ -418,6 +435,7 @@ def _resolve(scenario: Scenario, source: str, text: str, system: System | None =
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
     problems.extend(_duration_problems(scenario, legs))
     if constraints is not None:
+        problems.extend(_lie_problems(constraints, legs))
         if start is not None:
             problems.extend(check_configuration(system, start, constraints, "task.start"))
         for i, leg in enumerate(legs[:-1]):

@@ -39,9 +39,9 @@ class Status(enum.Enum):
     )
     NOT_PLANNED = "was not planned: an earlier leg failed"
     CONSTRAINT_VIOLATED = (
-        "reached its goals but violates a limit of [constraints] (the search does not yet "
-        "steer away from joint limits, collisions or obstacles); try via configurations that "
-        "keep the robot away from the limit, another stratum sequence, or the other objective"
+        "reached its goals but violates a limit of [constraints]; try via configurations that "
+        "keep the robot away from the limit, another stratum sequence, more harmonics, or the "
+        "other objective"
     )
 
     @property

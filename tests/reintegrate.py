@@ -84,7 +84,7 @@ def custom_rhs_factory(model: dict):
 
 def symbolic_manipulator_rhs(robot):
     """θ' = A(q)·u from the exact symbolic derivation (MODELS.md §1), not the numpy closed forms."""
-    from stratcli.models.connection import connection_symbolic
+    from stratcli.models.connection_symbolic import connection_symbolic
 
     q = sp.symbols(f"q1:{robot.n_joints + 1}", real=True)
     A = sp.lambdify([q], connection_symbolic(robot, q), "numpy")

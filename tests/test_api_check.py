@@ -51,3 +51,21 @@ def test_a_manipulators_closure_across_strata_equals_the_symbolic_one(strata, de
     slow = c._symbolic_cross_basis(system, strata, degree)
     assert fast.labels == slow.labels
     np.testing.assert_allclose(fast.evaluate(Q), slow.evaluate(Q), rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("path", ["sim4_task_d.toml", "biped.toml", "sim3_hybrid.toml"])
+def test_remembered_samples_give_the_very_same_document(path, monkeypatch):
+    """Checks share the seeded samples through a per-system row cache; the document is the
+    one computed on all rows at once, bit for bit, for a new start as for a repeated one."""
+    from stratcli import controllability
+    from stratcli.api.inspection import check_strata
+    from stratcli.scenario import load_scenario
+
+    task = load_scenario(f"scenarios/{path}")
+    system, strata, legs = task.system, check_strata(task), task.legs or None
+    starts = [np.asarray(task.start, dtype=float), np.asarray(task.start) + 0.1]
+    remembered = [check_document(system, strata, q, legs=legs) for q in [*starts, starts[0]]]
+    assert system.__dict__["_row_cache"]  # the samples' rows were remembered
+    monkeypatch.setattr(controllability, "_rows", lambda system, what, Q, compute: compute(Q))
+    for q, doc in zip([*starts, starts[0]], remembered, strict=True):
+        assert doc == check_document(system, strata, q, legs=legs)

@@ -405,3 +405,25 @@ def test_git_query_never_writes_the_index(tmp_path):
     assert index.read_bytes() == before
     subprocess.run(["git", "status", "--porcelain"], cwd=tmp_path, check=True, capture_output=True)
     assert index.read_bytes() != before  # the control: plain status would have written it
+
+
+@pytest.mark.parametrize("command", [["models"], ["plan", str(TASK_C), "--no-animation"]])
+def test_a_reader_leaving_early_ends_the_output_not_the_command(tmp_path, command):
+    """`stratplan … | head -1`: the pipe's reader is gone before the first line; the command
+    still does its work (the record), exits with its own code and prints no traceback."""
+    out = tmp_path / "runs"
+    args = [*command, "--out", str(out)] if command[0] == "plan" else command
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "stratcli", *args],
+        cwd=ROOT,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    proc.stdout.close()  # before the process has written anything: every write breaks
+    stderr = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, stderr
+    assert stderr == ""
+    if command[0] == "plan":
+        (run,) = out.iterdir()
+        assert json.loads((run / "result.json").read_text())["status"] == "ok"

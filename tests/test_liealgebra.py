@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import sympy as sp
 from conftest import UNICYCLE
-from scipy.integrate import cumulative_trapezoid
 
 import stratcli.liealgebra as lie
 from stratcli.controls import FourierBasis
 from stratcli.endpoint import OdeEndpoint
-from stratcli.liealgebra import element_degree, flow, hall_basis, iterated_integrals, lie_basis
+from stratcli.iterated import iterated_integrals
+from stratcli.liealgebra import element_degree, flow, hall_basis, lie_basis
 from stratcli.models.connection import connection
 from stratcli.models.presets import preset
 from stratcli.scenario import load_scenario, parse_scenario
@@ -76,24 +76,6 @@ def test_manipulator_closed_form_brackets_equal_the_symbolic_ones(
     slow = lie._build(system, system.stratum("S2"), degree)  # sympy, from System.fields_on
     assert slow.symbolic is not None
     np.testing.assert_allclose(fast.evaluate(q), slow.evaluate(q), rtol=0, atol=atol)
-
-
-def test_iterated_integrals_match_brute_force_and_have_exact_jacobians():
-    basis, T = FourierBasis(3, 2.17), 0.51
-    h = iterated_integrals(basis, T, 2, 3)
-    lam = np.random.default_rng(5).normal(size=2 * basis.size)
-    L = lam.reshape(2, -1)
-    t = np.linspace(0.0, T, 20001)
-    u = basis.values(t) @ L.T
-    U = cumulative_trapezoid(u, t, axis=0, initial=0.0)
-    alpha = h(lam)
-    np.testing.assert_allclose(alpha[:2], np.trapezoid(u, t, axis=0), rtol=1e-7)
-    area = 0.5 * np.trapezoid(U[:, 0] * u[:, 1] - U[:, 1] * u[:, 0], t)
-    assert alpha[2] == pytest.approx(area, rel=1e-6)
-    J = h.jacobian(lam)
-    E = np.eye(lam.size) * 1e-6
-    numeric = np.array([(h(lam + e) - h(lam - e)) / 2e-6 for e in E]).T
-    np.testing.assert_allclose(J, numeric, atol=1e-9)
 
 
 def _prediction_errors(system, stratum, q0, degree, scales, flip_bracket=False):

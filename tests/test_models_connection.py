@@ -21,10 +21,9 @@ from stratcli.models.connection import (
     connection_A,
     connection_gradient,
     connection_hessian,
-    connection_symbolic,
-    derive_symbolic,
     f_theta_and_f,
 )
+from stratcli.models.connection_symbolic import connection_symbolic, derive_symbolic
 from stratcli.models.planar import (
     Arm,
     Base,

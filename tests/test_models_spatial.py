@@ -3,6 +3,7 @@ and the exit-2 install hint without Pinocchio."""
 
 import builtins
 import pickle
+import re
 from pathlib import Path
 
 import numpy as np
@@ -97,3 +98,28 @@ def test_angular_rows_alone_give_the_same_rate_and_derivative():
     S_w, D_w = robot.angular(q, u)
     np.testing.assert_allclose(S_w, S[:, 3:], atol=1e-14)
     np.testing.assert_allclose(D_w, D, atol=1e-14)
+
+
+def test_base_box_is_the_box_of_the_base_inertia(tmp_path):
+    """A base given the inertia of a uniform 1.2 × 0.6 × 0.4 m box, rotated and off-centre,
+    is drawn as that box: same edges, centre and axes (up to the axes' signs)."""
+    a, m = np.array([1.2, 0.6, 0.4]), 30.0
+    moments = m * (a @ a - a**2) / 12.0  # I_a = m (b² + c²) / 12
+    c, s = np.cos(0.4), np.sin(0.4)
+    Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    inertia = Rz @ np.diag(moments) @ Rz.T
+    pairs = {"xx": (0, 0), "xy": (0, 1), "xz": (0, 2), "yy": (1, 1), "yz": (1, 2), "zz": (2, 2)}
+    attrs = " ".join(f'i{p}="{float(inertia[i, j])!r}"' for p, (i, j) in pairs.items())
+    text, found = re.subn(
+        r'<link name="base">.*?</link>',
+        f'<link name="base"><inertial><origin xyz="0.1 -0.2 0.05"/><mass value="{m}"/>'
+        f"<inertia {attrs}/></inertial></link>",
+        (ROBOTS / "arm3.urdf").read_text(),
+    )
+    assert found == 1
+    (tmp_path / "box.urdf").write_text(text)
+    centre, axes, edges = load_spatial(tmp_path / "box.urdf").spatial.base_box()
+    order = np.argsort(-edges)
+    np.testing.assert_allclose(edges[order], a, rtol=1e-9)
+    np.testing.assert_allclose(centre, [0.1, -0.2, 0.05], atol=1e-12)
+    np.testing.assert_allclose(np.abs(axes[:, order].T @ Rz), np.eye(3), atol=1e-9)

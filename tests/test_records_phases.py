@@ -14,7 +14,7 @@ from stratcli.scenario import load_scenario
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "sim1_l_c1.toml"
 PLANNED = ("import", "check", "compile", "planning")
-RECORDED = ("sample", "plots", "run.mcap")
+RECORDED = ("record imports", "sample", "plots", "run.mcap")
 
 
 def _is_timing(entry) -> bool:

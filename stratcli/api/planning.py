@@ -190,8 +190,9 @@ def plan_run(
             )
         else:
             result = plan_sequence(
-                task.system, task.start, task.legs, task.settings, progress=progress
-            )
+                task.system, task.start, task.legs, task.settings, progress=progress,
+                constraints=task.constraints,
+            )  # fmt: skip
     planning_time = phases["planning"]["wall_s"]
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale != 1.0:

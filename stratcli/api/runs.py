@@ -77,10 +77,14 @@ def write_record(
         The run directory. The outcome's `phases` (a `PlanOutcome`'s, or the best's) gain
         the record's parts, `write` and `total` (see `stratcli.records.manifest`).
     """
+    wall, cpu = time.perf_counter(), time.process_time()
     from ..records import run as run_files  # start-up speed (module comment)
     from ..records.comparison import comparison_csv
     from ..records.manifest import manifest, phase, since_start
     from ..records.ranking import ranking_png
+
+    # matplotlib and mcap load here, on the first record a process writes: a phase of its own
+    imported = {"wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu}
     from ..sequence import SequencePlan
     from .planning import ComparisonOutcome
 
@@ -97,6 +101,7 @@ def write_record(
     command = list(sys.argv if argv is None else argv)
     code = 0 if planned.ok else 1
     info = manifest(task.text, command, task.settings.seed, timings, code, planned.phases)
+    info["phases"]["record imports"] = imported
     comparing = isinstance(outcome, ComparisonOutcome)
     # the bar chart is drawn in a second process meanwhile (as long as the plots: 0.3 s)
     ranking, stop = _beside(ranking_png, outcome.document, fmt) if comparing else (None, None)

@@ -20,8 +20,8 @@ from .connection import (
     connection_A,
     connection_gradient,
     connection_hessian,
-    connection_symbolic,
 )
+from .connection_symbolic import connection_symbolic
 from .planar import PlanarManipulator
 from .system import Stratum, System
 

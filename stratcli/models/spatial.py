@@ -226,6 +226,19 @@ class SpatialRobot:
                 out[frame.name] = (placement.translation.copy(), placement.rotation.copy())
         return out
 
+    def base_box(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The base body as the uniform box of its mass and inertia (a URDF carries no shape
+        the planner reads): centre and axes in the base frame, and the edge lengths (m).
+
+        A uniform box of mass m and edges a, b, c has I = m(b² + c²)/12 about its a axis
+        (and so on), so a² = 6(I_b + I_c − I_a)/m over the principal moments.
+        """
+        inertia = self.model.inertias[1]  # the free-flyer's body: the base and what is fixed to it
+        moments, axes = np.linalg.eigh(np.asarray(inertia.inertia, dtype=float))
+        mass = max(float(inertia.mass), 1e-12)
+        edges = np.sqrt(np.maximum(6.0 * (moments.sum() - 2.0 * moments) / mass, 0.0))
+        return np.asarray(inertia.lever, dtype=float).copy(), axes, edges
+
 
 def _inverse3(A: np.ndarray) -> np.ndarray:
     """Inverses of 3×3 matrices (K, 3, 3) by cross products (adjugate over determinant)."""

@@ -311,6 +311,7 @@ class System:
         are generated again on first use where the system is unpickled."""
         state = dict(self.__dict__)
         state["_compiled"] = {}
+        state.pop("_row_cache", None)  # `controllability._rows`: only a speed-up
         return state
 
     @cached_property

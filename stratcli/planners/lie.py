@@ -35,7 +35,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..liealgebra import hall_basis, iterated_integrals, lie_basis
+from ..iterated import iterated_integrals
+from ..liealgebra import hall_basis, lie_basis
 from ..results import Piece
 from ..settings import LieSettings
 from ..status import Status

@@ -85,7 +85,9 @@ def save_figure(fig: Figure, fmt: str = "png") -> bytes:
         raise ValueError(f"figure format must be one of {', '.join(FORMATS)}, not {fmt!r}")
     buf = io.BytesIO()
     FigureCanvasAgg(fig)
-    fig.savefig(buf, format=fmt, dpi=DPI, metadata=_METADATA[fmt])
+    # zlib level 3 instead of PIL's 6: a tenth of a record's figure time for 7 % more bytes
+    extra = {"pil_kwargs": {"compress_level": 3}} if fmt == "png" else {}
+    fig.savefig(buf, format=fmt, dpi=DPI, metadata=_METADATA[fmt], **extra)
     return buf.getvalue()
 
 

@@ -2,10 +2,12 @@
 principal planes of its motion.
 
 The robot is drawn as its kinematic tree (a line from each link's origin to its children's)
-with the system CoM, fixed at the origin, marked. The planes are those of the two largest
-principal axes of all drawn points (PCA over the whole motion) and of the first and third: the
-view in which the motion spreads most, and the one across it. Instants fade from light to dark
-along the motion; each leg has its own colour.
+and its base, at each leg's first and last instant, as the box of the base body's mass and
+inertia (`SpatialRobot.base_box`; a URDF gives the planner no shape), with the system CoM,
+fixed at the origin, marked. The planes are those of the two largest principal axes of the
+link origins over the whole motion (PCA) and of the first and third: the view in which the
+motion spreads most, and the one across it. Instants fade from light to dark along the
+motion; each leg has its own colour.
 """
 
 from __future__ import annotations
@@ -21,7 +23,19 @@ INSTANTS_PER_LEG = 6
 COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
 
 
+# the 12 edges of a box, as pairs of its corners numbered by their sign bits (x, y, z)
+BOX_EDGES = [(a, a | bit) for bit in (1, 2, 4) for a in range(8) if not a & bit]
+
+
+def _box_corners(robot, p: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The 8 world corners of the base's box with the base at position p, rotation R."""
+    centre, axes, edges = robot.base_box()
+    signs = np.array([[(c >> b & 1) - 0.5 for b in range(3)] for c in range(8)])
+    return p + (centre + (signs * edges) @ axes.T) @ R.T
+
+
 def _poses(plan, traj, indices):
+    """Per instant: the link origins, the tree's segments and the base box's edges."""
     robot = plan.system.spatial
     k = robot.n_joints
     parents = {j.child: j.parent for j in robot.summary.joints}
@@ -34,7 +48,9 @@ def _poses(plan, traj, indices):
             for name, (p, _) in poses.items()
             if parents.get(name) in poses
         ]
-        drawn.append((np.array([p for p, _ in poses.values()]), segments))
+        corners = _box_corners(robot, *poses[robot.base])
+        base = [(corners[a], corners[b]) for a, b in BOX_EDGES]
+        drawn.append((np.array([p for p, _ in poses.values()]), segments, base))
     return drawn
 
 
@@ -56,7 +72,7 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
         if s.stop > s.start:
             picks += [(k, int(i)) for i in np.linspace(s.start, s.stop - 1, INSTANTS_PER_LEG)]
     drawn = _poses(plan, traj, [i for _, i in picks])
-    points = np.concatenate([p for p, _ in drawn])
+    points = np.concatenate([p for p, *_ in drawn])
     if not np.all(np.isfinite(points)):
         raise ValueError("non-finite samples")
     centre = points.mean(axis=0)
@@ -65,12 +81,17 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
     fig = Figure(figsize=(10, 5))
     axes = fig.subplots(1, 2)
     for ax, (a, b) in zip(axes, planes, strict=True):
-        for n, ((leg, _), (_, segments)) in enumerate(zip(picks, drawn, strict=True)):
+        for n, ((leg, _), (_, segments, base)) in enumerate(zip(picks, drawn, strict=True)):
             position = (n % INSTANTS_PER_LEG + 1) / INSTANTS_PER_LEG
             color = COLORS[leg % len(COLORS)]
-            for p0, p1 in segments:
-                x = np.array([p0 - centre, p1 - centre]) @ Vt[[a, b]].T
-                ax.plot(x[:, 0], x[:, 1], color=color, alpha=0.15 + 0.85 * position, lw=1.5)
+            alpha = 0.15 + 0.85 * position
+            ends = n % INSTANTS_PER_LEG in (0, INSTANTS_PER_LEG - 1)  # the base: a leg's ends
+            for lines, c, width in (((base if ends else []), "0.45", 0.7), (segments, color, 1.5)):
+                if not lines:
+                    continue
+                x = np.array(lines) - centre  # (segments, 2 ends, 3)
+                xy = x @ Vt[[a, b]].T
+                ax.plot(xy[:, :, 0].T, xy[:, :, 1].T, color=c, alpha=alpha, lw=width)
         com = -centre @ Vt[[a, b]].T
         ax.plot(*com, marker="+", color="k", ms=10, label="system CoM (fixed)")
         ax.set_aspect("equal", adjustable="datalim")
@@ -79,6 +100,7 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
         ax.grid(alpha=0.3)
     for k, leg in enumerate(plan.legs):
         axes[0].plot([], [], color=COLORS[k % len(COLORS)], label=f"leg {k + 1} ({leg.stratum})")
+    axes[0].plot([], [], color="0.45", lw=0.6, label="base (box of its inertia)")
     axes[0].legend(loc="best", fontsize=8)
     fig.suptitle(
         f"{title or plan.scenario}: stroboscope on the principal planes (light to dark in time)",

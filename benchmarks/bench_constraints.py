@@ -1,0 +1,72 @@
+"""Planning time under constraints: each constrained Sim 4 task against the same task without.
+
+Usage: python benchmarks/bench_constraints.py [--repeats N] [SCENARIO ...]
+
+For scenarios/sim4_task_{a,b,c,d}_constrained.toml (joints within ±2.5 rad, self-collision
+with clearance 0.05) and sim4_task_d_obstacles.toml, with the energy objective: the median CPU
+time (time.process_time) of planning the task as shipped (the search, the re-chaining and the
+dense verification of the [constraints] table) and of the same scenario with its
+[constraints] table removed, over --repeats runs after a warm-up run that compiles the model;
+their ratio (issue 17 asks ≤ 3x); the energies with and without the constraints, and the
+status. A failed constrained plan is timed too (its search ran to its stall).
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the stratplan command does
+
+import argparse
+import platform
+import statistics
+import time
+import tomllib
+from pathlib import Path
+
+from stratcli.api.planning import plan_run
+from stratcli.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1] / "scenarios"
+DEFAULT = [
+    "sim4_task_a_constrained",
+    "sim4_task_b_constrained",
+    "sim4_task_c_constrained",
+    "sim4_task_d_constrained",
+    "sim4_task_d_obstacles",
+]
+
+
+def _timed(task, repeats: int):
+    plan_run(task, check=False)  # warm-up: compiles the model
+    times, result = [], None
+    for _ in range(repeats):
+        clock = time.process_time()
+        result = plan_run(task, check=False).result
+        times.append(time.process_time() - clock)
+    return statistics.median(times), result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("scenarios", nargs="*", default=DEFAULT)
+    args = parser.parse_args()
+    where = platform.processor() or platform.machine()
+    print(f"{where}, Python {platform.python_version()}, CPU time (time.process_time), "
+          f"median of {args.repeats} runs after a warm-up")  # fmt: skip
+    print(f"{'scenario':26} {'free s':>8} {'constr. s':>10} {'ratio':>6} "
+          f"{'free E':>9} {'constr. E':>10}  status")  # fmt: skip
+    for name in args.scenarios:
+        raw = tomllib.loads((ROOT / f"{name}.toml").read_text())
+        free_raw = {k: v for k, v in raw.items() if k != "constraints"}
+        t_free, free = _timed(load_scenario(free_raw), args.repeats)
+        t_con, con = _timed(load_scenario(raw), args.repeats)
+        print(
+            f"{name:26} {t_free:8.3f} {t_con:10.3f} {t_con / t_free:6.1f} "
+            f"{free.total_energy:9.2f} {con.total_energy:10.2f}  {con.status.name.lower()}"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,270 @@
+"""Margins to joint limits, self-collision and obstacles at nodes of every leg, with their
+derivatives in the coefficients of the stacked energy problem (no I/O).
+
+The constrained search (`planners.constrained`) works in the free coordinates z of the stacked
+problem (`planners.energy._Problem`: λ = λp + N z, the continuity terms eliminated). Along each
+leg, at `NODES` equally spaced times (more for fast harmonics, `NODES_PER_RADIAN`):
+
+* the joints are closed-form integrals of the Fourier controls, affine in λ: their margins to
+  the joint limits and the derivatives of those are exact;
+* the base angle θ (needed only for obstacles: self-collision depends on the joints alone) is
+  a quadrature of the connection, accumulated over the node intervals with `GAUSS` Gauss
+  points each, its derivative by the same quadrature (as `endpoint.QuadratureEndpoint`);
+* the clearances are separating-axis gaps (`clearance.penetration`): minus the depth of
+  overlap where bodies overlap, so that a colliding plan still has a direction out, and a
+  lower bound of the distance where they are apart (so a plan with positive margins here
+  has them in `constraints.verify` too); differentiated in the configuration by forward
+  differences and chained with the above.
+
+Every margin is reduced by `CUSHION` (rad or length unit) so that a plan that keeps every node
+margin positive keeps the dense re-integration's (`constraints.verify`, 2000 samples a leg)
+non-negative between the nodes too; `NodeMargins.refined` adds nodes where it does not.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .clearance import penetration
+from .models.geometry import world_geometry
+
+__all__ = ["CUSHION", "NODES", "NodeMargins", "searchable"]
+
+NODES = 128  # per leg at least (t = 0 is the leg's fixed start and is left out)
+NODES_PER_RADIAN = 13  # and at least this many per radian of the top harmonic's phase
+GAUSS = 4  # Gauss points per node interval for the base angle's quadrature
+CUSHION = 2e-3  # margin kept at the nodes, for the samples between them
+FD_STEP = 1e-7  # forward differences of the clearances in the configuration
+
+
+def searchable(constraints) -> bool:
+    """Whether the [constraints] table asks the search for anything (joint limits,
+    self-collision or obstacles; rate limits are met by time scaling afterwards)."""
+    if constraints is None:
+        return False
+    limited = np.isfinite(constraints.lower) | np.isfinite(constraints.upper)
+    return bool(limited.any() or constraints.geometric)
+
+
+def geometric_margins(robot, q: np.ndarray, c) -> tuple[np.ndarray, list[str]]:
+    """Signed clearances (N, P) at configurations q (N, n) less the link radius and the
+    clearance (separating-axis gaps: exact inside, never above the distance apart, so a
+    plan with positive margins here has them in `constraints.verify` too), one column per
+    pair of bodies (the pairs `constraints._clearances` checks), and
+    each column's kind ("self-collision" or "an obstacle")."""
+    geo = world_geometry(robot, q)
+    a, b, corners, arm = geo["proximal"], geo["distal"], geo["base_corners"], geo["arm_of_link"]
+    r, k = c.link_radius, a.shape[1]
+    links = np.stack((a, b), axis=2)  # (N, k, 2, 2)
+    cols, kinds = [], []
+
+    def gap(p, q):  # signed: minus the depth of overlap, a lower bound of the distance apart
+        return -penetration(p, q)
+
+    if c.self_collision:
+        first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
+        for i in range(k):
+            if i not in first:
+                cols.append(gap(links[:, i], corners) - r)
+                kinds.append("self-collision")
+            for j in range(i + 1, k):
+                if arm[j] == arm[i] and j == i + 1:
+                    continue
+                cols.append(gap(links[:, i], links[:, j]) - 2 * r)
+                kinds.append("self-collision")
+    for centre, radius in c.circles:
+        centre = np.broadcast_to(centre, (len(q), 2))
+        cols.append(gap(centre[:, None, :], corners) - radius)
+        kinds.append("an obstacle")
+        for i in range(k):
+            d = np.linalg.norm(centre - _closest(centre, a[:, i], b[:, i]), axis=-1)
+            cols.append(d - r - radius)
+            kinds.append("an obstacle")
+    for box in c.boxes:
+        cols.append(gap(corners, box[None]))
+        kinds.append("an obstacle")
+        for i in range(k):
+            cols.append(gap(links[:, i], box[None]) - r)
+            kinds.append("an obstacle")
+    out = np.stack(cols, axis=1) if cols else np.zeros((len(q), 0))
+    return out - c.clearance, kinds
+
+
+def _closest(p, a, b):
+    d = b - a
+    length2 = np.einsum("...i,...i->...", d, d)
+    t = np.clip(np.einsum("...i,...i->...", p - a, d) / np.where(length2 > 0, length2, 1), 0, 1)
+    return a + t[..., None] * d
+
+
+def _per_phase(ep) -> int:
+    omega = float(ep.basis.omega[-1]) if ep.basis.harmonics else 0.0
+    return int(np.ceil(NODES_PER_RADIAN * omega * ep.duration))
+
+
+class _Leg:
+    """One leg's nodes: the affine map of its coefficients to the joints there, and the
+    quadrature tables for θ."""
+
+    def __init__(self, ep, rows: slice, t: np.ndarray, need_theta: bool):
+        self.ep, self.rows = ep, rows
+        self.t = np.asarray(t, dtype=float)  # increasing, in (0, T]
+        m, s = ep.m, ep.size
+        Psi = ep.basis.integrals(self.t)  # (N, s)
+        # q_E(t_k) = q0_E + C L Ψ(t_k): dq_E/dλ[k, e, (a, b)] = C[e, a] Ψ[k, b]
+        self.dE = np.einsum("ea,kb->keab", ep.C, Psi).reshape(len(self.t), ep.E.size, m * s)
+        self.theta = need_theta and ep.Q.size > 0
+        # coordinates that move on this leg (a locked joint stays at its via, checked on
+        # loading): joints driven by an input, and θ when it is integrated
+        driven = ep.E[np.any(ep.C != 0.0, axis=1)] if ep.E.size else ep.E
+        self.moving = set(driven.tolist()) | (set(ep.Q.tolist()) if self.theta else set())
+        if self.theta:
+            x, w = np.polynomial.legendre.leggauss(GAUSS)
+            edges = np.concatenate([[0.0], self.t])
+            h = np.diff(edges)
+            self.tg = (edges[:-1, None] + 0.5 * h[:, None] * (x + 1.0)).ravel()
+            self.wg = (0.5 * h[:, None] * w).ravel()
+            self.Phi_g, self.Psi_g = ep.basis.values(self.tg), ep.basis.integrals(self.tg)
+
+    def configurations(self, lam: np.ndarray, jacobian: bool):
+        """q at the nodes (N, n) and dq/dλ (N, n, p) (None without `jacobian`)."""
+        ep = self.ep
+        L = lam.reshape(ep.m, ep.size)
+        N, n = len(self.t), ep.q0.size
+        q = np.broadcast_to(ep.q0, (N, n)).copy()
+        q[:, ep.E] += self.dE @ lam
+        dq = np.zeros((N, n, lam.size)) if jacobian else None
+        if jacobian:
+            dq[:, ep.E] = self.dE
+        if self.theta:
+            qg = np.broadcast_to(ep.q0, (len(self.tg), n)).copy()
+            qg[:, ep.E] += self.Psi_g @ (L.T @ ep.C.T)
+            u = self.Phi_g @ L.T  # (K, m)
+            if hasattr(ep.cs, "quadrature_jacobian"):
+                GQ, Du = ep.cs.quadrature_jacobian(qg, u[:, None, :])
+            else:
+                terms = ep.cs.quadrature_terms(qg, 1)
+                GQ, Du = terms[0], (u[:, None, None, :] @ terms[1])[:, :, 0, :]
+            f = (GQ @ u[:, :, None])[..., 0] * self.wg[:, None]  # (K, nQ)
+            q[:, ep.Q] += np.cumsum(f.reshape(N, GAUSS, -1).sum(axis=1), axis=0)
+            if jacobian:
+                D = Du @ ep.C  # (K, nQ, m)
+                g = (GQ * self.wg[:, None, None])[..., None] * self.Phi_g[:, None, None, :]
+                g += (D * self.wg[:, None, None])[..., None] * self.Psi_g[:, None, None, :]
+                g = g.reshape(N, GAUSS, ep.Q.size, -1).sum(axis=1)
+                dq[:, ep.Q] = np.cumsum(g, axis=0)
+        return q, dq
+
+
+class NodeMargins:
+    """g(z) ≥ 0 at the nodes of every leg of a stacked energy problem, and ∂g/∂z.
+
+    Parameters
+    ----------
+    problem : planners.energy._Problem
+        The stacked problem (its legs' end-point maps must be quadrature maps).
+    system : System
+        The model (its `robot` carries the collision geometry).
+    constraints : constraints.Constraints
+        The resolved [constraints] table.
+    """
+
+    def __init__(self, problem, system, constraints, nodes=NODES, cushion=CUSHION, reach=np.inf):
+        """`nodes`: a count per leg (equally spaced), or each leg's node times. Clearances
+        above `reach` are given a zero derivative (a truncated barrier ignores them)."""
+        self.problem, self.c, self.cushion, self.reach = problem, constraints, cushion, reach
+        self.robot = getattr(system, "robot", None)
+        self.geometric = constraints.geometric and self.robot is not None
+        limited = np.isfinite(constraints.lower) | np.isfinite(constraints.upper)
+        k = self.robot.n_joints if self.robot is not None else limited.size
+        need_theta = bool(constraints.circles or constraints.boxes or limited[k:].any())
+        offsets = problem.offsets
+        if isinstance(nodes, int):  # more for fast harmonics: (ω h)² / 8 of their amplitude
+            nodes = [
+                np.linspace(0.0, ep.duration, max(nodes, _per_phase(ep)))[1:]
+                for ep in problem.endpoints
+            ]
+        self.legs = [
+            _Leg(ep, slice(offsets[i], offsets[i + 1]), t, need_theta)
+            for i, (ep, t) in enumerate(zip(problem.endpoints, nodes, strict=True))
+        ]
+        self.need_theta = need_theta
+        self.system = system
+        self.limited = np.flatnonzero(limited).tolist()
+        self.states = tuple(system.states)
+        # which coordinates the clearances depend on: the joints; θ too with obstacles
+        self.geo_coords = list(range(k + 1 if need_theta else k))
+        self.labels: list[tuple[int, str]] = []  # per row: (leg index, what it limits)
+        self.times = np.zeros(0)  # per row: the node's time in its leg
+
+    def refined(self, z: np.ndarray, dense: int) -> NodeMargins | None:
+        """These margins with more nodes where `dense` equally spaced samples a leg find less
+        than a quarter of the cushion left (between the nodes), or None if they find none."""
+        probe = NodeMargins(self.problem, self.system, self.c, dense, self.cushion)
+        g = probe(z, jacobian=False)[0]
+        low = g < -0.75 * self.cushion  # a quarter of the cushion left
+        if not low.any():
+            return None
+        legs = np.array([leg for leg, _ in probe.labels])
+        nodes = []
+        for index, leg in enumerate(self.legs):
+            extra = probe.times[low & (legs == index)]
+            nodes.append(np.union1d(leg.t, extra))
+        return NodeMargins(self.problem, self.system, self.c, nodes, self.cushion, self.reach)
+
+    def __call__(self, z: np.ndarray, jacobian: bool = True):
+        """Margins g (M,) and their Jacobian in z (M, nz) (None without `jacobian`); row r
+        limits what `labels[r]` says."""
+        lam = self.problem.coefficients(z)
+        null = self.problem.null
+        values, grads, labels, times = [], [], [], []
+        configurations, slopes = [], []
+        for index, leg in enumerate(self.legs):
+            q, dq = leg.configurations(lam[leg.rows], jacobian)
+            dqz = dq @ null[leg.rows] if jacobian else None  # (N, n, nz)
+            configurations.append((q, dqz))
+            for i in self.limited:
+                if i not in leg.moving:
+                    continue  # locked on this leg: its via, checked on loading
+                for sign, bound in ((1.0, self.c.lower[i]), (-1.0, self.c.upper[i])):
+                    if np.isfinite(bound):
+                        values.append(sign * (q[:, i] - bound) - self.cushion)
+                        if jacobian:
+                            grads.append(sign * dqz[:, i])
+                        labels += [(index, f"the joint limits of {self.states[i]}")] * len(q)
+                        times.append(leg.t)
+        if self.geometric:  # every leg in one evaluation, then the differences near contact
+            q = np.concatenate([c[0] for c in configurations])
+            g_all, kinds = geometric_margins(self.robot, q, self.c)
+            if jacobian:  # differences at nodes near contact, in coordinates that move there
+                slopes = np.zeros((len(self.geo_coords), *g_all.shape))
+                leg_of = np.repeat(np.arange(len(self.legs)), [len(c[0]) for c in configurations])
+                near = (g_all < self.reach).any(axis=1)
+                where = []
+                for cidx in self.geo_coords:
+                    moves = [i for i, leg in enumerate(self.legs) if cidx in leg.moving]
+                    where.append(np.flatnonzero(near & np.isin(leg_of, moves)))
+                steps = [
+                    q[w] + FD_STEP * np.eye(q.shape[1])[c]
+                    for c, w in zip(self.geo_coords, where, strict=True)
+                ]
+                if sum(len(w) for w in where):
+                    moved = geometric_margins(self.robot, np.concatenate(steps), self.c)[0]
+                    start = 0
+                    for k, w in enumerate(where):
+                        slopes[k, w] = (moved[start : start + len(w)] - g_all[w]) / FD_STEP
+                        start += len(w)
+            row = 0
+            for index, (qi, dqz) in enumerate(configurations):
+                rows = slice(row, row + len(qi))
+                row += len(qi)
+                values.append(g_all[rows].T.ravel() - self.cushion)
+                labels += [(index, kind) for kind in kinds for _ in range(len(qi))]
+                times += [self.legs[index].t] * len(kinds)
+                if jacobian:
+                    dg = np.einsum("cnp,ncz->pnz", slopes[:, rows], dqz[:, self.geo_coords])
+                    grads.append(dg.reshape(-1, dqz.shape[-1]))
+        g = np.concatenate(values) if values else np.zeros(0)
+        G = (np.concatenate(grads) if grads else np.zeros((0, z.size))) if jacobian else None
+        self.labels, self.times = labels, np.concatenate(times) if times else np.zeros(0)
+        return g, G

@@ -1,0 +1,244 @@
+"""Planning within joint limits, self-collision and obstacles, along the whole of every leg.
+
+Both objectives search the stacked problem of the energy objective (`energy._Problem`: all
+legs' coefficients, continuity eliminated, every iterate restored onto the goals by Newton
+steps of least energy norm) with the node margins g(z) ≥ 0 of `node_margins` (joint limits
+exact, clearances as signed distances, at 128 nodes a leg, less a cushion).
+
+1. **Feasibility** (`_Search.reach_feasible`, both objectives). The end-point map is extended
+   with the violations: its outputs are the goal residuals and `min(0, g_k − 2 PUSH)` at every
+   node, driven to zero together by damped Gauss–Newton steps of least energy norm (the
+   extended-map method of Janiak & Tchoń 2011, with the violation integral ∫ min(0, g)² dt
+   resolved node by node: its gradient, unlike the integral's, does not vanish as the
+   violation does). It ends when every margin is at least `PUSH` and the plan, restored onto
+   the goals, is still strictly inside.
+2. **Minimum energy inside the limits** (`_Search.lower`, the energy objective only): an
+   interior (log-barrier) method from that feasible plan. Each iteration is the energy
+   search's reduced Newton step (`energy._Descent`) for `E(z) + μ Σ_k b(g_k(z)) / NODES`,
+   b(g) = −log x + x − 1 of x = g / REACH (zero and flat from REACH on: far margins cost
+   nothing), its Hessian in Gauss–Newton form. Every trial point is restored onto the goals
+   and rejected unless every margin stays positive, so every iterate is a valid plan; μ falls
+   tenfold `ROUNDS` times.
+3. **Between the nodes**: a dense check (`DENSE` samples a leg) adds nodes where a margin
+   dips below a quarter of the cushion, and the search goes on (`REFINEMENTS` times).
+
+A search that cannot make every margin positive says which limit on which leg it stalled on
+(`_Search.stalled`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..endpoint import QuadratureEndpoint
+from ..node_margins import CUSHION, NODES, NodeMargins
+from .energy import CURVATURE_FLOOR, STEP_LIMIT, _Descent, _Problem
+
+__all__ = ["NotSearchable", "constrained_search"]
+
+PUSH = 1e-3  # the feasibility phase ends with every node margin at least this
+FEASIBILITY_ITERATIONS = 60
+DAMPING_MAX = 1e8  # relative Levenberg damping at which the feasibility phase gives up
+ROUNDS = 3  # barrier weights μ0, μ0/10, ...
+BARRIER_START = 1e-2  # μ0 as a fraction of the feasible plan's energy
+ROUND_ITERATIONS = 50
+REACH = 0.3  # the barrier ignores margins above this (rad or length unit)
+FRACTION_TO_BOUNDARY = 0.9
+
+
+class NotSearchable(Exception):
+    """The legs' end-point maps are not quadrature maps (ODE path, spatial models): their
+    joints are not closed-form, and the search does not apply (the limits are verified)."""
+
+
+class _Search(_Descent):
+    """One start of the constrained search: restoration and bookkeeping from `_Descent`."""
+
+    def __init__(self, problem: _Problem, margins: NodeMargins, z: np.ndarray, tol: float):
+        super().__init__(problem, z, tol)
+        self.margins = margins
+        self.stalled = ""
+
+    def _subspace(self, z):
+        _, J = self.problem._evaluate(z, True)
+        _, S, Vt = np.linalg.svd(J)
+        rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
+        return J, Vt[rank:].T
+
+    # ---- 1. feasibility --------------------------------------------------------------------
+    def reach_feasible(self) -> bool:
+        """Damped Gauss–Newton steps of least energy norm on the extended map (goal residuals
+        and node violations together); True when the plan, restored onto the goals, has every
+        margin at least `PUSH`."""
+        if not self.feasible:  # (`_Descent`: the start was restored onto the goals)
+            self.stalled = "the start could not be restored onto the goals"
+            return False
+        problem, z = self.problem, self.z
+        scale = 1.0 / np.sqrt(NODES)  # a node's violation: a share of the integral
+
+        def extended(z, jacobian):
+            c, J = problem._evaluate(z, jacobian)
+            g, G = self.margins(z, jacobian)
+            active = g < 2 * PUSH  # aim beyond PUSH: Gauss–Newton only approaches its aim
+            R = np.concatenate([c, scale * (g[active] - 2 * PUSH)])
+            A = np.vstack([J, scale * G[active]]) if jacobian else None
+            return R, A, g
+
+        R, A, g = extended(z, True)
+        damping = 1e-6
+        for _ in range(FEASIBILITY_ITERATIONS):
+            if g.size == 0 or g.min() >= PUSH:
+                restored = self._restore(z)
+                if restored is not None:
+                    g_r = self.margins(restored, False)[0]
+                    if g_r.size == 0 or g_r.min() > 0:
+                        self.z, self.energy = restored, problem.energy(restored)
+                        return True
+            self.iterations += 1
+            H, grad = A.T @ A, A.T @ R
+            size = max(float(np.diag(H).max(initial=0.0)), 1e-12)
+            value = float(R @ R)
+            while damping <= DAMPING_MAX:
+                d = np.linalg.solve(H + damping * size * np.eye(len(H)), -grad)
+                R_t = extended(z + d, False)[0]
+                if np.all(np.isfinite(R_t)) and float(R_t @ R_t) < value:
+                    z = z + d
+                    R, A, g = extended(z, True)
+                    damping = max(damping / 10, 1e-12)
+                    break
+                damping *= 10
+            else:
+                break
+        worst = int(np.argmin(g))
+        leg, what = self.margins.labels[worst]
+        self.stalled = (
+            f"the constrained search stalled on leg {leg + 1}: {what} still violated by "
+            f"{max(PUSH - g[worst], 0.0):.3g} at its nodes"
+        )
+        return False
+
+    # ---- 2. minimum energy inside the limits ------------------------------------------------
+    def _barrier(self, z, mu: float, g=None):
+        if g is None:
+            g = self.margins(z, jacobian=False)[0]
+        if g.size and g.min() <= 0:
+            return np.inf
+        x = np.minimum(g, REACH) / REACH  # -log x + x - 1: zero, and flat, from REACH on
+        return self.problem.energy(z) + mu * float(np.sum(x - 1.0 - np.log(x))) / NODES
+
+    def lower(self) -> None:
+        """Log-barrier descent from a feasible z (every iterate feasible)."""
+        problem = self.problem
+        mu = BARRIER_START * self.energy
+        for _ in range(ROUNDS):
+            for _ in range(ROUND_ITERATIONS):
+                self.iterations += 1
+                if not self._barrier_step(mu):
+                    break
+            mu *= 0.1
+        self.energy = problem.energy(self.z)
+
+    def _barrier_step(self, mu: float) -> bool:
+        problem, z = self.problem, self.z
+        g, G = self.margins(z)
+        J, Z = self._subspace(z)
+        inv = np.where(g < REACH, 1.0 / g, 0.0)
+        slope_b = inv - np.where(g < REACH, 1.0 / REACH, 0.0)  # -b'(g), per row
+        grad = problem.energy_grad(z) - (mu / NODES) * (G.T @ slope_b)
+        reduced = Z.T @ grad
+        if np.linalg.norm(reduced) <= 1e-9 * np.linalg.norm(grad):
+            return False
+        lagrange = -np.linalg.lstsq(J.T, grad, rcond=None)[0]
+        GZ = (G @ Z) * inv[:, None]
+        R = Z.T @ (self.H0 + problem.constraint_hessian(z, lagrange)) @ Z
+        R += (mu / NODES) * (GZ.T @ GZ)
+        low = float(np.linalg.eigvalsh(R)[0]) / 2.0 if R.size else np.inf
+        if low < CURVATURE_FLOOR:
+            R = R + (CURVATURE_FLOOR - low) * 2.0 * np.eye(len(R))
+        d = -Z @ np.linalg.solve(R, reduced)
+        size = float(np.linalg.norm(d)) * np.sqrt(2.0)
+        limit = STEP_LIMIT * np.sqrt(max(self.energy, 1e-300))
+        if size > limit:
+            d *= limit / size
+        slope = float(grad @ d)
+        if -slope <= 1e-12 * max(abs(self._barrier(z, mu, g)), 1e-300):
+            return False
+        Gd = G @ d
+        shrinking = Gd < 0
+        alpha = 1.0
+        if shrinking.any():
+            alpha = min(1.0, FRACTION_TO_BOUNDARY * float(np.min(g[shrinking] / -Gd[shrinking])))
+        merit = self._barrier(z, mu, g) + float(lagrange @ problem.constraint(z))
+        while alpha > 1e-8:
+            trial = self._restore(z + alpha * d)
+            if trial is not None:
+                value = self._barrier(trial, mu)
+                if np.isfinite(value):
+                    m = value + float(lagrange @ problem.constraint(trial))
+                    if m <= merit + 1e-4 * alpha * slope:
+                        self.z, self.energy = trial, problem.energy(trial)
+                        return True
+            alpha *= 0.5
+        return False
+
+
+def _violation(g: np.ndarray) -> float:
+    r = np.minimum(g - 2 * PUSH, 0.0)
+    return 0.5 * float(r @ r)
+
+
+REFINEMENTS = 6  # passes that add nodes where a dense check finds a margin below zero
+DENSE = 1000  # samples a leg of that check
+
+
+def constrained_search(
+    system, starts, legs, settings, targets, seeds, constraints, lower_energy: bool, first=True
+):
+    """Coefficients within the limits at every node, from the first of `seeds` (stacked
+    coefficients reaching the goals) that leads to a feasible plan.
+
+    Returns (per-leg coefficients or None, notes, the stall message of the last start tried);
+    (None, notes, "") when the first seed is inside the limits already and `first` (the
+    planned plan: then it is the constrained minimum as well).
+    With `lower_energy` (the energy objective) the feasible plan's energy is then lowered
+    inside the limits by the barrier method.
+    """
+    problem = _Problem(system, starts, legs, settings, targets)
+    if not all(isinstance(ep, QuadratureEndpoint) for ep in problem.endpoints):
+        raise NotSearchable
+    margins = NodeMargins(problem, system, constraints, reach=REACH + CUSHION)
+    stalled = ""
+    z = problem.project(seeds[0][1])
+    g = margins(z, jacobian=False)[0]
+    if first and (g.size == 0 or g.min() >= 0) and margins.refined(z, DENSE) is None:
+        return None, ["inside the limits already: no constrained search needed"], ""
+    for kind, lam in seeds:
+        with np.errstate(all="ignore"):
+            search = _Search(problem, margins, problem.project(lam), settings.tolerance)
+            found = np.nan
+            for _ in range(REFINEMENTS + 1):
+                if not search.reach_feasible():
+                    break
+                if np.isnan(found):
+                    found = search.energy
+                if lower_energy:
+                    search.lower()
+                finer = search.margins.refined(search.z, DENSE)
+                if finer is None:
+                    break
+                search.margins = finer  # and again, with nodes where it dipped in between
+            else:
+                search.stalled = (
+                    "the constrained search kept dipping below a margin between its nodes"
+                )
+            if search.stalled:
+                stalled = search.stalled
+                continue
+        nodes = sum(len(leg.t) for leg in search.margins.legs)
+        notes = [
+            f"constrained search from the {kind} plan: within the limits at {nodes} nodes "
+            f"after {search.iterations} iterations, energy {found:.6g}"
+            + (f", lowered to {search.energy:.6g} inside them" if lower_energy else "")
+        ]
+        return problem.split(problem.coefficients(search.z)), notes, ""
+    return None, [], stalled

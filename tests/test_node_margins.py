@@ -1,0 +1,87 @@
+"""Node margins of the constrained search: the separating-axis gap is a lower bound of the
+distance apart and minus the depth inside, and the Jacobian in the search's coordinates equals
+finite differences (joints, self-collision, obstacles via θ)."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stratcli import load_scenario, plan
+from stratcli.clearance import (
+    box_corners,
+    penetration,
+    segment_polygon_distance,
+    segment_segment_distance,
+)
+from stratcli.node_margins import NodeMargins
+from stratcli.planners.energy import _Problem
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_separating_axis_gap_bounds_the_distance_apart_and_is_the_depth_inside():
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(size=(2, 2000, 2)) * 1.5
+    c, d = rng.normal(size=(2, 2000, 2)) * 1.5
+    box = np.broadcast_to(box_corners([0.2, -0.1], [1.0, 0.6], 0.4), (2000, 4, 2))
+    link, other = np.stack((a, b), axis=1), np.stack((c, d), axis=1)
+    for gap, plain in (
+        (-penetration(link, box), segment_polygon_distance(a, b, box)),
+        (-penetration(link, other), segment_segment_distance(a, b, c, d)),
+    ):
+        apart = plain > 0
+        # apart: a lower bound of the distance (conservative), positive, and equal to it
+        # unless the closest points are two corners
+        assert np.all(gap[apart] <= plain[apart] + 1e-12) and np.all(gap[apart] > 0)
+        assert np.mean(np.isclose(gap[apart], plain[apart])) > 0.5
+        assert np.all(gap[~apart] <= 1e-12)  # overlapping: minus a depth
+    # a segment through the middle of a 2 x 2 box must move by 1 to get out
+    square = box_corners([0, 0], [2.0, 2.0], 0.0)
+    assert penetration(np.array([[0.0, -3.0], [0.0, 3.0]]), square) == pytest.approx(1.0)
+    assert penetration(np.array([[0.5, -3.0], [0.5, 3.0]]), square) == pytest.approx(0.5)
+
+
+def _problem(raw):
+    task = load_scenario(raw)
+    result = plan({k: v for k, v in raw.items() if k != "constraints"})  # the free plan
+    starts = [task.start, *[np.asarray(leg.goal) for leg in task.legs[:-1]]]
+    targets = [np.array(leg.targets, dtype=int) for leg in result.legs]
+    problem = _Problem(task.system, starts, task.legs, task.settings, targets)
+    lam = np.concatenate([leg.coefficients.ravel() for leg in result.legs])
+    return task, problem, problem.project(lam)
+
+
+@pytest.mark.parametrize("obstacles", [False, True])
+def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstacles):
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_constrained.toml").read_text())
+    raw["planner"]["objective"] = "newton"
+    if obstacles:
+        raw["constraints"]["obstacles"] = [
+            {"shape": "circle", "centre": [1.2, 0.8], "radius": 0.3},
+            {"shape": "box", "centre": [-1.0, 1.5], "size": [0.4, 0.8], "rotation": 0.3},
+        ]
+    task, problem, z = _problem(raw)
+    margins = NodeMargins(problem, task.system, task.constraints, nodes=40)
+    g, G = margins(z)
+    assert len(margins.labels) == g.size
+    rng = np.random.default_rng(0)
+    direction = rng.normal(size=z.size)
+    direction *= 1e-2 / np.linalg.norm(direction)
+    h = 1e-4
+    numeric = (margins(z + h * direction, False)[0] - margins(z - h * direction, False)[0]) / (
+        2 * h
+    )
+    joints = np.array(["joint" in what for _, what in margins.labels])
+    np.testing.assert_allclose(G[joints] @ direction, numeric[joints], atol=1e-8)
+    # clearances: differenced in the configuration, piecewise smooth (kinks where the
+    # closest features change): most rows agree closely
+    close = np.abs(G[~joints] @ direction - numeric[~joints]) <= 1e-4 + 1e-3 * np.abs(
+        numeric[~joints]
+    )
+    assert close.mean() > 0.97
+    if obstacles:
+        assert any(what == "an obstacle" for _, what in margins.labels)

@@ -1,0 +1,238 @@
+"""The constrained search (planners.constrained): plans inside joint limits and clear of
+self-collision along every leg, checked on an independent dense re-integration; a task it
+cannot plan fails with the limit and the leg named; Lie legs are refused with such limits."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from reintegrate import controls, rhs_for, verify
+from scipy.integrate import solve_ivp
+from typer.testing import CliRunner
+
+from stratcli import load_scenario
+from stratcli.api import plan_run
+from stratcli.cli import app
+from stratcli.errors import InputError
+from stratcli.models.geometry import world_geometry
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = ROOT / "scenarios"
+runner = CliRunner()
+
+
+def _dense(task, doc, samples: int = 2000) -> np.ndarray:
+    """Configurations at `samples` times a leg, integrated independently (solve_ivp)."""
+    rhs, inputs = rhs_for(task, doc), doc["inputs"]
+    q, out = np.array(doc["start"], dtype=float), []
+    for leg in doc["legs"]:
+        for piece in leg["pieces"]:
+            t = np.linspace(0.0, piece["duration"], samples)
+            sol = solve_ivp(
+                lambda s, y, p=piece, st=leg["stratum"]: rhs(st, y, controls(p, inputs, s)),
+                (0.0, piece["duration"]), q, method="DOP853", rtol=1e-11, atol=1e-12, t_eval=t,
+            )  # fmt: skip
+            assert sol.success
+            out.append(sol.y.T)
+            q = sol.y[:, -1]
+    return np.concatenate(out)
+
+
+def _segment_distance(p, a, b):
+    d = b - a
+    t = np.clip(np.einsum("...i,...i", p - a, d) / np.einsum("...i,...i", d, d), 0.0, 1.0)
+    return np.linalg.norm(p - (a + t[..., None] * d), axis=-1)
+
+
+def _crosses(a, b, c, d):
+    def cross(u, v):
+        return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+    d1, d2 = cross(b - a, c - a), cross(b - a, d - a)
+    d3, d4 = cross(d - c, a - c), cross(d - c, b - c)
+    return (d1 * d2 <= 0) & (d3 * d4 <= 0)
+
+
+def _between(a, b, c, d):
+    """Distance between segments (2-D: the closest points include an end), 0 if crossing."""
+    ends = np.minimum.reduce(
+        [_segment_distance(a, c, d), _segment_distance(b, c, d),
+         _segment_distance(c, a, b), _segment_distance(d, a, b)]
+    )  # fmt: skip
+    return np.where(_crosses(a, b, c, d), 0.0, ends)
+
+
+def _self_clearance(robot, q, radius):
+    """Smallest surface distance between non-adjacent bodies (links as capsules, base as its
+    rectangle), computed here from the link ends alone."""
+    geo = world_geometry(robot, q)
+    a, b, box = geo["proximal"], geo["distal"], geo["base_corners"]
+    edges = [(box[:, i], box[:, (i + 1) % 4]) for i in range(4)]
+    k, worst = a.shape[1], np.full(len(q), np.inf)
+    for i in range(k):
+        if i > 0:  # the first link is mounted on the base
+            to_base = np.min([_between(a[:, i], b[:, i], c, d) for c, d in edges], axis=0)
+            side = []
+            for j in range(4):
+                e, r = box[:, (j + 1) % 4] - box[:, j], a[:, i] - box[:, j]
+                side.append(e[:, 0] * r[:, 1] - e[:, 1] * r[:, 0])
+            inside = np.all(np.array(side) >= 0, axis=0) | np.all(np.array(side) <= 0, axis=0)
+            worst = np.minimum(worst, np.where(inside, 0.0, to_base) - radius)
+        for j in range(i + 2, k):
+            worst = np.minimum(worst, _between(a[:, i], b[:, i], a[:, j], b[:, j]) - 2 * radius)
+    return worst
+
+
+def _inside(p, box):
+    """Points p (N, 2) inside convex polygons box (N, 4, 2)."""
+    side = []
+    for j in range(4):
+        e, r = box[:, (j + 1) % 4] - box[:, j], p - box[:, j]
+        side.append(e[:, 0] * r[:, 1] - e[:, 1] * r[:, 0])
+    side = np.array(side)
+    return np.all(side >= 0, axis=0) | np.all(side <= 0, axis=0)
+
+
+def _to_polygon(a, b, box):
+    """Segments [a, b] to convex polygons (0 where they overlap), from edges and ends."""
+    edges = [(box[:, i], box[:, (i + 1) % 4]) for i in range(4)]
+    d = np.min([_between(a, b, c, e) for c, e in edges], axis=0)
+    return np.where(_inside(a, box) | _inside(b, box), 0.0, d)
+
+
+def _obstacle_clearance(robot, q, radius, circles, boxes):
+    """Smallest distance from any body (capsule links, base rectangle) to the obstacles."""
+    geo = world_geometry(robot, q)
+    a, b, base = geo["proximal"], geo["distal"], geo["base_corners"]
+    worst = np.full(len(q), np.inf)
+    for centre, r in circles:
+        c = np.broadcast_to(np.asarray(centre, float), (len(q), 2))
+        edges = [_segment_distance(c, base[:, i], base[:, (i + 1) % 4]) for i in range(4)]
+        worst = np.minimum(worst, np.where(_inside(c, base), 0.0, np.min(edges, axis=0)) - r)
+        for i in range(a.shape[1]):
+            worst = np.minimum(worst, _segment_distance(c, a[:, i], b[:, i]) - radius - r)
+    for box in boxes:
+        box = np.broadcast_to(box, (len(q), 4, 2))
+        for i in range(a.shape[1]):
+            worst = np.minimum(worst, _to_polygon(a[:, i], b[:, i], box) - radius)
+        for i in range(4):
+            worst = np.minimum(worst, _to_polygon(base[:, i], base[:, (i + 1) % 4], box))
+    return worst
+
+
+@pytest.mark.slow
+def test_the_obstacle_task_is_planned_clear_of_the_obstacles_that_the_free_plan_hits():
+    from stratcli.clearance import box_corners
+
+    task = load_scenario(SCENARIOS / "sim4_task_d_obstacles.toml")
+    spec = tomllib.loads((SCENARIOS / "sim4_task_d_obstacles.toml").read_text())["constraints"]
+    circles = [(o["centre"], o["radius"]) for o in spec["obstacles"] if o["shape"] == "circle"]
+    boxes = [
+        box_corners(o["centre"], o["size"], o["rotation"])
+        for o in spec["obstacles"]
+        if o["shape"] == "box"
+    ]
+    free_task = load_scenario(SCENARIOS / "sim4_task_d.toml")
+    free = plan_run(free_task, check=False)
+    q_free = _dense(free_task, free.document)
+    assert _obstacle_clearance(task.system.robot, q_free, 0.05, circles, boxes).min() < 0
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    verify(task, outcome.document)
+    q = _dense(task, outcome.document)
+    clearance = _obstacle_clearance(task.system.robot, q, 0.05, circles, boxes)
+    assert clearance.min() >= spec["clearance"] - 1e-6
+
+
+def _raw(name: str, **planner) -> dict:
+    raw = tomllib.loads((SCENARIOS / name).read_text())
+    raw["planner"].update(planner)
+    return raw
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("objective", ["energy", "newton"])
+def test_a_shipped_plan_that_self_collides_is_planned_clear_with_the_constraints_on(objective):
+    # unconstrained, Sim 4 task D folds a link through the base and swings q2 past 2.5 rad
+    free_task = load_scenario(_raw("sim4_task_d.toml", objective=objective))
+    free = plan_run(free_task, check=False)
+    q_free = _dense(free_task, free.document)
+    assert _self_clearance(free_task.system.robot, q_free, 0.05).min() < 0.05
+    # with self-collision (clearance 0.05) and joint limits ±2.5 on
+    task = load_scenario(_raw("sim4_task_d_constrained.toml", objective=objective))
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    doc = outcome.document
+    verify(task, doc)  # goals, continuity and energies on an independent re-integration
+    q = _dense(task, doc)
+    assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
+    clearance = _self_clearance(task.system.robot, q, 0.05)
+    assert clearance.min() >= 0.05 - 1e-6
+    # and result.json's margins agree with this independent check
+    worst = min(m["self_clearance"] for m in doc["constraints"]["legs"])
+    assert worst == pytest.approx(clearance.min() - 0.05, abs=1e-3)
+    assert worst >= 0
+
+
+@pytest.mark.slow
+def test_a_task_the_search_cannot_plan_fails_naming_the_limit_and_the_leg(tmp_path):
+    # task A within ±2.5 rad with the paper's 3 harmonics: the S2 leg's loops do not fit
+    raw = tomllib.loads((SCENARIOS / "sim4_task_a_constrained.toml").read_text())
+    del raw["planner"]["basis"]
+    from stratcli.tomlwrite import dumps
+
+    path = tmp_path / "sim4_task_a_h3.toml"
+    path.write_text(dumps(raw))
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path), "-q", "--no-animation"])
+    assert result.exit_code == 1, result.output
+    assert "stalled on leg 2" in result.output and "joint limits of q1" in result.output
+    (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
+    doc = json.loads((run / "result.json").read_text())
+    assert doc["status"] == "failed" and doc["constraints"]["violated"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["a", "b", "c"])
+def test_each_shipped_constrained_sim4_task_keeps_its_limits_on_re_integration(name):
+    task = load_scenario(SCENARIOS / f"sim4_task_{name}_constrained.toml")
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    verify(task, outcome.document)
+    q = _dense(task, outcome.document)
+    assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
+    assert _self_clearance(task.system.robot, q, 0.05).min() >= 0.05 - 1e-6
+
+
+def test_lie_legs_are_refused_with_joint_limits_and_collisions(tmp_path):
+    raw = tomllib.loads((SCENARIOS / "sim3_hybrid.toml").read_text())
+    raw["constraints"] = {"joint_limits": [-3.0, 3.0]}
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    lie = [i for i, leg in enumerate(raw["legs"]) if leg.get("method") == "lie"]
+    paths = [p.path for p in info.value.problems]
+    assert paths == [f"legs[{i}].method" for i in lie]
+    # rate limits alone are met by time scaling: Lie legs are fine with them
+    raw["constraints"] = {"max_rate": 5.0}
+    load_scenario(raw)
+    from stratcli.tomlwrite import dumps
+
+    path = tmp_path / "lie.toml"
+    raw["constraints"] = {"self_collision": True}
+    path.write_text(dumps(raw))
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path), "-q"])
+    assert result.exit_code == 2 and "Lie leg" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_spatial_legs_are_verified_not_searched_and_say_so():
+    raw = tomllib.loads((SCENARIOS / "spatial" / "arm3_reorient.toml").read_text())
+    raw["model"]["path"] = str((SCENARIOS / "spatial" / raw["model"]["path"]).resolve())
+    raw["constraints"] = {"max_rate": 5.0}  # the URDF's joint limits apply
+    outcome = plan_run(load_scenario(raw), check=False)
+    assert outcome.ok, outcome.result.message
+    assert any("verified, not searched for" in note for note in outcome.result.notes)
+    assert all(m.joint_limit >= 0 for m in outcome.result.constraints.legs)
