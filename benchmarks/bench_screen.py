@@ -7,10 +7,13 @@ Each task draws from `numpy.random.default_rng(seed + i)`: a start within ±π/2
 of the one-arm preset, a change of up to ±2.5 rad per joint and ±0.6 rad for θ (as in
 bench_random.py), decomposed as auto mode does by default (sequences of up to 3 strata,
 conservative vias). Every task's candidates are compared twice with the default (energy)
-objective and criterion: screened (`compare(..., screen=SCREEN_TOP)`, auto mode's default)
-and exhaustive (`screen=None`, every candidate to its minimum). Prints, as markdown, per task
-the two planning times (`Comparison.wall_time`, model compiled before), the two choices and
-whether they match, then the medians. The Sim 4 task (scenarios/sim4_auto.toml) comes first.
+objective and criterion: screened (`compare(..., screen=SCREEN_TOP)`, auto mode's default:
+branch and bound on the legs' minima, `stratcli.screen`) and exhaustive (`screen=None`, every
+candidate to its minimum). Prints, as markdown, per task the two planning times
+(`Comparison.wall_time`, model compiled before), the CPU time the screen's leg bounds took
+(summed over the processes), how many candidates it searched and how many it only bounded,
+the two choices and whether they match, then the medians. The Sim 4 task
+(scenarios/sim4_auto.toml) comes first.
 
 `--robot two-arm` draws the same kind of tasks for the two-arm preset (5 coordinates, 708
 candidates of up to 3 of its 10 strata, lr-C1) and skips Sim 4; `--no-exhaustive` times the
@@ -72,6 +75,7 @@ def both(system, settings, start, goal, jobs: int, exhaustive: bool = True) -> d
     dec = decompose(system, start, goal, max_length=3, strategies=("conservative",))
     compile_strata(system, dec.candidates_strata)
     runs = {"exhaustive": {"time": float("nan"), "choice": None, "label": "–", "cut": 0}}
+    runs["exhaustive"].update(searched=0, bound_s=float("nan"))
     for name, screen in (("screened", SCREEN_TOP), ("exhaustive", None))[: 1 + exhaustive]:
         result = compare(system, start, dec.candidates, settings, jobs=jobs, screen=screen)
         best = result.best
@@ -80,6 +84,8 @@ def both(system, settings, start, goal, jobs: int, exhaustive: bool = True) -> d
             "choice": (best.candidate.sequence, best.candidate.strategy),
             "label": f"{best.candidate.label} {best.energy:.2f}",
             "cut": sum(o.screened for o in result.outcomes),
+            "searched": len(result.screen.searched) if result.screen else len(result.outcomes),
+            "bound_s": result.screen.seconds if result.screen else float("nan"),
         }
     runs["candidates"] = len(dec.candidates)
     return runs
@@ -109,10 +115,10 @@ def main() -> None:
         f"{args.jobs}, screen top {SCREEN_TOP}, load average {os.getloadavg()[0]:.2f}\n"
     )
     print(
-        "| task | candidates | screened s | cut | exhaustive s | screened best | "
-        "exhaustive best | same |"
+        "| task | candidates | screened s | leg bounds CPU s | searched | bounded | "
+        "exhaustive s | screened best | exhaustive best | same |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     rows = []
     if args.robot == "one-arm":
         both(system, settings, sim4.start, sim4.goal, args.jobs)  # warm-up (caches)
@@ -122,6 +128,7 @@ def main() -> None:
         rows.append((name, r, same))
         print(
             f"| {name} | {r['candidates']} | {r['screened']['time']:.2f} | "
+            f"{r['screened']['bound_s']:.2f} | {r['screened']['searched']} | "
             f"{r['screened']['cut']} | {r['exhaustive']['time']:.2f} | "
             f"{r['screened']['label']} | {r['exhaustive']['label']} | "
             f"{('yes' if same else 'NO') if exhaustive else '–'} |",

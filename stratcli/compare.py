@@ -5,16 +5,17 @@ objective, identical sequences once otherwise, sub-tries in parallel processes),
 each (energy, peak |u|, joint excursion, duration) and ranks them by a criterion.
 
 The screen (`screen=K`, energy objective and criterion; auto mode's default, `SCREEN_TOP`):
-every candidate is first planned with the paper's Newton method (shared prefixes, cheap); the
-K with the lowest Newton energy get the full energy search, and the lowest energy they reach
-is the `bound`. The others get a one-start search (from their Newton plan) whose starts are
-stopped once still `planners.energy.SCREEN_RATIO` times above the bound; those that end
-within that ratio of it get the full search too (with the same cut). The rest keep the
-energy of their one-start search (not a minimum) and are marked `screened`. `screen=None`
-plans every candidate to its minimum (exhaustive). A screened energy is what one start of
-the search reached, not the sequence's minimum; that a sequence ending there above twice the
-best cannot win is a heuristic, checked against the exhaustive choice on the Sim 4 task and
-random one-arm tasks (tests/test_compare.py, benchmarks/bench_screen.py).
+branch and bound (`stratcli.screen`). Every distinct leg of the candidates is planned alone
+at minimum energy, without the continuity conditions that couple it to its neighbours; a
+sequence's minimum is at least the sum of its legs' (its `energy_bound`). Candidates are
+then searched fully in the order of their bounds until the next bound is not below the best
+value found (at least K of them); the others are *bounded* (status "bounded", `screened`):
+not planned, their minimum is at least their bound, which is at least the best's. They rank
+after the searched ones, by bound. `screen=None` plans every candidate to its minimum
+(exhaustive). The bound is exact for exact leg minima and the legs' searches are local, so
+a searched sequence whose leg costs less than that leg's bound lowers it before anything
+more is pruned (tests/test_screen.py and benchmarks/bench_screen.py compare the choice with
+the exhaustive search's).
 
 Equal duration. A sequence's energy falls as its duration grows (time-scaling a path by s
 multiplies its energy by s and its duration by 1/s, so energy × duration is a property of the
@@ -38,7 +39,7 @@ import numpy as np
 from .decomposition import Candidate
 from .errors import InputError
 from .models.system import System
-from .planners.energy import SCREEN_RATIO
+from .screen import Screen, screen_candidates
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import check_legs
@@ -52,7 +53,7 @@ CRITERION_LABELS = {
     "duration": "total duration",
 }
 SAMPLES_PER_LEG = 1001  # for peak |u| and joint excursions
-SCREEN_TOP = 4  # candidates fully searched before the others are screened against them
+SCREEN_TOP = 1  # candidates fully searched (lowest bounds) before any is pruned
 
 
 @dataclass(frozen=True)
@@ -71,8 +72,9 @@ class Outcome:
     duration: float = math.nan
     planning_time: float = 0.0  # seconds: this sequence's legs (shared ones included)
     rank: int | None = None
-    screened: bool = False  # its energy search was cut short by the screen (not a minimum)
+    screened: bool = False  # not searched: bounded by the screen (its energy is not known)
     reference_duration: float = math.nan  # the comparison's equal total duration T
+    energy_bound: float = math.nan  # the screen's lower bound on `energy` (own duration)
 
     @property
     def ok(self) -> bool:
@@ -84,6 +86,13 @@ class Outcome:
         if not math.isfinite(self.reference_duration) or not self.duration > 0:
             return self.energy
         return self.energy * self.duration / self.reference_duration
+
+    @property
+    def energy_bound_equal_time(self) -> float:
+        """The screen's lower bound on `energy_equal_time`."""
+        if not math.isfinite(self.reference_duration) or not self.duration > 0:
+            return self.energy_bound
+        return self.energy_bound * self.duration / self.reference_duration
 
     def value(self, criterion: str) -> float:
         return {
@@ -107,6 +116,7 @@ class Comparison:
     wall_time: float
     shared: bool  # prefix sharing used (Newton objective)
     reference_duration: float = math.nan  # total duration the energies are compared at
+    screen: Screen | None = None  # the screen's bounds and what it searched (None: exhaustive)
 
     @property
     def equal_durations(self) -> bool:
@@ -136,10 +146,12 @@ class Comparison:
                 "no sequence reached the goal; the one that got furthest was "
                 f"{best.candidate.label} {best.candidate.strategy} ({best.reason})"
             )
+        bounded = sum(o.status == "bounded" for o in self.outcomes)
+        among = "searched that reached the goal" if bounded else "that reached the goal"
         text = (
             f"{best.candidate.label} {best.candidate.strategy}: lowest {label} "
-            f"({_show(best.value(self.criterion), self.criterion)}) of {len(ok)} sequences "
-            "that reached the goal"
+            f"({_show(best.value(self.criterion), self.criterion)}) of {len(ok)} "
+            f"sequence{'s' if len(ok) != 1 else ''} {among}"
         )
         if len(ok) > 1:
             runner = ok[1]
@@ -149,6 +161,11 @@ class Comparison:
             )
             if runner.value(self.criterion) == best.value(self.criterion):
                 text += " (a tie, broken by total energy)"
+        if bounded:
+            text += (
+                f"; {bounded} more not searched: each one's lower bound is at least the best's "
+                "value"
+            )
         return text
 
 
@@ -196,7 +213,7 @@ def compare(
     advance = progress or (lambda k: None)
     clock = time.perf_counter()
     outcomes: list[Outcome | None] = [None] * len(candidates)
-    screened: set[int] = set()  # cut short by the screen
+    screen_result = None  # the screen's bounds (energy objective and criterion)
     valid: list[int] = []
     for k, cand in enumerate(candidates):
         try:
@@ -221,8 +238,8 @@ def compare(
                 system, settings, start, candidates, valid, jobs, advance
             )
         elif screen is not None and criterion == "energy":
-            planned, requested, plans, times, screened = _compare_screened(
-                system, settings, start, candidates, valid, jobs, advance, screen
+            planned, requested, plans, times, screen_result = screen_candidates(
+                system, settings, start, candidates, valid, jobs, advance, screen, reference
             )
         else:
             planned, requested, plans, times = compare_whole(
@@ -231,9 +248,12 @@ def compare(
     finally:
         STATE.clear()
     for k in valid:
-        outcomes[k] = _outcome(k, candidates[k], plans[k], times[k], system, settings)
-        if k in screened:
-            outcomes[k] = replace(outcomes[k], screened=True)
+        if k in plans:
+            outcomes[k] = _outcome(k, candidates[k], plans[k], times[k], system, settings)
+        else:  # pruned by the screen: not planned
+            outcomes[k] = _bounded(k, candidates[k], screen_result.bounds[k])
+        if screen_result is not None:
+            outcomes[k] = replace(outcomes[k], energy_bound=screen_result.bounds[k])
     outcomes = [replace(o, reference_duration=reference) for o in outcomes]
     wall = time.perf_counter() - clock
     ranking = rank([o for o in outcomes if o is not None], criterion)
@@ -249,55 +269,20 @@ def compare(
         wall_time=wall,
         shared=is_newton(settings),
         reference_duration=reference,
+        screen=screen_result,
     )
 
 
-def _compare_screened(system, settings, start, candidates, valid, jobs, advance, top: int):
-    """The screen: Newton for all, the `top` lowest Newton energies fully, the rest bounded."""
-    newton = replace(settings, objective="newton")
-    STATE["settings"] = newton
-    _, _, first_plans, first_times = compare_shared(
-        system, newton, start, candidates, valid, jobs, lambda k: None
+def _bounded(k, cand, bound) -> Outcome:
+    """A candidate the screen pruned: its lower bound is at least the best's value."""
+    duration = sum(leg.duration for leg in cand.legs)
+    reason = "not searched: its lower bound is at least the best's value"
+    message = (
+        f"not searched: its energy is at least {_show(bound, 'energy')} (the sum of its legs' "
+        "minima, each leg planned alone without the conditions that tie it to its "
+        "neighbours), which cannot beat the best sequence"
     )
-    STATE["settings"] = settings
-
-    def newton_key(k: int):  # energy x duration: the ranking at equal duration
-        p = first_plans[k]
-        ok = not isinstance(p, str) and p.ok
-        return (0, p.total_energy * p.duration, k) if ok else (1, 0.0, k)
-
-    order = sorted(valid, key=newton_key)
-    head, tail = sorted(order[: max(1, top)]), sorted(order[max(1, top) :])
-    planned, requested, plans, times = compare_whole(
-        system, settings, candidates, head, jobs, advance
-    )
-    found = [p.total_energy * p.duration for p in plans.values() if not isinstance(p, str) and p.ok]
-    bound = STATE["bound"] = min(found, default=math.inf)  # energy x duration (see trie)
-    # the others: one start (the Newton plan), cut against the bound
-    STATE["settings"] = replace(settings, starts=1)
-    more = compare_whole(system, settings, candidates, tail, jobs, lambda k: None)
-    STATE["settings"] = settings
-    plans.update(more[2])
-    times.update(more[3])
-    reached = [k for k in tail if not isinstance(plans[k], str) and plans[k].ok]
-    close = [
-        k for k in reached if plans[k].total_energy * plans[k].duration <= SCREEN_RATIO * bound
-    ]
-    again = compare_whole(system, settings, candidates, close, jobs, lambda k: None)
-    advance(len(tail))
-    plans.update(again[2])
-    for k in close:
-        times[k] += again[3][k]
-    screened = {k for k in reached if k not in close}
-    planned, requested = planned + more[0] + again[0], requested + more[1] + again[1]
-    for k in valid:
-        times[k] += first_times[k]
-    return planned, requested, plans, times, screened
-
-
-def _was_screened(plan) -> bool:
-    search = getattr(plan, "optimisation", None)
-    return search is not None and any(s.stopped == "screened" for s in search.starts)
+    return Outcome(k, cand, None, "bounded", reason, message, duration=duration, screened=True)
 
 
 def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
@@ -325,7 +310,6 @@ def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
         excursion=excursion,
         duration=plan.duration,
         planning_time=seconds,
-        screened=_was_screened(plan),
     )
 
 
@@ -362,8 +346,9 @@ def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:
     """Outcome indices, best first.
 
     Sequences that reached the goal by `criterion`, then total energy, then fewer legs, then
-    enumeration order; failed ones after them: more legs planned first, then the smaller
-    error of the leg that failed, then enumeration order (rejected before planning: last).
+    enumeration order; then those the screen bounded (not planned), by their bound; failed
+    ones after them: more legs planned first, then the smaller error of the leg that failed,
+    then enumeration order (rejected before planning: last).
     """
 
     def ok_key(o: Outcome):
@@ -377,8 +362,12 @@ def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:
         return (0, -reached, o.plan.legs[-1].error, o.index)
 
     ok = sorted((o for o in outcomes if o.ok), key=ok_key)
-    failed = sorted((o for o in outcomes if not o.ok), key=failed_key)
-    return [o.index for o in (*ok, *failed)]
+    bounded = sorted(
+        (o for o in outcomes if o.status == "bounded"),
+        key=lambda o: (o.energy_bound_equal_time, o.index),
+    )
+    failed = sorted((o for o in outcomes if o.status == "failed"), key=failed_key)
+    return [o.index for o in (*ok, *bounded, *failed)]
 
 
 def compile_strata(system: System, names) -> float:

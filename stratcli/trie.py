@@ -157,14 +157,11 @@ def _plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
     system: System = STATE["system"]
     settings: PlannerSettings = STATE["settings"]
     start: np.ndarray = STATE["start"]
-    # the screen's bound is an energy x duration (compare: energies at equal duration)
-    action: float = STATE.get("bound", np.inf)
     out = {}
     for key, legs in items:
         clock = time.perf_counter()
         try:
-            bound = action / sum(leg.duration for leg in legs)
-            plan = plan_sequence(system, start, legs, settings, bound=bound)
+            plan = plan_sequence(system, start, legs, settings)
             out[key] = (plan, time.perf_counter() - clock, "")  # pickles without its model
         except Exception as exc:
             out[key] = (None, time.perf_counter() - clock, f"{exc}")

@@ -228,6 +228,18 @@ def test_ranking_uses_a_log_axis_iff_the_values_span_more_than_10x(values, log):
     assert labels[0] == "best: S1→S2 · cons."
 
 
+def test_ranking_shows_a_bounded_row_as_its_bound_not_as_a_failure():
+    doc = _ranking_doc([60.0, None, 70.0])
+    doc["rows"][1].update(status="bounded", energy_bound=64.5, reason="not searched")
+    fig = ranking_figure(doc)
+    (ax,) = fig.axes
+    texts = [t.get_text() for t in ax.texts]
+    assert any(t.startswith(" ≥ 64.5") and "not searched" in t for t in texts)
+    assert not any("failed" in t for t in texts)
+    (legend,) = fig.legends
+    assert "failed" not in [t.get_text() for t in legend.get_texts()]
+
+
 @pytest.mark.parametrize(("fmt", "magic"), [("svg", (b"<?xml", b"<svg")), ("pdf", (b"%PDF",))])
 def test_plots_in_svg_and_pdf(one_arm, fmt, magic):
     files = render_plots(one_arm.plan, one_arm.traj, "t", animation=False, fmt=fmt)

@@ -1,4 +1,5 @@
-"""Auto mode's screen (`compare(..., screen=K)`): the same choice as the exhaustive search."""
+"""Auto mode's screen (`compare(..., screen=K)`, `stratcli.screen`): bounds below the exhaustive
+search's minima, and the same choice."""
 
 from __future__ import annotations
 
@@ -51,23 +52,54 @@ def test_screen_chooses_as_the_exhaustive_search_on_sim4(sim4):
     assert screened.best.energy == exhaustive.best.energy  # the same search, the same numbers
     assert any(o.screened for o in screened.outcomes)
     assert not any(o.screened for o in exhaustive.outcomes)
-    for o in screened.outcomes:  # a screened sequence reached its goal, far above the best
-        if o.screened:
-            assert o.ok and o.energy_equal_time > 2 * screened.best.energy_equal_time
+    best = screened.best.energy_equal_time
+    for o, full in zip(screened.outcomes, exhaustive.outcomes, strict=True):
+        # every bound is below the sequence's minimum (the exhaustive search's)
+        assert o.energy_bound_equal_time <= full.energy_equal_time * (1 + 1e-9)
+        if o.screened:  # bounded: not planned, and its bound cannot beat the best
+            assert o.status == "bounded" and o.plan is None
+            assert o.energy_bound_equal_time >= best
+        else:  # searched: the same search as the exhaustive one's
+            assert o.ok and o.energy == full.energy
+    ranked = [screened.outcomes[k] for k in screened.ranking]
+    statuses = [o.status for o in ranked]  # searched, then bounded, then failed
+    assert statuses == sorted(statuses, key=["ok", "bounded", "failed"].index)
 
 
-@pytest.mark.parametrize("seed", [1, 4, 16])
+@pytest.mark.parametrize("seed", [1, 4, 14, 16])
 def test_screen_chooses_as_the_exhaustive_search_on_random_tasks(sim4, seed):
     start, goal = random_task(seed)
     screened, exhaustive = screened_and_exhaustive(sim4, start, goal)
     assert screened.best.candidate == exhaustive.best.candidate
     assert screened.best.energy == exhaustive.best.energy
+    for o, full in zip(screened.outcomes, exhaustive.outcomes, strict=True):
+        if full.ok:  # the bound holds wherever the exhaustive search reached the goal
+            assert o.energy_bound_equal_time <= full.energy_equal_time * (1 + 1e-9)
 
 
 def test_comparison_json_marks_screened_rows_and_exhaustive_has_none(sim4):
     doc = api.compare_sequences(sim4, jobs=2).document
-    assert all("screened" in row and "energy" in row for row in doc["rows"])
+    assert all("screened" in row and "energy_bound" in row for row in doc["rows"])
     assert doc["rows"][0]["screened"] is False and any(row["screened"] for row in doc["rows"])
+    for row in doc["rows"]:  # which were searched, which only bounded
+        assert (row["status"] == "bounded") == row["screened"]
+        assert (row["energy"] is None) == row["screened"]
+    assert doc["screen"]["searched"] + doc["screen"]["bounded"] == len(doc["rows"])
     full = api.compare_sequences(sim4, jobs=2, exhaustive=True).document
-    assert not any(row["screened"] for row in full["rows"])
+    assert not any(row["screened"] for row in full["rows"]) and full["screen"] is None
     assert full["rows"][0]["sequence"] == doc["rows"][0]["sequence"] == ["S1", "S3"]
+
+
+def test_the_screen_does_not_depend_on_the_processes_or_the_executor(sim4):
+    """Rounds depend only on what earlier rounds found: one process, two, or threads (the
+    executor path) give the same document."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stratcli.records.comparison import without_timings
+
+    one = api.compare_sequences(sim4, jobs=1).document
+    two = api.compare_sequences(sim4, jobs=2).document
+    with ThreadPoolExecutor(2) as pool:
+        threads = api.compare_sequences(sim4, executor=pool).document
+    assert one["screen"]["searched"] >= 1 and one["screen"]["bounded"] >= 1
+    assert without_timings(one) == without_timings(two) == without_timings(threads)

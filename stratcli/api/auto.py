@@ -91,7 +91,8 @@ def compare_decomposition(
     candidate could even be planned (all were rejected before planning).
 
     With the energy objective and criterion the candidates are screened (`compare.compare`,
-    `screen=SCREEN_TOP`) unless `exhaustive`: every candidate searched to its minimum.
+    `screen=SCREEN_TOP`, branch and bound: `stratcli.screen`) unless `exhaustive`: every
+    candidate searched to its minimum.
     `executor` (any concurrent.futures.Executor) or `dask` (a scheduler's address or file):
     plan there instead of in `jobs` forked processes."""
     if dask is not None and executor is None:  # on a Dask cluster (`sweep.run.dask_executor`)

@@ -275,8 +275,8 @@ def compare_sequences(
         Called as `progress(done, total)` while sequences are planned.
     exhaustive : bool
         With the energy objective and criterion: search every candidate to its minimum
-        instead of screening them (`compare.compare`, `screen`; the rows cut short are
-        marked `screened` in comparison.json).
+        instead of screening them (`compare.compare`, `screen`; the rows not searched, only
+        bounded, are marked `screened` in comparison.json).
     executor, dask : concurrent.futures.Executor or str, optional
         Plan on this executor, or on the Dask cluster of this scheduler address or file,
         instead of `jobs` forked processes (the same results; a scenario's model only).

@@ -102,17 +102,46 @@ def write_record(
     code = 0 if planned.ok else 1
     info = manifest(task.text, command, task.settings.seed, timings, code, planned.phases)
     info["phases"]["record imports"] = imported
-    files = run_files.record_files(task, planned.result, planned.document, info, animation, fmt)
-    phases = info["phases"]
-    if isinstance(outcome, ComparisonOutcome):
-        with phase(phases, "comparison files"):
-            files["comparison.json"] = outcome.document
-            files["comparison.csv"] = comparison_csv(outcome.document)
-            files[f"ranking.{fmt}"] = ranking_png(outcome.document, fmt)
+    comparing = isinstance(outcome, ComparisonOutcome)
+    # the bar chart is drawn in a second process meanwhile (as long as the plots: 0.3 s)
+    ranking, stop = _beside(ranking_png, outcome.document, fmt) if comparing else (None, None)
+    try:
+        files = run_files.record_files(task, planned.result, planned.document, info, animation, fmt)
+        phases = info["phases"]
+        if comparing:
+            with phase(phases, "comparison files"):  # what is left of them
+                files["comparison.json"] = outcome.document
+                files["comparison.csv"] = comparison_csv(outcome.document)
+                files[f"ranking.{fmt}"] = ranking()
+    finally:
+        if stop is not None:
+            stop()
     with phase(phases, "write"):  # after manifest.json is written: in the outcome only
         run_dir = run_files.write_record(Path(out), task, files, planned.started)
     planned.phases.update(phases, total=since_start())
     return run_dir
+
+
+def _beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]]:
+    """Start `func(*args)` in a forked process (one that dies with this one and leaves
+    SIGINT to it, `trie._worker_init`); returns (a function that waits for its value, one
+    that ends the process). Where there is no fork (or only one core), `func` runs when its
+    value is asked for."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from ..trie import _stop, _worker_init, default_jobs
+
+    if default_jobs() < 2 or "fork" not in multiprocessing.get_all_start_methods():
+        return (lambda: func(*args)), (lambda: None)
+    pool = ProcessPoolExecutor(
+        max_workers=1,
+        mp_context=multiprocessing.get_context("fork"),
+        initializer=_worker_init,
+        initargs=(os.getpid(),),
+    )
+    future = pool.submit(func, *args)
+    return future.result, lambda: _stop(pool, [future])
 
 
 def prepare_out(out: str | Path) -> Path:

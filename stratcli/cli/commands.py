@@ -165,9 +165,9 @@ def compare_sequences(
 ) -> None:
     """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
 
-    With the energy objective and criterion the sequences are screened: all are planned with
-    Newton first, the few lowest get the full energy search, the others a cheap one that is
-    cut short (marked "screened" in comparison.json) when far above the best.
+    With the energy objective and criterion the sequences are screened: each distinct leg is
+    planned alone at least energy, and a sequence whose legs' sum cannot beat the best found
+    is not searched (status "bounded", marked "screened" in comparison.json).
     Ranked by the criterion among the sequences that reached the goal (ties: lower energy);
     failed sequences stay in the table with their reason. The record holds the best
     sequence's full run record plus comparison.json, comparison.csv and ranking.png. Exits 0

@@ -47,34 +47,39 @@ def ranking(task, doc: dict) -> None:
     for header in (*headers, "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
         number_column(rows, header)
     failures = []
-    screened = 0
+    bounded = 0
     for row in doc["rows"]:
         ok = row["status"] == "ok"
-        screened += bool(row.get("screened"))
+        bound = row["status"] == "bounded"  # not searched: only a lower bound is known
+        bounded += bound
         style = "bold green" if ok and row["rank"] == 1 else None
         sequence = " → ".join(row["sequence"])
-        if not ok:  # the reason is a sentence: below the table, not squeezed into a cell
+        if not ok and not bound:  # the reason is a sentence: below the table, not in a cell
             failures.append(f"rank {row['rank']} ({sequence}) failed: {escape(row['reason'])}")
-        star = "*" if row.get("screened") else ""
-        energies = [fmt(row["energy"]) + star if ok else "–"]
+        energies = [fmt(row["energy"]) if ok else "–"]
         if scaled:
-            energies.append(fmt(row["energy_equal_time"]) + star if ok else "–")
+            energies.append(fmt(row["energy_equal_time"]) if ok else "–")
+        if bound:
+            energies = ["≥ " + fmt(row["energy_bound"])]
+            if scaled:
+                energies.append("≥ " + fmt(row["energy_bound_equal_time"]))
         rows.add_row(
             str(row["rank"]),
             f"{sequence}\n[dim]{row['strategy']}[/]" if both else sequence,
-            "ok" if ok else "[red]failed[/]",
+            "ok" if ok else ("[dim]bounded[/]" if bound else "[red]failed[/]"),
             *energies,
             fmt(row["peak_control"]) if ok else "–",
             _number(row["excursion"], "{:.3f}") if ok else "–",
             _number(row["duration"], "{:g}"),
-            f"{1e3 * row['planning_time_s']:.0f}",
+            "–" if bound else f"{1e3 * row['planning_time_s']:.0f}",
             style=style,
         )
     render.out_console.print(rows)
-    if screened:
+    if bounded:
         say(
-            f"* {screened} sequence(s) screened, not optimised: their energy is where a short "
-            "search stopped, above twice the best (--exhaustive optimises every one)"
+            f"{bounded} sequence(s) bounded, not searched: the sum of their legs' minimum "
+            "energies (each leg planned alone, without the conditions that tie it to its "
+            "neighbours) is at least the best's (--exhaustive searches every one)"
         )
     if scaled:
         say(
@@ -112,10 +117,11 @@ def comparison_footer(outcome, run_dir: Path) -> None:
 def auto_mode(outcome, run_dir: Path) -> None:
     """`plan` in auto mode: what was compared, the chosen plan, where the ranking is."""
     auto = outcome.settings
+    bounded = sum(o.status == "bounded" for o in outcome.comparison.outcomes)
     say(
         f"auto mode: {len(outcome.comparison.outcomes)} candidate sequences (max length "
-        f"{auto.max_length}, {' + '.join(auto.strategies)}) planned; chose "
-        f"{outcome.comparison.choice()}"
+        f"{auto.max_length}, {' + '.join(auto.strategies)}) "
+        f"{'compared' if bounded else 'planned'}; chose {outcome.comparison.choice()}"
     )
     render.plan_summary(outcome.best.document)
     comparison_footer(outcome, run_dir)

@@ -64,7 +64,7 @@ def _null_space(A: np.ndarray) -> np.ndarray:
 class _Problem:
     """The stacked problem in the free coordinates z, with evaluations cached per z."""
 
-    def __init__(self, system: System, starts, legs, settings, targets):
+    def __init__(self, system: System, starts, legs, settings, targets, constraints=None):
         basis = settings.basis
         self.legs = legs
         self.targets = targets
@@ -72,14 +72,18 @@ class _Problem:
         durations = [leg.duration for leg in legs]
         self.sizes = [len(a) * basis.size for a in actives]
         self.offsets = np.cumsum([0, *self.sizes])
-        cons = sequence_constraints(
-            basis,
-            durations,
-            actives,
-            system.inputs,
-            settings.continuity,
-            soft_start=settings.soft_start,
-            full_stop=settings.full_stop,
+        cons = (
+            constraints
+            if constraints is not None
+            else sequence_constraints(
+                basis,
+                durations,
+                actives,
+                system.inputs,
+                settings.continuity,
+                soft_start=settings.soft_start,
+                full_stop=settings.full_stop,
+            )
         )
         elim = eliminate(cons)
         self.M = _block_diag(
@@ -209,6 +213,7 @@ def optimise_energy(
     targets: list[np.ndarray],
     seeds: list[tuple[str, np.ndarray]],
     bound: float = np.inf,
+    constraints=None,
 ) -> tuple[list[np.ndarray] | None, Optimisation]:
     """Minimum energy over all legs from each of `seeds` ((kind, stacked feasible
     coefficients); the kind is recorded, e.g. "newton" or "warm start").
@@ -228,8 +233,12 @@ def optimise_energy(
     `bound` is the minimum energy another sequence reached (auto mode's screen,
     `stratcli.screen`): a start still `SCREEN_RATIO` above it after `ABANDON_AFTER` iterations
     is stopped "screened" (this sequence will not be the best); infinite by default.
+
+    `constraints` (`continuity.Constraints` on the stacked coefficients) replace the
+    sequence's boundary conditions (`continuity.sequence_constraints` of `settings`), e.g. a
+    relaxation of them (`stratcli.screen`).
     """
-    problem = _Problem(system, starts, legs, settings, targets)
+    problem = _Problem(system, starts, legs, settings, targets, constraints)
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
         seeds = seeds[:1]
     else:

@@ -60,9 +60,26 @@ def _row(o: Outcome) -> dict[str, Any]:
         "duration": _num(o.duration),
         "planning_time_s": o.planning_time,
         "screened": o.screened,
+        "energy_bound": _num(o.energy_bound),
+        "energy_bound_equal_time": _num(o.energy_bound_equal_time),
         "vias": [_vec(v) for v in cand.vias],
         "vias_pi": [_pi(v) for v in cand.vias],
         "legs": [_leg_row(o, i, leg) for i, leg in enumerate(cand.legs)],
+    }
+
+
+def _screen(comparison: Comparison) -> dict[str, Any] | None:
+    """What the screen did (None: every candidate searched to its minimum)."""
+    screen = comparison.screen
+    if screen is None:
+        return None
+    return {
+        "method": "branch and bound on the sum of the legs' minima, each leg planned alone",
+        "legs_bounded": screen.legs,
+        "searched": len(screen.searched),
+        "bounded": sum(o is not None and o.status == "bounded" for o in comparison.outcomes),
+        "bound_corrections": screen.corrections,
+        "bound_cpu_s": screen.seconds,  # summed over the processes
     }
 
 
@@ -106,6 +123,7 @@ def comparison_document(
         "jobs": comparison.jobs,
         "wall_time_s": comparison.wall_time,
         "compile_time_s": compile_time,
+        "screen": _screen(comparison),
         "rows": rows,
     }
 
@@ -151,5 +169,7 @@ def comparison_csv(doc: dict[str, Any]) -> str:
 def without_timings(doc: dict[str, Any]) -> dict[str, Any]:
     """The document minus what varies between identical runs (timings, number of jobs)."""
     out = {k: v for k, v in doc.items() if k not in ("wall_time_s", "compile_time_s", "jobs")}
+    if out.get("screen"):
+        out["screen"] = {k: v for k, v in out["screen"].items() if k != "bound_cpu_s"}
     out["rows"] = [{k: v for k, v in r.items() if k not in TIMING_KEYS} for r in doc["rows"]]
     return out

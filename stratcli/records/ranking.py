@@ -26,6 +26,7 @@ LOG_RATIO = 10.0  # ranking.png: a log axis whenever the plotted values span mor
 BEST_COLOR = "#2e7d32"
 OTHER_COLOR = "#4a6fa5"
 FAILED_COLOR = "#c0392b"
+BOUNDED_COLOR = "#777777"
 # units of the ranking quantities for the presets and physical planar models (rad, rad/s)
 _UNITS = {"energy": "rad²/s", "peak-control": "rad/s", "excursion": "rad", "duration": "s"}
 _KEYS = {
@@ -80,10 +81,17 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         ax.text(x, i, f" {_short(v)}", va="center", fontsize=7.5)
     failed = False
     for i, r in enumerate(rows):
-        if i not in ok:
-            failed = True
-            reason = " failed: " + (r["reason"] or r["status"])[:60]
-            ax.text(floor, i, reason, va="center", fontsize=7.5, color=FAILED_COLOR)
+        if i in ok:
+            continue
+        bounded = r["status"] == "bounded"  # energy_bound(_equal_time): no bar, its bound
+        bound = r.get(key.replace("energy", "energy_bound", 1)) if bounded else None
+        if bound is not None:  # not searched: its lower bound, no bar
+            ax.text(floor, i, f" ≥ {_short(bound)}, not searched (bound)", va="center",
+                    fontsize=7.5, color=BOUNDED_COLOR)  # fmt: skip
+            continue
+        failed = True
+        reason = " failed: " + (r["reason"] or r["status"])[:60]
+        ax.text(floor, i, reason, va="center", fontsize=7.5, color=FAILED_COLOR)
     if log:
         ax.set_xscale("log")
         plain = FuncFormatter(lambda x, _: f"{x:,.10g}")

@@ -1,0 +1,409 @@
+"""Auto mode's screen (energy objective and criterion): lower bounds, then branch and bound.
+
+The energy objective plans a sequence with its via configurations fixed: it minimises
+Σ_i ∫|u_i|² subject to every leg i reaching its via from the previous one, and to the
+boundary conditions of the sequence's continuity mode. Some of those involve one leg alone
+(an input not active on the next leg stops at its end under lr-continuity; soft start, full
+stop), the others tie neighbouring legs together (an input active on both sides continues).
+Dropping the ties leaves independent legs, so the sequence's minimum is at least the sum of
+its legs' minima, each leg planned *alone*:
+
+    E*(sequence) ≥ Σ_i e*(leg i),  e*(leg) = min ∫|u|² from its start via to its goal via.
+
+Two such bounds per leg, the larger counts: *loose*, the leg free at both ends (it depends
+only on the leg: its stratum, start and goal configurations and duration, so it is shared by
+every candidate with that leg; a 708-candidate two-arm task has 88 of them), and *tight*,
+under the conditions that involve the leg alone (these depend on its neighbours' strata
+too). The tight bound is needed where stopping matters: a two-arm leg that costs 43 free at
+its end costs 5,681 when four of its inputs must stop there. At equal total duration
+(`compare`) a bound scales like the energy: `bound · duration / T`.
+
+Branch and bound, best first: a candidate's bound counts the legs bounded so far (0 for the
+others, still a lower bound), and candidates are taken in the order of their current bounds.
+The one at the front gets its first leg without a loose bound bounded, else its first leg
+without a tight bound, else it is fully searched (`plan_sequence`, the energy objective as
+configured, the same search as the exhaustive comparison's). It stops when the front's bound
+is not below the best value found (after at least `top` searches). Every candidate not
+searched is *bounded*: its minimum is at least its bound, which is at least the best's value,
+so it cannot win. Its row reports the bound, not an energy (status "bounded", `screened`).
+Legs are bounded only when some candidate near the front needs them (on the two-arm tasks of
+benchmarks/bench_screen.py 42-59 bounds of 88 loose and 510 tight ones).
+
+Work goes in rounds, each run in parallel (one pool of forked workers for the whole screen):
+up to `SEARCH_BATCH` searches (the very first alone) and up to `LEG_BATCH` legs of the
+candidates behind them, from candidates within `ROUND_SPAN` of the front's bound (or any, to
+keep two processes busy); a candidate is searched only when no candidate before it in the
+round has a leg still to bound. Rounds depend only on what earlier rounds found, never on the
+number of processes, so neither does the outcome. A worker that would wait idle for a
+round's slowest leg (a hard leg's Newton plan can take seconds) bounds a leg the next rounds
+are likely to ask for; the round that asks for it takes the result.
+
+The bound is exact for exact leg minima; the leg searches are the same multi-start local
+search as the sequence's, so a leg's search may miss its global minimum. Safeguard: whenever a
+searched sequence's leg costs less than that leg's bound, the bound is lowered to it (and every
+candidate's bound recomputed) before the next candidate is pruned; `Screen.corrections`
+counts them. Legs that cannot be bounded (a start left to the planner, a Lie-algebraic leg, a
+leg whose search failed) contribute 0.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import multiprocessing
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .continuity import Constraints, sequence_constraints
+from .interrupts import checkpoint
+from .objectives import SEED_RESTARTS, _exact_hessians
+from .planners.energy import optimise_energy
+from .stratified import NUMERICAL_ERRORS, LegStart, _targets, plan_next_leg, planner_for
+from .trie import STATE, _plan_whole, _run, _stop, _worker_init
+
+__all__ = ["Screen", "leg_minimum", "screen_candidates"]
+
+START_RATIO = 100.0  # a leg's start this many times above its lowest start is not raced
+LEG_BATCH = 8  # legs bounded per round, at most (beside the round's searches)
+SEARCH_BATCH = 2  # candidates searched per round, at most (the same for any number of jobs)
+ROUND_SPAN = 1.25  # a round takes candidates whose bound is within this factor of the front's
+ROUND_FILL = 2  # ... or, while it has fewer legs than this, any (two processes kept busy)
+
+
+@dataclass(frozen=True)
+class Screen:
+    """What the screen did: every candidate's bound, which were searched, the corrections."""
+
+    bounds: dict[int, float]  # candidate -> lower bound on its energy (at its own duration)
+    searched: tuple[int, ...]  # fully searched, in the order they were started
+    legs: int  # distinct legs bounded (each one energy search)
+    corrections: int  # leg bounds lowered by a searched sequence's own leg energy
+    seconds: float  # CPU time spent on the leg bounds (all processes)
+
+
+def _context(system, legs, i: int) -> tuple:
+    """What of leg i's neighbours enters its own boundary conditions: the inputs it must
+    start from rest (not active on the previous leg; "first": the sequence's start) and end
+    at rest (not active on the next one; "last": the sequence's end)."""
+    active = system.stratum(legs[i].stratum).active
+    if i == 0:
+        begin: tuple = ("first",)
+    else:
+        before = system.stratum(legs[i - 1].stratum).active
+        begin = tuple(k for k in active if k not in before)
+    if i + 1 == len(legs):
+        end: tuple = ("last",)
+    else:
+        after = system.stratum(legs[i + 1].stratum).active
+        end = tuple(k for k in active if k not in after)
+    return begin, end
+
+
+def _relaxed(settings):
+    """The leg alone, free at both ends: no continuity with its neighbours, no soft start, no
+    full stop."""
+    return replace(settings, continuity="none", soft_start=False, full_stop=False)
+
+
+def _leg_items(system, candidates, valid, start):
+    """Distinct legs, two keys each: (loose, tight) -> (start, legs, i, relaxed) or None when
+    it gets no bound (leg i among `legs`, itself and its neighbours; relaxed: free at both
+    ends, else under its own boundary conditions), and each candidate's pairs of keys."""
+    legs: dict[tuple, Any] = {}
+    keys: dict[int, list[tuple]] = {}
+    for k in valid:
+        at = np.asarray(start, dtype=float)
+        path = []
+        sequence = candidates[k].legs
+        for i, leg in enumerate(sequence):
+            goal = np.asarray(leg.goal, dtype=float)
+            loose = (leg.stratum, leg.method, float(leg.duration), at.tobytes(), goal.tobytes())
+            tight = (*loose, _context(system, sequence, i))
+            if tight not in legs:
+                unknown = bool(np.isnan(at).any())  # a start left to the planner
+                loop = not np.isnan(goal).any() and np.array_equal(goal, at)  # u = 0 reaches it
+                skip = unknown or loop or leg.method != "newton"
+                around = tuple(sequence[max(0, i - 1) : i + 2])
+                legs[tight] = None if skip else (at, around, i, False)
+                legs.setdefault(loose, None if skip else (at, (leg,), 0, True))
+            path.append((loose, tight))
+            at = np.where(np.isnan(goal), np.nan, goal)
+        keys[k] = path
+    return legs, keys
+
+
+def _local_constraints(system, settings, around, mid: int) -> Constraints:
+    """The boundary conditions of `around[mid]` that involve it alone (`around`: it and its
+    neighbours): those of the whole sequence minus the ones that tie it to a neighbour."""
+    actives = [system.stratum(leg.stratum).active for leg in around]
+    cons = sequence_constraints(
+        settings.basis,
+        [leg.duration for leg in around],
+        actives,
+        system.inputs,
+        settings.continuity,
+        soft_start=settings.soft_start,
+        full_stop=settings.full_stop,
+    )
+    size = settings.basis.size
+    offsets = np.cumsum([0, *(len(a) * size for a in actives)])
+    inside = np.zeros(cons.C.shape[1], dtype=bool)
+    inside[offsets[mid] : offsets[mid + 1]] = True
+    own = [r for r in range(len(cons.C)) if cons.C[r].any() and not cons.C[r, ~inside].any()]
+    C = cons.C[own][:, inside].reshape(len(own), int(inside.sum()))
+    return Constraints(C, cons.c[own], tuple(cons.labels[r] for r in own))
+
+
+def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> tuple:
+    """The least energy found for leg i of a sequence planned alone, under the boundary
+    conditions that involve it alone (`_local_constraints`; `around`: it and its neighbours);
+    (0.0, None) when no start reaches its goal; else (energy, its coefficients). `warm`
+    (flat coefficients, e.g. the leg's minimum free at both ends) is an extra first start,
+    projected onto the conditions.
+
+    The energy objective's multi-start search (`objectives.plan_with_objective`: a Newton plan
+    and `starts - 1` seeded Newton plans, raced by the feasible SQP), with Newton plans that
+    start at rest after a previous leg (feasible: they satisfy more conditions than needed),
+    except that starts `START_RATIO` times above the lowest are not raced (their iterations
+    are the costliest: the quadrature's nodes grow with the controls). With a `warm` start
+    (a tight bound: the loose one is known) no Newton plan falls back on continuation (seconds
+    on a hard leg; the warm start is a start already), and without any feasible start the
+    leg gets no tight bound (its loose one stands)."""
+    mid = 1 if i > 0 else 0
+    leg = around[mid]
+    after = around[mid + 1] if mid + 1 < len(around) else None
+    rest = (np.zeros(system.m), np.zeros(system.m))
+    begin = LegStart(at, rest, 0.0, 1) if i > 0 else LegStart(at)
+    seeds = []
+    for k in range(settings.starts if _exact_hessians(system, [leg], settings) else 1):
+        extra = {} if k == 0 else {
+            "restarts": min(settings.restarts, SEED_RESTARTS),
+            "seed": settings.seed + 7919 * k,
+            "spread": 0.02 + 0.3 * k,
+        }  # fmt: skip
+        if warm is not None:
+            extra["continuation"] = False
+        planned = plan_next_leg(
+            system, settings, leg, begin, after, planner_for(leg, settings, **extra)
+        )
+        if planned.converged:
+            seeds.append(planned)
+        elif k == 0 and warm is None:
+            return 0.0, None  # as the sequence's search: no Newton plan, no search
+    if not seeds and warm is None:
+        return 0.0, None
+    low = min((p.energy for p in seeds), default=np.inf)
+    stacked = [("newton", p.coefficients.ravel()) for p in seeds if p.energy <= START_RATIO * low]
+    if warm is not None:
+        stacked.insert(0, ("warm start", np.ravel(warm)))
+    targets = [np.array(_targets(system, leg), dtype=int)]
+    local = _local_constraints(system, settings, around, mid)
+    with np.errstate(all="ignore"):
+        coefficients, search = optimise_energy(
+            system, [at], [leg], settings, targets, stacked, constraints=local
+        )
+    found = [s.energy for s in search.starts if s.converged and np.isfinite(s.energy)]
+    if coefficients is not None and found and min(found) <= low:
+        return float(min(found)), coefficients[0]
+    if not seeds:
+        return 0.0, None
+    best = min(seeds, key=lambda p: p.energy)
+    return float(low), best.coefficients
+
+
+def _plan_alone(items: list[tuple]) -> dict[tuple, tuple]:
+    """Each leg's minimum energy planned alone (0.0 when its search fails), the CPU seconds
+    and the coefficients (None when it failed)."""
+    system, settings = STATE["system"], STATE["settings"]
+    out = {}
+    for key, at, around, i, relaxed, warm in items:
+        clock = time.process_time()
+        own = _relaxed(settings) if relaxed else settings
+        try:
+            value, coefficients = leg_minimum(system, at, around, i, own, warm)
+        except (*NUMERICAL_ERRORS, ValueError):  # no bound from this leg
+            value, coefficients = 0.0, None
+        out[key] = (value, time.process_time() - clock, coefficients)
+    return out
+
+
+def _unit(item: tuple[str, list]) -> dict:
+    """One unit of a round: ("leg", legs to bound) or ("search", sequences to plan)."""
+    kind, work = item
+    return _plan_alone(work) if kind == "leg" else _plan_whole(work)
+
+
+def _pool(jobs: int):
+    """One pool of forked workers for the whole screen (None: plan in this process or on
+    `STATE["executor"]`, one candidate at a time)."""
+    if jobs <= 1 or STATE.get("executor") is not None:
+        return None
+    if "fork" not in multiprocessing.get_all_start_methods():  # pragma: no cover
+        return None
+    return ProcessPoolExecutor(
+        max_workers=jobs,
+        mp_context=multiprocessing.get_context("fork"),
+        initializer=_worker_init,
+        initargs=(os.getpid(),),
+    )
+
+
+def _round(items, jobs: int, pool, flight: dict, ahead: Callable) -> list[dict]:
+    """Run one round's units ((name, unit) pairs) in `pool`, else with `trie._run` (here or on
+    STATE["executor"]). With a pool, a worker that would wait idle for the round's slowest
+    unit takes a unit `ahead()` says later rounds are likely to ask for; `flight` (name ->
+    future, kept across rounds) hands its result to the round that asks for it. What a round
+    computes does not depend on it, only how soon it is known."""
+    if pool is None:
+        return _run(_unit, [(unit, 0) for _, unit in items], jobs, lambda k: None)
+    for name, unit in items:
+        if name not in flight:
+            flight[name] = pool.submit(_unit, unit)
+    wanted = [flight[name] for name, _ in items]
+    while not all(f.done() for f in wanted):
+        running = [f for f in flight.values() if not f.done()]
+        later = ahead()  # (name, unit) pairs, most likely first
+        while len(running) < jobs:  # a worker is free: start something likely needed next
+            name, unit = next(later, (None, None))
+            if name is None:
+                break
+            if name not in flight:
+                flight[name] = pool.submit(_unit, unit)
+                running.append(flight[name])
+        wait(running, return_when=FIRST_COMPLETED)
+        checkpoint()
+    return [f.result() for f in wanted]
+
+
+def screen_candidates(system, settings, start, candidates, valid, jobs, advance, top, reference):
+    """Branch and bound over `valid` (see the module's docstring).
+
+    Returns (planned, requested, plans, times, screen): the legs planned and requested, the
+    plans and planning times of the searched candidates only, and the `Screen`."""
+    pool = _pool(jobs)
+    try:
+        return _branch_and_bound(
+            system, candidates, valid, jobs, advance, top, reference, start, pool
+        )
+    finally:  # done, interrupted or a worker's error: nothing is waited for
+        if pool is not None:
+            _stop(pool, [])
+
+
+def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, start, pool):
+    legs, keys = _leg_items(system, candidates, valid, start)
+    known = {key: 0.0 for key, item in legs.items() if item is None}  # no search needed
+    warm: dict[tuple, Any] = {}  # each bounded leg's minimising coefficients
+    uses: dict[tuple, list[int]] = {}
+    for k in valid:
+        for key in {key for pair in keys[k] for key in pair}:
+            uses.setdefault(key, []).append(k)
+
+    def scale(k: int) -> float:  # energy -> energy at the comparison's total duration
+        duration = sum(leg.duration for leg in candidates[k].legs)
+        return duration / reference if math.isfinite(reference) and reference > 0 else 1.0
+
+    def bound(k: int) -> float:  # on the energy at equal duration; legs not bounded yet: 0
+        legs_bound = (max(known.get(a, 0.0), known.get(b, 0.0)) for a, b in keys[k])
+        return sum(legs_bound) * scale(k)
+
+    def unbounded(k: int) -> list[tuple]:  # loose bounds first, then the tight ones
+        loose = [a for a, _ in keys[k] if a not in known]
+        return loose or [b for _, b in keys[k] if b not in known]
+
+    plans: dict[int, Any] = {}
+    times: dict[int, float] = {}
+    planned = requested = corrections = 0
+    searched: list[int] = []
+    bounded_legs: list[tuple] = []
+    seconds = 0.0
+    best = math.inf
+    heap = [(bound(k), k) for k in valid]
+    heapq.heapify(heap)
+    done: set[int] = set()
+    flight: dict[tuple, Any] = {}  # units started in the pool, by name
+
+    def leg_unit(key: tuple) -> tuple:  # a tight bound starts from the loose minimum too
+        return ("leg", [(key, *legs[key], warm.get(key[:5]))])
+
+    def ahead():  # legs the next rounds are likely to ask for: the front's, in order
+        for _, k in sorted(heap):
+            unknown = [] if k in done else unbounded(k)
+            key = unknown[0] if unknown else None
+            if key is not None and (len(key) == 5 or key[:5] in warm):  # tight: loose first
+                yield ("leg", key), leg_unit(key)
+
+    while True:
+        new_legs: list[tuple] = []
+        searches: list[int] = []
+        held: list[int] = []
+        while heap:  # the round: candidates in the order of their current bounds
+            b, k = heap[0]
+            if k in done:
+                heapq.heappop(heap)
+                continue
+            if bound(k) > b:  # raised by legs bounded since: back in its place
+                heapq.heapreplace(heap, (bound(k), k))
+                continue
+            if len(searched) + len(searches) >= max(1, top) and b >= best:
+                break  # this one and every one after it cannot beat the best
+            if len(new_legs) >= ROUND_FILL and b > ROUND_SPAN * bound(held[0]):
+                break  # far behind the front: likely never needed
+            unknown = unbounded(k)
+            if not unknown:
+                if new_legs or len(searches) >= min(SEARCH_BATCH, 1 + len(searched)):
+                    break  # bound the legs before it first; the very first search alone
+                searches.append(k)
+            else:  # its first leg not bounded yet (prefixes are the most shared)
+                if len(new_legs) >= LEG_BATCH:
+                    break
+                if unknown[0] not in new_legs:
+                    new_legs.append(unknown[0])
+            held.append(heapq.heappop(heap)[1])
+        if not new_legs and not searches:
+            break
+        items = [(("search", k), ("search", [(k, list(candidates[k].legs))])) for k in searches]
+        items += [(("leg", key), leg_unit(key)) for key in new_legs]
+        results = _round(items, jobs, pool, flight, ahead)
+        for part in results[len(searches) :]:
+            for key, (value, elapsed, coefficients) in part.items():
+                known[key] = value
+                warm[key] = coefficients
+                bounded_legs.append(key)
+                seconds += elapsed
+        for k, part in zip(searches, results, strict=False):
+            plan, elapsed, error = part[k]
+            searched.append(k)
+            done.add(k)
+            times[k] = elapsed
+            advance(1)
+            if plan is None:
+                plans[k] = error
+                continue
+            plans[k] = plan = plan.with_system(system)
+            requested += len(plan.legs)
+            planned += len(plan.legs)
+            if not plan.ok:
+                continue
+            best = min(best, plan.total_energy * scale(k))
+            for pair, leg in zip(keys[k], plan.legs, strict=True):
+                for key in pair:
+                    if leg.energy < known[key] * (1 - 1e-9):  # the leg's search missed this
+                        known[key] = float(leg.energy)
+                        corrections += 1
+                        for j in uses[key]:  # lowered: to the front again
+                            if j not in done:
+                                heapq.heappush(heap, (bound(j), j))
+        for k in held:
+            if k not in done:
+                heapq.heappush(heap, (bound(k), k))
+    advance(len(valid) - len(searched))
+    bounds = {k: bound(k) / scale(k) for k in valid}
+    screen = Screen(bounds, tuple(searched), len(bounded_legs), corrections, seconds)
+    return planned, requested, plans, times, screen
