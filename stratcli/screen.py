@@ -70,6 +70,10 @@ from .trie import STATE, _plan_whole, _run, _stop, _worker_init
 __all__ = ["Screen", "leg_minimum", "screen_candidates"]
 
 START_RATIO = 100.0  # a leg's start this many times above its lowest start is not raced
+# Newton plans per leg bound, at least: a bound must not miss the leg's minimum, and the
+# sequence search's own default (2: the Newton plan pulled toward least energy, and itself)
+# starts from a whole sequence's plan, which a leg alone does not have
+BOUND_STARTS = 6
 LEG_BATCH = 8  # legs bounded per round, at most (beside the round's searches)
 SEARCH_BATCH = 2  # candidates searched per round, at most (the same for any number of jobs)
 ROUND_SPAN = 1.25  # a round takes candidates whose bound is within this factor of the front's
@@ -168,8 +172,9 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     projected onto the conditions.
 
     The energy objective's multi-start search (`objectives.plan_with_objective`: a Newton plan
-    and `starts - 1` seeded Newton plans, raced by the feasible SQP), with Newton plans that
-    start at rest after a previous leg (feasible: they satisfy more conditions than needed),
+    and `max(starts, BOUND_STARTS) - 1` seeded Newton plans, raced by the feasible SQP), with
+    Newton plans that start at rest after a previous leg (feasible: they satisfy more
+    conditions than needed),
     except that starts `START_RATIO` times above the lowest are not raced (their iterations
     are the costliest: the quadrature's nodes grow with the controls). With a `warm` start
     (a tight bound: the loose one is known) no Newton plan falls back on continuation (seconds
@@ -181,7 +186,8 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     rest = (np.zeros(system.m), np.zeros(system.m))
     begin = LegStart(at, rest, 0.0, 1) if i > 0 else LegStart(at)
     seeds = []
-    for k in range(settings.starts if _exact_hessians(system, [leg], settings) else 1):
+    starts = max(settings.starts, BOUND_STARTS)
+    for k in range(starts if _exact_hessians(system, [leg], settings) else 1):
         extra = {} if k == 0 else {
             "restarts": min(settings.restarts, SEED_RESTARTS),
             "seed": settings.seed + 7919 * k,
