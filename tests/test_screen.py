@@ -77,6 +77,17 @@ def test_screen_chooses_as_the_exhaustive_search_on_random_tasks(sim4, seed):
             assert o.energy_bound_equal_time <= full.energy_equal_time * (1 + 1e-9)
 
 
+@pytest.mark.slow
+def test_screen_chooses_as_the_exhaustive_search_on_the_benchmarks_20_tasks(sim4):
+    """The 20 seeded one-arm tasks of benchmarks/bench_screen.py (issue 14 item 4): the same
+    sequence and energy as the exhaustive search on every one."""
+    for seed in range(20):
+        start, goal = random_task(seed)
+        screened, exhaustive = screened_and_exhaustive(sim4, start, goal)
+        assert screened.best.candidate == exhaustive.best.candidate, seed
+        assert screened.best.energy == exhaustive.best.energy, seed
+
+
 def test_comparison_json_marks_screened_rows_and_exhaustive_has_none(sim4):
     doc = api.compare_sequences(sim4, jobs=2).document
     assert all("screened" in row and "energy_bound" in row for row in doc["rows"])
