@@ -93,9 +93,9 @@ def stratplan_run(task: Task, repeats: int):
     captured: list[Captured] = []
     original = objectives.optimise_energy
 
-    def spy(system, starts, legs, settings, targets, seeds, bound=np.inf):
+    def spy(system, starts, legs, settings, targets, seeds, constraints=None):
         captured.append(Captured([np.array(s) for s in starts], targets, seeds))
-        return original(system, starts, legs, settings, targets, seeds, bound)
+        return original(system, starts, legs, settings, targets, seeds, constraints)
 
     objectives.optimise_energy = spy
     try:

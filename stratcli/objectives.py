@@ -42,7 +42,6 @@ def plan_sequence(
     settings: PlannerSettings,
     warm_start: list[np.ndarray] | None = None,
     progress: Callable[[str], None] | None = None,
-    bound: float = np.inf,
     constraints=None,
 ) -> SequencePlan:
     """Check the legs, then plan them with `settings.objective`.
@@ -62,9 +61,6 @@ def plan_sequence(
     progress : callable, optional
         Called as `progress(phase)` with a short description of each phase as it begins
         (Newton's leg-by-leg pass, each start of the energy search); default: silent.
-    bound : float, optional
-        Another sequence's minimum energy (auto mode's screen): energy-search starts still
-        far above it after a few iterations are stopped "screened"; default: infinite.
     constraints : constraints.Constraints, optional
         The resolved [constraints] table: joint limits, self-collision and obstacles are then
         kept along every leg by the search (`planners.constrained`); default: none.
@@ -81,7 +77,7 @@ def plan_sequence(
     """
     start = np.asarray(start, dtype=float)
     check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
-    plan = plan_with_objective(system, start, legs, settings, warm_start, progress, bound)
+    plan = plan_with_objective(system, start, legs, settings, warm_start, progress)
     if searchable(constraints) and plan.ok:
         plan = within_limits(system, start, legs, settings, plan, constraints, progress)
     return plan
@@ -94,12 +90,10 @@ def plan_with_objective(
     settings: PlannerSettings,
     warm_start: list[np.ndarray] | None = None,
     progress: Callable[[str], None] | None = None,
-    bound: float = np.inf,
 ) -> SequencePlan:
     """Plan checked legs with `settings.objective`; `warm_start` (flat coefficients per leg,
     feasible) is tried as an extra first start of the energy search; `progress(phase)` is
-    told each phase as it begins; `bound` (another sequence's minimum energy) lets the energy
-    search stop starts far above it (`planners.energy.optimise_energy`)."""
+    told each phase as it begins."""
     say = progress or _silent
     lie_legs = [i + 1 for i, leg in enumerate(legs) if not PLANNERS[leg.method].joint_optimisation]
     if lie_legs and settings.objective != "newton":
@@ -144,7 +138,7 @@ def plan_with_objective(
     try:
         with np.errstate(all="ignore"):
             coefficients, search = optimise_energy(
-                system, nominal, legs, settings, targets, stacked, bound
+                system, nominal, legs, settings, targets, stacked
             )
     except NUMERICAL_ERRORS as exc:
         note = (

@@ -30,7 +30,6 @@ RESTORATION_STEPS = 12
 LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
-SCREEN_RATIO = 2.0  # drop a start this far above another sequence's minimum (`bound`)
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
@@ -212,7 +211,6 @@ def optimise_energy(
     settings,
     targets: list[np.ndarray],
     seeds: list[tuple[str, np.ndarray]],
-    bound: float = np.inf,
     constraints=None,
 ) -> tuple[list[np.ndarray] | None, Optimisation]:
     """Minimum energy over all legs from each of `seeds` ((kind, stacked feasible
@@ -229,10 +227,6 @@ def optimise_energy(
     `ABANDON_RATIO` above it is dropped before it spends iterations on a worse minimum. A
     start whose energy is `ENERGY_RUNAWAY` times the first feasible start's is not run at all
     (stopped "diverged").
-
-    `bound` is the minimum energy another sequence reached (auto mode's screen,
-    `stratcli.screen`): a start still `SCREEN_RATIO` above it after `ABANDON_AFTER` iterations
-    is stopped "screened" (this sequence will not be the best); infinite by default.
 
     `constraints` (`continuity.Constraints` on the stacked coefficients) replace the
     sequence's boundary conditions (`continuity.sequence_constraints` of `settings`), e.g. a
@@ -255,8 +249,6 @@ def optimise_energy(
                 run.stop("diverged")  # ran away from the first feasible start's energy
             elif run.iterations >= ABANDON_AFTER and run.energy > ABANDON_RATIO * best[0]:
                 run.stop("abandoned")  # energy only decreases: unlikely to beat the best
-            elif run.iterations >= ABANDON_AFTER and run.energy > SCREEN_RATIO * bound:
-                run.stop("screened")  # far above another sequence's minimum
             elif any(
                 np.linalg.norm(run.z - f) <= SAME_MINIMUM * np.sqrt(run.energy) for f in found
             ):
