@@ -169,13 +169,17 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
         pairs = dict.fromkeys(range(joints), limits)
     else:
         pairs = {}
+    fields = set()  # one line per field as the user wrote it: by name, by index, or once
     for i, (lo, hi) in pairs.items():
-        if not lo < hi:
-            problems.append(
-                Problem(
-                    f"constraints.joint_limits[{i}]", f"lower {lo:g} must be below upper {hi:g}"
-                )
-            )
+        if isinstance(limits, dict):
+            field = f"constraints.joint_limits.{system.states[i]}"
+        elif limits and isinstance(limits[0], list):
+            field = f"constraints.joint_limits[{i}]"
+        else:
+            field = "constraints.joint_limits"
+        if not lo < hi and field not in fields:
+            fields.add(field)
+            problems.append(Problem(field, f"lower {lo:g} must be below upper {hi:g}"))
         lower[i], upper[i] = lo, hi
     rate = _per(spec.max_rate, m, "input", "constraints.max_rate", problems)
     acc = _per(spec.max_acceleration, m, "input", "constraints.max_acceleration", problems)

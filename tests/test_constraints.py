@@ -39,7 +39,7 @@ def _problems(raw: dict) -> list[str]:
 @pytest.mark.parametrize(
     ("constraints", "field"),
     [
-        ({"joint_limits": [2.0, -2.0]}, "constraints.joint_limits[0]"),
+        ({"joint_limits": [2.0, -2.0]}, "constraints.joint_limits: lower 2"),
         ({"joint_limits": [[-1, 1], [-1, 1]]}, "constraints.joint_limits"),
         ({"joint_limits": {"q9": [-1, 1]}}, "constraints.joint_limits.q9"),
         ({"max_rate": -1.0}, "constraints.max_rate"),
@@ -53,6 +53,22 @@ def _problems(raw: dict) -> list[str]:
 def test_bad_constraints_name_their_field(constraints, field):
     problems = _problems(_task_d(**constraints))
     assert any(p.startswith(field) for p in problems), problems
+
+
+@pytest.mark.parametrize(
+    ("limits", "line"),
+    [  # one pair for every joint is said once, not once per joint
+        ([2.0, -2.0], "constraints.joint_limits: lower 2 must be below upper -2"),
+        ([[-3, 3], [2, 1], [-3, 3]], "constraints.joint_limits[1]: lower 2 must be below upper 1"),
+        (
+            {"q1": [-3, 3], "q2": [2, 1]},
+            "constraints.joint_limits.q2: lower 2 must be below upper 1",
+        ),
+    ],
+)
+def test_a_reversed_joint_limit_is_one_line_named_as_written(limits, line):
+    problems = [p for p in _problems(_task_d(joint_limits=limits)) if "must be below" in p]
+    assert problems == [line]
 
 
 def test_a_start_outside_the_joint_limits_is_bad_input():
