@@ -169,14 +169,16 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
         pairs = dict.fromkeys(range(joints), limits)
     else:
         pairs = {}
-    fields = set()  # one line per field as the user wrote it: by name, by index, or once
+    # one line per field as the user wrote it: by name, by index, or once for every joint
+    if isinstance(limits, dict):
+        named = {i: f"constraints.joint_limits.{system.states[i]}" for i in pairs}
+    elif limits and isinstance(limits[0], list):
+        named = {i: f"constraints.joint_limits[{i}]" for i in pairs}
+    else:
+        named = dict.fromkeys(pairs, "constraints.joint_limits")
+    fields = set()
     for i, (lo, hi) in pairs.items():
-        if isinstance(limits, dict):
-            field = f"constraints.joint_limits.{system.states[i]}"
-        elif limits and isinstance(limits[0], list):
-            field = f"constraints.joint_limits[{i}]"
-        else:
-            field = "constraints.joint_limits"
+        field = named[i]
         if not lo < hi and field not in fields:
             fields.add(field)
             problems.append(Problem(field, f"lower {lo:g} must be below upper {hi:g}"))

@@ -451,7 +451,7 @@ class _Descent:
         # Far from a minimum the iterates need not meet the goals to rounding (the Lagrangian
         # merit sees a violation to first order only); near one they must, or the decrease
         # left drowns in it: the iterate itself is then restored again first.
-        self.c_now = LOOSE_RESTORATION if pg > LOOSE_ABOVE else self.c_tol
+        self.c_now = LOOSE_RESTORATION if self.loose and pg > LOOSE_ABOVE else self.c_tol
         if self.c_now < self.z_tol:
             self.z_tol = self.c_now
             tight = self._restore(z)

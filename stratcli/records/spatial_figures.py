@@ -23,15 +23,16 @@ INSTANTS_PER_LEG = 6
 COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
 
 
-# the 12 edges of a box, as pairs of its corners numbered by their sign bits (x, y, z)
+# the 8 corners of a box numbered by their sign bits (x, y, z), and its 12 edges
+BOX_SIGNS = np.array([[(c >> b & 1) - 0.5 for b in range(3)] for c in range(8)])
 BOX_EDGES = [(a, a | bit) for bit in (1, 2, 4) for a in range(8) if not a & bit]
 
 
-def _box_corners(robot, p: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """The 8 world corners of the base's box with the base at position p, rotation R."""
-    centre, axes, edges = robot.base_box()
-    signs = np.array([[(c >> b & 1) - 0.5 for b in range(3)] for c in range(8)])
-    return p + (centre + (signs * edges) @ axes.T) @ R.T
+def _box_corners(box, p: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The 8 world corners of the base's box (`SpatialRobot.base_box`) with the base at
+    position p, rotation R."""
+    centre, axes, edges = box
+    return p + (centre + (BOX_SIGNS * edges) @ axes.T) @ R.T
 
 
 def _poses(plan, traj, indices):
@@ -39,6 +40,7 @@ def _poses(plan, traj, indices):
     robot = plan.system.spatial
     k = robot.n_joints
     parents = {j.child: j.parent for j in robot.summary.joints}
+    box = robot.base_box()
     drawn = []
     for i in indices:
         q = traj.q[i]
@@ -48,7 +50,7 @@ def _poses(plan, traj, indices):
             for name, (p, _) in poses.items()
             if parents.get(name) in poses
         ]
-        corners = _box_corners(robot, *poses[robot.base])
+        corners = _box_corners(box, *poses[robot.base])
         base = [(corners[a], corners[b]) for a, b in BOX_EDGES]
         drawn.append((np.array([p for p, _ in poses.values()]), segments, base))
     return drawn
