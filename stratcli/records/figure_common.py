@@ -80,14 +80,27 @@ def _grid_shape(fig: Figure) -> tuple[int, int]:
 
 
 def save_figure(fig: Figure, fmt: str = "png") -> bytes:
-    """The figure as PNG, SVG or PDF bytes (no creation date in the file)."""
+    """The figure as PNG, SVG or PDF bytes (no creation date in the file).
+
+    PNGs are written from the Agg canvas as RGB (the figures are opaque) by PIL directly:
+    matplotlib's own path re-maps the RGBA buffer through a colormap and compresses a fourth
+    channel, and took a quarter of a record's plotting time for the same pixels.
+    """
     if fmt not in FORMATS:
         raise ValueError(f"figure format must be one of {', '.join(FORMATS)}, not {fmt!r}")
     buf = io.BytesIO()
-    FigureCanvasAgg(fig)
+    canvas = FigureCanvasAgg(fig)
+    if fmt != "png":
+        fig.savefig(buf, format=fmt, dpi=DPI, metadata=_METADATA[fmt])
+        return buf.getvalue()
+    from PIL import Image  # a dependency of matplotlib
+
+    fig.set_dpi(DPI)
+    canvas.draw()
+    width, height = canvas.get_width_height(physical=True)
+    rgba = Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
     # zlib level 3 instead of PIL's 6: a tenth of a record's figure time for 7 % more bytes
-    extra = {"pil_kwargs": {"compress_level": 3}} if fmt == "png" else {}
-    fig.savefig(buf, format=fmt, dpi=DPI, metadata=_METADATA[fmt], **extra)
+    rgba.convert("RGB").save(buf, format="png", compress_level=3, dpi=(DPI, DPI))
     return buf.getvalue()
 
 
