@@ -14,11 +14,22 @@ Python had to drop (it arrived inside a finaliser) is picked up by `stratcli.int
 A reader that leaves early (`stratplan runs | head -1`) ends the output, not the command:
 what is left to print goes nowhere, the work (a record being written) finishes, and the exit
 code is the command's own, with no traceback or "Broken pipe" message.
+
+Memory. A command runs with Python's cyclic garbage collector paused (`gc.disable`): its
+passes over the ~400,000 objects that importing numpy, pydantic and matplotlib creates were
+4 % of `stratplan plan`'s CPU time, and a plan makes almost no cyclic garbage (peak memory of
+Sim 4 D, of the auto-mode search and of the 11 s obstacle search alike within 1 %, with and
+without it). `stratplan sweep`, which runs for hours, switches it back on. The console
+script (`entry`) then leaves without tearing the interpreter down: exit handlers run and
+output is flushed, but the teardown of every module object (0.05 s of CPU) is skipped.
 """
 
+import atexit
+import gc
 import os
 import signal
 import sys
+import threading
 
 from .interrupts import Interrupted, install, pending
 
@@ -103,6 +114,7 @@ def _finish_interrupted(signum: int) -> None:
 
 def main() -> None:
     """Run the `stratplan` command line, exiting 128 + signal number on SIGINT or SIGTERM."""
+    gc.disable()  # see the module's docstring
     for sig in HANDLED:
         if signal.getsignal(sig) is not signal.SIG_IGN:  # e.g. `nohup`, or `cmd &` in a script
             signal.signal(sig, _on_signal)
@@ -126,5 +138,28 @@ def main() -> None:
         _state["done"] = True
 
 
+def entry() -> None:
+    """The console script: `main`, then a quick exit (see the module's docstring)."""
+    try:
+        main()
+    except SystemExit as exc:
+        _leave_quickly(exc.code)
+    _leave_quickly(0)
+
+
+def _leave_quickly(code) -> None:
+    """Exit with `code` after the exit handlers, without the interpreter's teardown."""
+    others = [t for t in threading.enumerate() if t is not threading.main_thread()]
+    if not (code is None or isinstance(code, int)) or any(not t.daemon for t in others):
+        raise SystemExit(code)  # a message to print, or threads to join: the usual way
+    atexit._run_exitfuncs()  # noqa: SLF001  (weakref finalisers, temporary directories)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError, AttributeError):
+            pass
+    os._exit(code or 0)
+
+
 if __name__ == "__main__":
-    main()
+    entry()

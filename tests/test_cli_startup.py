@@ -96,3 +96,34 @@ def test_the_static_preset_table_equals_the_built_models(name):
         assert [system.fields[i, j] for j in range(len(info.inputs))] == [
             int(i == j) for j in range(len(info.inputs))
         ]
+
+
+QUICK = """
+import atexit, gc, sys
+sys.argv = ["stratplan", *sys.argv[1:]]
+atexit.register(lambda: print(f"exit handler ran, collector {gc.isenabled()}", file=sys.stderr))
+from stratcli.__main__ import entry
+entry()
+print("not reached", file=sys.stderr)
+"""
+
+
+@pytest.mark.parametrize(
+    ("args", "code"),
+    [(["models"], 0), (["plan", "no-such-file.toml"], 2), (["models", "--bogus"], 2)],
+    ids=["ok", "bad-file", "bad-option"],
+)
+def test_the_console_script_exits_with_the_command_s_code_output_and_exit_handlers(args, code):
+    """`entry` skips the interpreter's teardown, not the command's exit code, its buffered
+    output or the exit handlers (and commands run with the cyclic collector paused)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.run(
+        [sys.executable, "-c", QUICK, *args], capture_output=True, text=True, env=env, cwd=ROOT
+    )
+    assert proc.returncode == code, proc.stderr
+    assert proc.stderr.splitlines()[-1] == "exit handler ran, collector False"
+    assert "not reached" not in proc.stderr and "Traceback" not in proc.stderr
+    if code == 0:  # the whole table, flushed
+        assert "two-arm" in proc.stdout and proc.stdout.endswith("\n")
+    else:
+        assert proc.stderr.startswith(("error:", "Usage:"))

@@ -103,8 +103,11 @@ def sweep(
     task that failed is a row, with its status and message), 1 when tasks are missing
     because a worker died (run again with --resume), 2 on a bad sweep file.
     """
+    import gc
+
     from .. import api  # start-up speed
 
+    gc.enable()  # paused for short commands (stratcli.__main__); a sweep may run for hours
     with render.reported():
         from ..sweep import load_sweep
 
