@@ -152,7 +152,7 @@ def _leave_quickly(code) -> None:
     others = [t for t in threading.enumerate() if t is not threading.main_thread()]
     if not (code is None or isinstance(code, int)) or any(not t.daemon for t in others):
         raise SystemExit(code)  # a message to print, or threads to join: the usual way
-    atexit._run_exitfuncs()  # noqa: SLF001  (weakref finalisers, temporary directories)
+    atexit._run_exitfuncs()  # weakref finalisers, temporary directories, ...
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
