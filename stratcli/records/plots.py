@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import MaxNLocator, NullLocator
 from matplotlib.transforms import blended_transform_factory
 
 from ..sequence import SequencePlan
@@ -133,8 +133,12 @@ def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> int:
             ax.vlines(switches, 0, 1, transform=x_axis, zorder=1, **SWITCH)
         ax.set_xlim(0.0, total)
         # a few round ticks: each tick is three lines and two texts to build and draw, and
-        # matplotlib's default (up to ten per axis) was a fifth of a figure's drawing time
-        ax.xaxis.set_major_locator(MaxNLocator(nbins=6, steps=TICK_STEPS))
+        # matplotlib's default (up to ten per axis) was a fifth of a figure's drawing time;
+        # time ticks only on the bottom panel, which alone labels them
+        bottom = ax is axes[-1]
+        ax.xaxis.set_major_locator(
+            MaxNLocator(nbins=6, steps=TICK_STEPS) if bottom else NullLocator()
+        )
         ax.yaxis.set_major_locator(MaxNLocator(nbins=4, steps=TICK_STEPS))
         ax.grid(True, axis="y", color="0.85", linewidth=0.6)
         ax.tick_params(labelsize=8)
@@ -159,7 +163,7 @@ def _time_series(
 ) -> Figure:
     rows = len(names)
     fig = Figure(figsize=(WIDTH, 1.05 + 1.25 * rows))
-    axes = list(np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]))
+    axes = list(np.atleast_1d(fig.subplots(rows, 1, squeeze=False)[:, 0]))
     colors = [f"C{i % 10}" for i in range(rows)]
     labelled = len(plan.legs) <= MAX_LABELLED_LEGS
     for i, (ax, name) in enumerate(zip(axes, names, strict=True)):
