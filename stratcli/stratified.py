@@ -209,6 +209,8 @@ def failure_message(leg: LegPlan, tolerance: float) -> str:
         work = f"after {leg.iterations} steps"
     else:
         work = f"after {leg.iterations} iterations in {leg.attempts} attempts"
+        if leg.message:  # e.g. the continuation that followed them
+            work += f" ({leg.message})"
     return f"{where} {head}: error {leg.error:.3g} > tolerance {tolerance:.3g} {work}; {advice}"
 
 

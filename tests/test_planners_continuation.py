@@ -112,3 +112,22 @@ def test_follow_line_is_bounded_when_the_goal_is_out_of_reach():
     )
     assert not out.reached and out.steps <= 30 and out.iterations <= 200
     assert out.kicks >= 1
+
+
+def test_a_continuation_that_fails_too_is_said_and_not_counted_as_an_attempt(monkeypatch):
+    """The attempts reported are Newton's (restarts + 1); a continuation that followed them
+    and failed as well is named in the leg's message, which the failure sentence quotes."""
+    import stratcli.planners.newton as newton
+
+    monkeypatch.setattr(newton, "CONTINUATION_BUDGET", 0.01)  # too few steps to get there
+    task = hard_task("newton")
+    at = LegStart(np.asarray(START, dtype=float))
+    planner = NewtonPlanner.from_settings(task.settings, task.legs[0], continuation=True)
+    problem = leg_problem(task.system, task.settings, task.legs[0], at, task.legs[1], planner)
+    out = planner.plan(problem)
+    assert out.error > problem.tolerance and out.strategy == "newton"
+    assert out.attempts == task.settings.restarts + 1
+    assert "continuation" in out.message
+    plan = chain_legs(task.system, task.start, task.legs, task.settings)
+    assert not plan.ok
+    assert f"in {task.settings.restarts + 1} attempts (nor did a continuation" in plan.message

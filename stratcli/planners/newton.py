@@ -171,7 +171,7 @@ class NewtonPlanner(LegPlanner):
                 break  # the model cannot even be evaluated here: more starts will not help
             if self.budget is not None and total >= self.budget:
                 break  # the iterations allowed are spent: a seed this costly is dropped
-        strategy = "newton"
+        strategy, message = "newton", ""
         # The homotopy solves many legs' worth of Newton problems: affordable with the
         # quadrature end point (all space manipulators), not on the general ODE path, where
         # one call can cost 10⁴ evaluations (a custom model would then run for minutes).
@@ -193,9 +193,10 @@ class NewtonPlanner(LegPlanner):
                 max_iterations=int(CONTINUATION_BUDGET * (self.restarts + 1) * self.max_iterations),
             )
             total += path.iterations
-            attempt += 1
             if path.reached:
                 best, strategy = path.result, "continuation"
+            else:
+                message = "nor did a continuation along the line to the goal"
         lam, end = best.extra
         error = best.error
         refined = getattr(endpoint, "refined", None)  # a map that evaluates coarsely far away
@@ -213,5 +214,6 @@ class NewtonPlanner(LegPlanner):
             status=Status.SUCCESS if ok else Status.NOT_CONVERGED,
             free_coefficients=elimination.free,
             evaluator=endpoint.kind,
+            message="" if ok else message,
             strategy=strategy,
         )
