@@ -136,3 +136,13 @@ def test_problems_of_the_base_scenario_name_its_file(tmp_path):
     with pytest.raises(InputError, match=r"sweep\.mode: legs mode needs"):
         load_sweep(write(tmp_path, GRID, scenario=base))
     assert load_sweep(write(tmp_path, GRID, scenario=base, mode="auto")).count == 6
+
+
+def test_a_missing_base_scenario_names_the_path_as_given_and_as_read(tmp_path):
+    """A relative `sweep.scenario` is read beside the sweep file: the error says where."""
+    (tmp_path / "sub").mkdir()
+    sweep = write(tmp_path / "sub", GRID, scenario="../nope.toml")
+    with pytest.raises(InputError) as exc:
+        load_sweep(sweep)
+    read = str(tmp_path / "nope.toml")
+    assert f"sweep.scenario: ../nope.toml ({read}): cannot read scenario file" in str(exc.value)

@@ -29,6 +29,7 @@ import copy
 import hashlib
 import itertools
 import json
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -252,8 +253,11 @@ def _base(spec: SweepFile, folder: Path) -> tuple[dict[str, Any], str]:
     try:
         text = read_scenario_text(path)
         return parse_toml(text, str(path)), spec.sweep.scenario
-    except InputError as exc:
-        raise InputError([Problem("sweep.scenario", p.message) for p in exc.problems]) from None
+    except InputError as exc:  # say which file: the path is relative to the sweep file
+        given, read = spec.sweep.scenario, os.path.normpath(path)
+        where = given if read == os.path.normpath(given) else f"{given} ({read})"
+        problems = [Problem("sweep.scenario", f"{where}: {p.message}") for p in exc.problems]
+        raise InputError(problems) from None
 
 
 def _resolve(spec: SweepFile, folder: Path, source: str, text: str) -> Sweep:
