@@ -288,7 +288,7 @@ def _bounded(k, cand, bound) -> Outcome:
 def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
     if isinstance(plan, str):  # an exception while planning
         return Outcome(k, cand, None, "failed", plan, plan, planning_time=seconds)
-    peak, excursion = _peak_and_excursion(plan, system, settings)
+    peak, excursion = peak_and_excursion(plan, system, settings)
     reason = ""
     if not plan.ok:
         last = plan.legs[-1] if plan.legs else None
@@ -319,7 +319,7 @@ def joint_coordinates(system: System, strata: Sequence[str]) -> tuple[int, ...]:
     return tuple(sorted(set.intersection(*sets))) if sets else ()
 
 
-def _peak_and_excursion(plan: SequencePlan, system, settings) -> tuple[float, float]:
+def peak_and_excursion(plan: SequencePlan, system, settings) -> tuple[float, float]:
     """max |u_k(t)| and the largest range max_t q_j − min_t q_j over the joints, sampled."""
     basis = settings.basis
     joints = joint_coordinates(system, [leg.stratum for leg in plan.legs])

@@ -173,7 +173,7 @@ def _unwrap(ann: Any) -> Any:
     return None
 
 
-def _problems(exc: ValidationError, prefix: tuple = ()) -> list[Problem]:
+def validation_problems(exc: ValidationError, prefix: tuple = ()) -> list[Problem]:
     out = []
     for err in exc.errors():
         loc = prefix + tuple(err["loc"])
@@ -259,7 +259,7 @@ def _from_raw(
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(_problems(exc), source) from None
+        raise InputError(validation_problems(exc), source) from None
     if text is None:  # a dict: record it as the TOML file it stands for
         try:
             text = tomlwrite.dumps(raw)
@@ -278,7 +278,7 @@ def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[P
     try:
         return dataclasses.replace(planner.lie, **entry.lie)
     except ValidationError as exc:
-        problems.extend(_problems(exc, ("legs", i, "lie")))
+        problems.extend(validation_problems(exc, ("legs", i, "lie")))
     except TypeError:  # an unknown key (dataclasses.replace refuses it before pydantic)
         names = [f.name for f in dataclasses.fields(LieSettings)]
         known, unknown = ", ".join(names), ", ".join(sorted(set(entry.lie) - set(names)))

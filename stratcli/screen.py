@@ -65,7 +65,7 @@ from .interrupts import checkpoint
 from .objectives import SEED_RESTARTS, _exact_hessians
 from .planners.energy import optimise_energy
 from .stratified import NUMERICAL_ERRORS, LegStart, _targets, plan_next_leg, planner_for
-from .trie import STATE, _plan_whole, _run, _stop, _worker_init
+from .trie import STATE, plan_whole, run_units, stop_workers, worker_init
 
 __all__ = ["Screen", "leg_minimum", "screen_candidates"]
 
@@ -242,7 +242,7 @@ def _plan_alone(items: list[tuple]) -> dict[tuple, tuple]:
 def _unit(item: tuple[str, list]) -> dict:
     """One unit of a round: ("leg", legs to bound) or ("search", sequences to plan)."""
     kind, work = item
-    return _plan_alone(work) if kind == "leg" else _plan_whole(work)
+    return _plan_alone(work) if kind == "leg" else plan_whole(work)
 
 
 def _pool(jobs: int):
@@ -255,19 +255,19 @@ def _pool(jobs: int):
     return ProcessPoolExecutor(
         max_workers=jobs,
         mp_context=multiprocessing.get_context("fork"),
-        initializer=_worker_init,
+        initializer=worker_init,
         initargs=(os.getpid(),),
     )
 
 
 def _round(items, jobs: int, pool, flight: dict, ahead: Callable) -> list[dict]:
-    """Run one round's units ((name, unit) pairs) in `pool`, else with `trie._run` (here or on
+    """Run one round's units ((name, unit) pairs) in `pool`, else with `trie.run_units` (here or on
     STATE["executor"]). With a pool, a worker that would wait idle for the round's slowest
     unit takes a unit `ahead()` says later rounds are likely to ask for; `flight` (name ->
     future, kept across rounds) hands its result to the round that asks for it. What a round
     computes does not depend on it, only how soon it is known."""
     if pool is None:
-        return _run(_unit, [(unit, 0) for _, unit in items], jobs, lambda k: None)
+        return run_units(_unit, [(unit, 0) for _, unit in items], jobs, lambda k: None)
     for name, unit in items:
         if name not in flight:
             flight[name] = pool.submit(_unit, unit)
@@ -299,7 +299,7 @@ def screen_candidates(system, settings, start, candidates, valid, jobs, advance,
         )
     finally:  # done, interrupted or a worker's error: nothing is waited for
         if pool is not None:
-            _stop(pool, [])
+            stop_workers(pool, [])
 
 
 def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, start, pool):

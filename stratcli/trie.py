@@ -152,7 +152,7 @@ def _plan_subtree(node_specs: list[tuple[int, int | None, LegSpec, Any]]) -> dic
     return done
 
 
-def _plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
+def plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
     """Plan whole sequences with `plan_sequence` (objectives that couple all legs)."""
     system: System = STATE["system"]
     settings: PlannerSettings = STATE["settings"]
@@ -171,7 +171,7 @@ def _plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
-def _worker_init(parent: int) -> None:
+def worker_init(parent: int) -> None:
     """In each worker: die with the parent, leave SIGINT to it, default SIGTERM."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -184,7 +184,7 @@ def _worker_init(parent: int) -> None:
         os._exit(1)
 
 
-def _stop(pool: ProcessPoolExecutor, futures) -> None:
+def stop_workers(pool: ProcessPoolExecutor, futures) -> None:
     """Cancel what is queued and end the workers now (not after their current unit)."""
     for future in futures:
         future.cancel()
@@ -234,7 +234,7 @@ def _run_on(executor, func: Callable, units, on_unit: Callable[[int], None]) -> 
     return results
 
 
-def _run(
+def run_units(
     func: Callable,
     units: list[tuple[Any, int]],
     jobs: int,
@@ -255,7 +255,7 @@ def _run(
     pool = ProcessPoolExecutor(
         max_workers=min(jobs, len(units)),
         mp_context=context,
-        initializer=_worker_init,
+        initializer=worker_init,
         initargs=(os.getpid(),),
     )
     futures: dict = {}
@@ -268,7 +268,7 @@ def _run(
             on_unit(units[k][1])
             checkpoint()  # a signal that arrived inside the pool's weakref callbacks
     except BaseException:  # an interrupt, or a worker's error: stop the workers, re-raise
-        _stop(pool, futures)
+        stop_workers(pool, futures)
         raise
     pool.shutdown(wait=True)
     checkpoint()
@@ -290,7 +290,7 @@ def compare_shared(system, settings, start, candidates, valid, jobs, advance):
             specs.append((n.id, n.parent, n.leg, n.next_leg))
             stack.extend(reversed(n.children))
         units.append((specs, per_root[r]))
-    results = _run(_plan_subtree, units, jobs, advance)
+    results = run_units(_plan_subtree, units, jobs, advance)
     done: dict[int, _NodeResult] = {}
     for part in results:
         done.update(part)
@@ -333,7 +333,7 @@ def compare_whole(system, settings, candidates, valid, jobs, advance):
     firsts = sorted(set(owner.values()))
     weight = {f: sum(1 for k in valid if owner[k] == f) for f in firsts}
     units = [([(f, list(candidates[f].legs))], weight[f]) for f in firsts]
-    results = _run(_plan_whole, units, jobs, advance)
+    results = run_units(plan_whole, units, jobs, advance)
     done: dict[int, Any] = {}
     for part in results:
         done.update(part)

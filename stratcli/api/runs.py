@@ -124,24 +124,24 @@ def write_record(
 
 def _beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]]:
     """Start `func(*args)` in a forked process (one that dies with this one and leaves
-    SIGINT to it, `trie._worker_init`); returns (a function that waits for its value, one
+    SIGINT to it, `trie.worker_init`); returns (a function that waits for its value, one
     that ends the process). Where there is no fork (or only one core), `func` runs when its
     value is asked for."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    from ..trie import _stop, _worker_init, default_jobs
+    from ..trie import default_jobs, stop_workers, worker_init
 
     if default_jobs() < 2 or "fork" not in multiprocessing.get_all_start_methods():
         return (lambda: func(*args)), (lambda: None)
     pool = ProcessPoolExecutor(
         max_workers=1,
         mp_context=multiprocessing.get_context("fork"),
-        initializer=_worker_init,
+        initializer=worker_init,
         initargs=(os.getpid(),),
     )
     future = pool.submit(func, *args)
-    return future.result, lambda: _stop(pool, [future])
+    return future.result, lambda: stop_workers(pool, [future])
 
 
 def prepare_out(out: str | Path) -> Path:

@@ -80,14 +80,14 @@ def local_executor(jobs: int) -> ProcessPoolExecutor:
 
     Spawned, not forked: a worker imports numpy itself, after the BLAS variables are set,
     whatever threads the calling process already runs (a notebook, Dask's client). Workers
-    die with the process that started them and leave SIGINT to it (`trie._worker_init`).
+    die with the process that started them and leave SIGINT to it (`trie.worker_init`).
     """
-    from ..trie import _worker_init
+    from ..trie import worker_init
 
     _single_threaded_blas()
     context = multiprocessing.get_context("spawn")
     return ProcessPoolExecutor(
-        max_workers=jobs, mp_context=context, initializer=_worker_init, initargs=(os.getpid(),)
+        max_workers=jobs, mp_context=context, initializer=worker_init, initargs=(os.getpid(),)
     )
 
 
@@ -151,7 +151,7 @@ def spec_document(sweep: Sweep) -> dict[str, Any]:
 def _stop(executor: Executor, futures: dict[Future, int]) -> None:
     """Cancel what is queued and end the local workers now (a foreign executor: shut down)."""
     if isinstance(executor, ProcessPoolExecutor):
-        from ..trie import _stop as stop_pool
+        from ..trie import stop_workers as stop_pool
 
         stop_pool(executor, futures)
         return

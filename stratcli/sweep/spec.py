@@ -40,7 +40,7 @@ from pydantic import BaseModel, Field, ValidationError
 
 from ..errors import InputError, Problem
 from ..models.specs import STRICT
-from ..scenario import _problems, load_scenario
+from ..scenario import load_scenario, validation_problems
 from ..tomlread import parse_toml, read_scenario_text, reject_non_finite
 from .keys import (
     MAX_TASKS,
@@ -221,7 +221,7 @@ def load_sweep(path: str | Path) -> Sweep:
     try:
         spec = SweepFile.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(_hinted(_problems(exc)), source) from None
+        raise InputError(_hinted(validation_problems(exc)), source) from None
     try:
         return _resolve(spec, Path(path).parent, source, text)
     except InputError as exc:

@@ -37,7 +37,7 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
         records to return, as file contents), `name` (the sweep's name).
     """
     from ..api import compare_sequences, plan_auto, plan_run, write_record  # in the worker
-    from ..compare import _peak_and_excursion
+    from ..compare import peak_and_excursion
     from ..errors import InputError, NotControllableError
     from ..scenario import load_scenario
 
@@ -65,7 +65,7 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
         if mode == "legs":
             outcome = plan_run(task, check=payload["check"])
             plan = outcome.result
-            peak, excursion = _peak_and_excursion(plan, task.system, task.settings)
+            peak, excursion = peak_and_excursion(plan, task.system, task.settings)
             row.update(peak_control=_finite(peak), excursion=_finite(excursion))
             planning = outcome.planning_time
         else:
