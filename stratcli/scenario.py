@@ -28,22 +28,17 @@ from .errors import InputError, Problem
 from .models.numbers import parse_number
 from .models.presets import PRESETS
 from .models.specs import (
-    KINDS,
     STRICT,
-    CustomModel,
     ModelSpec,
-    PlanarModel,
-    PresetModel,
-    UrdfModel,
     build_system,
 )
 from .models.system import System
 from .node_margins import searchable
 from .planners import PLANNERS
+from .schema_problems import validation_problems
 from .settings import (
     MAX_DURATION,
     MIN_DURATION,
-    UNKNOWN_KEY_ERRORS,
     DecomposeSettings,
     LieSettings,
     PlannerSettings,
@@ -124,86 +119,6 @@ class Task:
         return model.name if model.kind == "preset" else model.kind
 
 
-def _path(loc: tuple) -> str:
-    parts: list[str] = []
-    for i, item in enumerate(loc):
-        if isinstance(item, int):
-            parts[-1] = f"{parts[-1]}[{item}]" if parts else f"[{item}]"
-        elif i > 0 and loc[i - 1] == "model" and item in KINDS:
-            continue  # pydantic's tag of the discriminated union, not a key of the file
-        else:
-            parts.append(str(item))
-    return ".".join(parts)
-
-
-def _fields_of(cls: Any) -> dict[str, Any] | None:
-    """Field name → annotation of a schema class (pydantic model or pydantic dataclass)."""
-    if isinstance(cls, type) and issubclass(cls, BaseModel):
-        return {k: f.annotation for k, f in cls.model_fields.items()}
-    fields = getattr(cls, "__pydantic_fields__", None)
-    return None if fields is None else {k: f.annotation for k, f in fields.items()}
-
-
-def _allowed_keys(loc: tuple) -> list[str]:
-    """Keys allowed at the table that holds `loc[-1]`, by walking the schema."""
-    cls: Any = Scenario
-    for item in loc[:-1]:
-        if isinstance(item, int):
-            continue
-        if item in KINDS and cls is None:
-            cls = {"preset": PresetModel, "custom": CustomModel, "urdf": UrdfModel}.get(
-                item, PlanarModel
-            )
-            continue
-        fields = _fields_of(cls)
-        if fields is None or item not in fields:
-            return []
-        cls = None if item == "model" else _unwrap(fields[item])
-    fields = _fields_of(cls)
-    return list(fields) if fields else []
-
-
-def _unwrap(ann: Any) -> Any:
-    if _fields_of(ann) is not None:
-        return ann
-    for a in getattr(ann, "__args__", None) or ():
-        found = _unwrap(a)
-        if found is not None:
-            return found
-    return None
-
-
-def validation_problems(exc: ValidationError, prefix: tuple = ()) -> list[Problem]:
-    out = []
-    for err in exc.errors():
-        loc = prefix + tuple(err["loc"])
-        kind = err["type"]
-        if kind in UNKNOWN_KEY_ERRORS:
-            allowed = _allowed_keys(loc)
-            hint = f" (allowed: {', '.join(allowed)})" if allowed else ""
-            out.append(Problem(_path(loc), f"unknown key{hint}"))
-            continue
-        msg = err["msg"].removeprefix("Value error, ")
-        if kind == "missing":
-            msg = "required field is missing"
-        if kind in ("union_tag_not_found", "union_tag_invalid"):  # a model without a valid kind
-            field = err.get("ctx", {}).get("discriminator", "kind").strip("'")
-            got = err["input"].get(field) if isinstance(err["input"], dict) else None
-            what = "is missing" if got is None else f"is {_short(got)}, not a kind"
-            kinds = ", ".join(KINDS)
-            out.append(Problem(_path((*loc, field)), f"{what} (one of: {kinds})"))
-            continue
-        shown = "" if kind == "missing" else f" (got {_short(err['input'])})"
-        out.append(Problem(_path(loc), f"{msg}{shown}"))
-    return out
-
-
-def _short(value: Any) -> str:
-    """repr of an offending value, cut to one readable line."""
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
-
-
 def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = None) -> Task:
     """Read, validate and resolve a scenario.
 
@@ -259,7 +174,7 @@ def _from_raw(
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(validation_problems(exc), source) from None
+        raise InputError(validation_problems(exc, root=Scenario), source) from None
     if text is None:  # a dict: record it as the TOML file it stands for
         try:
             text = tomlwrite.dumps(raw)
@@ -278,7 +193,7 @@ def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[P
     try:
         return dataclasses.replace(planner.lie, **entry.lie)
     except ValidationError as exc:
-        problems.extend(validation_problems(exc, ("legs", i, "lie")))
+        problems.extend(validation_problems(exc, ("legs", i, "lie"), root=Scenario))
     except TypeError:  # an unknown key (dataclasses.replace refuses it before pydantic)
         names = [f.name for f in dataclasses.fields(LieSettings)]
         known, unknown = ", ".join(names), ", ".join(sorted(set(entry.lie) - set(names)))

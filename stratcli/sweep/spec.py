@@ -40,7 +40,8 @@ from pydantic import BaseModel, Field, ValidationError
 
 from ..errors import InputError, Problem
 from ..models.specs import STRICT
-from ..scenario import load_scenario, validation_problems
+from ..scenario import load_scenario
+from ..schema_problems import validation_problems
 from ..tomlread import parse_toml, read_scenario_text, reject_non_finite
 from .keys import (
     MAX_TASKS,

@@ -1,0 +1,101 @@
+"""Pydantic's validation errors as the one-line problems users read (`file: field: message`).
+
+Locations become dotted paths as written in the file (`legs[1].goal`), an unknown key lists
+the keys allowed in its table, a model table without a valid `kind` names the kinds.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from .errors import Problem
+from .models.specs import KINDS, CustomModel, PlanarModel, PresetModel, UrdfModel
+from .settings import UNKNOWN_KEY_ERRORS
+
+__all__ = ["validation_problems"]
+
+
+def _path(loc: tuple) -> str:
+    parts: list[str] = []
+    for i, item in enumerate(loc):
+        if isinstance(item, int):
+            parts[-1] = f"{parts[-1]}[{item}]" if parts else f"[{item}]"
+        elif i > 0 and loc[i - 1] == "model" and item in KINDS:
+            continue  # pydantic's tag of the discriminated union, not a key of the file
+        else:
+            parts.append(str(item))
+    return ".".join(parts)
+
+
+def _fields_of(cls: Any) -> dict[str, Any] | None:
+    """Field name → annotation of a schema class (pydantic model or pydantic dataclass)."""
+    if isinstance(cls, type) and issubclass(cls, BaseModel):
+        return {k: f.annotation for k, f in cls.model_fields.items()}
+    fields = getattr(cls, "__pydantic_fields__", None)
+    return None if fields is None else {k: f.annotation for k, f in fields.items()}
+
+
+def _allowed_keys(root: Any, loc: tuple) -> list[str]:
+    """Keys allowed at the table that holds `loc[-1]`, by walking the schema from `root`."""
+    cls: Any = root
+    for item in loc[:-1]:
+        if isinstance(item, int):
+            continue
+        if item in KINDS and cls is None:
+            cls = {"preset": PresetModel, "custom": CustomModel, "urdf": UrdfModel}.get(
+                item, PlanarModel
+            )
+            continue
+        fields = _fields_of(cls)
+        if fields is None or item not in fields:
+            return []
+        cls = None if item == "model" else _unwrap(fields[item])
+    fields = _fields_of(cls)
+    return list(fields) if fields else []
+
+
+def _unwrap(ann: Any) -> Any:
+    if _fields_of(ann) is not None:
+        return ann
+    for a in getattr(ann, "__args__", None) or ():
+        found = _unwrap(a)
+        if found is not None:
+            return found
+    return None
+
+
+def validation_problems(
+    exc: ValidationError, prefix: tuple = (), root: Any = None
+) -> list[Problem]:
+    """One `Problem` per error of `exc`, at `prefix` + its location; unknown keys list the keys
+    allowed there, found by walking the schema class `root` (none without it)."""
+    out = []
+    for err in exc.errors():
+        loc = prefix + tuple(err["loc"])
+        kind = err["type"]
+        if kind in UNKNOWN_KEY_ERRORS:
+            allowed = _allowed_keys(root, loc) if root is not None else []
+            hint = f" (allowed: {', '.join(allowed)})" if allowed else ""
+            out.append(Problem(_path(loc), f"unknown key{hint}"))
+            continue
+        msg = err["msg"].removeprefix("Value error, ")
+        if kind == "missing":
+            msg = "required field is missing"
+        if kind in ("union_tag_not_found", "union_tag_invalid"):  # a model without a valid kind
+            field = err.get("ctx", {}).get("discriminator", "kind").strip("'")
+            got = err["input"].get(field) if isinstance(err["input"], dict) else None
+            what = "is missing" if got is None else f"is {_short(got)}, not a kind"
+            kinds = ", ".join(KINDS)
+            out.append(Problem(_path((*loc, field)), f"{what} (one of: {kinds})"))
+            continue
+        shown = "" if kind == "missing" else f" (got {_short(err['input'])})"
+        out.append(Problem(_path(loc), f"{msg}{shown}"))
+    return out
+
+
+def _short(value: Any) -> str:
+    """repr of an offending value, cut to one readable line."""
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."

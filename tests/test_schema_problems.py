@@ -1,0 +1,39 @@
+"""Validation errors as one-line problems: paths as written, allowed keys from the schema."""
+
+from __future__ import annotations
+
+import pytest
+from pydantic import ValidationError
+
+from stratcli.scenario import Scenario
+from stratcli.schema_problems import validation_problems
+
+BASE = {
+    "name": "x",
+    "model": {"kind": "preset", "name": "one-arm"},
+    "task": {"start": [0, 0, 0, 0], "goal": [1, 0, 0, 0]},
+}
+
+
+def _errors(raw: dict) -> ValidationError:
+    with pytest.raises(ValidationError) as exc:
+        Scenario.model_validate(raw)
+    return exc.value
+
+
+def test_an_unknown_key_lists_the_keys_of_its_own_table_when_given_the_schema():
+    exc = _errors({**BASE, "planner": {"tolerence": 1e-3}})
+    (problem,) = validation_problems(exc, root=Scenario)
+    assert problem.path == "planner.tolerence"
+    assert problem.message.startswith("unknown key (allowed: ") and "tolerance" in problem.message
+    (bare,) = validation_problems(exc)  # no schema to walk: no list
+    assert (bare.path, bare.message) == ("planner.tolerence", "unknown key")
+
+
+def test_locations_are_paths_as_written_and_a_model_without_kind_names_the_kinds():
+    exc = _errors({**BASE, "task": {"start": [0, 0, 0, "x"], "goal": [1, 0, 0, 0]}})
+    assert [p.path for p in validation_problems(exc, root=Scenario)] == ["task.start[3]"]
+    exc = _errors({**BASE, "model": {"name": "one-arm"}})
+    (problem,) = validation_problems(exc, ("scenario",), root=Scenario)
+    assert problem.path == "scenario.model.kind"
+    assert problem.message.startswith("is missing (one of: preset")
