@@ -19,9 +19,9 @@ _NAMES = {
     "check_controllability": "inspection",
     "preset_models": "inspection",
     "strata_table": "inspection",
-    "ComparisonOutcome": "planning",
-    "DecompositionOutcome": "planning",
-    "PlanOutcome": "planning",
+    "ComparisonOutcome": "outcomes",
+    "DecompositionOutcome": "outcomes",
+    "PlanOutcome": "outcomes",
     "compare_sequences": "planning",
     "decompose": "planning",
     "plan": "planning",
@@ -60,9 +60,9 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .inspection import check_controllability as check_controllability
     from .inspection import preset_models as preset_models
     from .inspection import strata_table as strata_table
-    from .planning import ComparisonOutcome as ComparisonOutcome
-    from .planning import DecompositionOutcome as DecompositionOutcome
-    from .planning import PlanOutcome as PlanOutcome
+    from .outcomes import ComparisonOutcome as ComparisonOutcome
+    from .outcomes import DecompositionOutcome as DecompositionOutcome
+    from .outcomes import PlanOutcome as PlanOutcome
     from .planning import compare_sequences as compare_sequences
     from .planning import decompose as decompose
     from .planning import plan as plan

@@ -5,14 +5,13 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Mapping
 from concurrent.futures import Executor
-from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from ..compare import CRITERIA, Comparison
+from ..compare import CRITERIA
 from ..constraints import enforce
-from ..decomposition import STRATEGIES, Decomposition, pi_fraction
+from ..decomposition import STRATEGIES, pi_fraction
 from ..durations import optimise_durations
 from ..errors import InputError, Problem
 from ..objectives import plan_sequence
@@ -26,6 +25,7 @@ from ..stratified import time_scaled
 from ..trie import default_jobs
 from .auto import AutoSettings, auto_settings, compare_decomposition, decompose_task
 from .inspection import controllability_first
+from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
 
 IMPORTED = since_start()  # the end of the planner's imports: the "import" phase of a run
 Progress = Callable[[int, int], None]  # (sequences planned so far, sequences in all)
@@ -36,53 +36,6 @@ ScenarioLike = Task | str | Path | Mapping[str, Any]
 def as_task(scenario: ScenarioLike) -> Task:
     """A loaded scenario: `scenario` itself, or `load_scenario(scenario)`."""
     return scenario if isinstance(scenario, Task) else load_scenario(scenario)
-
-
-@dataclass(frozen=True)
-class PlanOutcome:
-    """A planned scenario: the plan, its result.json document and what it took."""
-
-    task: Task  # in auto mode: the scenario with the chosen sequence's legs
-    result: SequencePlan
-    document: dict[str, Any]  # result.json
-    started: datetime  # UTC, when planning started
-    compile_time: float  # seconds generating numeric functions (and checking controllability)
-    planning_time: float  # seconds planning
-    # wall and CPU seconds per phase: import, check, compile, planning; write_record adds the
-    # record's parts, "write" and "total" (since `import stratcli`); see records.manifest
-    phases: Phases = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        """Every leg reached its goal."""
-        return self.result.ok
-
-
-@dataclass(frozen=True)
-class ComparisonOutcome:
-    """Every candidate sequence planned and ranked; `best` is the chosen one's plan."""
-
-    task: Task
-    settings: AutoSettings  # the [decompose] table with overrides applied
-    decomposition: Decomposition
-    comparison: Comparison
-    document: dict[str, Any]  # comparison.json
-    best: PlanOutcome
-
-    @property
-    def ok(self) -> bool:
-        """Some sequence reached the goal."""
-        return self.best.ok
-
-
-@dataclass(frozen=True)
-class DecompositionOutcome:
-    """The candidate sequences of a scenario's task, not planned."""
-
-    task: Task
-    settings: AutoSettings
-    decomposition: Decomposition
-    document: dict[str, Any]  # what `stratplan decompose --json` prints
 
 
 # ------------------------------------------------------------------------------------------

@@ -24,7 +24,7 @@ from ..regress import compare as compare_baseline
 # replay records, not here: `stratplan runs` and `show` only read JSON (start-up speed).
 if TYPE_CHECKING:
     from ..sequence import SequencePlan
-    from .planning import ComparisonOutcome, PlanOutcome
+    from .outcomes import ComparisonOutcome, PlanOutcome
 
 
 @dataclass(frozen=True)
@@ -86,7 +86,7 @@ def write_record(
     # matplotlib and mcap load here, on the first record a process writes: a phase of its own
     imported = {"wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu}
     from ..sequence import SequencePlan
-    from .planning import ComparisonOutcome
+    from .outcomes import ComparisonOutcome
 
     if isinstance(outcome, SequencePlan):
         outcome = _outcome_of(outcome)

@@ -1,0 +1,64 @@
+"""What the planning use cases return: frozen, picklable values (ARCHITECTURE: results as
+values). `stratcli.api.planning` makes them; `write_record` turns them into run records."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Any
+
+from ..compare import Comparison
+from ..decomposition import Decomposition
+from ..records.manifest import Phases
+from ..scenario import Task
+from ..sequence import SequencePlan
+from .auto import AutoSettings
+
+__all__ = ["ComparisonOutcome", "DecompositionOutcome", "PlanOutcome"]
+
+
+@dataclass(frozen=True)
+class PlanOutcome:
+    """A planned scenario: the plan, its result.json document and what it took."""
+
+    task: Task  # in auto mode: the scenario with the chosen sequence's legs
+    result: SequencePlan
+    document: dict[str, Any]  # result.json
+    started: datetime  # UTC, when planning started
+    compile_time: float  # seconds generating numeric functions (and checking controllability)
+    planning_time: float  # seconds planning
+    # wall and CPU seconds per phase: import, check, compile, planning; write_record adds the
+    # record's parts, "write" and "total" (since `import stratcli`); see records.manifest
+    phases: Phases = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """Every leg reached its goal."""
+        return self.result.ok
+
+
+@dataclass(frozen=True)
+class ComparisonOutcome:
+    """Every candidate sequence planned and ranked; `best` is the chosen one's plan."""
+
+    task: Task
+    settings: AutoSettings  # the [decompose] table with overrides applied
+    decomposition: Decomposition
+    comparison: Comparison
+    document: dict[str, Any]  # comparison.json
+    best: PlanOutcome
+
+    @property
+    def ok(self) -> bool:
+        """Some sequence reached the goal."""
+        return self.best.ok
+
+
+@dataclass(frozen=True)
+class DecompositionOutcome:
+    """The candidate sequences of a scenario's task, not planned."""
+
+    task: Task
+    settings: AutoSettings
+    decomposition: Decomposition
+    document: dict[str, Any]  # what `stratplan decompose --json` prints
