@@ -46,8 +46,9 @@ from .liealgebra import (
     hall_basis,
     lie_basis,
 )
+from .models.generated import ArrayFunction
 from .models.manipulator import ManipulatorSystem
-from .models.system import Stratum, System, _ArrayFunction
+from .models.system import Stratum, System
 
 if TYPE_CHECKING:
     import sympy as sp
@@ -259,7 +260,7 @@ def sequence_report(
 @dataclass
 class _CrossBasis:
     labels: list[str]
-    evaluate: _ArrayFunction
+    evaluate: ArrayFunction
 
 
 def _cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _CrossBasis:
@@ -314,7 +315,7 @@ def _symbolic_cross_basis(system: System, strata: tuple[str, ...], degree: int) 
             else bracket(fields[h[0]], fields[h[1]], symbols, every)
         )
     matrix = sp.Matrix.hstack(*(fields[h] for h in elements))
-    return _CrossBasis([element_label(h, names) for h in elements], _ArrayFunction(matrix, symbols))
+    return _CrossBasis([element_label(h, names) for h in elements], ArrayFunction(matrix, symbols))
 
 
 # --------------------------------------------------------------------------------------------

@@ -30,8 +30,9 @@ import numpy as np
 
 from .models import codecache
 from .models.connection import connection, connection_A
+from .models.generated import ArrayFunction
 from .models.manipulator import ManipulatorSystem
-from .models.system import Stratum, System, _ArrayFunction
+from .models.system import Stratum, System
 
 if TYPE_CHECKING:
     import sympy as sp
@@ -181,12 +182,12 @@ def _build(system: System, stratum: Stratum, degree: int) -> LieBasis:
     entry = codecache.load(key) if key else None
     if entry:
         try:  # a preset's brackets as compiled before: no sympy at all
-            evaluate = _ArrayFunction.restored(entry["rows"], system.n)
+            evaluate = ArrayFunction.restored(entry["rows"], system.n)
             return LieBasis(system, stratum, degree, elements, labels, free, None, evaluate)
         except Exception:  # a damaged entry: derive them again
             pass
     rows = _symbolic_rows(system, stratum, elements, free)
-    evaluate = _ArrayFunction(rows, list(system.symbols))
+    evaluate = ArrayFunction(rows, list(system.symbols))
     saved = evaluate.saved() if key else None
     if saved is not None:
         codecache.store(key, {"rows": saved})

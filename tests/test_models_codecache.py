@@ -71,7 +71,7 @@ def test_a_preset_read_from_the_cache_equals_its_printed_equations(cache_home):
     agree with the fields built from the printed equations (eq. 10-13) at random points."""
     import sympy as sp
 
-    from stratcli.models.system import _ArrayFunction
+    from stratcli.models.generated import ArrayFunction
 
     two_arm().compiled("S24")  # warms the cache
     system = two_arm()
@@ -79,7 +79,7 @@ def test_a_preset_read_from_the_cache_equals_its_printed_equations(cache_home):
     assert system._fields is None  # nothing symbolic was built to find it
     q = np.random.default_rng(2).uniform(-3, 3, (9, system.n))
     G = system.fields_on(system.strata["S24"])
-    reference = _ArrayFunction(G, list(system.symbols))(q)
+    reference = ArrayFunction(G, list(system.symbols))(q)
     np.testing.assert_allclose(cached.G(q), reference, rtol=1e-13, atol=1e-14)
     assert cached.quadrature == (4,)
     assert isinstance(G, sp.MatrixBase)

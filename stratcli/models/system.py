@@ -5,7 +5,7 @@ it finds the structure the quadrature evaluator exploits (DESIGN §1): *explicit
 whose rows of `G` are constant so that `q_E(t) = q_E(0) + C_E ∫u`, and *quadrature*
 coordinates, whose rows depend on explicit coordinates only, so that their end value is a
 plain integral. Vectorised numpy functions are generated once: the quadrature rows with their
-first and second derivatives (fused, `_FusedRows`), and `G(q)`, `∂G/∂q` for the ODE path.
+first and second derivatives (fused, `FusedRows`), and `G(q)`, `∂G/∂q` for the ODE path.
 Their source is kept in a disk cache (`codecache`), so a model is differentiated and
 compiled once, not on every run. A system with an `identity` (the presets) is found in that
 cache without building its symbolic fields, so a warm run never imports sympy.
@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import ModelError, Problem
 from . import codecache
+from .generated import ArrayFunction, FusedRows
 from .planar import PlanarManipulator
 
 if TYPE_CHECKING:
@@ -45,133 +46,6 @@ class Stratum:
         return tuple(i for i in range(n) if i not in self.locked)
 
 
-class _ArrayFunction:
-    """Evaluate a sympy array of shape `shape` at many points, filling only nonzero entries.
-
-    Made from `saved` (what `saved()` returned, kept in the disk cache) no sympy is needed.
-    """
-
-    def __init__(self, array: Any, symbols: list[sp.Symbol], saved: dict | None = None):
-        if saved is None:
-            import sympy as sp  # only to generate: a cached function needs none
-
-            self.shape = tuple(array.shape)
-            flat = [array[idx] for idx in np.ndindex(*self.shape)]
-            self.index = [i for i, e in enumerate(flat) if sp.sympify(e).is_zero is not True]
-            exprs = [flat[i] for i in self.index]
-            self._func = sp.lambdify(symbols, exprs, modules="numpy", cse=True) if exprs else None
-        else:
-            self.shape, self.index = tuple(saved["shape"]), list(saved["index"])
-            self._func = codecache.function(saved["source"]) if self.index else None
-        self._n = len(symbols)
-
-    @classmethod
-    def restored(cls, saved: dict, n: int) -> _ArrayFunction:
-        """Again from what `saved()` returned, for `n` coordinates (no sympy)."""
-        return cls(None, [None] * n, saved=saved)
-
-    def saved(self) -> dict | None:
-        """What the disk cache keeps of it, or None when its source cannot be kept."""
-        source = codecache.source_of(self._func, self._n) if self._func else None
-        if self._func and source is None:
-            return None
-        return {"shape": list(self.shape), "index": self.index, "source": source}
-
-    def __call__(self, q: np.ndarray) -> np.ndarray:
-        lead = q.shape[:-1]
-        out = np.zeros((*lead, int(np.prod(self.shape))))
-        values = self._func(*np.moveaxis(q, -1, 0)) if self._func else []
-        for i, value in zip(self.index, values, strict=True):
-            out[..., i] = value
-        return out.reshape(*lead, *self.shape)
-
-
-def _derivatives(exprs: list[sp.Expr], symbols: list[sp.Symbol]) -> list[sp.Expr]:
-    """`∂e/∂s` for every e of `exprs` (outer) and s of `symbols` (inner), flat."""
-    import sympy as sp
-
-    return [sp.diff(e, s) for e in exprs for s in symbols]
-
-
-class _FusedRows:
-    """The quadrature rows `G_Q(q)` and their first and second derivatives along the explicit
-    coordinates `explicit` (the stratum's moving ones), each order one numpy function with
-    common subexpressions shared (DESIGN §1).
-
-    On the few hundred quadrature nodes of a leg the cost is the number of numpy operations,
-    not the array length, so fusing the derivatives with the rows (and stacking rather than
-    differencing for the second ones) is what makes the Jacobian and Hessian cheap.
-    """
-
-    def __init__(self, rows: sp.Matrix, symbols: list[sp.Symbol], explicit: tuple[int, ...]):
-        import sympy as sp
-
-        nQ, m = rows.shape
-        nE = len(explicit)
-        self._sizes = (nQ, m, nE)
-        along = [symbols[k] for k in explicit]
-        flat0 = [rows[i, j] for i in range(nQ) for j in range(m)]
-        flat1 = _derivatives(flat0, along)
-        # second derivatives: only the upper triangle (e ≤ f) is compiled, then mirrored
-        pairs = [(e, f) for e in range(nE) for f in range(e, nE)]
-        flat2 = [sp.diff(flat1[r * nE + e], along[f]) for r in range(len(flat0)) for e, f in pairs]
-        self._pairs = pairs
-        self._symbols = symbols
-        self._flats = (flat0, flat0 + flat1, flat0 + flat1 + flat2)
-        self._funcs: list[Callable | None] = [None, None, None]
-
-    @classmethod
-    def restored(cls, sizes: tuple[int, int, int], sources: list[str]) -> _FusedRows:
-        """The three functions again from their cached source, nothing differentiated."""
-        self = cls.__new__(cls)
-        self._sizes = tuple(sizes)
-        nE = self._sizes[2]
-        self._pairs = [(e, f) for e in range(nE) for f in range(e, nE)]
-        self._funcs = [codecache.function(source) for source in sources]
-        return self
-
-    def sources(self) -> list[str] | None:
-        """The source of the three compiled functions, or None if one cannot be kept."""
-        self.compile(2)
-        found = [codecache.source_of(f, len(self._symbols)) for f in self._funcs]
-        return None if None in found else found
-
-    def _func(self, order: int) -> Callable:
-        if self._funcs[order] is None:
-            import sympy as sp
-
-            self._funcs[order] = sp.lambdify(
-                self._symbols, self._flats[order], modules="numpy", cse=True
-            )
-        return self._funcs[order]
-
-    def compile(self, order: int = 2) -> None:
-        """Generate the functions up to `order` now (e.g. before forking workers)."""
-        for k in range(order + 1):
-            self._func(k)
-
-    def __call__(self, q: np.ndarray, order: int) -> tuple[np.ndarray, ...]:
-        """(rows (..., nQ, m), [d (..., nQ, m, nE), [dd (..., nQ, m, nE, nE)]]) at points q."""
-        lead = q.shape[:-1]
-        values = self._func(order)(*(q.T if q.ndim == 2 else np.moveaxis(q, -1, 0)))
-        flat = np.empty((*lead, len(values)))
-        for i, v in enumerate(values):
-            flat[..., i] = v
-        nQ, m, nE = self._sizes
-        a, b = nQ * m, nQ * m * (1 + nE)
-        out = [flat[..., :a].reshape(*lead, nQ, m)]
-        if order >= 1:
-            out.append(flat[..., a:b].reshape(*lead, nQ, m, nE))
-        if order == 2:  # mirror the compiled upper triangle
-            upper = flat[..., b:].reshape(*lead, nQ * m, len(self._pairs))
-            dd = np.empty((*lead, nQ * m, nE, nE))
-            e, f = np.array(self._pairs).T
-            dd[..., e, f] = upper
-            dd[..., f, e] = upper
-            out.append(dd.reshape(*lead, nQ, m, nE, nE))
-        return tuple(out)
-
-
 @dataclass
 class CompiledStratum:
     """Numeric functions of one stratum; inputs are the stratum's active inputs only.
@@ -188,7 +62,7 @@ class CompiledStratum:
     # rows of `explicit` that `quadrature_terms` differentiates along: those an active input
     # moves (a locked joint stays where it is, so derivatives along it are never needed)
     derivatives_along: tuple[int, ...] = field(init=False)
-    quadrature_terms: _FusedRows | None = field(init=False)  # None: no quadrature path
+    quadrature_terms: FusedRows | None = field(init=False)  # None: no quadrature path
     _key: str = field(init=False, repr=False)  # of the disk cache (codecache)
     _entry: dict = field(init=False, repr=False)  # what the cache holds of this stratum
 
@@ -227,7 +101,7 @@ class CompiledStratum:
         self.derivatives_along = tuple(entry["along"])
         self.quadrature_terms = None
         if entry["sizes"] is not None:
-            self.quadrature_terms = _FusedRows.restored(entry["sizes"], entry["rows"])
+            self.quadrature_terms = FusedRows.restored(entry["sizes"], entry["rows"])
         else:
             _ = self.G, self.dG  # the ODE path is the only one: compile now
 
@@ -252,7 +126,7 @@ class CompiledStratum:
         if all(depends[i] <= explicit_syms for i in quad):
             rows = G.extract(list(quad), list(range(m)))
             along = tuple(explicit[r] for r in self.derivatives_along)
-            self.quadrature_terms = _FusedRows(rows, q, along)
+            self.quadrature_terms = FusedRows(rows, q, along)
             self.quadrature_terms.compile(2)
         else:
             _ = self.G, self.dG  # the ODE path is the only one: compile now
@@ -262,11 +136,11 @@ class CompiledStratum:
         return self.system.fields_on(self.stratum)
 
     @cached_property
-    def G(self) -> _ArrayFunction:  # (..., n) -> (..., n, m_active)
+    def G(self) -> ArrayFunction:  # (..., n) -> (..., n, m_active)
         return self._array("G", lambda: self.G_sym)
 
     @cached_property
-    def dG(self) -> _ArrayFunction:  # (..., n) -> (..., n, m_active, n)
+    def dG(self) -> ArrayFunction:  # (..., n) -> (..., n, m_active, n)
         return self._array("dG", self._dG_sym)
 
     def _dG_sym(self) -> sp.NDimArray:
@@ -278,14 +152,14 @@ class CompiledStratum:
         ]
         return sp.MutableDenseNDimArray(flat, (n, m, n))
 
-    def _array(self, name: str, build: Callable[[], Any]) -> _ArrayFunction:
+    def _array(self, name: str, build: Callable[[], Any]) -> ArrayFunction:
         """`G` or `dG` from the disk cache, else generated (and then cached)."""
         if self._entry.get(name):
             try:
-                return _ArrayFunction.restored(self._entry[name], self.system.n)
+                return ArrayFunction.restored(self._entry[name], self.system.n)
             except Exception:  # a damaged entry: generate it again
                 pass
-        func = _ArrayFunction(build(), list(self.system.symbols))
+        func = ArrayFunction(build(), list(self.system.symbols))
         saved = func.saved() if "explicit" in self._entry else None  # else: __post_init__
         if saved is not None:
             self._entry[name] = saved
