@@ -199,3 +199,18 @@ def test_plan_run_reports_its_phases():
     assert "compiling the model" in phases
     starts = [p for p in phases if p.startswith("energy search: start")]
     assert len(starts) == outcome.task.settings.starts - 1  # start 1 is Newton's own pass
+
+
+def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monkeypatch, planned):
+    """With [constraints] that moved the plan off the free optimum, the energy search's line
+    describes the plan without them: it says so, before the note of the constrained search."""
+    doc = copy.deepcopy(planned.document)
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 120)
+    assert "\nenergy-optimal over all legs together" in text  # unconstrained: as it was
+    doc["constraints"] = {"spec": {"obstacles": [{"shape": "circle"}]}, "legs": []}
+    doc["notes"] = ["constrained search from the minimum-energy plan: ..."]
+    doc["total_energy"] = 1.25 * doc["total_energy"]
+    lines = _render(monkeypatch, lambda: render.plan_summary(doc), 400).splitlines()
+    free = next(i for i, x in enumerate(lines) if "energy-optimal over all legs" in x)
+    assert lines[free].startswith("without the constraints, energy-optimal over all legs")
+    assert lines[free + 1].startswith("note: constrained search")

@@ -219,6 +219,22 @@ def plan_summary(doc: dict) -> None:
         line += f" · duration {doc['duration']:.4g} s"
     status = "[green]ok[/]" if doc["status"] == "ok" else "[red]failed[/]"
     out_console.print(f"{line} · status {status}", highlight=False)
+    opt = doc.get("optimisation")
+    if opt and opt.get("best") is not None:
+        best = opt["starts"][opt["best"]]
+        energies = ", ".join(fmt(s["energy"]) for s in opt["starts"])
+        # a constrained search went on from the free optimum: say that this line is before it
+        moved = doc.get("constraints") and not _close(best["energy"], doc["total_energy"])
+        head = "without the constraints, " if moved else ""
+        out_console.print(
+            f"{head}energy-optimal over all legs together: start {best['index'] + 1} of "
+            f"{len(opt['starts'])} ({best['iterations']} SQP iterations"
+            f"{', ' + best['stopped'] if best.get('stopped') else ''}, "
+            f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
+            f"{energies}; plain Newton: {fmt(opt['newton_energy'])}"
+            + (" (energies before time scaling)" if scale != 1.0 else ""),
+            highlight=False,
+        )
     for note in doc.get("notes") or []:
         out_console.print(f"note: {escape(note)}", highlight=False)
     for i, leg in enumerate((doc.get("attitude") or {}).get("legs") or []):  # URDF robots
@@ -243,19 +259,10 @@ def plan_summary(doc: dict) -> None:
             f"{leg['duration']:g} s in all",
             highlight=False,
         )
-    opt = doc.get("optimisation")
-    if opt and opt.get("best") is not None:
-        best = opt["starts"][opt["best"]]
-        energies = ", ".join(fmt(s["energy"]) for s in opt["starts"])
-        out_console.print(
-            f"energy-optimal over all legs together: start {best['index'] + 1} of "
-            f"{len(opt['starts'])} ({best['iterations']} SQP iterations"
-            f"{', ' + best['stopped'] if best.get('stopped') else ''}, "
-            f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
-            f"{energies}; plain Newton: {fmt(opt['newton_energy'])}"
-            + (" (energies before time scaling)" if scale != 1.0 else ""),
-            highlight=False,
-        )
+
+
+def _close(a: float | None, b: float | None) -> bool:
+    return a is not None and b is not None and abs(a - b) <= 1e-9 * max(1.0, abs(b))
 
 
 def plan_footer(outcome, run_dir: Path) -> None:
