@@ -10,7 +10,9 @@ several deterministic starts that are raced (`optimise_energy`).
 
 from __future__ import annotations
 
+import copy
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -19,6 +21,7 @@ from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
 from .base import ENERGY_RUNAWAY, damped_gauss_newton, goal_residual
+from .legwise import legwise_start
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
@@ -84,6 +87,7 @@ class _Problem:
                 full_stop=settings.full_stop,
             )
         )
+        self.constraints = cons
         elim = eliminate(cons)
         self.M = _block_diag(
             [
@@ -115,6 +119,16 @@ class _Problem:
         self._e0 = float(self._particular @ Mp)
         self._b = 2.0 * self.null.T @ Mp
         self._z = None
+
+    def with_rhs(self, c: np.ndarray) -> _Problem:
+        """This problem with the continuity rows' right-hand side `c` (`legwise.join`): the
+        same rows, so the same null space and whitened coordinates; only λp moves."""
+        other = copy.copy(self)
+        other._particular = eliminate(replace(self.constraints, c=np.asarray(c, float))).particular
+        Mp = self.M @ other._particular
+        other._e0, other._b = float(other._particular @ Mp), 2.0 * self.null.T @ Mp
+        other._z = None  # evaluations are cached per z, and z now means other coefficients
+        return other
 
     def coefficients(self, z):
         return self._particular + self.null @ z
@@ -237,33 +251,9 @@ def optimise_energy(
         seeds = seeds[:1]
     else:
         seeds = _with_pulled_start(problem, seeds, settings.starts)
-    runs = [_Descent(problem, problem.project(lam), settings.tolerance) for _, lam in seeds]
-    found: list[np.ndarray] = []  # minima reached by finished starts
-    best = [np.inf]
-
-    first = next((run.energy for run in runs if run.feasible), np.inf)
-
-    def finish(run: _Descent, iterations: int | None) -> None:
-        while not run.done and (iterations is None or run.iterations < iterations):
-            if run.energy > ENERGY_RUNAWAY * first:
-                run.stop("diverged")  # ran away from the first feasible start's energy
-            elif run.iterations >= ABANDON_AFTER and run.energy > ABANDON_RATIO * best[0]:
-                run.stop("abandoned")  # energy only decreases: unlikely to beat the best
-            elif any(
-                np.linalg.norm(run.z - f) <= SAME_MINIMUM * np.sqrt(run.energy) for f in found
-            ):
-                run.stop("same minimum")  # converging to a minimum already found
-            else:
-                run.step()
-        if run.done and run.feasible:
-            best[0] = min(best[0], run.energy)
-            if run.reason in ("converged", "noise floor"):
-                found.append(run.z)  # a minimum (not a start dropped on the way down)
-
-    for run in runs:
-        finish(run, ABANDON_AFTER)
-    for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
-        finish(run, None)
+        if settings.search == "legwise":
+            seeds = _with_legwise_start(problem, system, legs, settings, seeds)
+    runs = race(problem, [problem.project(lam) for _, lam in seeds], settings.tolerance)
 
     outcomes: list[StartOutcome] = []
     best_index, coefficients = None, None
@@ -293,6 +283,39 @@ def optimise_energy(
             best_index = k
             coefficients = problem.split(problem.coefficients(z))
     return coefficients, Optimisation(tuple(outcomes), best_index, None)
+
+
+def race(problem: _Problem, zs: list[np.ndarray], tolerance: float) -> list[_Descent]:
+    """The feasible SQP from each start `zs` (whitened), raced (`optimise_energy`); the runs,
+    in the order of `zs`."""
+    runs = [_Descent(problem, z, tolerance) for z in zs]
+    found: list[np.ndarray] = []  # minima reached by finished starts
+    best = [np.inf]
+
+    first = next((run.energy for run in runs if run.feasible), np.inf)
+
+    def finish(run: _Descent, iterations: int | None) -> None:
+        while not run.done and (iterations is None or run.iterations < iterations):
+            if run.energy > ENERGY_RUNAWAY * first:
+                run.stop("diverged")  # ran away from the first feasible start's energy
+            elif run.iterations >= ABANDON_AFTER and run.energy > ABANDON_RATIO * best[0]:
+                run.stop("abandoned")  # energy only decreases: unlikely to beat the best
+            elif any(
+                np.linalg.norm(run.z - f) <= SAME_MINIMUM * np.sqrt(run.energy) for f in found
+            ):
+                run.stop("same minimum")  # converging to a minimum already found
+            else:
+                run.step()
+        if run.done and run.feasible:
+            best[0] = min(best[0], run.energy)
+            if run.reason in ("converged", "noise floor"):
+                found.append(run.z)  # a minimum (not a start dropped on the way down)
+
+    for run in runs:
+        finish(run, ABANDON_AFTER)
+    for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
+        finish(run, None)
+    return runs
 
 
 def pulled_start(problem: _Problem, z: np.ndarray) -> np.ndarray | None:
@@ -358,6 +381,14 @@ def _with_pulled_start(problem: _Problem, seeds: list, count: int) -> list:
         return seeds
     pulled = ("pulled", problem.coefficients(z))
     return [*seeds[:k], pulled, *seeds[k + (1 if count <= 1 else 0) :]]
+
+
+def _with_legwise_start(problem: _Problem, system, legs, settings, seeds: list) -> list:
+    """`seeds` with the legwise start first (`legwise.legwise_start`, from the Newton plan's
+    legs), unless it cannot be made."""
+    newton = next((lam for kind, lam in seeds if kind in ("newton", "pulled")), seeds[0][1])
+    z = legwise_start(problem, system, legs, settings, newton)
+    return seeds if z is None else [("legwise", problem.coefficients(z)), *seeds]
 
 
 class _Descent:
