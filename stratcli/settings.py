@@ -84,9 +84,9 @@ class PlannerSettings:
         paper's method, leg by leg).
     starts : deterministic starts of the energy search: the Newton plan pulled toward least
         energy, the Newton plan, then Newton plans from seeded starts.
-    search : "starts" (only those) or "legwise": one more start, first, made from each leg's
-        lowest minimum on its own, joined by continuation in the switch conditions
-        (`planners.legwise`; a global strategy, at several times the search's cost).
+    search : "starts" (only those) or "legwise": one more start, made from each leg's lowest
+        minimum on its own, joined by continuation in the switch conditions and raced after
+        the others (`planners.legwise`; a global strategy, at several times the cost).
     time_scale : run the planned path this many times faster after planning (paper §6).
     lie : defaults of the legs planned with the Lie-algebraic method.
     durations : "fixed" (each leg's own duration) or "optimise": the energy objective also

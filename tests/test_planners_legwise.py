@@ -81,8 +81,10 @@ def test_the_legwise_search_reaches_a_lower_minimum_than_the_plain_starts():
     wide = energy_plan(task, "legwise")
     assert wide.ok and plain.ok
     opt = wide.optimisation
-    assert opt.starts[0].kind == "legwise" and opt.best == 0
-    assert opt.starts[0].projected_gradient <= 1e-8  # a true constrained minimum
+    best = opt.starts[opt.best]
+    assert best.kind == "legwise" and best.projected_gradient <= 1e-8  # a true minimum
+    # the other starts are the default search's, raced as without the legwise one
+    assert [s.energy for s in opt.starts[:-1]] == [s.energy for s in plain.optimisation.starts]
     assert wide.total_energy < 0.95 * plain.total_energy  # another, lower basin
     verify(task, result_document(wide, task.scenario.name, task.model_name))
 

@@ -251,9 +251,14 @@ def optimise_energy(
         seeds = seeds[:1]
     else:
         seeds = _with_pulled_start(problem, seeds, settings.starts)
-        if settings.search == "legwise":
-            seeds = _with_legwise_start(problem, system, legs, settings, seeds)
     runs = race(problem, [problem.project(lam) for _, lam in seeds], settings.tolerance)
+    if problem.exact_hessians and settings.search == "legwise":
+        # raced on its own, after the others: their race (which abandons a start that an
+        # earlier low one outruns) is the default search's, so the result is never higher
+        z = legwise_start(problem, system, legs, settings, _newton_part(seeds))
+        if z is not None:
+            seeds = [*seeds, ("legwise", problem.coefficients(z))]
+            runs += race(problem, [z], settings.tolerance)
 
     outcomes: list[StartOutcome] = []
     best_index, coefficients = None, None
@@ -383,12 +388,10 @@ def _with_pulled_start(problem: _Problem, seeds: list, count: int) -> list:
     return [*seeds[:k], pulled, *seeds[k + (1 if count <= 1 else 0) :]]
 
 
-def _with_legwise_start(problem: _Problem, system, legs, settings, seeds: list) -> list:
-    """`seeds` with the legwise start first (`legwise.legwise_start`, from the Newton plan's
-    legs), unless it cannot be made."""
-    newton = next((lam for kind, lam in seeds if kind in ("newton", "pulled")), seeds[0][1])
-    z = legwise_start(problem, system, legs, settings, newton)
-    return seeds if z is None else [("legwise", problem.coefficients(z)), *seeds]
+def _newton_part(seeds: list) -> np.ndarray:
+    """The Newton plan among `seeds` (or its pulled start, or the first), for the legwise
+    start (`legwise.legwise_start`)."""
+    return next((lam for kind, lam in seeds if kind in ("newton", "pulled")), seeds[0][1])
 
 
 class _Descent:

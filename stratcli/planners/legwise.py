@@ -21,8 +21,8 @@ the linear continuity rows at their switches. So the search is split:
    SQP iterations per step. Only the right-hand side moves, so the whitened coordinates stay
    the same along the way.
 
-The joined point is one more start of the stacked race (`energy.optimise_energy`, kind
-"legwise"), so the result is never worse than without it.
+The joined point is one more start of the stacked search (`energy.optimise_energy`, kind
+"legwise"), raced on its own after the others, so the result is never higher than without it.
 """
 
 from __future__ import annotations
