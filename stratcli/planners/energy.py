@@ -34,6 +34,7 @@ LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
+SAME_ENERGY = 1e-9  # relative: the legwise start wins only if lower than this (`legwise`)
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
 # back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
@@ -282,8 +283,10 @@ def optimise_energy(
             )
         )
         # a start stopped next to a minimum another start reached is not a candidate: its
-        # energy can undercut that converged one only by rounding
-        if ok and run.reason != "same minimum" and energy < best_energy:
+        # energy can undercut that converged one only by rounding; nor is the legwise start
+        # at the default starts' minimum (it changes a plan only where it finds a lower one)
+        below = best_energy * (1.0 - SAME_ENERGY) if seeds[k][0] == "legwise" else best_energy
+        if ok and run.reason != "same minimum" and energy < below:
             best_energy = energy
             best_index = k
             coefficients = problem.split(problem.coefficients(z))
