@@ -1,6 +1,7 @@
 """Energy and planning time of stratplan against the free-control lower bound (CasADi/IPOPT).
 
-Usage: python benchmarks/bench_energy.py [--repeats N] [--starts K] [--no-bound] [SCENARIO ...]
+Usage: python benchmarks/bench_energy.py [--repeats N] [--starts K] [--no-bound]
+       [--search starts|legwise] [SCENARIO ...]
 
 One table, every row from the same run, for the paper's scenarios: the paper's energy; the
 plain Newton plan's; the energy-optimal plan's with H = 3 harmonics (the default) and with
@@ -88,9 +89,9 @@ def _plan(task, settings, **kwargs):
     return plan_sequence(task.system, task.start, task.legs, settings, **kwargs)
 
 
-def bench(path, repeats: int, starts: int, with_bound: bool) -> dict:
+def bench(path, repeats: int, starts: int, with_bound: bool, search: str | None = None) -> dict:
     task = load_scenario(path)
-    settings = task.settings
+    settings = task.settings if search is None else replace(task.settings, search=search)
     row: dict = {
         "scenario": task.scenario.name,
         "paper": task.scenario.reference.energy if task.scenario.reference else None,
@@ -164,6 +165,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeats", type=int, default=3, help="timed runs (median)")
     parser.add_argument("--starts", type=int, default=STARTS, help="IPOPT starts")
     parser.add_argument("--no-bound", action="store_true", help="skip the CasADi bound")
+    parser.add_argument(
+        "--search",
+        choices=("starts", "legwise"),
+        default=None,
+        help="stratplan's energy search (default: the scenario's)",
+    )
     args = parser.parse_args(argv)
     with_bound = casadi_available() and not args.no_bound
     _count_evaluations()
@@ -179,7 +186,10 @@ def main(argv: list[str] | None = None) -> None:
         print("casadi is not installed, so there is no bound: pip install -e '.[bench]'\n")
 
     clock = time.perf_counter()
-    rows = [bench(p, args.repeats, args.starts, with_bound) for p in scenario_paths(args.scenarios)]
+    rows = [
+        bench(p, args.repeats, args.starts, with_bound, args.search)
+        for p in scenario_paths(args.scenarios)
+    ]
     print(
         "| scenario | paper | Newton | H=3 | H=8 | bound | H=3 ÷ bound | H=8 ÷ bound "
         "| stratplan CPU s | end-point evaluations | CasADi s | stratplan ÷ CasADi time |"

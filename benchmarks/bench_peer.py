@@ -1,7 +1,8 @@
 """The honest peer: CasADi/IPOPT on exactly stratplan's energy problem, against stratplan.
 
 Usage: python benchmarks/bench_peer.py [--seeded N] [--first-seed S] [--repeats R]
-       [SCENARIO ...]      (needs the optional extra: pip install -e '.[bench]')
+       [--search starts|legwise] [SCENARIO ...]
+       (needs the optional extra: pip install -e '.[bench]')
 
 For each paper scenario, the problem the energy objective solves (`stratcli.planners.energy`),
 written as one CasADi NLP and handed to IPOPT (exact Hessian of the Lagrangian by automatic
@@ -87,9 +88,12 @@ class Captured:
     seeds: list
 
 
-def stratplan_run(task: Task, repeats: int):
-    """stratplan's energy objective: (plan, median CPU s, captured starts)."""
+def stratplan_run(task: Task, repeats: int, search: str | None = None):
+    """stratplan's energy objective: (plan, median CPU s, captured starts); `search` replaces
+    the scenario's (`PlannerSettings.search`) if given."""
     settings = replace(task.settings, objective="energy")
+    if search is not None:
+        settings = replace(settings, search=search)
     captured: list[Captured] = []
     original = objectives.optimise_energy
 
@@ -265,6 +269,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seeded", type=int, default=SEEDED, help="seeded random IPOPT starts")
     parser.add_argument("--first-seed", type=int, default=0, help="of the seeded starts")
     parser.add_argument("--repeats", type=int, default=5, help="stratplan runs timed")
+    parser.add_argument(
+        "--search",
+        choices=("starts", "legwise"),
+        default=None,
+        help="stratplan's energy search (default: the scenario's)",
+    )
     args = parser.parse_args(argv)
     if ca is None:
         sys.exit("casadi is not installed: pip install -e '.[bench]'")
@@ -276,7 +286,7 @@ def main(argv: list[str] | None = None) -> None:
     summary = []
     for path in scenario_paths(args.scenarios):
         task = load_scenario(path)
-        plan, sp_seconds, captured = stratplan_run(task, args.repeats)
+        plan, sp_seconds, captured = stratplan_run(task, args.repeats, args.search)
         peer = PeerProblem(task, captured, [leg.coefficients for leg in plan.legs])
         own = []
         for k, (kind, lam) in enumerate(captured.seeds):

@@ -84,6 +84,9 @@ class PlannerSettings:
         paper's method, leg by leg).
     starts : deterministic starts of the energy search: the Newton plan pulled toward least
         energy, the Newton plan, then Newton plans from seeded starts.
+    search : "starts" (only those) or "legwise": one more start, made from each leg's lowest
+        minimum on its own, joined by continuation in the switch conditions and raced after
+        the others (`planners.legwise`; a global strategy, at several times the cost).
     time_scale : run the planned path this many times faster after planning (paper §6).
     lie : defaults of the legs planned with the Lie-algebraic method.
     durations : "fixed" (each leg's own duration) or "optimise": the energy objective also
@@ -103,6 +106,7 @@ class PlannerSettings:
     evaluator: Literal["auto", "quadrature", "ode"] = "auto"
     objective: Literal["energy", "newton"] = "energy"
     starts: Annotated[Int, Field(ge=1, le=64)] = 2
+    search: Literal["starts", "legwise"] = "starts"
     time_scale: Annotated[Float, Field(ge=1.0 / MAX_TIME_SCALE, le=MAX_TIME_SCALE)] = 1.0
     lie: LieSettings = LieSettings()
     durations: Literal["fixed", "optimise"] = "fixed"

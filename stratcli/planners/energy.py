@@ -10,7 +10,9 @@ several deterministic starts that are raced (`optimise_energy`).
 
 from __future__ import annotations
 
+import copy
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -19,6 +21,7 @@ from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
 from .base import ENERGY_RUNAWAY, damped_gauss_newton, goal_residual
+from .legwise import legwise_start
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
@@ -31,6 +34,7 @@ LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
+SAME_ENERGY = 1e-9  # relative: the legwise start wins only if lower than this (`legwise`)
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
 # back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
@@ -84,6 +88,7 @@ class _Problem:
                 full_stop=settings.full_stop,
             )
         )
+        self.constraints = cons
         elim = eliminate(cons)
         self.M = _block_diag(
             [
@@ -115,6 +120,16 @@ class _Problem:
         self._e0 = float(self._particular @ Mp)
         self._b = 2.0 * self.null.T @ Mp
         self._z = None
+
+    def with_rhs(self, c: np.ndarray) -> _Problem:
+        """This problem with the continuity rows' right-hand side `c` (`legwise.join`): the
+        same rows, so the same null space and whitened coordinates; only λp moves."""
+        other = copy.copy(self)
+        other._particular = eliminate(replace(self.constraints, c=np.asarray(c, float))).particular
+        Mp = self.M @ other._particular
+        other._e0, other._b = float(other._particular @ Mp), 2.0 * self.null.T @ Mp
+        other._z = None  # evaluations are cached per z, and z now means other coefficients
+        return other
 
     def coefficients(self, z):
         return self._particular + self.null @ z
@@ -237,7 +252,51 @@ def optimise_energy(
         seeds = seeds[:1]
     else:
         seeds = _with_pulled_start(problem, seeds, settings.starts)
-    runs = [_Descent(problem, problem.project(lam), settings.tolerance) for _, lam in seeds]
+    runs = race(problem, [problem.project(lam) for _, lam in seeds], settings.tolerance)
+    if problem.exact_hessians and settings.search == "legwise":
+        # raced on its own, after the others: their race (which abandons a start that an
+        # earlier low one outruns) is the default search's, so the result is never higher
+        z = legwise_start(problem, system, legs, settings, _newton_part(seeds))
+        if z is not None:
+            seeds = [*seeds, ("legwise", problem.coefficients(z))]
+            runs += race(problem, [z], settings.tolerance)
+
+    outcomes: list[StartOutcome] = []
+    best_index, coefficients = None, None
+    best_energy = np.inf
+    for k, run in enumerate(runs):
+        z = run.z
+        err = float(np.abs(problem.constraint(z)).max()) if len(z) else 0.0
+        energy = problem.energy(z)
+        ok = bool(np.isfinite(energy) and err <= 0.1 * settings.tolerance)
+        outcomes.append(
+            StartOutcome(
+                k,
+                seeds[k][0],
+                energy,
+                err,
+                run.pg if run.pg_at is z else problem.projected_gradient(z),
+                run.iterations,
+                ok,
+                run.seconds,
+                run.reason or "not started",
+            )
+        )
+        # a start stopped next to a minimum another start reached is not a candidate: its
+        # energy can undercut that converged one only by rounding; nor is the legwise start
+        # at the default starts' minimum (it changes a plan only where it finds a lower one)
+        below = best_energy * (1.0 - SAME_ENERGY) if seeds[k][0] == "legwise" else best_energy
+        if ok and run.reason != "same minimum" and energy < below:
+            best_energy = energy
+            best_index = k
+            coefficients = problem.split(problem.coefficients(z))
+    return coefficients, Optimisation(tuple(outcomes), best_index, None)
+
+
+def race(problem: _Problem, zs: list[np.ndarray], tolerance: float) -> list[_Descent]:
+    """The feasible SQP from each start `zs` (whitened), raced (`optimise_energy`); the runs,
+    in the order of `zs`."""
+    runs = [_Descent(problem, z, tolerance) for z in zs]
     found: list[np.ndarray] = []  # minima reached by finished starts
     best = [np.inf]
 
@@ -264,35 +323,7 @@ def optimise_energy(
         finish(run, ABANDON_AFTER)
     for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
         finish(run, None)
-
-    outcomes: list[StartOutcome] = []
-    best_index, coefficients = None, None
-    best_energy = np.inf
-    for k, run in enumerate(runs):
-        z = run.z
-        err = float(np.abs(problem.constraint(z)).max()) if len(z) else 0.0
-        energy = problem.energy(z)
-        ok = bool(np.isfinite(energy) and err <= 0.1 * settings.tolerance)
-        outcomes.append(
-            StartOutcome(
-                k,
-                seeds[k][0],
-                energy,
-                err,
-                run.pg if run.pg_at is z else problem.projected_gradient(z),
-                run.iterations,
-                ok,
-                run.seconds,
-                run.reason or "not started",
-            )
-        )
-        # a start stopped next to a minimum another start reached is not a candidate: its
-        # energy can undercut that converged one only by rounding
-        if ok and run.reason != "same minimum" and energy < best_energy:
-            best_energy = energy
-            best_index = k
-            coefficients = problem.split(problem.coefficients(z))
-    return coefficients, Optimisation(tuple(outcomes), best_index, None)
+    return runs
 
 
 def pulled_start(problem: _Problem, z: np.ndarray) -> np.ndarray | None:
@@ -358,6 +389,12 @@ def _with_pulled_start(problem: _Problem, seeds: list, count: int) -> list:
         return seeds
     pulled = ("pulled", problem.coefficients(z))
     return [*seeds[:k], pulled, *seeds[k + (1 if count <= 1 else 0) :]]
+
+
+def _newton_part(seeds: list) -> np.ndarray:
+    """The Newton plan among `seeds` (or its pulled start, or the first), for the legwise
+    start (`legwise.legwise_start`)."""
+    return next((lam for kind, lam in seeds if kind in ("newton", "pulled")), seeds[0][1])
 
 
 class _Descent:
