@@ -198,6 +198,7 @@ class NodeMargins:
         self.geo_coords = list(range(k + 1 if need_theta else k))
         self.labels: list[tuple[int, str]] = []  # per row: (leg index, what it limits)
         self.times = np.zeros(0)  # per row: the node's time in its leg
+        self._last = None  # (z, clearances, kinds) of the last call: the next often repeats z
 
     def refined(self, z: np.ndarray, dense: int) -> NodeMargins | None:
         """These margins with more nodes where `dense` equally spaced samples a leg find less
@@ -237,7 +238,11 @@ class NodeMargins:
                         times.append(leg.t)
         if self.geometric:  # every leg in one evaluation, then the differences near contact
             q = np.concatenate([c[0] for c in configurations])
-            g_all, kinds = geometric_margins(self.robot, q, self.c)
+            if self._last is not None and np.array_equal(self._last[0], z):
+                g_all, kinds = self._last[1:]  # the line search's trial, now the iterate
+            else:
+                g_all, kinds = geometric_margins(self.robot, q, self.c)
+                self._last = (z.copy(), g_all, kinds)
             if jacobian:  # differences at nodes near contact, in coordinates that move there
                 slopes = np.zeros((len(self.geo_coords), *g_all.shape))
                 leg_of = np.repeat(np.arange(len(self.legs)), [len(c[0]) for c in configurations])
