@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .clearance import penetration
+from .clearance import penetration, separating_axes
 from .models.geometry import world_geometry
 
 __all__ = ["CUSHION", "NODES", "NodeMargins", "searchable"]
@@ -57,34 +57,38 @@ def geometric_margins(robot, q: np.ndarray, c) -> tuple[np.ndarray, list[str]]:
     r, k = c.link_radius, a.shape[1]
     links = np.stack((a, b), axis=2)  # (N, k, 2, 2)
     cols, kinds = [], []
+    axes = {}  # each shape's separating axes, computed once for all its pairs
 
-    def gap(p, q):  # signed: minus the depth of overlap, a lower bound of the distance apart
-        return -penetration(p, q)
+    def gap(p, q, p_key, q_key):  # signed: minus the depth of overlap, a lower bound apart
+        for s, key in ((p, p_key), (q, q_key)):
+            if key not in axes:
+                axes[key] = separating_axes(s)
+        return -penetration(p, q, axes[p_key], axes[q_key])
 
     if c.self_collision:
         first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
         for i in range(k):
             if i not in first:
-                cols.append(gap(links[:, i], corners) - r)
+                cols.append(gap(links[:, i], corners, i, "base") - r)
                 kinds.append("self-collision")
             for j in range(i + 1, k):
                 if arm[j] == arm[i] and j == i + 1:
                     continue
-                cols.append(gap(links[:, i], links[:, j]) - 2 * r)
+                cols.append(gap(links[:, i], links[:, j], i, j) - 2 * r)
                 kinds.append("self-collision")
-    for centre, radius in c.circles:
+    for o, (centre, radius) in enumerate(c.circles):
         centre = np.broadcast_to(centre, (len(q), 2))
-        cols.append(gap(centre[:, None, :], corners) - radius)
+        cols.append(gap(centre[:, None, :], corners, ("circle", o), "base") - radius)
         kinds.append("an obstacle")
         for i in range(k):
             d = np.linalg.norm(centre - _closest(centre, a[:, i], b[:, i]), axis=-1)
             cols.append(d - r - radius)
             kinds.append("an obstacle")
-    for box in c.boxes:
-        cols.append(gap(corners, box[None]))
+    for o, box in enumerate(c.boxes):
+        cols.append(gap(corners, box[None], "base", ("box", o)))
         kinds.append("an obstacle")
         for i in range(k):
-            cols.append(gap(links[:, i], box[None]) - r)
+            cols.append(gap(links[:, i], box[None], i, ("box", o)) - r)
             kinds.append("an obstacle")
     out = np.stack(cols, axis=1) if cols else np.zeros((len(q), 0))
     return out - c.clearance, kinds
