@@ -111,23 +111,38 @@ def _edge_normals(poly: np.ndarray) -> np.ndarray:
     return n / np.where(length > 0, length, 1.0)
 
 
-def penetration(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+def separating_axes(s: np.ndarray) -> np.ndarray:
+    """The axes (..., K, 2) that `penetration` projects a convex shape s (..., V, 2) on: a
+    segment's normal and direction, a polygon's edge normals, none for a point."""
+    if s.shape[-2] == 2:  # a segment: its normal and its direction
+        d = s[..., 1, :] - s[..., 0, :]
+        d = d / np.maximum(np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2), 1e-300)[..., None]
+        return np.concatenate(
+            [np.stack((-d[..., 1], d[..., 0]), axis=-1)[..., None, :], d[..., None, :]], axis=-2
+        )
+    if s.shape[-2] > 2:
+        return _edge_normals(s)
+    return np.zeros((*s.shape[:-2], 0, 2))
+
+
+def penetration(p: np.ndarray, q: np.ndarray, p_axes=None, q_axes=None) -> np.ndarray:
     """Depth of overlap of convex shapes p (..., V, 2) and q (..., W, 2) (points, segments or
     polygons): the shortest translation that separates them, by the separating-axis theorem
     (axes: the edge normals of both, and a segment's own direction); where they are apart,
     minus the widest gap along those axes (a lower bound of their distance, equal to it
-    unless the closest points are two corners)."""
+    unless the closest points are two corners). `p_axes`, `q_axes`: their
+    `separating_axes`, if already at hand."""
     lead = np.broadcast_shapes(p.shape[:-2], q.shape[:-2])
     p = np.broadcast_to(p, (*lead, *p.shape[-2:]))
     q = np.broadcast_to(q, (*lead, *q.shape[-2:]))
-    axes = []
-    for s in (p, q):
-        if s.shape[-2] == 2:  # a segment: its normal and its direction
-            d = s[..., 1, :] - s[..., 0, :]
-            d = d / np.maximum(np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2), 1e-300)[..., None]
-            axes += [np.stack((-d[..., 1], d[..., 0]), axis=-1)[..., None, :], d[..., None, :]]
-        elif s.shape[-2] > 2:
-            axes.append(_edge_normals(s))
+    axes = [
+        np.broadcast_to(a, (*lead, *a.shape[-2:]))
+        for a in (
+            separating_axes(p) if p_axes is None else p_axes,
+            separating_axes(q) if q_axes is None else q_axes,
+        )
+        if a.shape[-2]
+    ]
     axes = np.concatenate(axes, axis=-2)  # (..., K, 2)
     ax, ay = axes[..., 0], axes[..., 1]
     # extreme projections vertex by vertex (a few vertices: cheaper than reducing an axis)

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .clearance import penetration
+from .clearance import penetration, separating_axes
 from .models.geometry import world_geometry
 
 __all__ = ["CUSHION", "NODES", "NodeMargins", "searchable"]
@@ -35,6 +35,7 @@ NODES_PER_RADIAN = 13  # and at least this many per radian of the top harmonic's
 GAUSS = 4  # Gauss points per node interval for the base angle's quadrature
 CUSHION = 2e-3  # margin kept at the nodes, for the samples between them
 FD_STEP = 1e-7  # forward differences of the clearances in the configuration
+CURVATURE_STEP = 1e-4  # second differences of the clearances (`NodeMargins.curvature`)
 
 
 def searchable(constraints) -> bool:
@@ -57,34 +58,38 @@ def geometric_margins(robot, q: np.ndarray, c) -> tuple[np.ndarray, list[str]]:
     r, k = c.link_radius, a.shape[1]
     links = np.stack((a, b), axis=2)  # (N, k, 2, 2)
     cols, kinds = [], []
+    axes = {}  # each shape's separating axes, computed once for all its pairs
 
-    def gap(p, q):  # signed: minus the depth of overlap, a lower bound of the distance apart
-        return -penetration(p, q)
+    def gap(p, q, p_key, q_key):  # signed: minus the depth of overlap, a lower bound apart
+        for s, key in ((p, p_key), (q, q_key)):
+            if key not in axes:
+                axes[key] = separating_axes(s)
+        return -penetration(p, q, axes[p_key], axes[q_key])
 
     if c.self_collision:
         first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
         for i in range(k):
             if i not in first:
-                cols.append(gap(links[:, i], corners) - r)
+                cols.append(gap(links[:, i], corners, i, "base") - r)
                 kinds.append("self-collision")
             for j in range(i + 1, k):
                 if arm[j] == arm[i] and j == i + 1:
                     continue
-                cols.append(gap(links[:, i], links[:, j]) - 2 * r)
+                cols.append(gap(links[:, i], links[:, j], i, j) - 2 * r)
                 kinds.append("self-collision")
-    for centre, radius in c.circles:
+    for o, (centre, radius) in enumerate(c.circles):
         centre = np.broadcast_to(centre, (len(q), 2))
-        cols.append(gap(centre[:, None, :], corners) - radius)
+        cols.append(gap(centre[:, None, :], corners, ("circle", o), "base") - radius)
         kinds.append("an obstacle")
         for i in range(k):
             d = np.linalg.norm(centre - _closest(centre, a[:, i], b[:, i]), axis=-1)
             cols.append(d - r - radius)
             kinds.append("an obstacle")
-    for box in c.boxes:
-        cols.append(gap(corners, box[None]))
+    for o, box in enumerate(c.boxes):
+        cols.append(gap(corners, box[None], "base", ("box", o)))
         kinds.append("an obstacle")
         for i in range(k):
-            cols.append(gap(links[:, i], box[None]) - r)
+            cols.append(gap(links[:, i], box[None], i, ("box", o)) - r)
             kinds.append("an obstacle")
     out = np.stack(cols, axis=1) if cols else np.zeros((len(q), 0))
     return out - c.clearance, kinds
@@ -198,6 +203,7 @@ class NodeMargins:
         self.geo_coords = list(range(k + 1 if need_theta else k))
         self.labels: list[tuple[int, str]] = []  # per row: (leg index, what it limits)
         self.times = np.zeros(0)  # per row: the node's time in its leg
+        self._last = None  # (z, clearances, kinds) of the last call: the next often repeats z
 
     def refined(self, z: np.ndarray, dense: int) -> NodeMargins | None:
         """These margins with more nodes where `dense` equally spaced samples a leg find less
@@ -220,6 +226,7 @@ class NodeMargins:
         lam = self.problem.coefficients(z)
         null = self.problem.null
         values, grads, labels, times = [], [], [], []
+        label = not self.labels
         configurations, slopes = [], []
         for index, leg in enumerate(self.legs):
             q, dq = leg.configurations(lam[leg.rows], jacobian)
@@ -233,11 +240,16 @@ class NodeMargins:
                         values.append(sign * (q[:, i] - bound) - self.cushion)
                         if jacobian:
                             grads.append(sign * dqz[:, i])
-                        labels += [(index, f"the joint limits of {self.states[i]}")] * len(q)
-                        times.append(leg.t)
+                        if label:
+                            labels += [(index, f"the joint limits of {self.states[i]}")] * len(q)
+                            times.append(leg.t)
         if self.geometric:  # every leg in one evaluation, then the differences near contact
             q = np.concatenate([c[0] for c in configurations])
-            g_all, kinds = geometric_margins(self.robot, q, self.c)
+            if self._last is not None and np.array_equal(self._last[0], z):
+                g_all, kinds = self._last[1:]  # the line search's trial, now the iterate
+            else:
+                g_all, kinds = geometric_margins(self.robot, q, self.c)
+                self._last = (z.copy(), g_all, kinds)
             if jacobian:  # differences at nodes near contact, in coordinates that move there
                 slopes = np.zeros((len(self.geo_coords), *g_all.shape))
                 leg_of = np.repeat(np.arange(len(self.legs)), [len(c[0]) for c in configurations])
@@ -261,12 +273,56 @@ class NodeMargins:
                 rows = slice(row, row + len(qi))
                 row += len(qi)
                 values.append(g_all[rows].T.ravel() - self.cushion)
-                labels += [(index, kind) for kind in kinds for _ in range(len(qi))]
-                times += [self.legs[index].t] * len(kinds)
+                if label:
+                    labels += [(index, kind) for kind in kinds for _ in range(len(qi))]
+                    times += [self.legs[index].t] * len(kinds)
                 if jacobian:
                     dg = np.einsum("cnp,ncz->pnz", slopes[:, rows], dqz[:, self.geo_coords])
                     grads.append(dg.reshape(-1, dqz.shape[-1]))
         g = np.concatenate(values) if values else np.zeros(0)
         G = (np.concatenate(grads) if grads else np.zeros((0, z.size))) if jacobian else None
-        self.labels, self.times = labels, np.concatenate(times) if times else np.zeros(0)
+        if label:  # the rows are the same on every call: labelled once
+            self.labels, self.times = labels, np.concatenate(times) if times else np.zeros(0)
+        if jacobian and self.geometric:  # for `curvature`: each clearance row's node and pair
+            first = g.size - g_all.size
+            sizes = [len(c[0]) for c in configurations]
+            node = np.concatenate(
+                [np.tile(np.arange(o, o + n), g_all.shape[1]) for o, n in zip(
+                    np.cumsum([0, *sizes[:-1]]), sizes, strict=True)]
+            )  # fmt: skip
+            pair = np.concatenate([np.repeat(np.arange(g_all.shape[1]), n) for n in sizes])
+            dqz_all = np.concatenate([c[1][:, self.geo_coords] for c in configurations])
+            self._curvature_at = (z.copy(), first, node, pair, q, dqz_all)
         return g, G
+
+    def curvature(self, z: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """Σ_r weights[r] ∇²g_r(z) over the clearance rows with a positive weight, from
+        second differences of the clearances in the configuration (the joints are affine in
+        z; θ's own curvature is left out). Needs the last call with the Jacobian to be at z."""
+        out = np.zeros((z.size, z.size))
+        if not self.geometric or weights.size == 0:
+            return out
+        at, first, node, pair, q, dqz = self._curvature_at
+        if not np.array_equal(at, z):
+            raise ValueError("curvature needs the margins' Jacobian at the same z")
+        rows = np.flatnonzero(weights[first:] > 0)
+        if rows.size == 0:
+            return out
+        k = len(self.geo_coords)
+        h = CURVATURE_STEP
+        eye = np.zeros((k, q.shape[1]))
+        eye[np.arange(k), self.geo_coords] = h
+        i, j = np.triu_indices(k)
+        signs = np.array([(1, 1), (1, -1), (-1, 1), (-1, -1)])
+        shifts = signs[:, 0, None, None] * eye[i] + signs[:, 1, None, None] * eye[j]  # (4, P, n)
+        base = q[node[rows]]  # (A, n)
+        points = base[:, None, None, :] + shifts[None]  # (A, 4, P, n)
+        values = geometric_margins(self.robot, points.reshape(-1, q.shape[1]), self.c)[0]
+        values = values.reshape(rows.size, 4, len(i), -1)[np.arange(rows.size), ..., pair[rows]]
+        second = (values[:, 0] - values[:, 1] - values[:, 2] + values[:, 3]) / (4 * h * h)
+        H = np.zeros((rows.size, k, k))
+        H[:, i, j] = second
+        H[:, j, i] = second
+        D = dqz[node[rows]]  # (A, k, nz)
+        w = weights[first:][rows]
+        return np.einsum("a,akz,akl,aly->zy", w, D, H, D)

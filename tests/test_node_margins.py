@@ -85,3 +85,30 @@ def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstac
     assert close.mean() > 0.97
     if obstacles:
         assert any(what == "an obstacle" for _, what in margins.labels)
+
+
+def test_the_clearances_curvature_equals_differences_of_their_jacobian():
+    """`NodeMargins.curvature` (Σ w_r ∇²g_r over the clearance rows, joints affine in z)
+    against central differences of the weighted Jacobian, on self-collision only (θ's own
+    curvature, which it leaves out, does not enter there)."""
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_constrained.toml").read_text())
+    raw["planner"]["objective"] = "newton"
+    task, problem, z = _problem(raw)
+    margins = NodeMargins(problem, task.system, task.constraints, nodes=40)
+    g, _ = margins(z)
+    clearance = np.array([what == "self-collision" for _, what in margins.labels])
+    rng = np.random.default_rng(1)
+    weights = np.zeros(g.size)
+    # a few rows near contact, where the gap is smooth (away from kinks)
+    rows = np.flatnonzero(clearance)[np.argsort(g[clearance])[:40]]
+    weights[rng.choice(rows, 5, replace=False)] = rng.uniform(0.5, 2.0, 5)
+    H = margins.curvature(z, weights)
+    assert np.allclose(H, H.T)
+    direction = rng.normal(size=z.size)
+    direction /= np.linalg.norm(direction)
+    h = 1e-4
+    plus = margins(z + h * direction)[1].T @ weights
+    minus = margins(z - h * direction)[1].T @ weights
+    numeric = (plus - minus) / (2 * h)
+    assert np.abs(numeric).max() > 1e-3  # a curvature to compare
+    np.testing.assert_allclose(H @ direction, numeric, rtol=2e-2, atol=2e-3 * np.abs(numeric).max())

@@ -12,13 +12,18 @@ exact, clearances as signed distances, at 128 nodes a leg, less a cushion).
    resolved node by node: its gradient, unlike the integral's, does not vanish as the
    violation does). It ends when every margin is at least `PUSH` and the plan, restored onto
    the goals, is still strictly inside.
-2. **Minimum energy inside the limits** (`_Search.lower`, the energy objective only): an
-   interior (log-barrier) method from that feasible plan. Each iteration is the energy
-   search's reduced Newton step (`energy._Descent`) for `E(z) + μ Σ_k b(g_k(z)) / NODES`,
-   b(g) = −log x + x − 1 of x = g / REACH (zero and flat from REACH on: far margins cost
-   nothing), its Hessian in Gauss–Newton form. Every trial point is restored onto the goals
-   and rejected unless every margin stays positive, so every iterate is a valid plan; μ falls
-   tenfold `ROUNDS` times.
+2. **Minimum energy inside the limits** (`_Search.lower`, the energy objective only). First
+   an interior (log-barrier) round from that feasible plan: the energy search's reduced
+   Newton step (`energy._Descent`) for `E(z) + μ Σ_k b(g_k(z)) / NODES`, b(g) = −log x + x − 1
+   of x = g / REACH (zero and flat from REACH on: far margins cost nothing), its Hessian in
+   Gauss–Newton form; every trial point is restored onto the goals and rejected unless every
+   margin stays positive. Then an active-set SQP (`_Search._sqp_step`): each step a small
+   dense QP in the goals' tangent space with the margins within REACH linearised
+   (`active_set`), the clearances' own curvature in its Hessian, an ℓ1 merit; it ends on the
+   constrained minimum at the nodes in a few tens of steps, where the barrier's later rounds
+   (μ tenfold smaller each) took a hundred or more, their steps cut to 3–30 % by the
+   fraction-to-boundary rule. With obstacles the margins depend on θ, whose curvature the
+   SQP's model lacks: there the barrier's `ROUNDS` rounds are kept.
 3. **Between the nodes**: a dense check (`DENSE` samples a leg) adds nodes where a margin
    dips below a quarter of the cushion, and the search goes on (`REFINEMENTS` times).
 
@@ -32,6 +37,7 @@ import numpy as np
 
 from ..endpoint import QuadratureEndpoint
 from ..node_margins import CUSHION, NODES, NodeMargins
+from .active_set import convexified, least_distance
 from .energy import CURVATURE_FLOOR, STEP_LIMIT, _Descent, _Problem
 
 __all__ = ["NotSearchable", "constrained_search"]
@@ -39,11 +45,15 @@ __all__ = ["NotSearchable", "constrained_search"]
 PUSH = 1e-3  # the feasibility phase ends with every node margin at least this
 FEASIBILITY_ITERATIONS = 60
 DAMPING_MAX = 1e8  # relative Levenberg damping at which the feasibility phase gives up
-ROUNDS = 3  # barrier weights μ0, μ0/10, ...
+ROUNDS = 3  # barrier weights μ0, μ0/10, ... (with obstacles; else the first round only)
 BARRIER_START = 1e-2  # μ0 as a fraction of the feasible plan's energy
 ROUND_ITERATIONS = 50
-REACH = 0.3  # the barrier ignores margins above this (rad or length unit)
+REACH = 0.3  # the barrier and the QP ignore margins above this (rad or length unit)
 FRACTION_TO_BOUNDARY = 0.9
+SQP_ITERATIONS = 60
+ACTIVE = 1e-3  # a margin below this with a positive multiplier counts as active
+VIOLATION = 1e-6  # an SQP iterate with no node margin below minus this counts as inside
+VIOLATION_CAP = 1e-4  # no SQP trial may leave a node further outside (unless the iterate is)
 
 
 class NotSearchable(Exception):
@@ -128,11 +138,11 @@ class _Search(_Descent):
         x = np.minimum(g, REACH) / REACH  # -log x + x - 1: zero, and flat, from REACH on
         return self.problem.energy(z) + mu * float(np.sum(x - 1.0 - np.log(x))) / NODES
 
-    def lower(self) -> None:
-        """Log-barrier descent from a feasible z (every iterate feasible)."""
+    def _lower_barrier(self, rounds: int) -> None:
+        """Log-barrier descent from a feasible z (every iterate feasible), `rounds` weights."""
         problem = self.problem
         mu = BARRIER_START * self.energy
-        for _ in range(ROUNDS):
+        for _ in range(rounds):
             for _ in range(ROUND_ITERATIONS):
                 self.iterations += 1
                 if not self._barrier_step(mu):
@@ -183,6 +193,113 @@ class _Search(_Descent):
             alpha *= 0.5
         return False
 
+    def lower(self) -> None:
+        """Least energy inside the limits from a feasible z: the barrier's first round, which
+        leads into the basin, then the active-set SQP (`_sqp_step`), which converges in a
+        few tens of steps where the barrier's later rounds take a hundred. With obstacles the
+        barrier's three rounds: there the margins depend on θ, whose own curvature the SQP's
+        model lacks (`NodeMargins.curvature`), and its steps stall on it."""
+        self.multipliers = None  # the node margins', from the last QP
+        self.penalty = 0.0  # of the ℓ1 merit
+        if self.margins.need_theta:
+            self._lower_barrier(ROUNDS)
+            return
+        self._lower_barrier(1)
+        for _ in range(SQP_ITERATIONS):
+            self.iterations += 1
+            if not self._sqp_step():
+                break
+        self.energy = self.problem.energy(self.z)
+
+    def inside(self) -> bool:
+        """Whether every node margin of z is at least -`VIOLATION`."""
+        g = self.margins(self.z, jacobian=False)[0]
+        return bool(g.size == 0 or g.min() >= -VIOLATION)
+
+    def _merit(self, z, lagrange, g=None):
+        """ℓ1 merit of the SQP: the Lagrangian of the goals (restored points meet them only
+        to rounding, as in `energy._Descent`) plus `penalty` x the summed node violation."""
+        if g is None:
+            g = self.margins(z, jacobian=False)[0]
+        violation = float(np.sum(np.maximum(-g, 0.0)))
+        value = self.problem.energy(z) + float(lagrange @ self.problem.constraint(z))
+        return value + self.penalty * violation, violation
+
+    def _sqp_step(self) -> bool:
+        """One step of the active-set SQP in the goals' tangent space (reduced coordinates p,
+        d = Z p): min ½pᵀRp + ∇Eᵀd subject to g + G d ≥ 0 at the nodes within `REACH`, R the
+        reduced Hessian of the Lagrangian (the goals' exact Hessians, the clearances' own
+        curvature; `active_set.convexified`). The trial is restored onto the goals and taken
+        if the ℓ1 merit falls and no node goes further than `VIOLATION_CAP` outside; if the
+        full step fails, a second-order correction (the same QP with the margins' nonlinear
+        error at the full step) is tried before halving. False when converged or stuck."""
+        problem, z = self.problem, self.z
+        g, G = self.margins(z)
+        J, Z = self._subspace(z)
+        grad = problem.energy_grad(z)
+        nu = self.multipliers
+        if nu is None or nu.size != g.size:
+            nu = np.zeros(g.size)
+        lagrange = -np.linalg.lstsq(J.T, grad - G.T @ nu, rcond=None)[0]
+        reduced = Z.T @ grad
+        W = self.H0 + problem.constraint_hessian(z, lagrange) - self.margins.curvature(z, nu)
+        R = convexified(Z.T @ W @ Z, G[(nu > 0) & (g < ACTIVE)] @ Z, CURVATURE_FLOOR)
+        rows = np.flatnonzero(g < REACH)
+        A = G[rows] @ Z
+        L = np.linalg.cholesky(R)
+        newton = -np.linalg.solve(R, reduced)
+        At = np.linalg.solve(L, A.T).T  # A L⁻ᵀ: in w = Lᵀ(p - newton) the QP is least distance
+
+        def qp(low):  # p and the multipliers of A p ≥ low
+            solved = least_distance(At, low - A @ newton)
+            if solved is None:
+                return None, None
+            return newton + np.linalg.solve(L.T, solved[0]), solved[1]
+
+        p, nu_rows = qp(-g[rows])
+        if p is None:
+            return False  # the linearised margins admit no step
+        d = Z @ p
+        size = float(np.linalg.norm(d)) * np.sqrt(2.0)
+        limit = STEP_LIMIT * np.sqrt(max(self.energy, 1e-300))
+        scale = min(1.0, limit / max(size, 1e-300))
+        d *= scale
+        self.multipliers = np.zeros(g.size)
+        self.multipliers[rows] = nu_rows
+        self.penalty = max(self.penalty, 2.0 * float(nu_rows.max(initial=0.0)))
+        merit, violation = self._merit(z, lagrange, g)
+        worst = max(-float(g.min(initial=0.0)), 0.0)
+        slope = float(grad @ d) - scale * self.penalty * violation
+        if -slope <= 1e-12 * max(self.energy, 1e-300) and worst <= VIOLATION:
+            return False  # converged
+        cap = max(VIOLATION_CAP, worst)
+
+        def accept(trial, alpha):
+            if trial is None:
+                return False, None
+            g_t = self.margins(trial, jacobian=False)[0]
+            m = self._merit(trial, lagrange, g_t)[0]
+            ok = bool(np.isfinite(m) and m <= merit + 1e-4 * alpha * slope)
+            if ok and -float(g_t.min(initial=0.0)) <= cap:
+                self.z, self.energy = trial, problem.energy(trial)
+                return True, g_t
+            return False, g_t
+
+        ok, g_t = accept(self._restore(z + d), 1.0)
+        if ok:
+            return True
+        if g_t is not None and scale == 1.0:  # second-order correction
+            p2 = qp(-g[rows] - (g_t[rows] - g[rows] - G[rows] @ d))[0]
+            if p2 is not None and float(np.linalg.norm(Z @ p2)) * np.sqrt(2.0) <= limit:
+                if accept(self._restore(z + Z @ p2), 1.0)[0]:
+                    return True
+        alpha = 0.5
+        while alpha > 1e-8:
+            if accept(self._restore(z + alpha * d), alpha)[0]:
+                return True
+            alpha *= 0.5
+        return False
+
 
 def _violation(g: np.ndarray) -> float:
     r = np.minimum(g - 2 * PUSH, 0.0)
@@ -203,7 +320,7 @@ def constrained_search(
     (None, notes, "") when the first seed is inside the limits already and `first` (the
     planned plan: then it is the constrained minimum as well).
     With `lower_energy` (the energy objective) the feasible plan's energy is then lowered
-    inside the limits by the barrier method.
+    inside the limits (`_Search.lower`).
     """
     problem = _Problem(system, starts, legs, settings, targets)
     if not all(isinstance(ep, QuadratureEndpoint) for ep in problem.endpoints):
@@ -225,6 +342,8 @@ def constrained_search(
                     found = search.energy
                 if lower_energy:
                     search.lower()
+                    if not search.inside() and not search.reach_feasible():
+                        break  # (the SQP's last iterate outside: back inside by its phase 1)
                 finer = search.margins.refined(search.z, DENSE)
                 if finer is None:
                     break
