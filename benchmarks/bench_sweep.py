@@ -13,7 +13,10 @@ the progress bar) on
 
 * a local process pool of 1 worker, and of 2 workers (`--jobs 1`, `--jobs 2`),
 * a `distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1)` started
-  before the clock starts (the sweep connects to it by address, as `--dask ADDRESS` does).
+  before the clock starts (the sweep connects to it by address, as `--dask ADDRESS` does),
+  after the local pools have run: a running cluster keeps an event-loop thread in this
+  process, so local workers would be spawned instead of forked (`local_executor`), and its
+  idle processes would share the cores.
 
 Printed per run, as markdown: wall time (one run each, `time.perf_counter()` around
 `run_sweep`, worker start-up included), tasks/s, the planner's own time per task (median of
@@ -136,32 +139,33 @@ def main() -> None:
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")  # fmt: skip
     folder = args.keep or Path(tempfile.mkdtemp(prefix="bench-sweep-"))
     folder.mkdir(parents=True, exist_ok=True)
-    cluster = None
+    sets = [(o, n) for o, n in (("newton", args.newton), ("energy", args.energy)) if n > 0]
+    paths = {o: sweep_file(folder, o, n, args.seed) for o, n in sets}
+    # the local pools first, alone: a running LocalCluster keeps an event-loop thread in this
+    # process (its workers would then be spawned, not forked) and heartbeats on the cores
+    runs = {
+        o: [
+            measure("process pool", paths[o], folder / f"{o}-1", 1, jobs=1),
+            measure("process pool", paths[o], folder / f"{o}-2", 2, jobs=2),
+        ]
+        for o, _ in sets
+    }
     if not args.no_dask:
         from distributed import LocalCluster
 
         cluster = LocalCluster(
             n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
         )
-    try:
-        for objective, count in (("newton", args.newton), ("energy", args.energy)):
-            if count <= 0:
-                continue
-            path = sweep_file(folder, objective, count, args.seed)
-            runs = [
-                measure("process pool", path, folder / f"{objective}-1", 1, jobs=1),
-                measure("process pool", path, folder / f"{objective}-2", 2, jobs=2),
-            ]
-            if cluster is not None:
-                out = folder / f"{objective}-dask"
+        try:
+            for o, _ in sets:
                 with stratcli_dask(cluster.scheduler_address) as (executor, info):
-                    runs.append(measure("Dask LocalCluster", path, out, 2,
-                                        executor=executor, info=info))  # fmt: skip
-            report(objective, runs)
-            print(f"load average after: {os.getloadavg()[0]:.2f}")
-    finally:
-        if cluster is not None:
+                    runs[o].append(measure("Dask LocalCluster", paths[o], folder / f"{o}-dask",
+                                           2, executor=executor, info=info))  # fmt: skip
+        finally:
             cluster.close()
+    for o, _ in sets:
+        report(o, runs[o])
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
 def stratcli_dask(address: str):

@@ -9,6 +9,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 
@@ -207,3 +208,34 @@ def test_local_workers_run_blas_single_threaded(monkeypatch):
     with stratcli.sweep.local_executor(1) as pool:
         seen = pool.submit(os.getenv, "OPENBLAS_NUM_THREADS").result()
     assert seen == "1"
+
+
+def _start_method(pool) -> str:
+    return pool._mp_context.get_start_method()
+
+
+def test_workers_fork_only_when_no_thread_runs_and_blas_was_already_single(monkeypatch, tmp_path):
+    """Forked workers start with this process's imports (fast); a thread here, or BLAS not
+    limited before this process loaded numpy, means fresh (spawned) interpreters. The rows are
+    the same either way, bit for bit."""
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.setenv(var, "1")
+    with stratcli.sweep.local_executor(1) as pool:
+        assert _start_method(pool) == "fork"
+    monkeypatch.setenv("MKL_NUM_THREADS", "4")
+    with stratcli.sweep.local_executor(1) as pool:
+        assert _start_method(pool) == "spawn"
+    monkeypatch.setenv("MKL_NUM_THREADS", "1")
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        with stratcli.sweep.local_executor(1) as pool:
+            assert _start_method(pool) == "spawn"
+            spawned = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "s", executor=pool)
+    finally:
+        stop.set()
+        other.join()
+    assert stratcli.sweep.run._fork_is_safe()
+    forked = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "f", jobs=2)
+    assert strip(forked.rows) == strip(spawned.rows)

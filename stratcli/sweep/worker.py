@@ -26,6 +26,13 @@ def _finite(x: Any) -> float | None:
     return float(x) if x is not None and math.isfinite(float(x)) else None
 
 
+def preload() -> None:
+    """Import what `run_task` needs (before forking workers that then need not)."""
+    from ..api import compare_sequences, plan_auto, plan_run, write_record  # noqa: F401
+    from ..compare import peak_and_excursion  # noqa: F401
+    from ..scenario import load_scenario  # noqa: F401
+
+
 def run_task(payload: dict[str, Any]) -> dict[str, Any]:
     """Plan one task; `{"row": {...}, "record": None | (name, {file: bytes})}`.
 
