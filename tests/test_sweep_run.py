@@ -9,7 +9,6 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 
@@ -214,28 +213,31 @@ def _start_method(pool) -> str:
     return pool._mp_context.get_start_method()
 
 
-def test_workers_fork_only_when_no_thread_runs_and_blas_was_already_single(monkeypatch, tmp_path):
-    """Forked workers start with this process's imports (fast); a thread here, or BLAS not
-    limited before this process loaded numpy, means fresh (spawned) interpreters. The rows are
-    the same either way, bit for bit."""
+def test_workers_fork_only_when_no_thread_runs_and_blas_was_already_single(monkeypatch):
+    """Forked workers start with this process's imports (fast); another thread here, or BLAS
+    not limited before this process loaded numpy, means fresh (spawned) interpreters."""
+    run_module = stratcli.sweep.run
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         monkeypatch.setenv(var, "1")
+    monkeypatch.setattr(run_module.threading, "active_count", lambda: 1)
     with stratcli.sweep.local_executor(1) as pool:
         assert _start_method(pool) == "fork"
     monkeypatch.setenv("MKL_NUM_THREADS", "4")
     with stratcli.sweep.local_executor(1) as pool:
         assert _start_method(pool) == "spawn"
     monkeypatch.setenv("MKL_NUM_THREADS", "1")
-    stop = threading.Event()
-    other = threading.Thread(target=stop.wait)
-    other.start()
-    try:
-        with stratcli.sweep.local_executor(1) as pool:
-            assert _start_method(pool) == "spawn"
-            spawned = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "s", executor=pool)
-    finally:
-        stop.set()
-        other.join()
-    assert stratcli.sweep.run._fork_is_safe()
-    forked = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "f", jobs=2)
-    assert strip(forked.rows) == strip(spawned.rows)
+    monkeypatch.setattr(run_module.threading, "active_count", lambda: 2)
+    with stratcli.sweep.local_executor(1) as pool:
+        assert _start_method(pool) == "spawn"
+
+
+def test_forked_and_spawned_workers_give_the_same_rows(monkeypatch, tmp_path):
+    run_module = stratcli.sweep.run
+    rows = {}
+    for how in (True, False):
+        monkeypatch.setattr(run_module, "_fork_is_safe", lambda how=how: how)
+        with stratcli.sweep.local_executor(2) as pool:
+            assert _start_method(pool) == ("fork" if how else "spawn")
+            out = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / str(how), executor=pool)
+        rows[how] = strip(out.rows)
+    assert rows[True] == rows[False]  # bit for bit
