@@ -39,6 +39,8 @@ __all__ = [
     "SearchDiverged",
     "damped_gauss_newton",
     "goal_residual",
+    "no_divergence_check",
+    "onto_goals",
     "runaway",
 ]
 
@@ -339,3 +341,29 @@ def damped_gauss_newton(
         mu = max(mu / 10.0, 1e-12) if gamma == 1.0 else min(mu * 2.0, 1.0)
         history.append(err)
     return GaussNewtonResult(z, err, iterations, payload)
+
+
+def onto_goals(evaluate, z: np.ndarray, tolerance: float, max_iterations: int):
+    """`z` brought onto the goals by minimum-norm (in whitened coordinates: least-energy)
+    Gauss-Newton steps, or None if they do not get within `tolerance`.
+
+    `evaluate(z, jacobian)` gives the goal residuals c(z) and, if asked, their Jacobian."""
+
+    def residual(x, jacobian):
+        c, J = evaluate(x, jacobian)
+        return -c, J, None
+
+    back = damped_gauss_newton(
+        residual,
+        z,
+        tolerance=tolerance,
+        max_iterations=max_iterations,
+        mu=1e-2,
+        diverged=no_divergence_check,
+    )
+    return back.z if back.error <= tolerance and np.all(np.isfinite(back.z)) else None
+
+
+def no_divergence_check(payload) -> None:
+    """For searches whose payloads carry nothing to check for runaway."""
+    return None

@@ -20,7 +20,13 @@ from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
-from .base import ENERGY_RUNAWAY, damped_gauss_newton, goal_residual
+from .base import (
+    ENERGY_RUNAWAY,
+    damped_gauss_newton,
+    goal_residual,
+    no_divergence_check,
+    onto_goals,
+)
 from .legwise import legwise_start
 
 SQP_ITERATIONS = 100
@@ -353,27 +359,10 @@ def pulled_start(problem: _Problem, z: np.ndarray) -> np.ndarray | None:
             max_iterations=PULL_ITERATIONS,
             mu=1e-3,
             stall_window=5,
-            diverged=_never,
+            diverged=no_divergence_check,
         ).z
 
-    def residual(x, jacobian):
-        c, J = problem._evaluate(x, jacobian)
-        return -c, J, None
-
-    back = damped_gauss_newton(
-        residual,
-        z,
-        tolerance=RESTORED,
-        max_iterations=RESTORE_ITERATIONS,
-        mu=1e-2,
-        diverged=_never,
-    )
-    return back.z if back.error <= RESTORED and np.all(np.isfinite(back.z)) else None
-
-
-def _never(payload) -> None:
-    """No divergence check (the payloads of `pulled_start` carry nothing to check)."""
-    return None
+    return onto_goals(problem._evaluate, z, RESTORED, RESTORE_ITERATIONS)
 
 
 def _with_pulled_start(problem: _Problem, seeds: list, count: int) -> list:

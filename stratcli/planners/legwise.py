@@ -32,7 +32,7 @@ import itertools
 import numpy as np
 
 from ..continuity import Constraints
-from .base import damped_gauss_newton
+from .base import onto_goals
 
 MODES = 5  # loop modes per leg (each with both signs)
 FIRST_ORDER = 1e-6  # singular values of the goals' Jacobian below this (relative) are nil
@@ -62,25 +62,7 @@ def leg_constraints(constraints: Constraints, offsets: np.ndarray, i: int) -> Co
 
 def restore(problem, z: np.ndarray) -> np.ndarray | None:
     """`z` brought onto the goals by minimum-norm (whitened: least-energy) Gauss-Newton."""
-
-    def residual(x, jacobian):
-        c, J = problem._evaluate(x, jacobian)
-        return -c, J, None
-
-    back = damped_gauss_newton(
-        residual,
-        z,
-        tolerance=RESTORED,
-        max_iterations=RESTORE_ITERATIONS,
-        mu=1e-2,
-        diverged=_never,
-    )
-    return back.z if back.error <= RESTORED and np.all(np.isfinite(back.z)) else None
-
-
-def _never(payload) -> None:
-    """No divergence check (the payloads of `restore` carry nothing to check)."""
-    return None
+    return onto_goals(problem._evaluate, z, RESTORED, RESTORE_ITERATIONS)
 
 
 def mode_starts(leg_problem) -> list[np.ndarray]:
