@@ -38,7 +38,9 @@ import numpy as np
 from ..endpoint import QuadratureEndpoint
 from ..node_margins import CUSHION, NODES, NodeMargins
 from .active_set import convexified, least_distance
-from .energy import CURVATURE_FLOOR, STEP_LIMIT, _Descent, _Problem
+from .energy import _Problem
+from .sqp import CURVATURE_FLOOR, STEP_LIMIT
+from .sqp import Descent as _Descent
 
 __all__ = ["NotSearchable", "constrained_search"]
 

@@ -1,0 +1,181 @@
+"""The feasible-point SQP of the energy objective, one start at a time (`Descent`).
+
+Every iterate reaches the goals (restored by Newton steps of least energy norm); a step
+minimises the quadratic model of the Lagrangian on the constraints' tangent space, with the
+exact Hessian where the legs' end-point maps have one, and is halved until the restored point
+has less energy. `planners.energy` races several `Descent`s; the constrained search
+(`planners.constrained`) extends one with its margins.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .energy import _Problem
+
+__all__ = ["CURVATURE_FLOOR", "STEP_LIMIT", "Descent"]
+
+SQP_ITERATIONS = 100
+FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
+PG_TOL = 1e-10  # relative projected gradient at convergence (the issue asks ≤ 1e-8)
+CURVATURE_FLOOR = 1e-2  # reduced Hessian ≥ this x the energy's own, on the tangent space
+RESTORATION_STEPS = 12
+# far from a minimum (projected gradient above LOOSE_ABOVE) iterates meet the goals to
+# LOOSE_RESTORATION only; nearer, and every result, to rounding (`Descent.c_tol`)
+LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
+STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
+KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
+STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
+
+
+class Descent:
+    """One start of the feasible-point SQP with the exact Hessian of the Lagrangian, advanced
+    one iteration at a time (so that starts can be raced).
+
+    Every iterate reaches the goals (restored by Newton steps of least energy norm); a step
+    minimises the quadratic model of the Lagrangian on the constraints' tangent space, and is
+    halved until the restored point has less energy. Near a regular minimum the steps are
+    Newton steps of the reduced problem: a handful of iterations, each a few endpoint calls.
+    """
+
+    loose = True  # restore loosely far from a minimum (`_step`)
+
+    def __init__(self, problem: _Problem, z: np.ndarray, tol: float):
+        clock = time.perf_counter()
+        self.problem = problem
+        self.H0 = problem.H0
+        self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
+        self.c_tol = min(1e-10, 1e-3 * tol)
+        # restoration tolerance of the current iteration (loose only for this class's own
+        # steps, `_step`; subclasses that take other steps restore to rounding throughout)
+        self.c_now = LOOSE_RESTORATION if self.loose else self.c_tol
+        self.z_tol = self.c_now  # ... and the one the current iterate was restored to
+        # maps that keep their last evaluation add the Jacobian later at no extra march
+        self.eager = not all(hasattr(ep, "jacobian_of_last") for ep in problem.endpoints)
+        self.iterations = 0
+        self.best_pg, self.since = np.inf, 0
+        self.pg, self.pg_at = np.nan, None  # the last projected gradient and its point
+        start = self._restore(z)
+        self.feasible = start is not None
+        self.z = z if start is None else start
+        self.energy = problem.energy(self.z) if self.feasible else np.inf
+        self.done = not self.feasible
+        self.reason = "" if self.feasible else "not restored onto the goals"
+        self.seconds = time.perf_counter() - clock
+
+    def stop(self, reason: str) -> None:
+        self.done, self.reason = True, reason
+        if self.feasible and self.z_tol > self.c_tol and reason in KEPT:
+            self.c_now = self.z_tol = self.c_tol  # a result: onto the goals to rounding
+            z = self._restore(self.z)
+            if z is None:
+                self.reason = "not restored onto the goals"
+            else:
+                self.z, self.energy = z, self.problem.energy(z)
+
+    def _restore(self, z):
+        """Back onto the goals: Newton steps of least energy norm, quadratically convergent."""
+        problem, previous = self.problem, np.inf
+        for _ in range(RESTORATION_STEPS):
+            c, J = problem._evaluate(z, self.eager)  # else the Jacobian only if needed
+            violation = np.abs(c).max(initial=0.0)
+            if violation <= self.c_now:
+                return z
+            if violation > 0.5 * previous:
+                return None  # not converging fast: let the line search shorten the step
+            previous = violation
+            if J is None:
+                J = problem._evaluate(z, True)[1]
+            HJ = 0.5 * J.T  # H0⁻¹ Jᵀ (H0 = 2 I: the energy is |z|² in the whitened z)
+            try:
+                L = np.linalg.cholesky(J @ HJ)
+            except np.linalg.LinAlgError:
+                return None
+            z = z - HJ @ np.linalg.solve(L.T, np.linalg.solve(L, c))
+            if not np.all(np.isfinite(z)):
+                return None
+        return None
+
+    def step(self) -> None:
+        clock = time.perf_counter()
+        try:
+            self._step()
+        finally:
+            self.seconds += time.perf_counter() - clock
+
+    def _step(self) -> None:
+        problem, H0, z, energy = self.problem, self.H0, self.z, self.energy
+        if self.iterations >= (SQP_ITERATIONS if self.exact else FIRST_ORDER_ITERATIONS):
+            return self.stop("iteration limit")
+        self.iterations += 1
+        _, J = problem._evaluate(z, True)
+        g = problem.energy_grad(z)
+        U, S, Vt = np.linalg.svd(J)
+        rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
+        Z = Vt[rank:].T
+        reduced = Z.T @ g
+        pg = np.linalg.norm(reduced) / max(np.linalg.norm(g), 1e-300)
+        self.pg, self.pg_at = float(pg), z  # the record's, if the run ends here
+        # Far from a minimum the iterates need not meet the goals to rounding (the Lagrangian
+        # merit sees a violation to first order only); near one they must, or the decrease
+        # left drowns in it: the iterate itself is then restored again first.
+        self.c_now = LOOSE_RESTORATION if self.loose and pg > LOOSE_ABOVE else self.c_tol
+        if self.c_now < self.z_tol:
+            self.z_tol = self.c_now
+            tight = self._restore(z)
+            if tight is not None:
+                self.z, self.energy = tight, problem.energy(tight)
+                self.iterations -= 1
+                return self._step()
+        if pg <= PG_TOL:
+            return self.stop("converged")
+        if pg < 0.5 * self.best_pg:
+            self.best_pg, self.since = pg, 0
+        else:
+            self.since += 1
+            if pg <= 1e-6 and self.since >= STALL_ITERATIONS:
+                return self.stop("noise floor")  # the end-point map allows no further progress
+
+        # least-squares multipliers Jᵀμ = -g from the same decomposition
+        mu = -(U[:, :rank] / S[:rank]) @ (Vt[:rank] @ g)
+        W = H0 + problem.constraint_hessian(z, mu) if self.exact else H0
+        R = Z.T @ W @ Z
+        R0 = Z.T @ H0 @ Z
+        # R0 = Zᵀ H0 Z = 2 I (Z orthonormal): the generalised eigenproblem is R's own, halved
+        low = float(np.linalg.eigvalsh(R)[0]) / 2.0 if R.size else np.inf
+        if low < CURVATURE_FLOOR:  # convexify in the energy metric (the basis is ill-scaled)
+            R = R + (CURVATURE_FLOOR - low) * R0
+        d = -Z @ np.linalg.solve(R, reduced)
+        # Trust region in the energy norm: a step may change the controls by at most
+        # STEP_LIMIT times their current size (a huge step needs a huge quadrature rule
+        # and cannot be restored onto the goals anyway).
+        size = float(np.sqrt(max(d @ H0 @ d, 0.0)))
+        limit = STEP_LIMIT * np.sqrt(max(energy, 1e-300))
+        if size > limit:
+            d *= limit / size
+        slope = float(g @ d)
+        if -slope <= 1e-16 * max(energy, 1e-300):
+            return self.stop("converged")  # no decrease predicted above rounding
+        near = np.linalg.norm(reduced) <= 1e-6 * np.linalg.norm(g)
+        # Merit: the Lagrangian f + μᵀc, not f alone. Restored points meet the goals only to
+        # the restoration tolerance, which moves f by about |μ| x that tolerance: more than
+        # the decrease left near the solution. In the Lagrangian that first-order effect
+        # cancels, so the line search still sees progress there.
+        merit = energy + float(mu @ problem.constraint(z))
+        alpha = 1.0
+        while alpha > 1e-10:
+            trial = self._restore(z + alpha * d)
+            if trial is not None:
+                e = problem.energy(trial)
+                m = e + float(mu @ problem.constraint(trial))
+                # close to the solution a full Newton step is trusted up to rounding
+                allowed = 1e-12 * energy if near else 1e-4 * alpha * slope + 1e-15 * energy
+                if m <= merit + allowed:
+                    self.z, self.energy, self.z_tol = trial, e, self.c_now
+                    return None
+            alpha *= 0.5
+        return self.stop("line search")
