@@ -32,14 +32,8 @@ import signal
 import sys
 import threading
 
-from . import lean_imports
+from . import blas, lean_imports
 from .interrupts import Interrupted, install, pending
-
-# Planning multiplies matrices of a few dozen rows, where BLAS threads only add overhead and
-# take the cores that compare-sequences' worker processes need (Sim 4 energy comparison on 2
-# processes: 7.4 s with OpenBLAS threads, 6.7 s without, and a third less CPU time on one).
-# The variables only work before numpy is first imported; a value the user set wins.
-BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 HANDLED = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
 
@@ -48,31 +42,40 @@ _state = {"raised": False, "done": False}
 
 
 class ClosedPipeSafe:
-    """`sys.stdout` whose reader may leave: from the first broken pipe on, output goes to
-    /dev/null (the descriptor itself is redirected, so the final flush succeeds too)."""
+    """`sys.stdout` whose reader may leave, or whose file may fill up: from the first broken
+    pipe or failed write on, output goes to /dev/null (the descriptor itself is redirected, so
+    the final flush succeeds too) and the work goes on. A failed write (not a reader that
+    left) is kept in `failed`, for `entry` to report."""
 
     def __init__(self, stream) -> None:
         self._stream = stream
+        self.failed: OSError | None = None
 
     def write(self, text: str) -> int:
         try:
             return self._stream.write(text)
-        except BrokenPipeError:
-            self._to_devnull()
+        except OSError as exc:
+            self._lost(exc)
             return len(text)
 
     def flush(self) -> None:
         try:
             self._stream.flush()
-        except BrokenPipeError:
-            self._to_devnull()
+        except OSError as exc:
+            self._lost(exc)
 
-    def _to_devnull(self) -> None:
+    def _lost(self, exc: OSError) -> None:
+        if not isinstance(exc, BrokenPipeError) and self.failed is None:
+            self.failed = exc
         devnull = os.open(os.devnull, os.O_WRONLY)
         try:
             os.dup2(devnull, self._stream.fileno())
         finally:
             os.close(devnull)
+        try:  # what was buffered for the old file is dropped with it
+            self._stream.flush()
+        except OSError:
+            pass
 
     def __getattr__(self, name: str):
         return getattr(self._stream, name)
@@ -92,11 +95,6 @@ def _leave(signum: int) -> None:
         os.write(2, f"{HANDLED.get(signum, 'interrupted')}\n".encode())
     finally:
         os._exit(128 + signum)
-
-
-def single_threaded_blas() -> None:
-    for var in BLAS_THREAD_VARIABLES:
-        os.environ.setdefault(var, "1")
 
 
 def _finish_interrupted(signum: int) -> None:
@@ -125,7 +123,7 @@ def main() -> None:
     if sys.stdout is not None:
         sys.stdout = ClosedPipeSafe(sys.stdout)
     try:
-        single_threaded_blas()
+        blas.single_threaded()  # before numpy loads (stratcli.blas)
         from .cli import app
 
         try:
@@ -156,12 +154,20 @@ def _leave_quickly(code) -> None:
     if not (code is None or isinstance(code, int)) or any(not t.daemon for t in others):
         raise SystemExit(code)  # a message to print, or threads to join: the usual way
     atexit._run_exitfuncs()  # weakref finalisers, temporary directories, ...
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError, AttributeError):
-            pass
-    os._exit(code or 0)
+    code = code or 0
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError):
+        pass
+    failed = getattr(sys.stdout, "failed", None)  # a full disk, say (ClosedPipeSafe)
+    if failed is not None:
+        os.write(2, f"error: cannot write the output: {failed.strerror or failed}\n".encode())
+        code = code or 120  # what Python itself exits with when its last flush fails
+    try:
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+    os._exit(code)
 
 
 if __name__ == "__main__":

@@ -11,9 +11,9 @@ matplotlib's modules alone: they load from bytecode compiled at optimisation lev
 same way: by the source's modification time and size).
 
 Nothing changes where that cache cannot be kept: with bytecode writing switched off
-(`PYTHONDONTWRITEBYTECODE`, `-B`) or an unwritable package directory, a module whose
-optimised bytecode is not already there is imported the usual way. The library never calls
-this; `stratcli.__main__` does, before anything imports matplotlib.
+(`PYTHONDONTWRITEBYTECODE`, `-B`) or a package directory where no file can be created, a
+module whose optimised bytecode is not there and current is imported the usual way. The
+library never calls this; `stratcli.__main__` does, before anything imports matplotlib.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import importlib.util
 import marshal
 import os
 import sys
+import types
 
 __all__ = ["install"]
 
@@ -55,27 +56,18 @@ class _Finder:
             return None
         spec = importlib.machinery.PathFinder.find_spec(name, path, target)
         loader = getattr(spec, "loader", None)
-        if type(loader) is not importlib.machinery.SourceFileLoader:
-            return spec  # an extension module, a namespace package, a zip: as usual
-        cache = _cache(loader.path)
-        if not (os.path.exists(cache) or _writable(cache)):
-            return spec
-        spec.loader = _Loader(loader.name, loader.path)
+        if type(loader) is importlib.machinery.SourceFileLoader:  # not an extension, a zip
+            spec.loader = _Loader(loader.name, loader.path)
         return spec
 
     def invalidate_caches(self) -> None:  # importlib.invalidate_caches() calls every finder
         pass
 
 
-def _writable(cache: str) -> bool:
-    if sys.dont_write_bytecode:
-        return False
-    folder = os.path.dirname(cache)  # __pycache__, or the package directory that would hold it
-    return os.access(folder if os.path.isdir(folder) else os.path.dirname(folder), os.W_OK)
-
-
 class _Loader(importlib.machinery.SourceFileLoader):
-    """Loads a module's optimisation-level-2 bytecode, writing it on first use."""
+    """Loads a module's optimisation-level-2 bytecode, writing it when it is missing or
+    stale; where it cannot be written, the module loads the usual way (so a read-only install
+    never compiles matplotlib from source on every run)."""
 
     def get_code(self, fullname: str):
         source = self.get_filename(fullname)
@@ -84,20 +76,47 @@ class _Loader(importlib.machinery.SourceFileLoader):
             with open(cache, "rb") as fh:
                 data = fh.read()
             if data[:16] == header:
-                return marshal.loads(data[16:])
+                code = marshal.loads(data[16:])
+                if isinstance(code, types.CodeType):
+                    return code
         except (OSError, EOFError, ValueError, TypeError):
-            pass  # missing or damaged: compile again
+            pass  # missing or damaged
+        if sys.dont_write_bytecode or not _can_write(os.path.dirname(cache)):
+            return super().get_code(fullname)
         code = compile(self.get_data(source), source, "exec", dont_inherit=True, optimize=2)
-        if not sys.dont_write_bytecode:
-            tmp = f"{cache}.{os.getpid()}.tmp"
-            try:
-                os.makedirs(os.path.dirname(cache), exist_ok=True)
-                with open(tmp, "wb") as fh:
-                    fh.write(header + marshal.dumps(code))
-                os.replace(tmp, cache)  # whole or not at all, for a concurrent reader
-            except OSError:
-                try:
-                    os.unlink(tmp)
-                except OSError:
-                    pass
+        _write(cache, header + marshal.dumps(code), os.stat(source).st_mode)
         return code
+
+
+_writable: dict[str, bool] = {}  # folder -> whether a file could be created there
+
+
+def _can_write(folder: str) -> bool:
+    """Whether a file can be created in `folder` (made if missing): tried, not guessed from
+    permission bits, which network file systems and Windows ACLs do not honour."""
+    if folder not in _writable:
+        probe = os.path.join(folder, f".stratplan-probe-{os.getpid()}")
+        try:
+            os.makedirs(folder, exist_ok=True)
+            os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+            os.unlink(probe)
+            _writable[folder] = True
+        except OSError:
+            _writable[folder] = False
+    return _writable[folder]
+
+
+def _write(cache: str, data: bytes, source_mode: int) -> None:
+    """Write `cache` whole or not at all (a concurrent reader sees the old file or the new),
+    with the source's permissions as CPython gives its own caches."""
+    tmp = f"{cache}.{os.getpid()}.tmp"
+    try:
+        fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, (source_mode | 0o200) & 0o666)
+        with open(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, cache)
+    except OSError:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass

@@ -172,9 +172,12 @@ PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
 def worker_init(parent: int) -> None:
-    """In each worker: die with the parent, leave SIGINT to it, default SIGTERM."""
+    """In each worker: die with the parent, leave SIGINT to it, default SIGTERM, write to the
+    real stdout and stderr (a forked worker inherits whatever the parent had put there: a
+    progress bar's redirection, which its output would then redraw)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
     if sys.platform.startswith("linux"):
         import ctypes
 

@@ -214,3 +214,15 @@ def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monk
     free = next(i for i, x in enumerate(lines) if "energy-optimal over all legs" in x)
     assert lines[free].startswith("without the constraints, energy-optimal over all legs")
     assert lines[free + 1].startswith("note: constrained search")
+
+
+def test_a_time_scaled_plan_at_its_free_optimum_is_not_called_constrained(monkeypatch, planned):
+    """The starts' energies are before time scaling: a plan run twice as fast (energy × 2)
+    that stayed at the free optimum is not described as moved by its constraints."""
+    doc = copy.deepcopy(planned.document)
+    doc["constraints"] = {"spec": {"max_rate": 50.0}, "legs": []}
+    doc["time_scale"] = 2.0
+    doc["total_energy"] = 2.0 * doc["total_energy"]
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    assert "\nenergy-optimal over all legs together" in text
+    assert "without the constraints" not in text

@@ -127,3 +127,21 @@ def test_the_console_script_exits_with_the_command_s_code_output_and_exit_handle
         assert "two-arm" in proc.stdout and proc.stdout.endswith("\n")
     else:
         assert proc.stderr.startswith(("error:", "Usage:"))
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+@pytest.mark.parametrize("unbuffered", ["1", ""], ids=["unbuffered", "buffered"])
+def test_output_that_cannot_be_written_is_one_line_and_exit_120(unbuffered):
+    """A full disk under stdout: no traceback, the command's work done, one `error:` line and
+    Python's own exit code for a failed final flush (120), not a silent 0."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONUNBUFFERED": unbuffered}
+    code = (
+        "import sys; sys.argv = ['stratplan', 'models']\n"
+        "from stratcli.__main__ import entry; entry()"
+    )
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run(
+            [sys.executable, "-c", code], stdout=full, stderr=subprocess.PIPE, text=True, env=env
+        )
+    assert proc.returncode == 120, proc.stderr
+    assert proc.stderr == "error: cannot write the output: No space left on device\n"

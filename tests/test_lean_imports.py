@@ -76,3 +76,19 @@ def test_without_bytecode_writing_matplotlib_is_imported_the_usual_way(tmp_path)
     seen = _probe("lean", "no-write", tmp_path / "cache")
     assert seen["documented"]  # nothing cached, nothing written: the usual import
     assert not _optimised(tmp_path / "cache")
+
+
+@pytest.mark.slow  # two interpreters compiling matplotlib into a fresh cache: ~4 s
+def test_a_stale_cache_that_cannot_be_rewritten_means_the_usual_import(tmp_path):
+    """Optimised bytecode that no longer matches its source, where no new file may be
+    written, must not make every run compile matplotlib: the module loads the usual way."""
+    cache = tmp_path / "cache"
+    assert not _probe("lean", "write", cache)["documented"]
+    stale = _optimised(cache)
+    for path in stale:  # as if matplotlib had been upgraded since
+        data = bytearray(path.read_bytes())
+        data[8:12] = b"\0\0\0\0"  # the source's modification time
+        path.write_bytes(bytes(data))
+    seen = _probe("lean", "no-write", cache)
+    assert seen["documented"]  # the usual (docstring-keeping) bytecode
+    assert all(p.read_bytes()[8:12] == b"\0\0\0\0" for p in stale)  # nothing rewritten

@@ -215,18 +215,23 @@ def _start_method(pool) -> str:
 
 def test_workers_fork_only_when_no_thread_runs_and_blas_was_already_single(monkeypatch):
     """Forked workers start with this process's imports (fast); another thread here, or BLAS
-    not limited before this process loaded numpy, means fresh (spawned) interpreters."""
+    not limited before this process loaded numpy (`stratcli.blas.limited`), or a platform
+    other than Linux, means fresh (spawned) interpreters."""
     run_module = stratcli.sweep.run
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        monkeypatch.setenv(var, "1")
+    monkeypatch.setattr(run_module.blas, "limited", lambda: True)
     monkeypatch.setattr(run_module.threading, "active_count", lambda: 1)
+    monkeypatch.setattr(run_module.sys, "platform", "linux")
     with stratcli.sweep.local_executor(1) as pool:
         assert _start_method(pool) == "fork"
-    monkeypatch.setenv("MKL_NUM_THREADS", "4")
+    monkeypatch.setattr(run_module.blas, "limited", lambda: False)
     with stratcli.sweep.local_executor(1) as pool:
         assert _start_method(pool) == "spawn"
-    monkeypatch.setenv("MKL_NUM_THREADS", "1")
+    monkeypatch.setattr(run_module.blas, "limited", lambda: True)
     monkeypatch.setattr(run_module.threading, "active_count", lambda: 2)
+    with stratcli.sweep.local_executor(1) as pool:
+        assert _start_method(pool) == "spawn"
+    monkeypatch.setattr(run_module.threading, "active_count", lambda: 1)
+    monkeypatch.setattr(run_module.sys, "platform", "darwin")
     with stratcli.sweep.local_executor(1) as pool:
         assert _start_method(pool) == "spawn"
 

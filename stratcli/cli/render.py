@@ -224,7 +224,9 @@ def plan_summary(doc: dict) -> None:
         best = opt["starts"][opt["best"]]
         energies = ", ".join(fmt(s["energy"]) for s in opt["starts"])
         # a constrained search went on from the free optimum: say that this line is before it
-        moved = doc.get("constraints") and not _close(best["energy"], doc["total_energy"])
+        total = doc["total_energy"]  # the starts' energies are before any time scaling
+        free = None if total is None else total / doc.get("time_scale", 1.0)
+        moved = doc.get("constraints") and not _close(best["energy"], free)
         head = "without the constraints, " if moved else ""
         out_console.print(
             f"{head}energy-optimal over all legs together: start {best['index'] + 1} of "

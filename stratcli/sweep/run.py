@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -30,6 +31,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from .. import blas
 from ..errors import InputError
 from ..records import sweepdir
 from ..records.rundir import write_run
@@ -42,7 +44,6 @@ CONNECT_TIMEOUT = "20s"  # to reach a Dask scheduler
 # enough that a sweep of a million tasks does not build a million scenario dicts up front
 IN_FLIGHT_PER_WORKER = 8
 MIN_IN_FLIGHT = 16
-BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 Progress = Callable[[int, int], None]  # (tasks done, tasks in all)
 
 
@@ -72,27 +73,22 @@ class SweepOutcome:
         return not self.missing
 
 
-def _single_threaded_blas() -> None:
-    for var in BLAS_THREAD_VARIABLES:
-        os.environ.setdefault(var, "1")
-
-
 def local_executor(jobs: int) -> ProcessPoolExecutor:
     """A pool of `jobs` worker processes with single-threaded BLAS.
 
-    Forked when that is safe: this process runs no other thread, and the BLAS variables
-    were already 1 before this call (the `stratplan` command sets them before numpy loads; a
-    script can set them first thing). A forked worker starts with what this process has
-    imported, in a few milliseconds instead of the 0.3 s a fresh interpreter needs to import
-    numpy, pydantic and the planner. Otherwise spawned: a worker imports numpy itself, after
-    the BLAS variables are set, whatever threads the calling process runs (a notebook, Dask's
-    client, a progress bar). Workers die with the process that started them and leave SIGINT
-    to it (`trie.worker_init`).
+    On Linux, forked when that is safe: no other thread runs in this process, and its BLAS
+    was limited to one thread before numpy loaded (`blas.limited`: the `stratplan` command
+    does so first thing; a script can set the three variables before it imports numpy). A
+    forked worker starts with what this process has imported, in a few milliseconds instead
+    of the 0.3 s a fresh interpreter needs to import numpy, pydantic and the planner.
+    Otherwise spawned: a worker imports numpy itself, after the BLAS variables are set,
+    whatever threads the calling process runs (a notebook, Dask's client). Workers die with
+    the process that started them and leave SIGINT to it (`trie.worker_init`).
     """
     from ..trie import worker_init
 
     fork = _fork_is_safe()
-    _single_threaded_blas()
+    blas.single_threaded()  # for spawned workers (a forked one has this process's BLAS)
     if fork:
         from .worker import preload
 
@@ -104,11 +100,8 @@ def local_executor(jobs: int) -> ProcessPoolExecutor:
 
 
 def _fork_is_safe() -> bool:
-    return (
-        "fork" in multiprocessing.get_all_start_methods()
-        and threading.active_count() == 1
-        and all(os.environ.get(var) == "1" for var in BLAS_THREAD_VARIABLES)
-    )
+    # not on macOS: system libraries (Accelerate) are not fork-safe, and CPython spawns there
+    return sys.platform.startswith("linux") and threading.active_count() == 1 and blas.limited()
 
 
 @contextmanager

@@ -222,7 +222,7 @@ def load_sweep(path: str | Path) -> Sweep:
     try:
         spec = SweepFile.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(_hinted(validation_problems(exc)), source) from None
+        raise InputError(_hinted(validation_problems(exc, root=SweepFile)), source) from None
     try:
         return _resolve(spec, Path(path).parent, source, text)
     except InputError as exc:
