@@ -2,8 +2,8 @@
 derivatives in the coefficients of the stacked energy problem (no I/O).
 
 The constrained search (`planners.constrained`) works in the free coordinates z of the stacked
-problem (`planners.energy._Problem`: λ = λp + N z, the continuity terms eliminated). Along each
-leg, at `NODES` equally spaced times (more for fast harmonics, `NODES_PER_RADIAN`):
+problem (`planners.energy.StackedProblem`: λ = λp + N z, the continuity terms eliminated).
+Along each leg, at `NODES` equally spaced times (more for fast harmonics, `NODES_PER_RADIAN`):
 
 * the joints are closed-form integrals of the Fourier controls, affine in λ: their margins to
   the joint limits and the derivatives of those are exact;
@@ -168,7 +168,7 @@ class NodeMargins:
 
     Parameters
     ----------
-    problem : planners.energy._Problem
+    problem : planners.energy.StackedProblem
         The stacked problem (its legs' end-point maps must be quadrature maps).
     system : System
         The model (its `robot` carries the collision geometry).

@@ -18,7 +18,7 @@ from stratcli.clearance import (
     segment_segment_distance,
 )
 from stratcli.node_margins import NodeMargins
-from stratcli.planners.energy import _Problem
+from stratcli.planners.energy import StackedProblem
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -50,7 +50,7 @@ def _problem(raw):
     result = plan({k: v for k, v in raw.items() if k != "constraints"})  # the free plan
     starts = [task.start, *[np.asarray(leg.goal) for leg in task.legs[:-1]]]
     targets = [np.array(leg.targets, dtype=int) for leg in result.legs]
-    problem = _Problem(task.system, starts, task.legs, task.settings, targets)
+    problem = StackedProblem(task.system, starts, task.legs, task.settings, targets)
     lam = np.concatenate([leg.coefficients.ravel() for leg in result.legs])
     return task, problem, problem.project(lam)
 

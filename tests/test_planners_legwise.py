@@ -25,7 +25,7 @@ def _problem(name: str):
     for leg, planned in zip(task.legs[:-1], newton.legs[:-1], strict=True):
         nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
     targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
-    problem = energy._Problem(task.system, nominal, task.legs, task.settings, targets)
+    problem = energy.StackedProblem(task.system, nominal, task.legs, task.settings, targets)
     lam = np.concatenate([leg.coefficients.ravel() for leg in newton.legs])
     return task, problem, lam
 

@@ -1,6 +1,6 @@
 """Planning within joint limits, self-collision and obstacles, along the whole of every leg.
 
-Both objectives search the stacked problem of the energy objective (`energy._Problem`: all
+Both objectives search the stacked problem of the energy objective (`energy.StackedProblem`: all
 legs' coefficients, continuity eliminated, every iterate restored onto the goals by Newton
 steps of least energy norm) with the node margins g(z) ≥ 0 of `node_margins` (joint limits
 exact, clearances as signed distances, at 128 nodes a leg, less a cushion).
@@ -14,7 +14,7 @@ exact, clearances as signed distances, at 128 nodes a leg, less a cushion).
    the goals, is still strictly inside.
 2. **Minimum energy inside the limits** (`_Search.lower`, the energy objective only). First
    an interior (log-barrier) round from that feasible plan: the energy search's reduced
-   Newton step (`energy._Descent`) for `E(z) + μ Σ_k b(g_k(z)) / NODES`, b(g) = −log x + x − 1
+   Newton step (`sqp.Descent`) for `E(z) + μ Σ_k b(g_k(z)) / NODES`, b(g) = −log x + x − 1
    of x = g / REACH (zero and flat from REACH on: far margins cost nothing), its Hessian in
    Gauss–Newton form; every trial point is restored onto the goals and rejected unless every
    margin stays positive. Then an active-set SQP (`_Search._sqp_step`): each step a small
@@ -38,9 +38,8 @@ import numpy as np
 from ..endpoint import QuadratureEndpoint
 from ..node_margins import CUSHION, NODES, NodeMargins
 from .active_set import convexified, least_distance
-from .energy import _Problem
-from .sqp import CURVATURE_FLOOR, STEP_LIMIT
-from .sqp import Descent as _Descent
+from .energy import StackedProblem
+from .sqp import CURVATURE_FLOOR, STEP_LIMIT, Descent
 
 __all__ = ["NotSearchable", "constrained_search"]
 
@@ -63,12 +62,12 @@ class NotSearchable(Exception):
     joints are not closed-form, and the search does not apply (the limits are verified)."""
 
 
-class _Search(_Descent):
-    """One start of the constrained search: restoration and bookkeeping from `_Descent`."""
+class _Search(Descent):
+    """One start of the constrained search: restoration and bookkeeping from `Descent`."""
 
     loose = False  # its own steps: every restoration to rounding
 
-    def __init__(self, problem: _Problem, margins: NodeMargins, z: np.ndarray, tol: float):
+    def __init__(self, problem: StackedProblem, margins: NodeMargins, z: np.ndarray, tol: float):
         super().__init__(problem, z, tol)
         self.margins = margins
         self.stalled = ""
@@ -84,7 +83,7 @@ class _Search(_Descent):
         """Damped Gauss–Newton steps of least energy norm on the extended map (goal residuals
         and node violations together); True when the plan, restored onto the goals, has every
         margin at least `PUSH`."""
-        if not self.feasible:  # (`_Descent`: the start was restored onto the goals)
+        if not self.feasible:  # (`Descent`: the start was restored onto the goals)
             self.stalled = "the start could not be restored onto the goals"
             return False
         problem, z = self.problem, self.z
@@ -220,7 +219,7 @@ class _Search(_Descent):
 
     def _merit(self, z, lagrange, g=None):
         """ℓ1 merit of the SQP: the Lagrangian of the goals (restored points meet them only
-        to rounding, as in `energy._Descent`) plus `penalty` x the summed node violation."""
+        to rounding, as in `sqp.Descent`) plus `penalty` x the summed node violation."""
         if g is None:
             g = self.margins(z, jacobian=False)[0]
         violation = float(np.sum(np.maximum(-g, 0.0)))
@@ -324,7 +323,7 @@ def constrained_search(
     With `lower_energy` (the energy objective) the feasible plan's energy is then lowered
     inside the limits (`_Search.lower`).
     """
-    problem = _Problem(system, starts, legs, settings, targets)
+    problem = StackedProblem(system, starts, legs, settings, targets)
     if not all(isinstance(ep, QuadratureEndpoint) for ep in problem.endpoints):
         raise NotSearchable
     margins = NodeMargins(problem, system, constraints, reach=REACH + CUSHION)

@@ -4,7 +4,7 @@ All legs are optimised together: the continuity conditions of the whole sequence
 the stacked coefficients and eliminated once (`λ = λp + N z`, N whitened so that the energy is
 `e0 + b·z + |z|²`); the goals are nonlinear equality constraints with exact Jacobians and
 Hessians (the legs' quadrature end-point maps). The problem `min λᵀMλ s.t. k_i(λ_i) = goal_i`
-is solved by a feasible-point SQP with the exact Hessian of the Lagrangian (`_Descent`), from
+is solved by a feasible-point SQP with the exact Hessian of the Lagrangian (`Descent`), from
 several deterministic starts that are raced (`optimise_energy`).
 """
 
@@ -27,7 +27,7 @@ from .base import (
     onto_goals,
 )
 from .legwise import legwise_start
-from .sqp import Descent as _Descent
+from .sqp import Descent
 
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
@@ -50,7 +50,7 @@ def _block_diag(blocks: list[np.ndarray]) -> np.ndarray:
     return out
 
 
-def _null_space(A: np.ndarray) -> np.ndarray:
+def null_space(A: np.ndarray) -> np.ndarray:
     """Orthonormal basis of A's null space (scipy.linalg.null_space's rank rule)."""
     if A.size == 0:
         return np.eye(A.shape[1])
@@ -59,7 +59,7 @@ def _null_space(A: np.ndarray) -> np.ndarray:
     return vh[int(np.sum(s > tol)) :].T
 
 
-class _Problem:
+class StackedProblem:
     """The stacked problem in the free coordinates z, with evaluations cached per z."""
 
     def __init__(self, system: System, starts, legs, settings, targets, constraints=None):
@@ -116,7 +116,7 @@ class _Problem:
         self._b = 2.0 * self.null.T @ Mp
         self._z = None
 
-    def with_rhs(self, c: np.ndarray) -> _Problem:
+    def with_rhs(self, c: np.ndarray) -> StackedProblem:
         """This problem with the continuity rows' right-hand side `c` (`legwise.join`): the
         same rows, so the same null space and whitened coordinates; only λp moves."""
         other = copy.copy(self)
@@ -210,7 +210,7 @@ class _Problem:
     def projected_gradient(self, z) -> float:
         """|Z'∇f| / |∇f| with Z a basis of the constraints' tangent space at z."""
         g = self.energy_grad(z)
-        Z = _null_space(self.constraint_jac(z))
+        Z = null_space(self.constraint_jac(z))
         return float(np.linalg.norm(Z.T @ g) / max(np.linalg.norm(g), 1e-300))
 
 
@@ -242,7 +242,7 @@ def optimise_energy(
     sequence's boundary conditions (`continuity.sequence_constraints` of `settings`), e.g. a
     relaxation of them (`stratcli.screen`).
     """
-    problem = _Problem(system, starts, legs, settings, targets, constraints)
+    problem = StackedProblem(system, starts, legs, settings, targets, constraints)
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
         seeds = seeds[:1]
     else:
@@ -288,16 +288,16 @@ def optimise_energy(
     return coefficients, Optimisation(tuple(outcomes), best_index, None)
 
 
-def race(problem: _Problem, zs: list[np.ndarray], tolerance: float) -> list[_Descent]:
+def race(problem: StackedProblem, zs: list[np.ndarray], tolerance: float) -> list[Descent]:
     """The feasible SQP from each start `zs` (whitened), raced (`optimise_energy`); the runs,
     in the order of `zs`."""
-    runs = [_Descent(problem, z, tolerance) for z in zs]
+    runs = [Descent(problem, z, tolerance) for z in zs]
     found: list[np.ndarray] = []  # minima reached by finished starts
     best = [np.inf]
 
     first = next((run.energy for run in runs if run.feasible), np.inf)
 
-    def finish(run: _Descent, iterations: int | None) -> None:
+    def finish(run: Descent, iterations: int | None) -> None:
         while not run.done and (iterations is None or run.iterations < iterations):
             if run.energy > ENERGY_RUNAWAY * first:
                 run.stop("diverged")  # ran away from the first feasible start's energy
@@ -321,7 +321,7 @@ def race(problem: _Problem, zs: list[np.ndarray], tolerance: float) -> list[_Des
     return runs
 
 
-def pulled_start(problem: _Problem, z: np.ndarray) -> np.ndarray | None:
+def pulled_start(problem: StackedProblem, z: np.ndarray) -> np.ndarray | None:
     """A start made from `z` by a quadratic-penalty continuation toward least energy, or None
     if it cannot be brought back onto the goals.
 
@@ -354,7 +354,7 @@ def pulled_start(problem: _Problem, z: np.ndarray) -> np.ndarray | None:
     return onto_goals(problem._evaluate, z, RESTORED, RESTORE_ITERATIONS)
 
 
-def _with_pulled_start(problem: _Problem, seeds: list, count: int) -> list:
+def _with_pulled_start(problem: StackedProblem, seeds: list, count: int) -> list:
     """`seeds` with the pulled start of the first Newton plan before it (`pulled_start`);
     with a single start wanted (`count` 1) it replaces that plan. Unchanged if there is no
     Newton plan or its pulled start cannot be made."""

@@ -1,6 +1,6 @@
 """The legwise start of the energy search: each leg's lowest minimum alone, then joined.
 
-The stacked problem of the energy objective (`energy._Problem`) has many local minima, and
+The stacked problem of the energy objective (`energy.StackedProblem`) has many local minima, and
 the feasible-point SQP ends in the basin of its start. Most of that multiplicity is a product:
 each leg has a few minima of its own (on the paper's strata: how many loops the joints run,
 on which side and in which sense, to turn the base), and the legs are tied together only by
@@ -75,7 +75,7 @@ def mode_starts(leg_problem) -> list[np.ndarray]:
     `½ δᵀ H δ` in the direction of the residual: an eigenvector e of H with eigenvalue h > 0,
     scaled to `t = sqrt(2 |r| / h)`, meets it, at energy t² above z1. The `MODES` largest
     such h, each with both signs, are the starts: loops of different shapes and turns."""
-    from .energy import _null_space
+    from .energy import null_space
 
     centre = -0.5 * leg_problem._b  # the energy's minimiser in the whitened coordinates
     r, J = leg_problem._evaluate(centre, True)
@@ -89,7 +89,7 @@ def mode_starts(leg_problem) -> list[np.ndarray]:
     if not np.isfinite(size) or size == 0.0:
         return [z1]
     met = np.abs(r1) <= MET * size
-    Z = _null_space(J1[met]) if met.any() else np.eye(z1.size)
+    Z = null_space(J1[met]) if met.any() else np.eye(z1.size)
     h, E = np.linalg.eigh(Z.T @ leg_problem.constraint_hessian(z1, -r1 / size) @ Z)
     starts = []
     for k in np.argsort(-h)[:MODES]:
@@ -118,11 +118,11 @@ def leg_minimum(own, settings, newton) -> np.ndarray | None:
 def leg_minima(problem, system, legs, settings, newton) -> list[np.ndarray] | None:
     """Each leg's lowest minimum of its own problem (flat coefficients per leg), or None if
     a leg has no start that reaches its goals."""
-    from .energy import _Problem
+    from .energy import StackedProblem
 
     out = []
     for i, (leg, part) in enumerate(zip(legs, problem.split(newton), strict=True)):
-        own = _Problem(
+        own = StackedProblem(
             system,
             [problem.endpoints[i].q0],
             [leg],
@@ -140,7 +140,7 @@ def leg_minima(problem, system, legs, settings, newton) -> list[np.ndarray] | No
 def join(problem, parts: list[np.ndarray], tolerance: float) -> np.ndarray | None:
     """The stacked legs `parts` carried onto the real switch conditions by continuation in
     their right-hand side (module docstring); whitened z of the full problem, or None."""
-    from .energy import _Descent
+    from .sqp import Descent
 
     lam = np.concatenate(parts)
     cons = problem.constraints
@@ -153,7 +153,7 @@ def join(problem, parts: list[np.ndarray], tolerance: float) -> np.ndarray | Non
             z = restore(step, z)
             if z is None:
                 return None
-            run = _Descent(step, z, tolerance)
+            run = Descent(step, z, tolerance)
             while not run.done and run.iterations < JOIN_ITERATIONS:
                 run.step()
         if not run.feasible:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from .energy import _Problem
+    from .energy import StackedProblem
 
 __all__ = ["CURVATURE_FLOOR", "STEP_LIMIT", "Descent"]
 
@@ -44,7 +44,7 @@ class Descent:
 
     loose = True  # restore loosely far from a minimum (`_step`)
 
-    def __init__(self, problem: _Problem, z: np.ndarray, tol: float):
+    def __init__(self, problem: StackedProblem, z: np.ndarray, tol: float):
         clock = time.perf_counter()
         self.problem = problem
         self.H0 = problem.H0
