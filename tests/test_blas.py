@@ -50,3 +50,20 @@ def _probe(order: str, preset: bool) -> dict:
 )
 def test_blas_is_limited_only_if_the_variables_were_1_before_numpy_loaded(order, preset, expected):
     assert _probe(order, preset) == expected
+
+
+def test_a_script_that_set_the_variables_before_numpy_is_known_to_be_limited():
+    """Set by the script itself (not the shell), with stratcli imported after numpy: OpenBLAS
+    is asked for its thread count."""
+    code = (
+        "import os\n"
+        "for v in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS'):\n"
+        "    os.environ[v] = '1'\n"
+        "import numpy\n"
+        "from stratcli import blas\n"
+        "print(blas.limited())\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in VARIABLES}
+    env["PYTHONPATH"] = str(ROOT)
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert done.stdout.strip() == "True", done.stderr
