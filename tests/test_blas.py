@@ -28,11 +28,11 @@ print(json.dumps(seen))
 """
 
 
-def _probe(order: str, preset: bool) -> dict:
+def _probe(order: str, preset: str | None) -> dict:
     env = {k: v for k, v in os.environ.items() if k not in VARIABLES}
     env["PYTHONPATH"] = str(ROOT)
-    if preset:
-        env.update(dict.fromkeys(VARIABLES, "1"))
+    if preset is not None:
+        env.update(dict.fromkeys(VARIABLES, preset))
     done = subprocess.run(
         [sys.executable, "-c", PROBE, order], env=env, capture_output=True, text=True, timeout=60
     )
@@ -43,9 +43,9 @@ def _probe(order: str, preset: bool) -> dict:
 @pytest.mark.parametrize(
     ("order", "preset", "expected"),
     [
-        ("numpy-first", False, {"before": False, "after": False}),  # set too late: not limited
-        ("set-first", False, {"before": False, "after": True}),  # set before numpy loaded
-        ("numpy-first", True, {"before": True, "after": True}),  # set in the environment
+        ("numpy-first", "4", {"before": False, "after": False}),  # four threads asked for
+        ("set-first", None, {"before": False, "after": True}),  # set before numpy loaded
+        ("numpy-first", "1", {"before": True, "after": True}),  # set in the environment
     ],
 )
 def test_blas_is_limited_only_if_the_variables_were_1_before_numpy_loaded(order, preset, expected):
