@@ -70,10 +70,16 @@ def validation_problems(
     exc: ValidationError, prefix: tuple = (), root: Any = None
 ) -> list[Problem]:
     """One `Problem` per error of `exc`, at `prefix` + its location; unknown keys list the keys
-    allowed there, found by walking the schema class `root` (none without it)."""
-    out = []
+    allowed there, found by walking the schema class `root` (none without it).
+
+    A value that may take several forms (a number or a list, say) fails each of them:
+    pydantic names the forms in the location (`function-after[...]`, `list[...]`, a class
+    name); they are left out of the path, and a form the value is not even of the type of is
+    not reported beside one it is."""
+    out, alternatives = [], {}
     for err in exc.errors():
-        loc = prefix + tuple(err["loc"])
+        raw = prefix + tuple(err["loc"])
+        loc = tuple(item for item in raw if not _form(item))
         kind = err["type"]
         if kind in UNKNOWN_KEY_ERRORS:
             allowed = _allowed_keys(root, loc) if root is not None else []
@@ -83,16 +89,37 @@ def validation_problems(
         msg = err["msg"].removeprefix("Value error, ")
         if kind == "missing":
             msg = "required field is missing"
-        if kind in ("union_tag_not_found", "union_tag_invalid"):  # a model without a valid kind
-            field = err.get("ctx", {}).get("discriminator", "kind").strip("'")
+        if kind in ("union_tag_not_found", "union_tag_invalid"):  # a table without a valid tag
+            ctx = err.get("ctx", {})
+            field = ctx.get("discriminator", "kind").strip("'")
             got = err["input"].get(field) if isinstance(err["input"], dict) else None
-            what = "is missing" if got is None else f"is {_short(got)}, not a kind"
-            kinds = ", ".join(KINDS)
-            out.append(Problem(_path((*loc, field)), f"{what} (one of: {kinds})"))
+            tags = ctx.get("expected_tags")
+            tags = ", ".join(t.strip(" '") for t in tags.split(",")) if tags else ", ".join(KINDS)
+            what = "is missing" if got is None else f"is {_short(got)}, not a {field}"
+            out.append(Problem(_path((*loc, field)), f"{what} (one of: {tags})"))
             continue
         shown = "" if kind == "missing" else f" (got {_short(err['input'])})"
-        out.append(Problem(_path(loc), f"{msg}{shown}"))
+        problem = Problem(_path(loc), f"{msg}{shown}")
+        if loc != raw:  # one form of several: grouped by the value they are forms of
+            value = raw[: next(i for i, item in enumerate(raw) if _form(item))]
+            alternatives.setdefault(value, []).append((kind, problem))
+            continue
+        out.append(problem)
+    for found in alternatives.values():
+        fitting = [p for kind, p in found if kind not in _WRONG_TYPE]
+        out.extend(dict.fromkeys(fitting or [p for _, p in found]))
     return out
+
+
+_WRONG_TYPE = {
+    "list_type", "dict_type", "model_type", "model_attributes_type", "float_type", "int_type",
+    "string_type", "bool_type", "is_instance_of", "dataclass_type", "tuple_type",
+}  # fmt: skip
+
+
+def _form(item: Any) -> bool:
+    """Whether a location item names one form of a value (pydantic's union member tags)."""
+    return isinstance(item, str) and (any(c in item for c in "[(") or item[:1].isupper())
 
 
 def _short(value: Any) -> str:

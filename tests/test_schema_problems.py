@@ -37,3 +37,19 @@ def test_locations_are_paths_as_written_and_a_model_without_kind_names_the_kinds
     (problem,) = validation_problems(exc, ("scenario",), root=Scenario)
     assert problem.path == "scenario.model.kind"
     assert problem.message.startswith("is missing (one of: preset")
+
+
+def test_a_value_of_several_forms_is_reported_at_its_own_path_by_the_form_it_fits():
+    """`max_rate` is a number or a list: -1 is a number that is out of range, not a list; the
+    path is the file's (no pydantic validator names in it)."""
+    raw = {**BASE, "constraints": {"max_rate": -1}}
+    (problem,) = validation_problems(_errors(raw), root=Scenario)
+    assert problem.path == "constraints.max_rate"
+    assert problem.message == "Input should be greater than 0 (got -1)"
+
+
+def test_a_table_with_an_unknown_tag_lists_the_tags_of_its_own_union():
+    raw = {**BASE, "constraints": {"obstacles": [{"shape": "triangle", "centre": [0, 1]}]}}
+    (problem,) = validation_problems(_errors(raw), root=Scenario)
+    assert problem.path == "constraints.obstacles[0].shape"
+    assert problem.message == "is 'triangle', not a shape (one of: circle, box)"
