@@ -493,3 +493,11 @@ def test_flags_help_shows_no_bool_type():
     for command in ([], ["plan"], ["compare-sequences"], ["regress"], ["check"], ["runs"]):
         text = runner.invoke(app, [*command, "--help"], terminal_width=120).output
         assert "--help" in text and "<bool>" not in text, text
+
+
+def test_runs_of_a_file_is_bad_input_naming_it(tmp_path):
+    afile = tmp_path / "runs"
+    afile.write_text("not a folder")
+    result = CliRunner().invoke(app, ["runs", "--out", str(afile)])
+    assert result.exit_code == 2
+    assert f"--out {afile}: not a directory" in result.stderr

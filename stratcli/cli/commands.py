@@ -312,6 +312,9 @@ def runs(
     from .. import api  # start-up speed
     from ..api.runs import clean_runs
 
+    if out.exists() and not out.is_dir():
+        render.error("error", f"--out {out}: not a directory (a folder of run records)")
+        raise typer.Exit(2)
     if clean:
         for path in clean_runs(out):
             typer.echo(f"removed {path} (left by a killed run)", err=True)

@@ -13,9 +13,7 @@ import typer
 
 Json = Annotated[
     bool,
-    typer.Option(
-        "--json", metavar="", help="Print JSON to stdout instead of tables (plan: result.json)."
-    ),
+    typer.Option("--json", metavar="", help="Print JSON to stdout instead of tables."),
 ]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", metavar="", help="Print nothing but errors.")]
 Out = Annotated[Path, typer.Option(help="Directory of run records.")]
