@@ -103,10 +103,10 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     ax.set_yticks(range(len(rows)), labels, fontsize=7.5)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_xlabel(_axis_label(doc) + (" — log scale" if log else ""), fontsize=9)
-    ax.set_title(
-        f"{doc['scenario']}: {len(rows)} sequences ranked by {CRITERION_LABELS[doc['criterion']]}",
-        fontsize=10,
-    )
+    ranked_by = CRITERION_LABELS[doc["criterion"]]
+    if doc["criterion"] == "energy" and doc.get("reference_duration_s") is not None:
+        ranked_by = f"energy at an equal total duration of {doc['reference_duration_s']:g} s"
+    ax.set_title(f"{doc['scenario']}: {len(rows)} sequences ranked by {ranked_by}", fontsize=10)
     ax.grid(axis="x", alpha=0.3)
     if values:
         ax.set_xlim(floor if log else 0.0, max(shown) * (1.7 if log else 1.18))
