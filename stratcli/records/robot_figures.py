@@ -334,8 +334,7 @@ def motion_gif(
             Line2D([], [], color="#7fb3d5", ls=":", label="goal" if plan.ok else "end (failed)"),
             Line2D([], [], color="#d35400", label="end effector"),
         ],
-        loc="lower center",
-        bbox_to_anchor=(0.5, 0.0),
+        loc="outside lower center",  # the constrained layout keeps "x [m]" clear of it
         ncols=3,
         fontsize=9,
         frameon=False,
