@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from matplotlib.colors import ListedColormap, LogNorm
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator
 
 from .figure_common import fixed_margins, save_figure
 
@@ -152,17 +152,22 @@ def energy_hist(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     fixed_margins(fig, left=0.75, right=0.25, top=0.6, bottom=0.55)
     if e.size:
         ratios = e / ref
-        bins = np.geomspace(ratios.min(), ratios.max(), 30) if ratios.min() > 0 else 30
-        if ratios.min() > 0 and ratios.max() > ratios.min():
+        bins = 30
+        # a log axis when the ratios span more than 10x (as ranking.png), said in the label
+        log = ratios.min() > 0 and ratios.max() > 10.0 * ratios.min()
+        if log:
+            bins = np.geomspace(ratios.min(), ratios.max(), 30)
             ax.set_xscale("log")
-        else:
-            bins = 30
+            ax.xaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+            ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         ax.hist(ratios, bins=bins, color=PALETTE[0])
         ax.axvline(1.0, color="0.3", ls="--", lw=0.8)
     counts: dict[str, int] = {}
     for r in rows.values():
         counts[r["status"]] = counts.get(r["status"], 0) + 1
-    ax.set_xlabel(f"energy / {label} ({ref:.4g})")
+    scale = " — log scale" if e.size and log else ""
+    ax.set_xlabel(f"energy / {label} ({ref:.4g}){scale}")
     ax.set_ylabel("tasks")
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts are whole tasks
     detail = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
