@@ -226,3 +226,14 @@ def test_a_time_scaled_plan_at_its_free_optimum_is_not_called_constrained(monkey
     text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
     assert "\nenergy-optimal over all legs together" in text
     assert "without the constraints" not in text
+
+
+def test_a_plan_the_final_pass_changed_says_what_the_legs_ended_at(monkeypatch, planned):
+    """Without constraints, a plan whose energy differs from the best start's (the final pass
+    re-chained and polished a leg) says so on the search's line, beside the starts."""
+    doc = copy.deepcopy(planned.document)
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    assert "re-chained" not in text  # the plan is the best start's
+    doc["total_energy"] = 0.999 * doc["total_energy"]
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    assert f"; re-chained: {render.fmt(doc['total_energy'])}; plain Newton:" in text

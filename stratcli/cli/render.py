@@ -226,14 +226,17 @@ def plan_summary(doc: dict) -> None:
         # a constrained search went on from the free optimum: say that this line is before it
         total = doc["total_energy"]  # the starts' energies are before any time scaling
         free = None if total is None else total / doc.get("time_scale", 1.0)
-        moved = doc.get("constraints") and not _close(best["energy"], free)
-        head = "without the constraints, " if moved else ""
+        moved = free is not None and not _close(best["energy"], free)
+        head = "without the constraints, " if moved and doc.get("constraints") else ""
+        # else the final pass re-chained the legs from the configurations they reach (a leg
+        # off by more than the tolerance is polished by Newton): the plan's own energy
+        rechained = f"; re-chained: {fmt(free)}" if moved and not head else ""
         out_console.print(
             f"{head}energy-optimal over all legs together: start {best['index'] + 1} of "
             f"{len(opt['starts'])} ({best['iterations']} SQP iterations"
             f"{', ' + best['stopped'] if best.get('stopped') else ''}, "
             f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
-            f"{energies}; plain Newton: {fmt(opt['newton_energy'])}"
+            f"{energies}{rechained}; plain Newton: {fmt(opt['newton_energy'])}"
             + (" (energies before time scaling)" if scale != 1.0 else ""),
             highlight=False,
         )
