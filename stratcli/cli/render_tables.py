@@ -107,6 +107,8 @@ def comparison_footer(outcome, run_dir: Path) -> None:
         if comparison.shared
         else f"legs planned {comparison.legs_planned} of {comparison.legs_requested}"
     )
+    if comparison.screen is not None:  # the screen planned legs alone for its bounds too
+        saved += f" (and {comparison.screen.legs} alone for the screen's bounds)"
     say(
         f"{saved} · {len(comparison.outcomes)} sequences in {comparison.wall_time:.2f} s on "
         f"{comparison.jobs} process{'es' if comparison.jobs > 1 else ''} (model compiled in "
