@@ -20,7 +20,7 @@ from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.colors import to_rgb, to_rgba
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Circle, Polygon
+from matplotlib.patches import Circle, Patch, Polygon
 from matplotlib.ticker import MaxNLocator
 
 from ..constraints import ConstraintsSpec, resolve
@@ -123,12 +123,19 @@ def resolved_constraints(plan: SequencePlan):
     return resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
 
 
+OBSTACLE_STYLE = {"facecolor": "#f5b7b1", "edgecolor": FAILED_COLOR, "hatch": "///", "lw": 1.0}
+
+
+def _has_obstacles(plan: SequencePlan) -> bool:
+    return plan.constraints is not None and bool(plan.constraints.spec.get("obstacles"))
+
+
 def _draw_obstacles(ax, plan: SequencePlan) -> None:
     """The obstacles of [constraints], hatched."""
-    if plan.constraints is None or not plan.constraints.spec.get("obstacles"):
+    if not _has_obstacles(plan):
         return
     c = resolved_constraints(plan)
-    style = {"facecolor": "#f5b7b1", "edgecolor": FAILED_COLOR, "hatch": "///", "lw": 1.0}
+    style = OBSTACLE_STYLE
     for centre, radius in c.circles:
         ax.add_patch(Circle(centre, radius, zorder=1, **style))
     for corners in c.boxes:
@@ -205,11 +212,13 @@ def stroboscope_figure(
         Line2D([], [], color="#d35400", lw=1.2, ls=":", label="end-effector path"),
         Line2D([], [], color="k", marker="+", ls="none", label="system CM (fixed)"),
     ]
+    if _has_obstacles(plan):
+        handles.append(Patch(label="obstacle", **OBSTACLE_STYLE))
     fig.legend(
         handles=handles,
         loc="lower center",
         bbox_to_anchor=(0.5, 0.0),
-        ncols=4,
+        ncols=len(handles),
         fontsize=8,
         frameon=False,
         handlelength=3.2,
