@@ -289,10 +289,12 @@ def run_record(record, log: dict | None) -> None:
         topics = ", ".join(f"{t} {n}" for t, n in log["topics"].items())
         say(f"run.mcap: {log['messages']} messages over {log['duration_s']:.2f} s ({topics})")
     m = record.manifest
+    planning = m.get("planning_time_s")
+    planning = "?" if planning is None else f"{1e3 * planning:.0f}"
+    code = m.get("exit_code")  # optional fields: "?" where a record lacks them
     say(
-        f"run {record.path.name} · started {m.get('started', '?')} · planning "
-        f"{1e3 * m.get('planning_time_s', float('nan')):.0f} ms · stratplan {m.get('stratplan')} · "
-        f"exit code {m.get('exit_code')}"
+        f"run {record.path.name} · started {m.get('started', '?')} · planning {planning} ms · "
+        f"stratplan {m.get('stratplan', '?')} · exit code {'?' if code is None else code}"
     )
     files = sorted(p.name for p in record.path.iterdir())
     say(f"files: {', '.join(files)}")
