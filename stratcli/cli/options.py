@@ -31,7 +31,10 @@ TaskScenario = Annotated[Path, typer.Argument(help="Scenario file (TOML); its st
 MaxLength = Annotated[
     int | None,
     typer.Option(
-        "--max-length", help="Longest sequence of strata (default: decompose table, else 3).", min=1
+        "--max-length",
+        help="Longest sequence of strata (default: decompose table, else 3).",
+        min=1,
+        max=8,  # as the [decompose] table allows (settings.DecomposeSettings)
     ),
 ]
 Strategy = Annotated[
