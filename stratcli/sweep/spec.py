@@ -94,13 +94,6 @@ class SweepFile(BaseModel):
     scenario: dict[str, Any] | None = None
 
 
-_ALLOWED = {
-    (): list(SweepFile.model_fields),
-    ("sweep",): list(SweepSpec.model_fields),
-    ("sweep", "random"): list(RandomSpec.model_fields),
-}
-
-
 @dataclass(frozen=True)
 class SweepTask:
     """One task of a sweep: its index, the values it varies, its seed and its scenario."""
@@ -222,22 +215,11 @@ def load_sweep(path: str | Path) -> Sweep:
     try:
         spec = SweepFile.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(_hinted(validation_problems(exc, root=SweepFile)), source) from None
+        raise InputError(validation_problems(exc, root=SweepFile), source) from None
     try:
         return _resolve(spec, Path(path).parent, source, text)
     except InputError as exc:
         raise exc.with_source(source) from None
-
-
-def _hinted(problems: list[Problem]) -> list[Problem]:
-    """Unknown keys of the sweep's own tables, with the allowed keys beside them."""
-    out = []
-    for p in problems:
-        parent = tuple(p.path.split(".")[:-1])
-        if p.message == "unknown key" and parent in _ALLOWED:
-            p = Problem(p.path, f"unknown key (allowed: {', '.join(_ALLOWED[parent])})")
-        out.append(p)
-    return out
 
 
 def _base(spec: SweepFile, folder: Path) -> tuple[dict[str, Any], str]:
