@@ -7,6 +7,7 @@ import textwrap
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, LogLocator
 
 from ..sequence import SequencePlan
 
@@ -14,9 +15,12 @@ __all__ = [
     "DPI",
     "FAILED_COLOR",
     "FORMATS",
+    "LOG_RATIO",
+    "TICK_STEPS",
     "fixed_margins",
     "leg_method",
     "locked_names",
+    "plain_log_labels",
     "save_figure",
     "stamp_failed",
 ]
@@ -24,6 +28,8 @@ __all__ = [
 DPI = 110
 FORMATS = ("png", "svg", "pdf")  # of the figures; the animation is always a GIF
 FAILED_COLOR = "#c0392b"  # a failed plan's stamp and title
+TICK_STEPS = (1, 2, 2.5, 5, 10)  # tick spacings allowed, times a power of ten
+LOG_RATIO = 10.0  # one rule: a log axis whenever the plotted values span more than this
 # no creation dates: the same plan gives the same bytes
 _METADATA = {"png": {}, "svg": {"Date": None}, "pdf": {"CreationDate": None}}
 
@@ -109,6 +115,16 @@ def save_figure(fig: Figure, fmt: str = "png") -> bytes:
     finally:
         fig.set_dpi(dpi)
     return buf.getvalue()
+
+
+def plain_log_labels(axis, minor: bool = True, pattern: str = "{:,.10g}") -> None:
+    """A log axis labelled in plain numbers (`pattern`: 1,000, not 10³), with `minor` at 2
+    and 5 of each decade too, so that a value can be read off the axis."""
+    plain = FuncFormatter(lambda x, _: pattern.format(x))
+    axis.set_major_formatter(plain)
+    if minor:
+        axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+        axis.set_minor_formatter(plain)
 
 
 def stamp_failed(fig: Figure, plan: SequencePlan) -> None:

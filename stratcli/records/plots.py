@@ -39,6 +39,7 @@ from ..sequence import SequencePlan
 from .figure_common import (
     FAILED_COLOR,
     FORMATS,
+    TICK_STEPS,
     fixed_margins,
     leg_method,
     locked_names,
@@ -57,7 +58,6 @@ GOAL_COLOR = "#c0392b"
 MAX_LABELLED_LEGS = 20  # more legs: no per-leg labels, goals or "off" marks
 WIDTH = 9.0  # in, of the time plots
 LABEL_SIZE = 8.5  # pt, of the leg labels
-TICK_STEPS = (1, 2, 2.5, 5, 10)  # tick spacings allowed, times a power of ten
 
 
 # --------------------------------------------------------------------------------------------

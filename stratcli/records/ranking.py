@@ -10,10 +10,9 @@ import math
 from typing import Any
 
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter, LogLocator
 
 from ..compare import CRITERION_LABELS
-from .figure_common import save_figure
+from .figure_common import LOG_RATIO, plain_log_labels, save_figure
 
 __all__ = ["ranking_figure", "ranking_png"]
 
@@ -22,7 +21,6 @@ def _short(x: float) -> str:
     return f"{x:,.0f}" if abs(x) >= 1000 else f"{x:.4g}"
 
 
-LOG_RATIO = 10.0  # ranking.png: a log axis whenever the plotted values span more than this
 BEST_COLOR = "#2e7d32"
 OTHER_COLOR = "#4a6fa5"
 FAILED_COLOR = "#c0392b"
@@ -94,12 +92,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         ax.text(floor, i, reason, va="center", fontsize=7.5, color=FAILED_COLOR)
     if log:
         ax.set_xscale("log")
-        plain = FuncFormatter(lambda x, _: f"{x:,.10g}")
-        ax.xaxis.set_major_formatter(plain)
-        if ratio < 1000:  # labels at 2 and 5 too: a bar's length can be read off the axis
-            ax.xaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
-            ax.xaxis.set_minor_formatter(plain)
-            ax.tick_params(axis="x", which="minor", labelsize=8)
+        plain_log_labels(ax.xaxis, minor=ratio < 1000)  # 2 and 5 too, up to three decades
+        ax.tick_params(axis="x", which="minor", labelsize=8)
     ax.set_yticks(range(len(rows)), labels, fontsize=7.5)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_xlabel(_axis_label(doc) + (" — log scale" if log else ""), fontsize=9)

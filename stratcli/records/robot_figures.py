@@ -28,6 +28,7 @@ from ..sequence import SequencePlan
 from .figure_common import (
     DPI,
     FAILED_COLOR,
+    TICK_STEPS,
     fixed_margins,
     leg_method,
     locked_names,
@@ -135,11 +136,10 @@ def _draw_obstacles(ax, plan: SequencePlan) -> None:
     if not _has_obstacles(plan):
         return
     c = resolved_constraints(plan)
-    style = OBSTACLE_STYLE
     for centre, radius in c.circles:
-        ax.add_patch(Circle(centre, radius, zorder=1, **style))
+        ax.add_patch(Circle(centre, radius, zorder=1, **OBSTACLE_STYLE))
     for corners in c.boxes:
-        ax.add_patch(Polygon(corners, closed=True, zorder=1, **style))
+        ax.add_patch(Polygon(corners, closed=True, zorder=1, **OBSTACLE_STYLE))
 
 
 def stroboscope_figure(
@@ -193,7 +193,7 @@ def stroboscope_figure(
         ax.set_aspect("equal")
         ax.tick_params(labelsize=7.5)
         for axis in (ax.xaxis, ax.yaxis):  # a few round ticks: a tick costs ~1 ms to draw
-            axis.set_major_locator(MaxNLocator(nbins=5, steps=(1, 2, 2.5, 5, 10)))
+            axis.set_major_locator(MaxNLocator(nbins=5, steps=TICK_STEPS))
         ax.grid(True, color="0.9", linewidth=0.5)
         locked = ", ".join(locked_names(plan, k))
         ax.set_title(

@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 from matplotlib.colors import ListedColormap, LogNorm
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator
+from matplotlib.ticker import MaxNLocator
 
-from .figure_common import fixed_margins, save_figure
+from .figure_common import LOG_RATIO, fixed_margins, plain_log_labels, save_figure
 
 FAILED = "0.8"
 PALETTE = (
@@ -153,14 +153,12 @@ def energy_hist(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     if e.size:
         ratios = e / ref
         bins = 30
-        # a log axis when the ratios span more than 10x (as ranking.png), said in the label
-        log = ratios.min() > 0 and ratios.max() > 10.0 * ratios.min()
+        # a log axis when the ratios span more than LOG_RATIO (as ranking.png), said in the label
+        log = ratios.min() > 0 and ratios.max() > LOG_RATIO * ratios.min()
         if log:
             bins = np.geomspace(ratios.min(), ratios.max(), 30)
             ax.set_xscale("log")
-            ax.xaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
-            ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-            ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            plain_log_labels(ax.xaxis, pattern="{:g}")
         ax.hist(ratios, bins=bins, color=PALETTE[0])
         ax.axvline(1.0, color="0.3", ls="--", lw=0.8)
     counts: dict[str, int] = {}
