@@ -76,10 +76,10 @@ def validation_problems(
     pydantic names the forms in the location (`function-after[...]`, `list[...]`, a class
     name); they are left out of the path, and a form the value is not even of the type of is
     not reported beside one it is."""
-    out, alternatives = [], {}
+    out, alternatives, models = [], {}, _model_names()
     for err in exc.errors():
         raw = prefix + tuple(err["loc"])
-        loc = tuple(item for item in raw if not _form(item))
+        loc = tuple(item for item in raw if not _form(item, models))
         kind = err["type"]
         if kind in UNKNOWN_KEY_ERRORS:
             allowed = _allowed_keys(root, loc) if root is not None else []
@@ -101,7 +101,7 @@ def validation_problems(
         shown = "" if kind == "missing" else f" (got {_short(err['input'])})"
         problem = Problem(_path(loc), f"{msg}{shown}")
         if loc != raw:  # one form of several: grouped by the value they are forms of
-            value = raw[: next(i for i, item in enumerate(raw) if _form(item))]
+            value = raw[: next(i for i, item in enumerate(raw) if _form(item, models))]
             alternatives.setdefault(value, []).append((kind, problem))
             continue
         out.append(problem)
@@ -117,9 +117,23 @@ _WRONG_TYPE = {
 }  # fmt: skip
 
 
-def _form(item: Any) -> bool:
-    """Whether a location item names one form of a value (pydantic's union member tags)."""
-    return isinstance(item, str) and (any(c in item for c in "[(") or item[:1].isupper())
+def _form(item: Any, models: set[str]) -> bool:
+    """Whether a location item names one form of a value (pydantic's union member tags: a
+    validator's or a generic's repr, or a model class's name), not a key of the file (which
+    may well start with a capital: a custom model's parameter `M`)."""
+    return isinstance(item, str) and (any(c in item for c in "[(") or item in models)
+
+
+def _model_names() -> set[str]:
+    """Names of every pydantic model class defined so far (the tags of model members)."""
+    names, todo = set(), [BaseModel]
+    while todo:
+        cls = todo.pop()
+        for sub in cls.__subclasses__():
+            if sub.__name__ not in names:
+                names.add(sub.__name__)
+                todo.append(sub)
+    return names
 
 
 def _short(value: Any) -> str:

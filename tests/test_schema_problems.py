@@ -53,3 +53,21 @@ def test_a_table_with_an_unknown_tag_lists_the_tags_of_its_own_union():
     (problem,) = validation_problems(_errors(raw), root=Scenario)
     assert problem.path == "constraints.obstacles[0].shape"
     assert problem.message == "is 'triangle', not a shape (one of: circle, box)"
+
+
+def test_a_key_of_the_file_that_starts_with_a_capital_stays_in_the_path():
+    """Model class names are union tags and leave the path; a parameter named `M` does not."""
+    raw = {
+        "name": "x",
+        "model": {
+            "kind": "custom",
+            "states": ["x", "y", "th"],
+            "inputs": ["u1", "u2"],
+            "fields": {"u1": ["cos(th)", "sin(th)", 0], "u2": [0, 0, 1]},
+            "parameters": {"M": "abc"},
+            "strata": [{"name": "S1", "active": ["u1", "u2"]}],
+        },
+        "task": {"start": [0, 0, 0], "goal": [1, 0, 0]},
+    }
+    (problem,) = validation_problems(_errors(raw), root=Scenario)
+    assert problem.path == "model.parameters.M"
