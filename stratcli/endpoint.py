@@ -210,17 +210,31 @@ class QuadratureEndpoint(_Endpoint):
         if self.Q.size == 0 or not np.any(omega):
             return np.zeros((p, p))
         _, w, _, _, u, q = self._nodes(lam)
-        K, m, s = w.size, self.m, self.size
+        return self.integrand_hessian(q, u, omega, self._products(w.size))
+
+    def integrand_hessian(self, q, u, omega, products) -> np.ndarray:
+        """`Σ_k Σ_i ω_ki ∇²(G_i(q_E) u)(t_k)` in λ, quadrature weights in `products`
+        ([w Φ⊗Ψ; w Ψ⊗Ψ] at the K nodes, `_pair_products`) and `omega` (nQ,) or per node
+        (K, nQ): the end point's Hessian (`hessian`), or a weighted sum of the quadrature
+        coordinates' Hessians at times inside the leg (`node_margins`: θ at the nodes)."""
+        K, m, s = len(q), self.m, self.size
+        per_node = omega.ndim == 2
+        u_weighted = (omega[:, :, None] if per_node else omega[None, :, None]) * u[:, None, :]
+
+        def weigh(A):  # Σ_i ω_i A[k, i, ...]
+            A = A.reshape(K, omega.shape[-1], -1)
+            return np.einsum("ki,kix->kx", omega, A) if per_node else omega @ A
+
         if hasattr(self.cs, "quadrature_hessian"):  # the contraction only (physical models)
-            dGQ, D2 = self.cs.quadrature_hessian(q, omega[None, :, None] * u[:, None, :])
+            dGQ, D2 = self.cs.quadrature_hessian(q, u_weighted)
             C, sel = self.C, self._select
         else:
             _, dGQ, ddGQ = self.cs.quadrature_terms(q, 2)
             nd = dGQ.shape[-1]  # the coordinates it differentiates along
-            D2 = u[:, None, :] @ (omega @ ddGQ.reshape(K, omega.size, -1)).reshape(K, m, nd * nd)
+            D2 = u[:, None, :] @ weigh(ddGQ).reshape(K, m, nd * nd)
             C, sel = self._C_terms, self._select_terms
         nE = dGQ.shape[-1]
-        D1 = (omega @ dGQ.reshape(K, omega.size, -1)).reshape(K, m, nE)  # Σ_i ω_i ∂G_i/∂q
+        D1 = weigh(dGQ).reshape(K, m, nE)  # Σ_i ω_i ∂G_i/∂q
         D2 = D2.reshape(K, nE, nE)
         # W1: ∂G_a/∂q · ∂q/∂λ_a', W2: C'ᵀ ∂²G C', both (K, m, m)
         if sel is None:
@@ -232,9 +246,9 @@ class QuadratureEndpoint(_Endpoint):
         # H[a,b,c,d] = Σ_k w_k (W1[k,a,c] Φ[k,b] Ψ[k,d] (+ transpose) + W2[k,a,c] Ψ[k,b] Ψ[k,d]):
         # one product (m², 2K) @ (2K, s²), which is cheaper than forming (K, m, s, m) arrays
         W = np.concatenate([W1, 0.5 * W2]).reshape(2 * K, m * m)
-        H = (W.T @ self._products(K)).reshape(m, m, s, s).transpose(0, 2, 1, 3)
+        H = (W.T @ products).reshape(m, m, s, s).transpose(0, 2, 1, 3)
         H = H + H.transpose(2, 3, 0, 1)
-        return H.reshape(p, p)
+        return H.reshape(m * s, m * s)
 
     def _products(self, K: int) -> np.ndarray:
         """[w Φ⊗Ψ; w Ψ⊗Ψ] at K nodes, (2K, size²): the Hessian's quadrature of basis pairs."""

@@ -130,6 +130,28 @@ class _Leg:
             self.tg = (edges[:-1, None] + 0.5 * h[:, None] * (x + 1.0)).ravel()
             self.wg = (0.5 * h[:, None] * w).ravel()
             self.Phi_g, self.Psi_g = ep.basis.values(self.tg), ep.basis.integrals(self.tg)
+            pairs = np.concatenate([
+                self.Phi_g[:, :, None] * self.Psi_g[:, None, :],
+                self.Psi_g[:, :, None] * self.Psi_g[:, None, :],
+            ]).reshape(2 * len(self.tg), -1)  # fmt: skip
+            self.pairs = np.tile(self.wg, 2)[:, None] * pairs  # (`endpoint._pair_products`)
+
+    def _gauss_state(self, L: np.ndarray):
+        """q (θ at the leg's start) and u at the Gauss points, as the end point has them."""
+        ep = self.ep
+        qg = np.broadcast_to(ep.q0, (len(self.tg), ep.q0.size)).copy()
+        qg[:, ep.E] += self.Psi_g @ (L.T @ ep.C.T)
+        return qg, self.Phi_g @ L.T
+
+    def theta_hessian(self, lam: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """`Σ_k Σ_i weights[k, i] ∇²q_Q,i(t_k)` in λ (p x p): the quadrature coordinates' exact
+        second derivatives at the nodes, weighted. θ(t_k) sums the integrand over the Gauss
+        points before t_k, so the sum is one quadrature over the leg with each Gauss point
+        weighted by the node weights from its interval on (`endpoint.integrand_hessian`)."""
+        L = lam.reshape(self.ep.m, self.ep.size)
+        qg, u = self._gauss_state(L)
+        after = np.cumsum(weights[::-1], axis=0)[::-1]  # Σ_{j ≥ k} weights[j]
+        return self.ep.integrand_hessian(qg, u, np.repeat(after, GAUSS, axis=0), self.pairs)
 
     def configurations(self, lam: np.ndarray, jacobian: bool):
         """q at the nodes (N, n) and dq/dλ (N, n, p) (None without `jacobian`)."""
@@ -142,9 +164,7 @@ class _Leg:
         if jacobian:
             dq[:, ep.E] = self.dE
         if self.theta:
-            qg = np.broadcast_to(ep.q0, (len(self.tg), n)).copy()
-            qg[:, ep.E] += self.Psi_g @ (L.T @ ep.C.T)
-            u = self.Phi_g @ L.T  # (K, m)
+            qg, u = self._gauss_state(L)  # u: (K, m)
             if hasattr(ep.cs, "quadrature_jacobian"):
                 GQ, Du = ep.cs.quadrature_jacobian(qg, u[:, None, :])
                 C = ep.C
@@ -204,6 +224,7 @@ class NodeMargins:
         self.labels: list[tuple[int, str]] = []  # per row: (leg index, what it limits)
         self.times = np.zeros(0)  # per row: the node's time in its leg
         self._last = None  # (z, clearances, kinds) of the last call: the next often repeats z
+        self._limit_rows: list[tuple] = []  # (leg, coordinate, sign, first row, rows) of limits
 
     def refined(self, z: np.ndarray, dense: int) -> NodeMargins | None:
         """These margins with more nodes where `dense` equally spaced samples a leg find less
@@ -241,6 +262,7 @@ class NodeMargins:
                         if jacobian:
                             grads.append(sign * dqz[:, i])
                         if label:
+                            self._limit_rows.append((index, i, sign, len(labels), len(q)))
                             labels += [(index, f"the joint limits of {self.states[i]}")] * len(q)
                             times.append(leg.t)
         if self.geometric:  # every leg in one evaluation, then the differences near contact
@@ -292,17 +314,38 @@ class NodeMargins:
             )  # fmt: skip
             pair = np.concatenate([np.repeat(np.arange(g_all.shape[1]), n) for n in sizes])
             dqz_all = np.concatenate([c[1][:, self.geo_coords] for c in configurations])
-            self._curvature_at = (z.copy(), first, node, pair, q, dqz_all)
+            self._curvature_at = (z.copy(), first, node, pair, q, dqz_all, slopes, sizes)
         return g, G
 
     def curvature(self, z: np.ndarray, weights: np.ndarray) -> np.ndarray:
-        """Σ_r weights[r] ∇²g_r(z) over the clearance rows with a positive weight, from
-        second differences of the clearances in the configuration (the joints are affine in
-        z; θ's own curvature is left out). Needs the last call with the Jacobian to be at z."""
+        """Σ_r weights[r] ∇²g_r(z) over the rows with a positive weight: the clearances' from
+        second differences in the configuration (the joints are affine in z), and through θ
+        (obstacles; limits on θ) its own exact curvature at the nodes (`_Leg.theta_hessian`).
+        With clearances, needs the last call with the Jacobian to be at z."""
         out = np.zeros((z.size, z.size))
-        if not self.geometric or weights.size == 0:
+        if weights.size == 0:
             return out
-        at, first, node, pair, q, dqz = self._curvature_at
+        # per leg and node, the weight of each quadrature coordinate's curvature there
+        along = [np.zeros((len(leg.t), leg.ep.Q.size)) for leg in self.legs]
+        for index, i, sign, first, n in self._limit_rows:
+            leg = self.legs[index]
+            if leg.theta and i in leg.ep.Q:
+                w = weights[first : first + n]
+                along[index][:, list(leg.ep.Q).index(i)] += sign * np.where(w > 0, w, 0.0)
+        if self.geometric:
+            out += self._clearance_curvature(z, weights, along)
+        lam, null = self.problem.coefficients(z), self.problem.null
+        for leg, w in zip(self.legs, along, strict=True):
+            if leg.theta and np.any(w):
+                N = null[leg.rows]
+                out += N.T @ leg.theta_hessian(lam[leg.rows], w) @ N
+        return out
+
+    def _clearance_curvature(self, z, weights, along) -> np.ndarray:
+        """The clearance rows' share of `curvature` in the configuration; their weights on θ's
+        curvature at each node (the clearance's slope in θ) are added to `along`."""
+        out = np.zeros((z.size, z.size))
+        at, first, node, pair, q, dqz, slopes, sizes = self._curvature_at
         if not np.array_equal(at, z):
             raise ValueError("curvature needs the margins' Jacobian at the same z")
         rows = np.flatnonzero(weights[first:] > 0)
@@ -325,4 +368,14 @@ class NodeMargins:
         H[:, j, i] = second
         D = dqz[node[rows]]  # (A, k, nz)
         w = weights[first:][rows]
+        starts = np.cumsum([0, *sizes])
+        for index, leg in enumerate(self.legs):  # through θ: its slope, weighted, per node
+            if not leg.theta:
+                continue
+            mine = (node[rows] >= starts[index]) & (node[rows] < starts[index + 1])
+            for c, coordinate in enumerate(leg.ep.Q):
+                if coordinate in self.geo_coords and mine.any():
+                    slope = slopes[self.geo_coords.index(coordinate), node[rows], pair[rows]]
+                    at_node = node[rows][mine] - starts[index]
+                    np.add.at(along[index][:, c], at_node, (w * slope)[mine])
         return np.einsum("a,akz,akl,aly->zy", w, D, H, D)

@@ -87,20 +87,25 @@ def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstac
         assert any(what == "an obstacle" for _, what in margins.labels)
 
 
-def test_the_clearances_curvature_equals_differences_of_their_jacobian():
-    """`NodeMargins.curvature` (Σ w_r ∇²g_r over the clearance rows, joints affine in z)
-    against central differences of the weighted Jacobian, on self-collision only (θ's own
-    curvature, which it leaves out, does not enter there)."""
-    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_constrained.toml").read_text())
+@pytest.mark.parametrize(
+    ("scenario", "kind"),
+    [("sim4_task_d_constrained", "self-collision"), ("sim4_task_d_obstacles", "an obstacle")],
+)
+def test_the_clearances_curvature_equals_differences_of_their_jacobian(scenario, kind):
+    """`NodeMargins.curvature` (Σ w_r ∇²g_r over the clearance rows) against central
+    differences of the weighted Jacobian: on self-collision (the joints are affine in z) and
+    on obstacles, whose clearances move with θ, so that θ's own exact curvature at the nodes
+    enters (without it the obstacles' case is off by 10-30 %)."""
+    raw = tomllib.loads((ROOT / "scenarios" / f"{scenario}.toml").read_text())
     raw["planner"]["objective"] = "newton"
     task, problem, z = _problem(raw)
     margins = NodeMargins(problem, task.system, task.constraints, nodes=40)
     g, _ = margins(z)
-    clearance = np.array([what == "self-collision" for _, what in margins.labels])
+    clearance = np.array([what == kind for _, what in margins.labels])
     rng = np.random.default_rng(1)
     weights = np.zeros(g.size)
     # a few rows near contact, where the gap is smooth (away from kinks)
-    rows = np.flatnonzero(clearance)[np.argsort(g[clearance])[:40]]
+    rows = np.flatnonzero(clearance)[np.argsort(np.abs(g[clearance]))[:40]]
     weights[rng.choice(rows, 5, replace=False)] = rng.uniform(0.5, 2.0, 5)
     H = margins.curvature(z, weights)
     assert np.allclose(H, H.T)
@@ -112,3 +117,26 @@ def test_the_clearances_curvature_equals_differences_of_their_jacobian():
     numeric = (plus - minus) / (2 * h)
     assert np.abs(numeric).max() > 1e-3  # a curvature to compare
     np.testing.assert_allclose(H @ direction, numeric, rtol=2e-2, atol=2e-3 * np.abs(numeric).max())
+
+
+def test_the_curvature_of_limits_on_theta_is_its_exact_curvature_at_the_nodes():
+    """A limit on the base angle is not affine in z: `NodeMargins.curvature` gives θ's
+    exact second derivatives at the nodes, equal to central differences of the Jacobian."""
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d.toml").read_text())
+    raw["planner"]["objective"] = "newton"
+    raw["constraints"] = {"joint_limits": {"theta": [-0.5, 0.5]}}
+    task, problem, z = _problem(raw)
+    margins = NodeMargins(problem, task.system, task.constraints, nodes=40)
+    g, _ = margins(z)
+    assert {what for _, what in margins.labels} == {"the joint limits of theta"}
+    rng = np.random.default_rng(1)
+    weights = rng.uniform(0.0, 1.0, g.size) * (rng.uniform(size=g.size) < 0.2)
+    H = margins.curvature(z, weights)
+    direction = rng.normal(size=z.size)
+    direction /= np.linalg.norm(direction)
+    h = 1e-4
+    plus = margins(z + h * direction)[1].T @ weights
+    minus = margins(z - h * direction)[1].T @ weights
+    numeric = (plus - minus) / (2 * h)
+    assert np.abs(numeric).max() > 1e-2  # a curvature to compare
+    np.testing.assert_allclose(H @ direction, numeric, atol=1e-6 * np.abs(numeric).max())

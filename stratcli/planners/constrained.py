@@ -19,11 +19,11 @@ exact, clearances as signed distances, at 128 nodes a leg, less a cushion).
    Gauss–Newton form; every trial point is restored onto the goals and rejected unless every
    margin stays positive. Then an active-set SQP (`_Search._sqp_step`): each step a small
    dense QP in the goals' tangent space with the margins within REACH linearised
-   (`active_set`), the clearances' own curvature in its Hessian, an ℓ1 merit; it ends on the
-   constrained minimum at the nodes in a few tens of steps, where the barrier's later rounds
-   (μ tenfold smaller each) took a hundred or more, their steps cut to 3–30 % by the
-   fraction-to-boundary rule. With obstacles the margins depend on θ, whose curvature the
-   SQP's model lacks: there the barrier's `ROUNDS` rounds are kept.
+   (`active_set`), the clearances' own curvature in its Hessian (through θ's exact
+   curvature at the nodes as well, where obstacles make them depend on θ), an ℓ1 merit; it
+   ends on the constrained minimum at the nodes in a few tens of steps, where further
+   barrier rounds (μ tenfold smaller each) took a hundred or more, their steps cut to
+   3–30 % by the fraction-to-boundary rule.
 3. **Between the nodes**: a dense check (`DENSE` samples a leg) adds nodes where a margin
    dips below a quarter of the cushion, and the search goes on (`REFINEMENTS` times).
 
@@ -46,9 +46,9 @@ __all__ = ["NotSearchable", "constrained_search"]
 PUSH = 1e-3  # the feasibility phase ends with every node margin at least this
 FEASIBILITY_ITERATIONS = 60
 DAMPING_MAX = 1e8  # relative Levenberg damping at which the feasibility phase gives up
-ROUNDS = 3  # barrier weights μ0, μ0/10, ... (with obstacles; else the first round only)
 BARRIER_START = 1e-2  # μ0 as a fraction of the feasible plan's energy
-ROUND_ITERATIONS = 50
+ROUND_ITERATIONS = 50  # of the barrier round that leads into the basin
+LATER_ITERATIONS = 15  # of those after nodes were added: from close to the minimum
 REACH = 0.3  # the barrier and the QP ignore margins above this (rad or length unit)
 FRACTION_TO_BOUNDARY = 0.9
 SQP_ITERATIONS = 60
@@ -139,17 +139,14 @@ class _Search(Descent):
         x = np.minimum(g, REACH) / REACH  # -log x + x - 1: zero, and flat, from REACH on
         return self.problem.energy(z) + mu * float(np.sum(x - 1.0 - np.log(x))) / NODES
 
-    def _lower_barrier(self, rounds: int) -> None:
-        """Log-barrier descent from a feasible z (every iterate feasible), `rounds` weights."""
-        problem = self.problem
+    def _lower_barrier(self, iterations: int) -> None:
+        """Log-barrier descent at μ0 from a feasible z (every iterate feasible)."""
         mu = BARRIER_START * self.energy
-        for _ in range(rounds):
-            for _ in range(ROUND_ITERATIONS):
-                self.iterations += 1
-                if not self._barrier_step(mu):
-                    break
-            mu *= 0.1
-        self.energy = problem.energy(self.z)
+        for _ in range(iterations):
+            self.iterations += 1
+            if not self._barrier_step(mu):
+                break
+        self.energy = self.problem.energy(self.z)
 
     def _barrier_step(self, mu: float) -> bool:
         problem, z = self.problem, self.z
@@ -194,18 +191,14 @@ class _Search(Descent):
             alpha *= 0.5
         return False
 
-    def lower(self) -> None:
-        """Least energy inside the limits from a feasible z: the barrier's first round, which
-        leads into the basin, then the active-set SQP (`_sqp_step`), which converges in a
-        few tens of steps where the barrier's later rounds take a hundred. With obstacles the
-        barrier's three rounds: there the margins depend on θ, whose own curvature the SQP's
-        model lacks (`NodeMargins.curvature`), and its steps stall on it."""
+    def lower(self, lead_in: bool = True) -> None:
+        """Least energy inside the limits from a feasible z: a barrier round, which leads into
+        the basin (`ROUND_ITERATIONS` steps; `LATER_ITERATIONS` when not `lead_in`: after
+        nodes were added, from close to the minimum), then the active-set SQP (`_sqp_step`),
+        which converges in a few tens of steps where further barrier rounds take a hundred."""
         self.multipliers = None  # the node margins', from the last QP
         self.penalty = 0.0  # of the ℓ1 merit
-        if self.margins.need_theta:
-            self._lower_barrier(ROUNDS)
-            return
-        self._lower_barrier(1)
+        self._lower_barrier(ROUND_ITERATIONS if lead_in else LATER_ITERATIONS)
         for _ in range(SQP_ITERATIONS):
             self.iterations += 1
             if not self._sqp_step():
@@ -336,13 +329,13 @@ def constrained_search(
         with np.errstate(all="ignore"):
             search = _Search(problem, margins, problem.project(lam), settings.tolerance)
             found = np.nan
-            for _ in range(REFINEMENTS + 1):
+            for refinement in range(REFINEMENTS + 1):
                 if not search.reach_feasible():
                     break
                 if np.isnan(found):
                     found = search.energy
                 if lower_energy:
-                    search.lower()
+                    search.lower(lead_in=refinement == 0)
                     if not search.inside() and not search.reach_feasible():
                         break  # (the SQP's last iterate outside: back inside by its phase 1)
                 finer = search.margins.refined(search.z, DENSE)
