@@ -196,8 +196,14 @@ def _evaluator_kind(problem: LegProblem) -> str:
     return "quadrature" if quadrature else "ode"
 
 
-def failure_message(leg: LegPlan, tolerance: float) -> str:
-    """What a user reads when a leg fails: which leg, how far off, what to try."""
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
+    """What a user reads when a leg fails: which leg, how far off, what to try (first the
+    Newton budget, where the scenario set it below its default)."""
+    tolerance = settings.tolerance
     head, _, advice = leg.status.value.partition("; ")
     where = f"leg {leg.index + 1} on {leg.stratum}"
     if leg.status is Status.NUMERICAL_FAILURE:
@@ -208,9 +214,17 @@ def failure_message(leg: LegPlan, tolerance: float) -> str:
         where += " (Lie-algebraic)"
         work = f"after {leg.iterations} steps"
     else:
-        work = f"after {leg.iterations} iterations in {leg.attempts} attempts"
+        work = f"after {_count(leg.iterations, 'iteration')} in {_count(leg.attempts, 'attempt')}"
         if leg.message:  # e.g. the continuation that followed them
             work += f" ({leg.message})"
+        defaults = type(settings)()
+        lowered = [
+            f"planner.{name} (now {getattr(settings, name)}, default {getattr(defaults, name)})"
+            for name in ("max_iterations", "restarts")
+            if getattr(settings, name) < getattr(defaults, name)
+        ]
+        if lowered:
+            advice = f"allow more {' and '.join(lowered)}, or {advice}"
     return f"{where} {head}: error {leg.error:.3g} > tolerance {tolerance:.3g} {work}; {advice}"
 
 
@@ -248,7 +262,7 @@ def assemble(
         legs=tuple(planned),
         switches=tuple(switches),
         planned_legs=len(legs),
-        message="" if failed is None else failure_message(failed, settings.tolerance),
+        message="" if failed is None else failure_message(failed, settings),
         notes=notes,
     )
     return plan.with_system(system)

@@ -189,6 +189,14 @@ def test_failed_leg_exits_1_and_still_writes_a_failed_record(tmp_path):
     result, _ = run(tmp_path, text)
     assert result.exit_code == 1
     assert "leg 1 on S3 did not reach its goal" in result.output and "try" in result.output
+    # the budget the scenario lowered comes first in the advice; counts agree in number
+    assert "allow more planner.max_iterations (now 1, default 100)" in result.output
+    assert "planner.restarts (now 0, default 11)" in result.output
+    assert "in 1 attempt " in result.output
+    # the leg that was not planned is listed, and one leg's energy is not set beside the
+    # paper's total
+    assert "not planned" in result.output and "leg 1 of 2 only" in result.output
+    assert "paper:" not in result.output
     (run_dir,) = (tmp_path / "runs").iterdir()
     doc = json.loads((run_dir / "result.json").read_text())
     assert doc["status"] == "failed" and "leg 1 on S3" in doc["message"]

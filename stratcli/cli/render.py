@@ -200,12 +200,17 @@ def plan_summary(doc: dict) -> None:
             fmt(leg["energy"]),
             "[green]ok[/]" if leg["converged"] else "[red]failed[/]",
         )
+    for i in range(len(doc["legs"]), doc.get("planned_legs") or 0):  # after a failed leg
+        legs.add_row(str(i + 1), *["–"] * (7 if per_leg else 5), "[dim]not planned[/]")
     out_console.print(legs)
     line = f"total energy [bold]{fmt(doc['total_energy'])}[/]"
+    if len(doc["legs"]) < (doc.get("planned_legs") or 0):
+        k = len(doc["legs"])
+        line += f" ({'leg 1' if k == 1 else f'legs 1–{k}'} of {doc['planned_legs']} only)"
     ref = doc.get("reference_energy")
     scale = doc.get("time_scale", 1.0)
-    if doc["total_energy"] is None:
-        ref = None  # no energy to compare (a numerical failure)
+    if doc["total_energy"] is None or len(doc["legs"]) < (doc.get("planned_legs") or 0):
+        ref = None  # no energy to compare (a numerical failure), or only some legs'
     if ref and scale != 1.0:  # the paper's legs last 1 s: compare the path at its own speed
         own = doc["total_energy"] / scale
         line += f" (at time scale 1: {fmt(own)}; paper: {fmt(ref)}, ratio {own / ref:.2f})"

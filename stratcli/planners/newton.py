@@ -196,7 +196,10 @@ class NewtonPlanner(LegPlanner):
             if path.reached:
                 best, strategy = path.result, "continuation"
             else:
-                message = "nor did a continuation along the line to the goal"
+                message = (
+                    "nor did a continuation along the line to the goal, in "
+                    f"{path.iterations} of them"
+                )
         lam, end = best.extra
         error = best.error
         refined = getattr(endpoint, "refined", None)  # a map that evaluates coarsely far away
