@@ -333,6 +333,8 @@ class LegReport:
     sigma: float
     failure: np.ndarray | None  # first configuration where the targets are not spanned
     failure_rank: int = 0
+    failure_finite: bool = True  # whether the fields and brackets are numbers there
+    failure_sampled: bool = False  # the failure is at a sample, not at the nominal start
 
     @property
     def ok(self) -> bool:
@@ -351,7 +353,7 @@ def leg_reports(
         goal = np.asarray(leg.goal, dtype=float)
         targets = tuple(j for j in s.free(system.n) if not np.isnan(goal[j]))
         Q = np.vstack([nominal, samples]) if len(samples) else nominal[None]
-        rank, sigma = _target_rank(system, s.name, targets, Q, degree)
+        rank, sigma, finite = _target_rank(system, s.name, targets, Q, degree)
         bad = np.flatnonzero(rank < len(targets))
         out.append(
             LegReport(
@@ -363,6 +365,8 @@ def leg_reports(
                 float(sigma[0]),
                 Q[bad[0]].copy() if bad.size else None,
                 int(rank[bad[0]]) if bad.size else 0,
+                bool(finite[bad[0]]) if bad.size else True,
+                bool(bad.size and bad[0] > 0),
             )
         )
         nominal = np.where(np.isnan(goal), nominal, goal)
@@ -373,15 +377,20 @@ def _target_rank(system, stratum, targets, Q, degree):
     lb = lie_basis(system, stratum, degree)
     rows = [lb.free.index(j) for j in targets]
     if not rows:
-        return np.zeros(len(Q), dtype=int), np.ones(len(Q))
+        return np.zeros(len(Q), dtype=int), np.ones(len(Q)), np.ones(len(Q), dtype=bool)
 
     def compute(R: np.ndarray) -> tuple[np.ndarray, ...]:
-        rank, sigma = _rank_and_sigma(lb.evaluate(R)[:, rows], len(rows))
-        short = rank < len(rows)
-        if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, stratum):
-            lb3 = lie_basis(system, stratum, MAX_DEGREE)
-            r3, s3 = _rank_and_sigma(lb3.evaluate(R[short])[:, rows], len(rows))
-            rank[short], sigma[short] = r3, s3
-        return rank, sigma
+        with np.errstate(all="ignore"):  # a model that overflows: told by `finite`
+            B = lb.evaluate(R)[:, rows]
+            finite = np.isfinite(B).all(axis=(-2, -1))
+            rank, sigma = _rank_and_sigma(np.where(np.isfinite(B), B, 0.0), len(rows))
+            short = rank < len(rows)
+            if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, stratum):
+                lb3 = lie_basis(system, stratum, MAX_DEGREE)
+                B3 = lb3.evaluate(R[short])[:, rows]
+                finite[short] &= np.isfinite(B3).all(axis=(-2, -1))
+                r3, s3 = _rank_and_sigma(np.where(np.isfinite(B3), B3, 0.0), len(rows))
+                rank[short], sigma[short] = r3, s3
+        return rank, sigma, finite
 
     return _rows(system, ("leg", stratum, targets, degree), Q, compute)

@@ -509,3 +509,19 @@ def test_runs_of_a_file_is_bad_input_naming_it(tmp_path):
     result = CliRunner().invoke(app, ["runs", "--out", str(afile)])
     assert result.exit_code == 2
     assert f"--out {afile}: not a directory" in result.stderr
+
+
+def test_a_model_that_overflows_is_bad_input_not_an_uncontrollable_stratum(tmp_path):
+    """A field that overflows at some sampled configuration makes its brackets inf/NaN: the
+    check says so (exit 2, naming model.fields and the configuration as a sample), without
+    numpy's warnings, instead of reporting a rank of 0 as 'not controllable' (exit 3)."""
+    text = (ROOT / "scenarios" / "unicycle.toml").read_text()
+    text = text.replace('v = ["cos(theta)"', 'v = ["exp(exp(exp(50*theta)))"')
+    assert "exp(exp(exp" in text
+    result, path = run(tmp_path, text)
+    (line,) = _one_line_errors(result, path)
+    assert "model.fields" in line and "not finite" in line and "a sampled configuration" in line
+    assert "RuntimeWarning" not in result.output and "not controllable" not in result.output
+    checked = runner.invoke(app, ["check", str(path)])
+    assert checked.exit_code == 2 and "model.fields" in checked.output
+    assert "RuntimeWarning" not in checked.output

@@ -27,6 +27,7 @@ def _vec(q: np.ndarray) -> list[float]:
     return [float(x) for x in np.asarray(q, dtype=float)]
 
 
+@np.errstate(all="ignore")  # a model that overflows is told in model_problems
 def check_document(
     system: System,
     strata: Sequence[str],
@@ -93,6 +94,7 @@ def check_document(
         "problems": [],
     }
     problems: list[str] = []
+    model_problems: list[str] = []  # the model cannot be evaluated (its fields overflow)
     warnings: list[str] = []
     if legs is not None:
         doc["legs"] = []
@@ -116,13 +118,20 @@ def check_document(
                     "reach": None if estimate is None else _reach_doc(system, estimate),
                 }
             )
-            if not leg.ok:
+            where = f"q = ({', '.join(f'{x:.4g}' for x in leg.failure)})" if not leg.ok else ""
+            if not leg.ok and leg.failure_sampled:
+                where += ", a sampled configuration"
+            if not leg.ok and not leg.failure_finite:  # not a rank: bad input (exit 2)
+                model_problems.append(
+                    f"the fields of stratum {leg.stratum} or their brackets are not finite "
+                    f"(an overflow or a division by zero) at {where}; check the expressions"
+                )
+            elif not leg.ok:
                 problems.append(
                     f"leg {leg.index + 1} on {leg.stratum}: its generators and brackets (up to "
                     f"degree {MAX_DEGREE}) span only {leg.failure_rank} of the {len(names)} "
-                    f"coordinates it steers ({', '.join(names)}) at q = "
-                    f"({', '.join(f'{x:.4g}' for x in leg.failure)}); steer fewer coordinates "
-                    'on this leg (goal "*") or use another stratum'
+                    f"coordinates it steers ({', '.join(names)}) at {where}; steer fewer "
+                    'coordinates on this leg (goal "*") or use another stratum'
                 )
     elif not seq.controllable:
         worst = int(np.argmin(seq.cross_rank if seq.cross_rank is not None else seq.sum_rank))
@@ -134,8 +143,9 @@ def check_document(
             "brackets across strata: not stratified controllable (eq. 2)"
         )
     doc["problems"] = problems
+    doc["model_problems"] = model_problems
     doc["warnings"] = warnings
-    doc["controllable"] = not problems
+    doc["controllable"] = not problems and not model_problems
     return doc
 
 

@@ -69,6 +69,8 @@ def controllability_first(
         degree=max([degree, *lie]),
         legs=task.legs or None,
     )
+    if doc["model_problems"]:
+        raise InputError([Problem("model.fields", p) for p in doc["model_problems"]], task.source)
     if doc["problems"]:
         raise NotControllableError(doc["problems"], task.source)
     for warning in doc["warnings"] if warn is not None else ():

@@ -256,10 +256,14 @@ def check(
         render.print_json(report.document)
     else:
         check_report(report)
+    for problem in report.document.get("model_problems", ()):
+        render.error("error", f"{target}: model.fields: {problem}")
     for problem in report.problems:
         render.error("not controllable", problem)
     for warning in report.document.get("warnings", ()):
         _warning(warning)
+    if report.document.get("model_problems"):
+        raise typer.Exit(2)
     raise typer.Exit(0 if report.controllable else 3)
 
 
