@@ -148,7 +148,7 @@ def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> int:
     axes[-1].set_xlabel("time [s]")
     keys = (["- - switch"] if switches else []) + (["│ Lie step"] if steps else [])
     if keys:
-        axes[0].figure.text(0.005, 0.995, "   ".join(keys), color="0.3", va="top", fontsize=8)
+        axes[0].figure.text(0.015, 0.975, "   ".join(keys), color="0.3", va="top", fontsize=8)
     return notes
 
 
@@ -227,7 +227,7 @@ def _mark_goals(plan: SequencePlan, axes: list[Any]) -> None:
         )
     if any(ends):
         axes[0].figure.text(
-            0.995, 0.995, "○ goal of the leg", color=GOAL_COLOR, ha="right", va="top", fontsize=8
+            0.985, 0.975, "○ goal of the leg", color=GOAL_COLOR, ha="right", va="top", fontsize=8
         )
 
 
