@@ -152,14 +152,15 @@ class _Search(Descent):
         problem, z = self.problem, self.z
         g, G = self.margins(z)
         J, Z = self._subspace(z)
-        inv = np.where(g < REACH, 1.0 / g, 0.0)
-        slope_b = inv - np.where(g < REACH, 1.0 / REACH, 0.0)  # -b'(g), per row
-        grad = problem.energy_grad(z) - (mu / NODES) * (G.T @ slope_b)
+        near = np.flatnonzero(g < REACH)  # the barrier is flat (and zero) beyond REACH
+        inv = 1.0 / g[near]
+        slope_b = inv - 1.0 / REACH  # -b'(g), per row near
+        grad = problem.energy_grad(z) - (mu / NODES) * (G[near].T @ slope_b)
         reduced = Z.T @ grad
         if np.linalg.norm(reduced) <= 1e-9 * np.linalg.norm(grad):
             return False
         lagrange = -np.linalg.lstsq(J.T, grad, rcond=None)[0]
-        GZ = (G @ Z) * inv[:, None]
+        GZ = (G[near] @ Z) * inv[:, None]
         R = Z.T @ (self.H0 + problem.constraint_hessian(z, lagrange)) @ Z
         R += (mu / NODES) * (GZ.T @ GZ)
         low = float(np.linalg.eigvalsh(R)[0]) / 2.0 if R.size else np.inf
