@@ -24,6 +24,7 @@ from pydantic import (
 from . import tomlwrite
 from .constraints import Constraints, ConstraintsSpec, check_configuration, resolve
 from .controls import MAX_PERIODS_PER_LEG
+from .endpoint import evaluator_problems
 from .errors import InputError, Problem
 from .models.numbers import parse_number
 from .models.presets import PRESETS
@@ -372,18 +373,7 @@ def _resolve(scenario: Scenario, source: str, text: str, system: System | None =
     if problems:
         raise InputError(problems)
     settings = p
-    if p.evaluator == "quadrature":
-        for leg in legs:
-            if not system.compiled(leg.stratum).supports_quadrature:
-                problems.append(
-                    Problem(
-                        "planner.evaluator",
-                        f"stratum {leg.stratum} does not allow the "
-                        "quadrature path (a non-constant row depends on a non-explicit "
-                        "coordinate); use 'auto' or 'ode'",
-                    )
-                )
-    if problems:
+    if problems := evaluator_problems(system, p.evaluator, [leg.stratum for leg in legs]):
         raise InputError(problems)
 
     check_legs(system, start, legs, settings)
