@@ -19,7 +19,8 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from .controls import FourierBasis
-from .models.system import CompiledStratum
+from .errors import Problem
+from .models.system import CompiledStratum, System
 
 PANEL = 32  # Gauss–Legendre nodes per panel of the composite rule
 MIN_NODES = 64
@@ -333,13 +334,48 @@ class OdeEndpoint(_Endpoint):
         return (y[:n], y[n:].reshape(n, p)) if jacobian else (y[:n], None)
 
 
+def evaluator_problems(system: System, evaluator: str, strata) -> list[Problem]:
+    """Why `planner.evaluator` cannot be used on these strata of `system`, so that what is
+    asked is what runs: "magnus" only on URDF models (their attitude on SO(3)), "quadrature"
+    not on them and only where the structure allows it ("auto" and "ode" run anywhere)."""
+    urdf = getattr(system, "spatial", None) is not None
+    if evaluator == "magnus" and not urdf:
+        return [
+            Problem(
+                "planner.evaluator",
+                "'magnus' is the evaluator of URDF models (their attitude on SO(3)); on "
+                "this model use 'auto', 'quadrature' or 'ode'",
+            )
+        ]
+    if evaluator == "quadrature" and urdf:
+        return [
+            Problem(
+                "planner.evaluator",
+                "a URDF model has no quadrature path: its attitude is integrated on SO(3) by "
+                "the Magnus method; use 'auto' or 'magnus' (or 'ode', much slower)",
+            )
+        ]
+    if evaluator != "quadrature":
+        return []
+    return [
+        Problem(
+            "planner.evaluator",
+            f"stratum {name} does not allow the quadrature path (a non-constant row depends "
+            "on a non-explicit coordinate); use 'auto' or 'ode'",
+        )
+        for name in dict.fromkeys(strata)
+        if not system.compiled(name).supports_quadrature
+    ]
+
+
 def make_endpoint(
     cs: CompiledStratum, q0, basis: FourierBasis, duration: float, evaluator: str = "auto"
 ) -> _Endpoint:
     """The quadrature path when the structure allows it (or when asked), else the ODE path.
 
     A stratum with an end-point map of its own (`endpoint`: spatial models, whose attitude is
-    integrated on SO(3)) uses it unless the ODE path is asked for."""
+    integrated on SO(3) by the Magnus method) uses it unless the ODE path is asked for;
+    `evaluator_problems` refuses "quadrature" on them and "magnus" elsewhere."""
     own = getattr(cs, "endpoint", None)
     if own is not None and evaluator != "ode":
         return own(q0, basis, duration)

@@ -24,6 +24,7 @@ from pydantic import (
 from . import tomlwrite
 from .constraints import Constraints, ConstraintsSpec, check_configuration, resolve
 from .controls import MAX_PERIODS_PER_LEG
+from .endpoint import evaluator_problems
 from .errors import InputError, Problem
 from .models.numbers import parse_number
 from .models.presets import PRESETS
@@ -35,6 +36,7 @@ from .models.specs import (
 from .models.system import System
 from .node_margins import searchable
 from .planners import PLANNERS
+from .scenario_hints import hinted
 from .schema_problems import validation_problems
 from .settings import (
     MAX_DURATION,
@@ -174,7 +176,7 @@ def _from_raw(
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(validation_problems(exc, root=Scenario), source) from None
+        raise InputError(hinted(validation_problems(exc, root=Scenario), raw), source) from None
     if text is None:  # a dict: record it as the TOML file it stands for
         try:
             text = tomlwrite.dumps(raw)
@@ -190,14 +192,16 @@ def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[P
     """A Lie leg's settings: [planner.lie] with the leg's own `lie` keys on top."""
     if entry.method != "lie" or entry.lie is None:
         return None
+    where = f"legs[{i}].lie"
     try:
         return dataclasses.replace(planner.lie, **entry.lie)
-    except ValidationError as exc:
-        problems.extend(validation_problems(exc, ("legs", i, "lie"), root=Scenario))
+    except ValidationError as exc:  # an unknown key lists those of [planner.lie]
+        found = validation_problems(exc, root=LieSettings)
+        problems.extend(InputError(found).prefixed(where).problems)
     except TypeError:  # an unknown key (dataclasses.replace refuses it before pydantic)
         names = [f.name for f in dataclasses.fields(LieSettings)]
         known, unknown = ", ".join(names), ", ".join(sorted(set(entry.lie) - set(names)))
-        problems.append(Problem(f"legs[{i}].lie", f"unknown key {unknown} (allowed: {known})"))
+        problems.append(Problem(where, f"unknown key {unknown} (allowed: {known})"))
     return None
 
 
@@ -272,6 +276,14 @@ def _resolve(scenario: Scenario, source: str, text: str, system: System | None =
                 "mode: stratplan finds the sequence); the scenario has neither",
             )
         )
+    elif scenario.legs is not None and scenario.decompose is not None:
+        problems.append(
+            Problem(
+                "decompose",
+                "give either [[legs]] (the strata in order) or a [decompose] table (auto "
+                "mode), not both",
+            )
+        )
     for i, name in enumerate((scenario.decompose.strata or []) if scenario.decompose else []):
         if name not in system.strata:
             problems.append(
@@ -284,7 +296,8 @@ def _resolve(scenario: Scenario, source: str, text: str, system: System | None =
         where = f"legs[{i}]"
         if entry.method not in PLANNERS:
             known = " or ".join(repr(m) for m in PLANNERS)
-            problems.append(Problem(f"{where}.method", f"Input should be {known}"))
+            got = f"(got {entry.method!r})"
+            problems.append(Problem(f"{where}.method", f"Input should be {known} {got}"))
             continue
         if entry.stratum not in system.strata:
             problems.append(
@@ -360,18 +373,7 @@ def _resolve(scenario: Scenario, source: str, text: str, system: System | None =
     if problems:
         raise InputError(problems)
     settings = p
-    if p.evaluator == "quadrature":
-        for leg in legs:
-            if not system.compiled(leg.stratum).supports_quadrature:
-                problems.append(
-                    Problem(
-                        "planner.evaluator",
-                        f"stratum {leg.stratum} does not allow the "
-                        "quadrature path (a non-constant row depends on a non-explicit "
-                        "coordinate); use 'auto' or 'ode'",
-                    )
-                )
-    if problems:
+    if problems := evaluator_problems(system, p.evaluator, [leg.stratum for leg in legs]):
         raise InputError(problems)
 
     check_legs(system, start, legs, settings)

@@ -78,8 +78,8 @@ class PlannerSettings:
     basis : the Fourier control basis (paper eq. 30).
     max_iterations, restarts, seed : Newton iterations per attempt, extra seeded attempts,
         and the seed of every random choice.
-    evaluator : end-point map: "auto" (quadrature where the structure allows), "quadrature",
-        "ode".
+    evaluator : end-point map: "auto" (quadrature where the structure allows; Magnus on URDF
+        models), "quadrature", "ode", "magnus" (URDF models only).
     objective : "energy" (minimum ∫|u|² over all legs, beyond the paper) or "newton" (the
         paper's method, leg by leg).
     starts : deterministic starts of the energy search: the Newton plan pulled toward least
@@ -103,7 +103,7 @@ class PlannerSettings:
     max_iterations: Annotated[Int, Field(ge=1, le=10_000)] = 100
     restarts: Annotated[Int, Field(ge=0, le=1000)] = 11
     seed: Annotated[Int, Field(ge=0, lt=2**63)] = 0
-    evaluator: Literal["auto", "quadrature", "ode"] = "auto"
+    evaluator: Literal["auto", "quadrature", "ode", "magnus"] = "auto"
     objective: Literal["energy", "newton"] = "energy"
     starts: Annotated[Int, Field(ge=1, le=64)] = 2
     search: Literal["starts", "legwise"] = "starts"

@@ -192,8 +192,10 @@ def _evaluator_kind(problem: LegProblem) -> str:
     """The end-point evaluator a leg uses (or was to use, when it failed)."""
     if problem.evaluator != "auto":
         return problem.evaluator
-    quadrature = problem.system.compiled(problem.stratum).supports_quadrature
-    return "quadrature" if quadrature else "ode"
+    cs = problem.system.compiled(problem.stratum)
+    if getattr(cs, "endpoint", None) is not None:  # a URDF model's attitude on SO(3)
+        return "magnus"
+    return "quadrature" if cs.supports_quadrature else "ode"
 
 
 def _count(n: int, noun: str) -> str:

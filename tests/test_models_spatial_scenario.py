@@ -166,6 +166,26 @@ def test_lie_legs_are_rejected_on_urdf_models():
         parse_scenario(text)
 
 
+def test_the_evaluator_asked_is_the_one_that_runs():
+    """`models` shows "magnus" on URDF models: it is accepted there and planned with; a
+    "quadrature" request is refused rather than silently replaced, "magnus" elsewhere too."""
+    asked = _text().replace("[[legs]]", '[planner]\nevaluator = "{}"\n[[legs]]')
+    task = parse_scenario(asked.format("magnus"))
+    out = plan_run(task, check=False)
+    assert [leg["evaluator"] for leg in out.document["legs"]] == ["magnus"]
+    with pytest.raises(InputError) as err:
+        parse_scenario(asked.format("quadrature"))
+    assert str(err.value) == (
+        "<scenario>: planner.evaluator: a URDF model has no quadrature path: its attitude is "
+        "integrated on SO(3) by the Magnus method; use 'auto' or 'magnus' (or 'ode', much slower)"
+    )
+    preset = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    with pytest.raises(
+        InputError, match=r"^<scenario>: planner\.evaluator: .magnus. is the evaluator of URDF"
+    ):
+        parse_scenario(preset.replace("[planner]", '[planner]\nevaluator = "magnus"'))
+
+
 def test_auto_mode_ranks_spatial_sequences_and_the_best_verifies():
     from stratcli.api import plan_auto
 

@@ -178,6 +178,23 @@ def test_a_shipped_plan_that_self_collides_is_planned_clear_with_the_constraints
     assert worst >= 0
 
 
+@pytest.mark.parametrize("objective", ["energy", "newton"])
+def test_limits_by_name_hold_the_base_angle_theta_too(objective):
+    """`joint_limits = { theta = [...] }` bounds the base angle, not only joints (README)."""
+    free_task = load_scenario(_raw("sim4_task_d.toml", objective=objective))
+    free = _dense(free_task, plan_run(free_task, check=False).document)
+    assert free[:, 3].min() < -2.5  # the free plan turns the base beyond the limit
+    raw = _raw("sim4_task_d.toml", objective=objective)
+    raw["constraints"] = {"joint_limits": {"theta": [-2.5, 2.5]}}
+    task = load_scenario(raw)
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    verify(task, outcome.document)  # goals, continuity and energies re-integrated
+    q = _dense(task, outcome.document)
+    assert np.abs(q[:, 3]).max() <= 2.5 + 1e-6
+    assert np.abs(q[:, :3]).max() > 2.5  # the joints are not limited: only theta is named
+
+
 @pytest.mark.slow
 def test_a_task_the_search_cannot_plan_fails_naming_the_limit_and_the_leg(tmp_path):
     # task A within ±2.5 rad with the paper's 3 harmonics: the S2 leg's loops do not fit

@@ -11,6 +11,11 @@ from ..errors import InputError, Problem
 from ..scenario import Task
 from ..settings import DecomposeSettings
 
+UNUSED_LEGS = (
+    "the scenario's [[legs]] are not used here: its task.start -> task.goal is decomposed "
+    "afresh (stratplan plan plans the legs)"
+)
+
 
 @dataclass(frozen=True)
 class AutoSettings:
@@ -21,6 +26,7 @@ class AutoSettings:
     criterion: str
     strata: tuple[str, ...] | None
     origin: dict[str, str]  # field -> "decompose.<field>" (file), "--<option>" or "default"
+    notes: tuple[str, ...] = ()  # for the user: the scenario's [[legs]] are not used here
 
 
 def auto_settings(
@@ -52,7 +58,10 @@ def auto_settings(
     origin["strata"] = "decompose.strata" if strata is not None else "task.goal"
     strategy_value = values["strategy"]
     strategies = STRATEGIES if strategy_value == "both" else (strategy_value,)
-    return AutoSettings(values["max_length"], strategies, values["criterion"], strata, origin)
+    notes = () if task.scenario.legs is None else (UNUSED_LEGS,)
+    return AutoSettings(
+        values["max_length"], strategies, values["criterion"], strata, origin, notes
+    )
 
 
 def decompose_task(task: Task, auto: AutoSettings) -> Decomposition:

@@ -184,6 +184,7 @@ def compare_sequences(
         outcome = api.compare_sequences(
             task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
         )
+    render.notes(outcome.settings.notes)
     with render.phases(interactive) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:
@@ -215,6 +216,7 @@ def decompose(
     task = _load(file)
     with render.reported():
         outcome = api.decompose(task, max_length=max_length, strategy=strategy)
+    render.notes(outcome.settings.notes)
     if json_output:
         render.print_json(outcome.document)
     else:

@@ -8,7 +8,7 @@ terminal is not wrapped at all (`Stream`): a pipe or a file gets each line whole
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -73,6 +73,12 @@ def say(text: str) -> None:
 def error(label: str, message: str) -> None:
     """`label: message` on stderr, label in bold red (message is plain text)."""
     err_console.print(f"[bold red]{label}:[/] {escape(message)}", highlight=False, soft_wrap=True)
+
+
+def notes(texts: Iterable[str]) -> None:
+    """One `note:` line each on stderr (not in the way of --json on stdout)."""
+    for text in texts:
+        err_console.print(f"note: {escape(text)}", highlight=False, soft_wrap=True)
 
 
 def print_json(doc: Any) -> None:

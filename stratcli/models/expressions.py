@@ -82,7 +82,7 @@ def parse_expression(text: str, symbols: dict[str, sp.Symbol] | None = None) -> 
     except (RecursionError, MemoryError):
         raise ExpressionError(f"{shown!r} is nested too deeply") from None
     _check_size(tree.body, shown)
-    allowed = ", ".join(sorted(symbols)) or "none"
+    allowed = _allowed(symbols)
     try:
         expr = _translate(tree.body, symbols, shown, allowed)
     except ExpressionError:
@@ -92,6 +92,14 @@ def parse_expression(text: str, symbols: dict[str, sp.Symbol] | None = None) -> 
     if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
         raise ExpressionError(f"in {shown!r}: the value is infinite or undefined")
     return expr
+
+
+def _allowed(symbols: dict[str, sp.Symbol]) -> str:
+    """What an expression may name, for the message of an unknown name."""
+    functions = ", ".join(sorted(FUNCTIONS))
+    if not symbols:
+        return f"only numbers, pi (π), E, + - * / ** and the functions {functions}"
+    return f"allowed names: {', '.join(sorted(symbols))}, pi (π), E; functions: {functions}"
 
 
 def _check_size(root: ast.AST, text: str) -> None:
@@ -156,7 +164,7 @@ def _node(node: ast.AST, rec, symbols: dict[str, sp.Symbol], text: str, allowed:
             return CONSTANTS[node.id]
         if node.id in FUNCTIONS:
             raise ExpressionError(f"in {text!r}: function {node.id!r} must be called")
-        raise ExpressionError(f"in {text!r}: unknown name {node.id!r} (allowed names: {allowed})")
+        raise ExpressionError(f"in {text!r}: unknown name {node.id!r} ({allowed})")
     if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
         left, right = rec(node.left), rec(node.right)
         if isinstance(node.op, ast.Pow):

@@ -1,0 +1,47 @@
+"""Hints added to the validation problems of a scenario for the mistakes that are easy to make
+and that pydantic's own words do not explain: a single `[legs]` table, and a configuration
+written as a table of names on a model that is not a URDF robot."""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from pydantic import ValidationError
+
+from .errors import InputError, Problem
+
+__all__ = ["hinted"]
+
+_LIST = "Input should be a valid list"
+_CONFIGURATION = re.compile(r"^(task\.(start|goal)|legs\[\d+\]\.goal)$")
+
+
+def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
+    """`problems` with a hint where a table was given for a list (`raw` is the file, after
+    `prepare_urdf` has turned a URDF model's named configurations into lists)."""
+    out = []
+    for p in problems:
+        hint = None
+        if p.message.startswith(_LIST) and p.path == "legs" and isinstance(raw.get("legs"), dict):
+            hint = "write [[legs]] (an array of tables), one per leg"
+        elif p.message.startswith(_LIST) and _CONFIGURATION.match(p.path):
+            hint = (
+                "a configuration by name (a table) is for URDF models only; write a list of "
+                f"the model's coordinates in order ({_coordinates(raw.get('model'))})"
+            )
+        if hint is not None:
+            head, got, tail = p.message.partition(" (got ")
+            p = Problem(p.path, f"{head}: {hint}{got}{tail}")
+        out.append(p)
+    return out
+
+
+def _coordinates(model: Any) -> str:
+    """The coordinates of the scenario's model, or how to list them if it has none yet."""
+    from .models.specs import _SPEC, build_system
+
+    try:
+        return ", ".join(build_system(_SPEC.validate_python(model)).states)
+    except (ValidationError, InputError):
+        return "`stratplan models FILE` lists them"

@@ -1,0 +1,109 @@
+"""Scenario mistakes a newcomer makes, each refused in one line that says what to write
+instead: [[legs]] with [decompose], a single [legs] table, a name table on a preset, an
+unknown name in an angle, a misspelt Lie key or method (and the `decompose` note)."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import ROOT
+from typer.testing import CliRunner
+
+from stratcli.cli import app
+from stratcli.errors import InputError
+from stratcli.scenario import load_scenario
+
+TASK_D = ROOT / "scenarios" / "sim4_task_d.toml"
+TEXT = TASK_D.read_text()
+LAST_LEG = '[[legs]]\nstratum = "S1"\n'
+GOAL = 'goal = ["-pi/3", "pi/3", "pi/4", "-pi/12"]'
+runner = CliRunner()
+
+
+def _problem(tmp_path, text: str) -> str:
+    """The one error line of loading `text` (a scenario file)."""
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    with pytest.raises(InputError) as info:
+        load_scenario(path)
+    lines = str(info.value).splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"{path}: "), lines
+    return lines[0].removeprefix(f"{path}: ")
+
+
+def test_legs_and_decompose_together_are_refused(tmp_path):
+    line = _problem(tmp_path, TEXT + "\n[decompose]\nmax_length = 3\n")
+    assert line == (
+        "decompose: give either [[legs]] (the strata in order) or a [decompose] table "
+        "(auto mode), not both"
+    )
+    path = tmp_path / "s.toml"
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
+    assert result.exit_code == 2 and not (tmp_path / "runs").exists()
+    assert f"error: {path}: decompose: give either" in result.output
+
+
+def test_no_shipped_scenario_gives_both():
+    for path in sorted((ROOT / "scenarios").rglob("*.toml")):
+        if path.parent.name != "sweeps":  # sweep files are not scenarios
+            task = load_scenario(path)
+            assert task.scenario.legs is None or task.scenario.decompose is None, path
+
+
+def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
+    result = runner.invoke(app, ["decompose", str(TASK_D), "--json"])
+    assert result.exit_code == 0
+    assert "[[legs]] are not used here" in result.stderr
+    assert "note:" not in result.stdout  # the JSON stays clean
+    auto = runner.invoke(app, ["decompose", str(ROOT / "scenarios" / "sim4_auto.toml")])
+    assert auto.exit_code == 0 and "note:" not in auto.output
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        (
+            'start = [0, "pi/4", 0, 0]',
+            'start = [0, "abc", 0, 0]',
+            "task.start[1]: in 'abc': unknown name 'abc' (only numbers, pi (π), E, + - * / ** "
+            "and the functions abs, acos,",
+        ),
+        (
+            LAST_LEG,
+            "",
+            "legs: Input should be a valid list: write [[legs]] (an array of tables), one per "
+            "leg (got {'stratum': 'S3'",
+        ),
+        (
+            GOAL,
+            'goal = { q1 = "-pi/3", q2 = "pi/3", q3 = "pi/4", q4 = "-pi/12" }',
+            "task.goal: Input should be a valid list: a configuration by name (a table) is for "
+            "URDF models only; write a list of the model's coordinates in order "
+            "(q1, q2, q3, theta) (got {'q1'",
+        ),
+        (
+            LAST_LEG,
+            LAST_LEG + 'method = "lie"\nlie = { step_duraton = 0.5 }\n',
+            "legs[1].lie.step_duraton: unknown key (allowed: step_duration, gamma, degree, "
+            "max_steps, alpha, rest)",
+        ),
+        (
+            LAST_LEG,
+            LAST_LEG + 'method = "Newton"\n',
+            "legs[1].method: Input should be 'lie' or 'newton' (got 'Newton')",
+        ),
+    ],
+    ids=["angle name", "single legs table", "name table on a preset", "lie key", "method"],
+)
+def test_messages_say_what_to_write(tmp_path, old, new, expected):
+    text = TEXT.replace(old, new)
+    if new == "":  # [legs] once: a table, not an array of tables
+        text = text.replace("[[legs]]", "[legs]")
+    assert text != TEXT
+    assert _problem(tmp_path, text).startswith(expected)
+
+
+def test_check_at_names_what_an_angle_may_use():
+    result = runner.invoke(app, ["check", "one-arm", "--at", "0,pi/3,0,foo"])
+    assert result.exit_code == 2
+    assert "unknown name 'foo' (only numbers, pi (π), E" in result.output
+    assert "allowed names: none" not in result.output
