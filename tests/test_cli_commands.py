@@ -11,6 +11,7 @@ from conftest import ROOT, UNICYCLE, plan_record
 from typer.testing import CliRunner
 
 import stratcli.cli as cli
+from stratcli import load_scenario
 from stratcli.cli import app
 from stratcli.records.comparison import without_timings
 from stratcli.records.store import read_record
@@ -375,6 +376,10 @@ def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, ne
         assert best["total_energy"] == doc["rows"][0]["energy"]
         resolved = json.loads((run_dir / "resolved.json").read_text())
         assert [leg["stratum"] for leg in resolved["legs"]] == doc["rows"][0]["sequence"]
+        # a plain scenario of the chosen sequence: it loads as it is (no [decompose] beside)
+        assert resolved.get("decompose") is None
+        again = load_scenario(resolved)
+        assert [leg.stratum for leg in again.legs] == doc["rows"][0]["sequence"]
         assert runner.invoke(cli.app, ["show", str(run_dir)]).exit_code == 0
         docs.append(doc)
         results.append(best)

@@ -20,10 +20,9 @@ from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
 from ..scenario import LegEntry, Task, load_scenario
 from ..sequence import SequencePlan
-from ..settings import DecomposeSettings
 from ..stratified import time_scaled
 from ..trie import default_jobs
-from .auto import AutoSettings, auto_settings, compare_decomposition, decompose_task
+from .auto import auto_settings, compare_decomposition, decompose_task
 from .inspection import controllability_first
 from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
 
@@ -272,7 +271,7 @@ def compare_sequences(
         compile_time=compile_time,
     )
     best = comparison.best
-    best_task = with_legs(task, auto, best.candidate.legs)
+    best_task = with_legs(task, best.candidate.legs)
     timings = Timings(started.isoformat(), compile_time, comparison.wall_time)
     result = _named(best.plan, task, timings)
     plan = PlanOutcome(
@@ -346,19 +345,15 @@ def _decomposition(task: Task, max_length, strategy, criterion=None):
     return auto, decompose_task(task, auto)
 
 
-def with_legs(task: Task, auto: AutoSettings, legs) -> Task:
-    """The scenario rewritten with a chosen sequence's legs (what resolved.json records)."""
+def with_legs(task: Task, legs) -> Task:
+    """The scenario rewritten with a chosen sequence's legs (what resolved.json records): a
+    plain scenario that plans that sequence again. The [decompose] table that chose it is
+    left out (a scenario gives one or the other); comparison.json keeps its settings."""
     entries = [
         LegEntry(stratum=leg.stratum, method=leg.method, goal=list(leg.goal), duration=leg.duration)
         for leg in legs
     ]
-    decompose_spec = DecomposeSettings(
-        max_length=auto.max_length,
-        strategy="both" if len(auto.strategies) > 1 else auto.strategies[0],
-        criterion=auto.criterion,
-        strata=tuple(auto.strata) if auto.strata else None,
-    )
-    scenario = task.scenario.model_copy(update={"legs": entries, "decompose": decompose_spec})
+    scenario = task.scenario.model_copy(update={"legs": entries, "decompose": None})
     return dataclasses.replace(task, scenario=scenario, legs=list(legs))
 
 

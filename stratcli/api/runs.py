@@ -181,7 +181,6 @@ def _outcome_of(plan: SequencePlan) -> PlanOutcome:
     """What a record needs of a plan value: its scenario (re-read from the plan's text)."""
     from ..scenario import load_scenario  # start-up speed (module comment)
     from ..stratified import LegSpec
-    from .auto import auto_settings
     from .planning import PlanOutcome, with_legs
 
     if not plan.scenario_text:
@@ -192,7 +191,7 @@ def _outcome_of(plan: SequencePlan) -> PlanOutcome:
     task = load_scenario(plan.scenario_text, name=plan.scenario or "<plan>")
     if not task.legs:  # auto mode: record the chosen sequence, as `stratplan plan` does
         legs = [LegSpec(leg.stratum, leg.goal, leg.method, leg.duration) for leg in plan.legs]
-        task = with_legs(task, auto_settings(task), legs)
+        task = with_legs(task, legs)
     try:
         started = datetime.fromisoformat(plan.timings.started)
     except ValueError:
