@@ -87,6 +87,16 @@ def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstac
         assert any(what == "an obstacle" for _, what in margins.labels)
 
 
+def _jacobian_differences(margins, z, weights, rng):
+    """A random unit direction and the central difference of `Gᵀ weights` along it."""
+    direction = rng.normal(size=z.size)
+    direction /= np.linalg.norm(direction)
+    h = 1e-4
+    plus = margins(z + h * direction)[1].T @ weights
+    minus = margins(z - h * direction)[1].T @ weights
+    return direction, (plus - minus) / (2 * h)
+
+
 @pytest.mark.parametrize(
     ("scenario", "kind"),
     [("sim4_task_d_constrained", "self-collision"), ("sim4_task_d_obstacles", "an obstacle")],
@@ -109,12 +119,7 @@ def test_the_clearances_curvature_equals_differences_of_their_jacobian(scenario,
     weights[rng.choice(rows, 5, replace=False)] = rng.uniform(0.5, 2.0, 5)
     H = margins.curvature(z, weights)
     assert np.allclose(H, H.T)
-    direction = rng.normal(size=z.size)
-    direction /= np.linalg.norm(direction)
-    h = 1e-4
-    plus = margins(z + h * direction)[1].T @ weights
-    minus = margins(z - h * direction)[1].T @ weights
-    numeric = (plus - minus) / (2 * h)
+    direction, numeric = _jacobian_differences(margins, z, weights, rng)
     assert np.abs(numeric).max() > 1e-3  # a curvature to compare
     np.testing.assert_allclose(H @ direction, numeric, rtol=2e-2, atol=2e-3 * np.abs(numeric).max())
 
@@ -132,11 +137,6 @@ def test_the_curvature_of_limits_on_theta_is_its_exact_curvature_at_the_nodes():
     rng = np.random.default_rng(1)
     weights = rng.uniform(0.0, 1.0, g.size) * (rng.uniform(size=g.size) < 0.2)
     H = margins.curvature(z, weights)
-    direction = rng.normal(size=z.size)
-    direction /= np.linalg.norm(direction)
-    h = 1e-4
-    plus = margins(z + h * direction)[1].T @ weights
-    minus = margins(z - h * direction)[1].T @ weights
-    numeric = (plus - minus) / (2 * h)
+    direction, numeric = _jacobian_differences(margins, z, weights, rng)
     assert np.abs(numeric).max() > 1e-2  # a curvature to compare
     np.testing.assert_allclose(H @ direction, numeric, atol=1e-6 * np.abs(numeric).max())
