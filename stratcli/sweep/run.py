@@ -248,6 +248,9 @@ def run_sweep(
     clock, started = time.perf_counter(), datetime.now(UTC)
     rows = sweepdir.prepare(out, spec_document(sweep), sweep.text, resume)
     rows = {k: v for k, v in rows.items() if 0 <= k < sweep.count}
+    finished = _finished(out, rows, sweep.count) if resume else None
+    if finished is not None:  # nothing to plan: the summary as written, files untouched
+        return finished
     resumed = len(rows)
     own = executor is None
     if own:
@@ -306,6 +309,21 @@ def run_sweep(
         sweep, out, rows, info, wall, planned, resumed, missing, started.isoformat()
     )
     return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)
+
+
+def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOutcome | None:
+    """The outcome of a sweep that has every row and the sweep.json saying so, or None."""
+    if len(rows) < count:
+        return None
+    try:
+        summary = json.loads((out / sweepdir.SUMMARY).read_text())
+    except (OSError, ValueError):
+        return None  # killed before its summary: the tables, plots and summary are written
+    if not isinstance(summary, dict) or summary.get("done") != count:
+        return None
+    names = (sweepdir.TABLE, *summary.get("plots", ()))
+    files = [out / name for name in names if (out / name).is_file()]
+    return SweepOutcome(out, rows, summary, 0, len(rows), [], files)
 
 
 def _submit(executor, futures: dict, todo: Iterator, window: int, sweep: Sweep, records) -> bool:
