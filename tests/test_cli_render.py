@@ -249,3 +249,24 @@ def test_a_plan_the_final_pass_changed_says_what_the_legs_ended_at(monkeypatch, 
     doc["total_energy"] = 0.999 * doc["total_energy"]
     text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
     assert f"; re-chained: {render.fmt(doc['total_energy'])}; plain Newton:" in text
+
+
+def test_the_record_line_names_the_animation_when_one_was_written(tmp_path):
+    runner = CliRunner()
+    for flag in ("--animation", "--no-animation"):
+        out = tmp_path / flag
+        result = runner.invoke(app, ["plan", str(TASK_D), "--out", str(out), flag])
+        assert result.exit_code == 0, result.output
+        (run_dir,) = out.iterdir()
+        last = result.stdout.splitlines()[-1]
+        gif = run_dir / "motion.gif"
+        assert gif.is_file() == (flag == "--animation")
+        assert last.endswith(
+            f"record: {run_dir} · animation: {gif}" if gif.is_file() else f"record: {run_dir}"
+        )
+
+
+def test_a_footer_names_the_animation_beside_the_record(tmp_path):
+    assert render.record(tmp_path) == f"record: {tmp_path}"
+    (tmp_path / "motion.gif").write_bytes(b"GIF89a")
+    assert render.record(tmp_path) == f"record: {tmp_path} · animation: {tmp_path / 'motion.gif'}"

@@ -307,8 +307,15 @@ def plan_footer(outcome, run_dir: Path) -> None:
     say(
         f"planned in {outcome.planning_time * 1e3:.0f} ms (model compiled in "
         f"{outcome.compile_time * 1e3:.0f} ms)"
-        f"{'' if total is None else f' · {total:.2f} s in all'} · record: {run_dir}"
+        f"{'' if total is None else f' · {total:.2f} s in all'} · {record(run_dir)}"
     )
+
+
+def record(run_dir: Path) -> str:
+    """`record: DIR` for a footer, and the animation when one was written (--animation)."""
+    gif = Path(run_dir) / "motion.gif"
+    animation = f" · animation: {gif}" if gif.is_file() else ""
+    return escape(f"record: {run_dir}{animation}")
 
 
 def run_record(record, log: dict | None) -> None:
