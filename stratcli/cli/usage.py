@@ -8,20 +8,22 @@ the rest of stratplan prints for bad input, naming the option and the value give
 
 from __future__ import annotations
 
+import types
 import typing
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
 import typer
-from typer._click.exceptions import (
-    BadOptionUsage,
-    BadParameter,
-    MissingParameter,
-    NoArgsIsHelpError,
-    NoSuchOption,
-    UsageError,
-)
+
+try:  # recent typer runs its own copy of click, and raises its exceptions
+    from typer._click import exceptions as _click
+except ImportError:  # older typer: click itself
+    from click import exceptions as _click
+
+UsageError = _click.UsageError
+# `stratplan` alone: the help (raised since click 8.2; before, printed without an exception)
+NoArgsIsHelpError = getattr(_click, "NoArgsIsHelpError", ())
 
 _RANGE_ERRORS = {"greater_than", "greater_than_equal", "less_than", "less_than_equal"}
 
@@ -44,24 +46,24 @@ def one_line() -> Iterator[None]:
 def describe(exc: UsageError) -> str:
     """The line for `exc`, without its `error: ` label."""
     see = f" (see {exc.ctx.command_path} --help)" if exc.ctx is not None else ""
-    if isinstance(exc, MissingParameter) and exc.param is not None:
+    if isinstance(exc, _click.MissingParameter) and exc.param is not None:
         return f"{_name(exc.param)}: missing{see}"
-    if isinstance(exc, BadParameter) and exc.param is not None:
+    if isinstance(exc, _click.BadParameter) and exc.param is not None:
         return _bad_value(exc)
-    if isinstance(exc, NoSuchOption):
+    if isinstance(exc, _click.NoSuchOption):
         close = ", ".join(sorted(exc.possibilities or ()))
         return f"{exc.option_name}: no such option" + (
             f" (did you mean {close}?)" if close else see
         )
     message = _sentence(exc.message).removeprefix("got ")  # unexpected extra argument(s)
-    if isinstance(exc, BadOptionUsage):
+    if isinstance(exc, _click.BadOptionUsage):
         message = message.removeprefix(f"option {exc.option_name!r} ")
         return f"{exc.option_name}: {message}"
     first, _, then = message.partition(". ")  # "No such command 'x'. Did you mean 'y'?"
     return f"{first} ({_sentence(then)})" if then else f"{message}{see}"
 
 
-def _bad_value(exc: BadParameter) -> str:
+def _bad_value(exc: _click.BadParameter) -> str:
     """`--option: must be ... (got VALUE)` from the parameter's declared type and range."""
     param = exc.param
     detail = _validation_error(exc)
@@ -78,7 +80,7 @@ def _bad_value(exc: BadParameter) -> str:
     return f"{_name(param)}: {must}{given}"
 
 
-def _validation_error(exc: BadParameter) -> dict[str, Any]:
+def _validation_error(exc: _click.BadParameter) -> dict[str, Any]:
     """The first pydantic error behind `exc` (typer validates values with pydantic), or {}."""
     errors = getattr(exc.__cause__, "errors", None)
     if errors is None:
@@ -98,10 +100,11 @@ def _range(param) -> str:
 
 
 def _annotation(param) -> Any:
+    """The parameter's declared type (X of `X | None`)."""
     descriptor = getattr(param, "type_descriptor", None)
     annotation = getattr(descriptor, "annotation", None)
     args = [a for a in typing.get_args(annotation) if a is not type(None)]
-    if typing.get_origin(annotation) is typing.Union and len(args) == 1:  # X | None
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType) and len(args) == 1:
         return args[0]
     return annotation
 
