@@ -107,10 +107,9 @@ def plan_with_objective(
     # widely perturbed seeded starts (feasible, and in different basins).
     seeds = [newton]
     exact = _exact_hessians(system, legs, settings)
-    if exact:
-        say(f"energy search: start 1 of {settings.starts} (the Newton plan, pulled to low energy)")
-    for k in range(1, settings.starts - 1 if exact else 1):
-        say(f"energy search: start {k + 2} of {settings.starts} (a Newton plan from a seed)")
+    seeded = settings.starts - 2 if exact else 0  # the pulled start and the plan come first
+    for k in range(1, seeded + 1):
+        say(f"energy search: a start from a seeded Newton plan ({k} of {seeded})")
         other = chain_legs(
             system,
             start,
@@ -134,11 +133,10 @@ def plan_with_objective(
     ]
     if warm_start is not None:
         stacked.insert(0, ("warm start", np.concatenate([np.ravel(c) for c in warm_start])))
-    say(f"energy search: minimum energy from {len(stacked)} starts")
-    try:
+    try:  # it says how many starts it races (the pulled start is made there)
         with np.errstate(all="ignore"):
             coefficients, search = optimise_energy(
-                system, nominal, legs, settings, targets, stacked
+                system, nominal, legs, settings, targets, stacked, progress=progress
             )
     except NUMERICAL_ERRORS as exc:
         note = (

@@ -191,14 +191,26 @@ def test_progress_is_silent_in_a_pipe(tmp_path):
     assert doc["record"] == str(next(tmp_path.iterdir()))
 
 
-def test_plan_run_reports_its_phases():
+@pytest.mark.parametrize(
+    "planner", ["", "starts = 3", 'search = "legwise"'], ids=["default", "3 starts", "legwise"]
+)
+def test_plan_run_reports_its_phases_and_the_starts_it_races(tmp_path, planner):
+    """The phases name the starts the energy search races: as many as the final line's
+    "start k of N" counts (the pulled start is one of them, the legwise start one more)."""
+    path = tmp_path / "task.toml"
+    path.write_text(TASK_D.read_text().replace("[planner]", f"[planner]\n{planner}", 1))
     phases: list[str] = []
-    outcome = api.plan_run(_task(TASK_D), progress=phases.append)
+    outcome = api.plan_run(_task(path), progress=phases.append)
     assert outcome.ok
     assert phases[0].startswith("checking controllability")
     assert "compiling the model" in phases
-    starts = [p for p in phases if p.startswith("energy search: start")]
-    assert len(starts) == outcome.task.settings.starts - 1  # start 1 is Newton's own pass
+    (racing,) = [p for p in phases if p.startswith("energy search: minimum energy from ")]
+    said = int(racing.split("from ")[1].split()[0])
+    said += sum(p.endswith("made leg by leg (legwise)") for p in phases)
+    raced = outcome.document["optimisation"]["starts"]
+    assert said == len(raced) >= 2
+    kinds = racing.split("(")[1].rstrip(")")
+    assert kinds.startswith(f"{raced[0]['from']}, {raced[1]['from']}")
 
 
 def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monkeypatch, planned):
@@ -237,3 +249,24 @@ def test_a_plan_the_final_pass_changed_says_what_the_legs_ended_at(monkeypatch, 
     doc["total_energy"] = 0.999 * doc["total_energy"]
     text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
     assert f"; re-chained: {render.fmt(doc['total_energy'])}; plain Newton:" in text
+
+
+def test_the_record_line_names_the_animation_when_one_was_written(tmp_path):
+    runner = CliRunner()
+    for flag in ("--animation", "--no-animation"):
+        out = tmp_path / flag
+        result = runner.invoke(app, ["plan", str(TASK_D), "--out", str(out), flag])
+        assert result.exit_code == 0, result.output
+        (run_dir,) = out.iterdir()
+        last = result.stdout.splitlines()[-1]
+        gif = run_dir / "motion.gif"
+        assert gif.is_file() == (flag == "--animation")
+        assert last.endswith(
+            f"record: {run_dir} · animation: {gif}" if gif.is_file() else f"record: {run_dir}"
+        )
+
+
+def test_a_footer_names_the_animation_beside_the_record(tmp_path):
+    assert render.record(tmp_path) == f"record: {tmp_path}"
+    (tmp_path / "motion.gif").write_bytes(b"GIF89a")
+    assert render.record(tmp_path) == f"record: {tmp_path} · animation: {tmp_path / 'motion.gif'}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 
+from conftest import plan_record
 from sweep_files import AUTO, GRID, RANDOM, write
 from typer.testing import CliRunner
 
@@ -68,3 +69,47 @@ def test_show_of_an_unfinished_sweep_counts_its_rows(tmp_path):
     shown = runner.invoke(app, ["show", str(out)])
     assert shown.exit_code == 0 and "4 of 6 tasks done" in shown.output
     assert "not finished" in shown.output
+
+
+def test_a_finished_sweep_is_not_run_again_and_resume_only_reprints_it(tmp_path):
+    path = write(tmp_path, GRID)
+    out = tmp_path / "o"
+    assert runner.invoke(app, ["sweep", str(path), "--out", str(out), "-q"]).exit_code == 0
+    written = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    again = runner.invoke(app, ["sweep", str(path), "--out", str(out)])
+    assert again.exit_code == 2
+    assert again.stderr.splitlines() == [
+        f"error: --out {out}: already holds a finished sweep (6 tasks, all done); --resume "
+        f"would only print its summary again (as stratplan show {out} does); choose another "
+        "--out to run it again"
+    ]
+    resumed = runner.invoke(app, ["sweep", str(path), "--out", str(out), "--resume"])
+    assert resumed.exit_code == 0, resumed.output
+    assert "6 of 6 tasks done" in resumed.stdout and "6 tasks in" in resumed.stdout
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == written
+
+
+def test_an_unfinished_sweep_says_how_far_it_got(tmp_path):
+    path = write(tmp_path, GRID)
+    out = tmp_path / "o"
+    assert runner.invoke(app, ["sweep", str(path), "--out", str(out), "-q"]).exit_code == 0
+    lines = (out / "rows.jsonl").read_text().splitlines()
+    (out / "rows.jsonl").write_text("\n".join(lines[:4]) + "\n")
+    again = runner.invoke(app, ["sweep", str(path), "--out", str(out)])
+    assert again.exit_code == 2
+    assert again.stderr.splitlines() == [
+        f"error: --out {out}: already holds a sweep, unfinished (4 of 6 tasks done); add "
+        "--resume to finish it, or choose another --out"
+    ]
+
+
+def test_a_directory_of_other_files_is_refused_as_out(tmp_path):
+    plan_record(tmp_path / "runs")  # a run record, as `stratplan plan` leaves in runs/
+    before = sorted(p.name for p in (tmp_path / "runs").iterdir())
+    path = write(tmp_path, GRID)
+    for resume in ([], ["--resume"]):
+        result = runner.invoke(app, ["sweep", str(path), "--out", str(tmp_path / "runs"), *resume])
+        assert result.exit_code == 2, result.output
+        (line,) = result.stderr.splitlines()
+        assert line.startswith(f"error: --out {tmp_path / 'runs'}: not a sweep directory and not")
+        assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == before

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Executor
+from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -249,12 +250,13 @@ def compare_sequences(
         if progress is not None:
             progress(done, total)
 
-    if progress is not None:
-        progress(0, total)
-    comparison, compile_time = compare_decomposition(
-        task, auto, dec, jobs=jobs or default_jobs(), progress=advance, exhaustive=exhaustive,
-        executor=executor, dask=dask,
-    )  # fmt: skip
+    with _cluster(dask, executor) as chosen:  # connected before any progress is shown
+        if progress is not None:
+            progress(0, total)
+        comparison, compile_time = compare_decomposition(
+            task, auto, dec, jobs=jobs or default_jobs(), progress=advance,
+            exhaustive=exhaustive, executor=chosen,
+        )  # fmt: skip
     doc = comparison_document(
         comparison,
         dec,
@@ -279,6 +281,19 @@ def compare_sequences(
     )
     plan.phases["import"] = dict(IMPORTED)
     return ComparisonOutcome(task, auto, dec, comparison, doc, plan)
+
+
+@contextmanager
+def _cluster(dask: str | None, executor: Executor | None) -> Iterator[Executor | None]:
+    """`executor`, or the executor of the Dask cluster at `dask` (InputError when it cannot
+    be reached: `sweep.run.dask_executor`)."""
+    if dask is None or executor is not None:
+        yield executor
+        return
+    from ..sweep.run import dask_executor
+
+    with dask_executor(dask) as (cluster, _):
+        yield cluster
 
 
 def decompose(

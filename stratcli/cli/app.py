@@ -12,6 +12,7 @@ from typer.core import TyperCommand, TyperGroup
 from .. import __version__
 from . import commands
 from . import sweep as sweep_command
+from .usage import one_line
 
 # Start-up speed: a command is a short process whose heap is mostly the module graphs of sympy,
 # scipy and matplotlib, alive until it exits. The cyclic collector's default threshold (700
@@ -32,11 +33,22 @@ class _NoTypeOnHelp:
         return option
 
 
-class _Group(_NoTypeOnHelp, TyperGroup):
-    pass
+class _OneLineUsageErrors:
+    """A bad option or argument (a value out of range, an unknown option) is one `error:` line
+    and exit 2, like every other bad input (`usage.one_line`), not click's boxed panel."""
+
+    def make_context(self, *args, **kwargs):
+        with one_line():
+            return super().make_context(*args, **kwargs)
 
 
-class _Command(_NoTypeOnHelp, TyperCommand):
+class _Group(_OneLineUsageErrors, _NoTypeOnHelp, TyperGroup):
+    def resolve_command(self, ctx, args):
+        with one_line():  # an unknown command
+            return super().resolve_command(ctx, args)
+
+
+class _Command(_OneLineUsageErrors, _NoTypeOnHelp, TyperCommand):
     pass
 
 

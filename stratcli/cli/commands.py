@@ -179,7 +179,8 @@ def compare_sequences(
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     interactive = render.interactive(quiet, json_output)
-    with render.reported(), render.progress_bar(interactive) as bar:
+    waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
+    with render.reported(), render.progress_bar(interactive, waiting) as bar:
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(
             task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask

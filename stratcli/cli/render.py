@@ -108,23 +108,55 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
 
 
 @contextmanager
-def progress_bar(enabled: bool) -> Iterator[Any]:
+def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
     """A `progress(done, total)` callback drawing a bar on stderr (None when disabled),
-    refreshed by hand: no refresh thread while workers fork."""
+    refreshed by hand: no refresh thread while workers fork. The bar appears with the first
+    call; until then `waiting` is shown, if given (`until_first_update`)."""
     if not enabled:
         yield None
         return
     columns = (TextColumn("planning sequences"), BarColumn(), MofNCompleteColumn())
-    with Progress(
+    bar = Progress(
         *columns, TimeElapsedColumn(), console=err_console, auto_refresh=False, transient=True
-    ) as bar:
-        job = bar.add_task("plan", total=None)
+    )
+    job = bar.add_task("plan", total=None)
+    with until_first_update(bar, waiting) as show:
 
         def update(done: int, total: int) -> None:
             bar.update(job, completed=done, total=total)
+            show()
             bar.refresh()
 
         yield update
+
+
+@contextmanager
+def until_first_update(bar: Progress, waiting: str | None) -> Iterator[Callable[[], None]]:
+    """Yield `show()`, which starts `bar` (not started yet) the first time it is called.
+    Until then nothing is drawn, or `waiting` beside a spinner and the time taken (refreshed
+    by a thread, which `show` stops): connecting to a cluster is not progress at 0."""
+    note = None
+    if waiting is not None:
+        columns = (SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn())
+        note = Progress(*columns, console=err_console, transient=True)
+        note.add_task(escape(waiting), total=None)
+        note.start()
+
+    def show() -> None:
+        nonlocal note
+        if note is not None:
+            note.stop()
+            note = None
+        if not bar.live.is_started:
+            bar.start()
+
+    try:
+        yield show
+    finally:
+        if note is not None:
+            note.stop()
+        if bar.live.is_started:
+            bar.stop()
 
 
 @contextmanager
@@ -286,8 +318,15 @@ def plan_footer(outcome, run_dir: Path) -> None:
     say(
         f"planned in {outcome.planning_time * 1e3:.0f} ms (model compiled in "
         f"{outcome.compile_time * 1e3:.0f} ms)"
-        f"{'' if total is None else f' · {total:.2f} s in all'} · record: {run_dir}"
+        f"{'' if total is None else f' · {total:.2f} s in all'} · {record(run_dir)}"
     )
+
+
+def record(run_dir: Path) -> str:
+    """`record: DIR` for a footer, and the animation when one was written (--animation)."""
+    gif = Path(run_dir) / "motion.gif"
+    animation = f" · animation: {gif}" if gif.is_file() else ""
+    return escape(f"record: {run_dir}{animation}")
 
 
 def run_record(record, log: dict | None) -> None:

@@ -112,7 +112,7 @@ def comparison_footer(outcome, run_dir: Path) -> None:
     say(
         f"{saved} · {len(comparison.outcomes)} sequences in {comparison.wall_time:.2f} s on "
         f"{comparison.jobs} process{'es' if comparison.jobs > 1 else ''} (model compiled in "
-        f"{outcome.best.compile_time * 1e3:.0f} ms) · record: {run_dir}"
+        f"{outcome.best.compile_time * 1e3:.0f} ms) · {render.record(run_dir)}"
     )
 
 

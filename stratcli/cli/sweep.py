@@ -33,9 +33,10 @@ class _Rate(ProgressColumn):
 
 
 @contextmanager
-def progress_bar(enabled: bool) -> Iterator[Any]:
+def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
     """A `progress(done, total)` callback drawing tasks done, tasks/s and the time left on
-    stderr (None when disabled); refreshed as rows arrive, no refresh thread."""
+    stderr (None when disabled); refreshed as rows arrive, no refresh thread. The bar appears
+    with the first row (or the first call); until then `waiting` is shown, if given."""
     if not enabled:
         yield None
         return
@@ -48,8 +49,9 @@ def progress_bar(enabled: bool) -> Iterator[Any]:
         TimeRemainingColumn(),
         TextColumn("left"),
     )
-    with Progress(*columns, console=render.err_console, auto_refresh=False, transient=True) as bar:
-        job = bar.add_task("sweep", total=None)
+    bar = Progress(*columns, console=render.err_console, auto_refresh=False, transient=True)
+    job = bar.add_task("sweep", total=None)
+    with render.until_first_update(bar, waiting) as show:
         first: list[int] = []
 
         def update(done: int, total: int) -> None:
@@ -57,6 +59,7 @@ def progress_bar(enabled: bool) -> Iterator[Any]:
                 first.append(done)
                 bar.update(job, total=total - done)
             bar.update(job, completed=done - first[0])
+            show()
             bar.refresh()
 
         yield update
@@ -112,7 +115,8 @@ def sweep(
         from ..sweep import load_sweep
 
         loaded = load_sweep(file)
-    with render.reported(), progress_bar(render.interactive(quiet, json_output)) as bar:
+    waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
+    with render.reported(), progress_bar(render.interactive(quiet, json_output), waiting) as bar:
         outcome = api.run_sweep(
             loaded, out, jobs=jobs, dask=dask, resume=resume, records=records, progress=bar
         )

@@ -222,6 +222,7 @@ def optimise_energy(
     targets: list[np.ndarray],
     seeds: list[tuple[str, np.ndarray]],
     constraints=None,
+    progress=None,
 ) -> tuple[list[np.ndarray] | None, Optimisation]:
     """Minimum energy over all legs from each of `seeds` ((kind, stacked feasible
     coefficients); the kind is recorded, e.g. "newton" or "warm start").
@@ -241,16 +242,23 @@ def optimise_energy(
     `constraints` (`continuity.Constraints` on the stacked coefficients) replace the
     sequence's boundary conditions (`continuity.sequence_constraints` of `settings`), e.g. a
     relaxation of them (`stratcli.screen`).
+
+    `progress(phase)` is told the starts that are raced, once they are known (the pulled
+    start is made here), and the legwise start; default: silent.
     """
+    say = progress or (lambda phase: None)
     problem = StackedProblem(system, starts, legs, settings, targets, constraints)
     if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
         seeds = seeds[:1]
     else:
+        say("energy search: pulling the Newton plan toward low energy (a start)")
         seeds = _with_pulled_start(problem, seeds, settings.starts)
+    say(f"energy search: minimum energy from {_starts(seeds)}")
     runs = race(problem, [problem.project(lam) for _, lam in seeds], settings.tolerance)
     if problem.exact_hessians and settings.search == "legwise":
         # raced on its own, after the others: their race (which abandons a start that an
         # earlier low one outruns) is the default search's, so the result is never higher
+        say(f"energy search: start {len(seeds) + 1}, made leg by leg (legwise)")
         z = legwise_start(problem, system, legs, settings, _newton_part(seeds))
         if z is not None:
             seeds = [*seeds, ("legwise", problem.coefficients(z))]
@@ -367,6 +375,14 @@ def _with_pulled_start(problem: StackedProblem, seeds: list, count: int) -> list
         return seeds
     pulled = ("pulled", problem.coefficients(z))
     return [*seeds[:k], pulled, *seeds[k + (1 if count <= 1 else 0) :]]
+
+
+def _starts(seeds: list) -> str:
+    """`2 starts (pulled, newton)`, `4 starts (pulled, newton ×3)`: how many, of which kinds."""
+    kinds = [kind for kind, _ in seeds]
+    counts = {kind: kinds.count(kind) for kind in kinds}  # in order of first appearance
+    shown = ", ".join(kind if n == 1 else f"{kind} ×{n}" for kind, n in counts.items())
+    return f"{len(seeds)} start{'' if len(seeds) == 1 else 's'} ({shown})"
 
 
 def _newton_part(seeds: list) -> np.ndarray:

@@ -94,23 +94,22 @@ def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> di
     Raises
     ------
     InputError
-        `out` is not a usable directory, already holds a sweep (without `resume`), or holds a
-        different sweep than `spec` (with `resume`).
+        `out` is not a usable directory, holds other files than a sweep's, already holds a
+        sweep (without `resume`), or holds a different sweep than `spec` (with `resume`).
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: not a directory")
     existing = out / SPEC
+    if not existing.exists() and out.is_dir():
+        _refuse_foreign_files(out)
     if existing.exists():
-        if not resume:
-            raise InputError(
-                f"--out {out}: already holds a sweep; add --resume to finish it, or choose "
-                "another --out"
-            )
         try:
             found = json.loads(existing.read_text())
         except (OSError, ValueError) as exc:
             raise InputError(f"{existing}: cannot be read ({exc})") from None
+        if not resume:
+            raise InputError(_already(out, found))
         if found.get("digest") != spec["digest"]:
             raise InputError(
                 f"--resume: {out} holds the sweep of another sweep file (or a changed one); "
@@ -124,6 +123,39 @@ def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> di
     except OSError as exc:
         raise InputError(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
     return {}
+
+
+def _already(out: Path, spec: dict[str, Any]) -> str:
+    """Why `out`, a sweep directory, is refused without --resume: finished or not."""
+    count = spec.get("count")
+    done = len([k for k in read_rows(out / ROWS) if not isinstance(count, int) or k < count])
+    if isinstance(count, int) and done >= count and (out / SUMMARY).is_file():
+        return (
+            f"--out {out}: already holds a finished sweep ({count} tasks, all done); "
+            f"--resume would only print its summary again (as stratplan show {out} does); "
+            "choose another --out to run it again"
+        )
+    of = f" of {count}" if isinstance(count, int) else ""
+    return (
+        f"--out {out}: already holds a sweep, unfinished ({done}{of} tasks done); "
+        "add --resume to finish it, or choose another --out"
+    )
+
+
+def _refuse_foreign_files(out: Path) -> None:
+    """A sweep is not written among other files (run records, say): `out` must be empty, or
+    hold only what a sweep killed at its very start left (sweep.toml, temporary files)."""
+    foreign = sorted(
+        p.name
+        for p in out.iterdir()
+        if p.name != FILE_TEXT and not (p.name.startswith(".") and p.name.endswith(".tmp"))
+    )
+    if foreign:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise InputError(
+            f"--out {out}: not a sweep directory and not empty (it holds {foreign[0]!r}{more}); "
+            "choose a new or empty directory"
+        )
 
 
 def read_rows(path: Path) -> dict[int, dict[str, Any]]:

@@ -40,6 +40,7 @@ from .worker import run_task
 
 RECORDS = ("best", "failed", "all", "none")
 CONNECT_TIMEOUT = "20s"  # to reach a Dask scheduler
+PROBE_TIMEOUT = 5.0  # s: a host:port that refuses or does not exist fails before Client waits
 # tasks submitted ahead of the rows that came back: enough to keep every worker busy, few
 # enough that a sweep of a million tasks does not build a million scenario dicts up front
 IN_FLIGHT_PER_WORKER = 8
@@ -129,6 +130,9 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
             raise InputError(
                 f"--dask {address}: not a readable Dask scheduler file (JSON with an address)"
             ) from None
+    refused = _unreachable(target)
+    if refused is not None:
+        raise InputError(f"--dask {address}: cannot reach the scheduler ({refused})")
     try:
         client = Client(target, timeout=CONNECT_TIMEOUT)
     except Exception as exc:  # whatever distributed raises for an address it cannot use
@@ -139,6 +143,32 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
         yield client.get_executor(pure=False), info
     finally:
         client.close()
+
+
+def _unreachable(address: str) -> str | None:
+    """Why a TCP connection to a scheduler's host:port fails at once (refused, unknown host,
+    no route), or None: it connects, it did not answer within `PROBE_TIMEOUT`, or `address`
+    is not a TCP one (inproc://, ucx://). `Client` itself retries such failures for
+    `CONNECT_TIMEOUT` before giving up; a scheduler that is up sees one connection closed
+    before the handshake (logged at INFO level)."""
+    import socket
+
+    from distributed.comm.addressing import get_address_host_port, unparse_host_port
+
+    try:
+        host, port = get_address_host_port(address)
+    except (ValueError, TypeError):  # not host:port (inproc://, no port): Client's message
+        return None
+    try:
+        with socket.create_connection((host, port), timeout=PROBE_TIMEOUT):
+            return None
+    except TimeoutError:  # slow, not refused: Client waits for it as usual
+        return None
+    except socket.gaierror as exc:
+        return f"unknown host {host!r}: {exc.strerror}"
+    except OSError as exc:  # refused, no route to the host
+        reason = exc.strerror or str(exc)
+        return f"{reason[:1].lower()}{reason[1:]} at {unparse_host_port(host, port)}"
 
 
 def spec_document(sweep: Sweep) -> dict[str, Any]:
@@ -218,6 +248,9 @@ def run_sweep(
     clock, started = time.perf_counter(), datetime.now(UTC)
     rows = sweepdir.prepare(out, spec_document(sweep), sweep.text, resume)
     rows = {k: v for k, v in rows.items() if 0 <= k < sweep.count}
+    finished = _finished(out, rows, sweep.count) if resume else None
+    if finished is not None:  # nothing to plan: the summary as written, files untouched
+        return finished
     resumed = len(rows)
     own = executor is None
     if own:
@@ -276,6 +309,21 @@ def run_sweep(
         sweep, out, rows, info, wall, planned, resumed, missing, started.isoformat()
     )
     return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)
+
+
+def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOutcome | None:
+    """The outcome of a sweep that has every row and the sweep.json saying so, or None."""
+    if len(rows) < count:
+        return None
+    try:
+        summary = json.loads((out / sweepdir.SUMMARY).read_text())
+    except (OSError, ValueError):
+        return None  # killed before its summary: the tables, plots and summary are written
+    if not isinstance(summary, dict) or summary.get("done") != count:
+        return None
+    names = (sweepdir.TABLE, *summary.get("plots", ()))
+    files = [out / name for name in names if (out / name).is_file()]
+    return SweepOutcome(out, rows, summary, 0, len(rows), [], files)
 
 
 def _submit(executor, futures: dict, todo: Iterator, window: int, sweep: Sweep, records) -> bool:

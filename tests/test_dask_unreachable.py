@@ -1,0 +1,67 @@
+"""A `--dask` scheduler that cannot be reached: one `error:` line at once (exit 2), not after
+Client's 20 s of retries, and no progress shown for work that never started."""
+
+from __future__ import annotations
+
+import socket
+
+import pytest
+from sweep_files import AUTO, GRID, write
+from typer.testing import CliRunner
+
+import stratcli
+from stratcli.cli import app
+from stratcli.errors import InputError
+
+pytest.importorskip("distributed")
+runner = CliRunner()
+
+
+@pytest.fixture
+def closed_port():
+    """A local TCP port that refuses connections: bound, never listening (no one else can
+    take it while the test runs)."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        yield sock.getsockname()[1]
+
+
+def test_compare_sequences_on_a_refused_address_is_one_line(tmp_path, closed_port):
+    address = f"tcp://127.0.0.1:{closed_port}"
+    result = runner.invoke(
+        app, ["compare-sequences", str(AUTO), "--dask", address, "--out", str(tmp_path / "r")]
+    )
+    assert result.exit_code == 2, result.output
+    assert result.stderr.splitlines() == [
+        f"error: --dask {address}: cannot reach the scheduler "
+        f"(connection refused at 127.0.0.1:{closed_port})"
+    ]
+
+
+def test_sweep_on_a_refused_address_is_one_line_and_writes_nothing(tmp_path, closed_port):
+    address = f"127.0.0.1:{closed_port}"  # no scheme: Dask's default, tcp
+    out = tmp_path / "o"
+    result = runner.invoke(
+        app, ["sweep", str(write(tmp_path, GRID)), "--dask", address, "--out", str(out)]
+    )
+    assert result.exit_code == 2, result.output
+    assert result.stderr.splitlines() == [
+        f"error: --dask {address}: cannot reach the scheduler "
+        f"(connection refused at 127.0.0.1:{closed_port})"
+    ]
+    assert not out.exists()
+
+
+def test_an_unknown_host_is_named(tmp_path):
+    address = "tcp://scheduler.invalid:8786"  # .invalid never resolves (RFC 6761)
+    with pytest.raises(InputError, match=r"unknown host 'scheduler.invalid'"):
+        stratcli.run_sweep(write(tmp_path, GRID), tmp_path / "o", dask=address)
+
+
+def test_no_progress_is_reported_before_the_cluster_answers(closed_port):
+    calls = []
+    with pytest.raises(InputError, match="connection refused"):
+        stratcli.compare_sequences(
+            AUTO, dask=f"tcp://127.0.0.1:{closed_port}", progress=lambda *a: calls.append(a)
+        )
+    assert calls == []
