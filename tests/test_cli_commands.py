@@ -530,3 +530,20 @@ def test_a_model_that_overflows_is_bad_input_not_an_uncontrollable_stratum(tmp_p
     checked = runner.invoke(app, ["check", str(path)])
     assert checked.exit_code == 2 and "model.fields" in checked.output
     assert "RuntimeWarning" not in checked.output
+
+
+def test_check_says_when_eq2_fails_but_no_leg_needs_it(tmp_path):
+    """One S2 leg on the one-arm model: its strata together miss a direction (eq. 2), yet the
+    leg spans what it steers; the verdict says the task does not need eq. 2 (a newcomer read
+    'not stratified controllable' with exit 0 as a contradiction)."""
+    path = tmp_path / "one_leg.toml"
+    path.write_text(
+        'name = "one_leg"\n[model]\nkind = "preset"\nname = "one-arm"\n'
+        '[task]\nstart = [0, "pi/4", 0, 0]\ngoal = [0, "pi/4", 0, 1.5]\n'
+        '[[legs]]\nstratum = "S2"\n'
+    )
+    result = runner.invoke(app, ["check", str(path), "--samples", "10"])
+    assert result.exit_code == 0, result.output
+    verdict = next(line for line in result.output.splitlines() if line.startswith("verdict:"))
+    assert "not stratified controllable" in verdict
+    assert "which this task's legs do not need" in verdict

@@ -154,9 +154,14 @@ def check_report(report) -> None:
         else "; [red]not stratified controllable[/] (eq. 2)"
     )
     if doc["legs"] is not None:
+        legs_ok = all(leg["ok"] for leg in doc["legs"])
+        if legs_ok and not doc["stratified_controllable"]:  # eq. 2 is about every direction
+            verdict += (
+                ": these strata together miss a direction, which this task's legs do not need"
+            )
         verdict += (
             "; every leg's stratum spans the coordinates it steers"
-            if all(leg["ok"] for leg in doc["legs"])
+            if legs_ok
             else "; [red]some legs cannot be planned[/]"
         )
     render.out_console.print(f"verdict: {verdict} · {seconds * 1e3:.0f} ms", highlight=False)
