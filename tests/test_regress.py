@@ -48,6 +48,10 @@ def test_regress_detects_a_regression(tmp_path):
     )
     same = runner.invoke(app, ["regress", str(scen), "--baseline", str(base)])
     assert same.exit_code == 0 and "no regressions" in same.output
+    # one line per scenario on stderr, in a log too (no terminal here), none under --quiet
+    assert "planned d: ok" in same.stderr
+    quiet = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--quiet"])
+    assert quiet.exit_code == 0 and "planned" not in quiet.stderr
     doc = json.loads(base.read_text())
     doc["scenarios"]["d"]["total_energy"] *= 0.5  # the baseline was cheaper: now a regression
     base.write_text(json.dumps(doc))
