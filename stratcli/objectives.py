@@ -176,7 +176,9 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     say("constrained search: moving the plan inside the limits")
     tried = []  # every start, for `_folding_start`
     coefficients, notes, stalled = None, [], ""
-    for k in range(CONSTRAINED_SEEDS + 1):
+    inside = []  # (energy, coefficients, notes) of each start that got inside
+    wanted = settings.constrained_starts
+    for k in range(CONSTRAINED_SEEDS + wanted):
         if k:  # another start: a Newton plan from a seed, as the energy search's starts
             say(f"constrained search: start {k + 1} (a Newton plan from a seed)")
             other = chain_legs(
@@ -189,8 +191,9 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
                 ("seeded Newton", np.concatenate([g.coefficients.ravel() for g in other.legs]))
             ]
         tried += seeds
+        coefficients = None
         try:
-            coefficients, notes, stalled = constrained_search(
+            coefficients, notes, stalled, energy = constrained_search(
                 system, nominal, legs, settings, targets, seeds, constraints,
                 lower_energy=settings.objective == "energy", first=k == 0,
             )  # fmt: skip
@@ -204,15 +207,27 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
             stalled = (
                 f"the constrained search stopped on a numerical failure ({type(exc).__name__})"
             )
-        if coefficients is not None or not stalled:
-            break  # found, or (k = 0) inside the limits already
+        if coefficients is None and not stalled:
+            break  # (k = 0) inside the limits already
+        if coefficients is not None:
+            inside.append((energy, coefficients, notes))
+            if len(inside) >= wanted:
+                break
+    if inside:  # the lowest of the starts that got inside (`constrained_starts`)
+        energy, coefficients, notes = min(inside, key=lambda found: found[0])
+        if wanted > 1:
+            energies = ", ".join(f"{e:.6g}" for e, _, _ in inside)
+            notes = [
+                *notes,
+                f"lowest of {len(inside)} constrained starts inside the limits ({energies})",
+            ]
     if coefficients is None and not stalled:
         return plan  # inside the limits already (then it is also the constrained minimum)
     if coefficients is None:  # self-collision without joint limits: a start within some
         found = _folding_start(system, nominal, legs, settings, targets, tried, constraints)
         if found is not None:
             say("constrained search: from a plan within auxiliary joint limits")
-            coefficients, notes, _ = constrained_search(
+            coefficients, notes, _, _ = constrained_search(
                 system, nominal, legs, settings, targets, found, constraints,
                 lower_energy=settings.objective == "energy", first=False,
             )  # fmt: skip
@@ -243,7 +258,7 @@ def _folding_start(system, nominal, legs, settings, targets, seeds, constraints)
     lower[joints], upper[joints] = -AUXILIARY_LIMIT, AUXILIARY_LIMIT
     auxiliary = replace(constraints, lower=lower, upper=upper)
     try:
-        coefficients, _, _ = constrained_search(
+        coefficients, _, _, _ = constrained_search(
             system, nominal, legs, settings, targets, seeds, auxiliary, lower_energy=False,
             first=False,
         )  # fmt: skip

@@ -87,6 +87,10 @@ class PlannerSettings:
     search : "starts" (only those) or "legwise": one more start, made from each leg's lowest
         minimum on its own, joined by continuation in the switch conditions and raced after
         the others (`planners.legwise`; a global strategy, at several times the cost).
+    constrained_starts : with [constraints] limits the search needs, how many starts must get
+        inside them before the lowest energy is kept: 1, the first that does (the plan
+        itself, then Newton plans from seeds); more, further seeded Newton plans, each a
+        constrained search of its own (several times the cost, often far lower energies).
     time_scale : run the planned path this many times faster after planning (paper §6).
     lie : defaults of the legs planned with the Lie-algebraic method.
     durations : "fixed" (each leg's own duration) or "optimise": the energy objective also
@@ -107,6 +111,7 @@ class PlannerSettings:
     objective: Literal["energy", "newton"] = "energy"
     starts: Annotated[Int, Field(ge=1, le=64)] = 2
     search: Literal["starts", "legwise"] = "starts"
+    constrained_starts: Annotated[Int, Field(ge=1, le=16)] = 1
     time_scale: Annotated[Float, Field(ge=1.0 / MAX_TIME_SCALE, le=MAX_TIME_SCALE)] = 1.0
     lie: LieSettings = LieSettings()
     durations: Literal["fixed", "optimise"] = "fixed"
