@@ -204,7 +204,10 @@ class NodeMargins:
         self.geometric = constraints.geometric and self.robot is not None
         limited = np.isfinite(constraints.lower) | np.isfinite(constraints.upper)
         k = self.robot.n_joints if self.robot is not None else limited.size
-        need_theta = bool(constraints.circles or constraints.boxes or limited[k:].any())
+        # the quadrature coordinates (θ) are integrated at the nodes for obstacles, and for
+        # limits on them (a planar robot's θ; any such coordinate of a custom model)
+        limits_quadrature = any(limited[ep.Q].any() for ep in problem.endpoints)
+        need_theta = bool(constraints.circles or constraints.boxes or limits_quadrature)
         offsets = problem.offsets
         if isinstance(nodes, int):  # more for fast harmonics: (ω h)² / 8 of their amplitude
             nodes = [

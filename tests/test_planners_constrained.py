@@ -272,3 +272,20 @@ def test_more_constrained_starts_keep_the_lowest_plan_inside_the_limits():
     q = _dense(task, two.document)
     assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
     assert _self_clearance(task.system.robot, q, 0.05).min() >= 0.05 - 1e-6
+
+
+def test_limits_on_a_custom_models_integrated_coordinate_are_searched_for():
+    """The unicycle's x is integrated (x' = v cos θ), not a closed-form joint: a limit on it
+    is kept along the whole plan by the search (it was skipped as 'locked', and the plan
+    then failed verification), re-checked on an independent dense re-integration."""
+    raw = tomllib.loads((SCENARIOS / "unicycle.toml").read_text())
+    free_task = load_scenario(raw)
+    free = _dense(free_task, plan_run(free_task, check=False).document)
+    assert np.abs(free[:, 0]).max() > 0.25  # the free plan swings x beyond the limit
+    raw["constraints"] = {"joint_limits": {"x": [-0.2, 0.2]}}
+    task = load_scenario(raw)
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    verify(task, outcome.document)
+    q = _dense(task, outcome.document)
+    assert np.abs(q[:, 0]).max() <= 0.2 + 1e-6
