@@ -530,6 +530,15 @@ def test_a_model_that_overflows_is_bad_input_not_an_uncontrollable_stratum(tmp_p
     checked = runner.invoke(app, ["check", str(path)])
     assert checked.exit_code == 2 and "model.fields" in checked.output
     assert "RuntimeWarning" not in checked.output
+    verdict = next(x for x in checked.output.splitlines() if x.startswith("verdict:"))
+    assert "cannot be evaluated" in verdict and "controllable" not in verdict
+    as_json = runner.invoke(app, ["check", str(path), "--json"])
+    assert json.loads(as_json.stdout)["model_problems"]  # valid JSON: no NaN
+    # auto mode (no legs: the strata's own ranks): the same line, not 'not controllable'
+    auto = text[: text.index("[[legs]]")] + "[decompose]\nmax_length = 1\n"
+    result, path = run(tmp_path, auto)
+    (line,) = _one_line_errors(result, path)
+    assert "model.fields" in line and "not finite" in line
 
 
 def test_check_says_when_eq2_fails_but_no_leg_needs_it(tmp_path):

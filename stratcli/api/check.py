@@ -23,6 +23,25 @@ from ..reachability import Reach, better_strata, reach
 __all__ = ["check_document"]
 
 
+def _number(x: float) -> float | None:
+    """A float for JSON: None where it is not finite (NaN is not JSON)."""
+    return float(x) if np.isfinite(x) else None
+
+
+def _where(q: np.ndarray, sampled: bool) -> str:
+    return f"q = ({', '.join(f'{x:.4g}' for x in q)})" + (
+        ", a sampled configuration" if sampled else ""
+    )
+
+
+def _not_finite(stratum: str, q: np.ndarray, sampled: bool) -> str:
+    """The model problem of a stratum whose fields or brackets are not finite at q."""
+    return (
+        f"the fields of stratum {stratum} or their brackets are not finite (an overflow or a "
+        f"division by zero) at {_where(q, sampled)}; check the expressions"
+    )
+
+
 def _vec(q: np.ndarray) -> list[float]:
     return [float(x) for x in np.asarray(q, dtype=float)]
 
@@ -58,11 +77,11 @@ def check_document(
                 "inputs": r.generators,
                 "basis_size": r.basis_size,
                 "rank_at": int(r.rank[0]),
-                "sigma_min_at": float(r.sigma[0]),
+                "sigma_min_at": _number(r.sigma[0]),
                 "degree_at": int(r.degree_used[0]),
                 "rank_at_requested_degree": int(r.rank_requested[0]),
                 "min_rank": int(r.rank.min()),
-                "min_sigma": float(r.sigma[worst]),
+                "min_sigma": _number(r.sigma[worst]),
                 "worst_configuration": _vec(r.configurations[worst]),
                 "third_order_needed": r.escalated,
                 "spanning_at": r.spanning,
@@ -94,7 +113,13 @@ def check_document(
         "problems": [],
     }
     problems: list[str] = []
-    model_problems: list[str] = []  # the model cannot be evaluated (its fields overflow)
+    # the model cannot be evaluated (its fields overflow): bad input, not a rank
+    model_problems = [
+        _not_finite(r.stratum, Q[k], k > 0)
+        for r in reports
+        for k in [int(np.argmax(~np.isfinite(r.sigma)))]
+        if not np.all(np.isfinite(r.sigma))
+    ]
     warnings: list[str] = []
     if legs is not None:
         doc["legs"] = []
@@ -112,20 +137,18 @@ def check_document(
                     "steers": names,
                     "configuration": _vec(leg.configuration),
                     "rank": leg.rank,
-                    "sigma_min": leg.sigma,
+                    "sigma_min": _number(leg.sigma),
                     "ok": leg.ok,
                     "failure_configuration": None if leg.ok else _vec(leg.failure),
+                    "failure_sampled": leg.failure_sampled,
                     "reach": None if estimate is None else _reach_doc(system, estimate),
                 }
             )
-            where = f"q = ({', '.join(f'{x:.4g}' for x in leg.failure)})" if not leg.ok else ""
-            if not leg.ok and leg.failure_sampled:
-                where += ", a sampled configuration"
+            where = _where(leg.failure, leg.failure_sampled) if not leg.ok else ""
             if not leg.ok and not leg.failure_finite:  # not a rank: bad input (exit 2)
-                model_problems.append(
-                    f"the fields of stratum {leg.stratum} or their brackets are not finite "
-                    f"(an overflow or a division by zero) at {where}; check the expressions"
-                )
+                message = _not_finite(leg.stratum, leg.failure, leg.failure_sampled)
+                if message not in model_problems:
+                    model_problems.append(message)
             elif not leg.ok:
                 problems.append(
                     f"leg {leg.index + 1} on {leg.stratum}: its generators and brackets (up to "
@@ -133,7 +156,7 @@ def check_document(
                     f"coordinates it steers ({', '.join(names)}) at {where}; steer fewer "
                     'coordinates on this leg (goal "*") or use another stratum'
                 )
-    elif not seq.controllable:
+    elif not seq.controllable and not model_problems:
         worst = int(np.argmin(seq.cross_rank if seq.cross_rank is not None else seq.sum_rank))
         q = Q[worst]
         rank = (seq.cross_rank if seq.cross_rank is not None else seq.sum_rank)[worst]

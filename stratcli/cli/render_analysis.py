@@ -108,8 +108,8 @@ def check_report(report) -> None:
             s["stratum"],
             str(s["dimension"]),
             rank,
-            f"{s['sigma_min_at']:.1e}",
-            f"{s['min_rank']}, {s['min_sigma']:.1e}",
+            _sigma(s["sigma_min_at"]),
+            f"{s['min_rank']}, {_sigma(s['min_sigma'])}",
             escape(", ".join(s["spanning_at"])),
             "[green]strong[/]" if s["strong"] else "[red]no[/]",
         )
@@ -136,9 +136,12 @@ def check_report(report) -> None:
         for leg in doc["legs"]:
             steers = ", ".join(leg["steers"]) or "nothing"
             mark = "[green]spanned[/]" if leg["ok"] else "[red]NOT spanned[/]"
+            if not leg["ok"] and leg.get("failure_sampled"):  # spanned at its start
+                where = format_configuration(leg["failure_configuration"])
+                mark = f"spanned, but [red]NOT[/] at the sampled configuration {where}"
             render.out_console.print(
                 f"leg {leg['leg']} on {leg['stratum']} steers {steers}: rank {leg['rank']}, "
-                f"σ_min {leg['sigma_min']:.1e} at its start "
+                f"σ_min {_sigma(leg['sigma_min'])} at its start "
                 f"{format_configuration(leg['configuration'])}: {mark}",
                 highlight=False,
             )
@@ -164,4 +167,11 @@ def check_report(report) -> None:
             if legs_ok
             else "; [red]some legs cannot be planned[/]"
         )
+    if doc.get("model_problems"):  # ranks made of inf and NaN say nothing: the error does
+        verdict = "[red]the model's fields cannot be evaluated everywhere[/] (the error below)"
     render.out_console.print(f"verdict: {verdict} · {seconds * 1e3:.0f} ms", highlight=False)
+
+
+def _sigma(x: float | None) -> str:
+    """A smallest singular value for the tables ("–" where it is not a number)."""
+    return "–" if x is None else f"{x:.1e}"
