@@ -72,12 +72,18 @@ def _quadrature_tables(basis: FourierBasis, duration: float, K: int) -> tuple:
     return out
 
 
+def pair_products(w: np.ndarray, Phi: np.ndarray, Psi: np.ndarray) -> np.ndarray:
+    """[w Φ⊗Ψ; w Ψ⊗Ψ] at K nodes, (2K, size²): the quadrature of basis pairs that
+    `QuadratureEndpoint.integrand_hessian` takes."""
+    B = np.concatenate([Phi[:, :, None] * Psi[:, None, :], Psi[:, :, None] * Psi[:, None, :]])
+    return np.tile(w, 2)[:, None] * B.reshape(2 * len(w), -1)
+
+
 @lru_cache(maxsize=64)
 def _pair_products(basis: FourierBasis, duration: float, K: int) -> np.ndarray:
-    """[w Φ⊗Ψ; w Ψ⊗Ψ] of the K-node rule, (2K, size²), shared like `_quadrature_tables`."""
+    """`pair_products` of the K-node rule, shared like `_quadrature_tables`."""
     _, w, Phi, Psi, _ = _quadrature_tables(basis, duration, K)
-    B = np.concatenate([Phi[:, :, None] * Psi[:, None, :], Psi[:, :, None] * Psi[:, None, :]])
-    out = np.tile(w, 2)[:, None] * B.reshape(2 * K, -1)
+    out = pair_products(w, Phi, Psi)
     out.setflags(write=False)
     return out
 

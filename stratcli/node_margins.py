@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .clearance import penetration, separating_axes
+from .endpoint import pair_products
 from .models.geometry import world_geometry
 
 __all__ = ["CUSHION", "NODES", "NodeMargins", "searchable"]
@@ -130,11 +131,7 @@ class _Leg:
             self.tg = (edges[:-1, None] + 0.5 * h[:, None] * (x + 1.0)).ravel()
             self.wg = (0.5 * h[:, None] * w).ravel()
             self.Phi_g, self.Psi_g = ep.basis.values(self.tg), ep.basis.integrals(self.tg)
-            pairs = np.concatenate([
-                self.Phi_g[:, :, None] * self.Psi_g[:, None, :],
-                self.Psi_g[:, :, None] * self.Psi_g[:, None, :],
-            ]).reshape(2 * len(self.tg), -1)  # fmt: skip
-            self.pairs = np.tile(self.wg, 2)[:, None] * pairs  # (`endpoint._pair_products`)
+            self.pairs = pair_products(self.wg, self.Phi_g, self.Psi_g)
 
     def _gauss_state(self, L: np.ndarray):
         """q (θ at the leg's start) and u at the Gauss points, as the end point has them."""

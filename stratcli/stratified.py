@@ -214,7 +214,7 @@ def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
         return f"{where} {head} ({leg.message}); {advice}"
     if leg.status is Status.LIE_NOT_CONVERGED:
         where += " (Lie-algebraic)"
-        work = f"after {leg.iterations} steps"
+        work = f"after {_count(leg.iterations, 'step')}"
     else:
         work = f"after {_count(leg.iterations, 'iteration')} in {_count(leg.attempts, 'attempt')}"
         if leg.message:  # e.g. the continuation that followed them

@@ -197,8 +197,8 @@ class NewtonPlanner(LegPlanner):
                 best, strategy = path.result, "continuation"
             else:
                 message = (
-                    "nor did a continuation along the line to the goal, in "
-                    f"{path.iterations} of them"
+                    f"{path.iterations} of them a continuation along the line to the goal, "
+                    "which did not reach it either"
                 )
         lam, end = best.extra
         error = best.error
