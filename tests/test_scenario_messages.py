@@ -107,3 +107,38 @@ def test_check_at_names_what_an_angle_may_use():
     assert result.exit_code == 2
     assert "unknown name 'foo' (only numbers, pi (π), E" in result.output
     assert "allowed names: none" not in result.output
+
+
+AUTO_QUADRATURE = """
+name = "u"
+[model]
+kind = "custom"
+states = ["x", "y", "theta"]
+inputs = ["v", "w"]
+fields = { v = ["cos(theta)", "sin(theta)", 0], w = [0, 0, "1+x"] }
+strata = [{ name = "drive", active = ["v", "w"] }]
+[task]
+start = [0, 0, 0]
+goal = [0, 1, 0]
+[planner]
+evaluator = "quadrature"
+leg_duration = 2.0
+[decompose]
+max_length = 1
+"""
+
+
+@pytest.mark.parametrize("strata", ["", 'strata = ["drive"]\n'], ids=["all", "listed"])
+def test_auto_mode_refuses_an_evaluator_its_strata_cannot_use(tmp_path, strata):
+    """theta's row depends on x: no quadrature path, in auto mode as with [[legs]]."""
+    path = tmp_path / "s.toml"
+    path.write_text(AUTO_QUADRATURE + strata)
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
+    assert result.exit_code == 2, result.output
+    assert isinstance(result.exception, SystemExit) and "Traceback" not in result.output
+    errors = [line for line in result.output.splitlines() if line.startswith("error:")]
+    assert errors == [
+        f"error: {path}: planner.evaluator: stratum drive does not allow the quadrature path "
+        "(a non-constant row depends on a non-explicit coordinate); use 'auto' or 'ode'"
+    ], result.output
+    assert not (tmp_path / "runs").exists()
