@@ -142,3 +142,43 @@ def test_auto_mode_refuses_an_evaluator_its_strata_cannot_use(tmp_path, strata):
         "(a non-constant row depends on a non-explicit coordinate); use 'auto' or 'ode'"
     ], result.output
     assert not (tmp_path / "runs").exists()
+
+
+BROKEN_UNICYCLE = """
+name = "u"
+[model]
+kind = "custom"
+states = ["x", "y", "theta"]
+inputs = ["v", "w"]
+fields = { v = ["cos(thetaa)", "sin(theta)", 0], w = [0, 0, 1] }
+strata = [{ name = "drive", active = ["v", "w"] }]
+[task]
+start = { x = 0, y = 0, theta = 0 }
+goal = [0, 1, 0]
+[[legs]]
+stratum = "drive"
+"""
+
+
+def test_a_name_table_on_a_broken_model_lists_its_states_as_written(tmp_path):
+    """The model does not build (`thetaa`), so `stratplan models FILE` would fail on this
+    file with the same line: the hint lists the states the model declares instead."""
+    line = _problem(tmp_path, BROKEN_UNICYCLE)
+    assert line.startswith(
+        "task.start: Input should be a valid list: a configuration by name (a table) is for "
+        "URDF models only; write a list of the model's coordinates in order (x, y, theta) "
+        "(got {'x'"
+    ), line
+    assert "models FILE" not in line
+
+
+def test_a_name_table_on_a_model_without_states_names_the_model_problem(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(BROKEN_UNICYCLE.replace('["x", "y", "theta"]', '"x y theta"'))
+    with pytest.raises(InputError) as info:
+        load_scenario(path)
+    start = [p.message for p in info.value.problems if p.path == "task.start"]
+    assert len(start) == 1 and "models FILE" not in start[0]
+    assert (
+        "coordinates in order (fix the model first: model.states: Input should be a " in (start[0])
+    )
