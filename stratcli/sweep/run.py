@@ -342,14 +342,10 @@ def run_sweep(
 
 
 def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOutcome | None:
-    """The outcome of a sweep that has every row and the sweep.json saying so, or None."""
-    if len(rows) < count:
-        return None
-    try:
-        summary = json.loads((out / sweepdir.SUMMARY).read_text())
-    except (OSError, ValueError):
-        return None  # killed before its summary: the tables, plots and summary are written
-    if not isinstance(summary, dict) or summary.get("done") != count:
+    """The outcome of a finished sweep (`sweepdir.finished_summary`), or None: killed before
+    its summary, it has its tables, plots and summary written again."""
+    summary = sweepdir.finished_summary(out, rows, count)
+    if summary is None:
         return None
     names = (sweepdir.TABLE, *summary.get("plots", ()))
     files = [out / name for name in names if (out / name).is_file()]
