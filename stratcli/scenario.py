@@ -373,7 +373,14 @@ def _resolve(scenario: Scenario, source: str, text: str, system: System | None =
     if problems:
         raise InputError(problems)
     settings = p
-    if problems := evaluator_problems(system, p.evaluator, [leg.stratum for leg in legs]):
+    # auto mode: every stratum the decomposition may use, so that it cannot plan on one
+    # where the evaluator asked for does not run
+    strata = (
+        [leg.stratum for leg in legs]
+        if scenario.decompose is None
+        else (scenario.decompose.strata or list(system.strata))
+    )
+    if problems := evaluator_problems(system, p.evaluator, strata):
         raise InputError(problems)
 
     check_legs(system, start, legs, settings)

@@ -28,7 +28,7 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
         elif p.message.startswith(_LIST) and _CONFIGURATION.match(p.path):
             hint = (
                 "a configuration by name (a table) is for URDF models only; write a list of "
-                f"the model's coordinates in order ({_coordinates(raw.get('model'))})"
+                f"the model's coordinates in order {_coordinates(raw.get('model'))}"
             )
         if hint is not None:
             head, got, tail = p.message.partition(" (got ")
@@ -38,10 +38,21 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
 
 
 def _coordinates(model: Any) -> str:
-    """The coordinates of the scenario's model, or how to list them if it has none yet."""
-    from .models.specs import _SPEC, build_system
+    """The coordinates of the scenario's model in parentheses: built from it, else its
+    `states` as written, else the model's first problem (to be fixed before anything else,
+    `stratplan models FILE` included)."""
+    from pydantic import TypeAdapter
+
+    from .models.specs import ModelSpec, build_system
+    from .schema_problems import validation_problems
 
     try:
-        return ", ".join(build_system(_SPEC.validate_python(model)).states)
-    except (ValidationError, InputError):
-        return "`stratplan models FILE` lists them"
+        return f"({', '.join(build_system(TypeAdapter(ModelSpec).validate_python(model)).states)})"
+    except ValidationError as exc:
+        first = validation_problems(exc, ("model",))[0]
+    except InputError as exc:
+        first = exc.problems[0]
+    states = model.get("states") if isinstance(model, dict) else None
+    if isinstance(states, list) and states and all(isinstance(s, str) for s in states):
+        return f"({', '.join(states)})"
+    return f"(fix the model first: {first.render()})"

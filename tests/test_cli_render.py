@@ -270,3 +270,20 @@ def test_a_footer_names_the_animation_beside_the_record(tmp_path):
     assert render.record(tmp_path) == f"record: {tmp_path}"
     (tmp_path / "motion.gif").write_bytes(b"GIF89a")
     assert render.record(tmp_path) == f"record: {tmp_path} · animation: {tmp_path / 'motion.gif'}"
+
+
+def test_messages_print_user_text_verbatim_not_as_emoji(tmp_path):
+    """`:-1:` quoted in an error (as in `--dask localhost:-1`) stays that text; rich made it
+    a thumbs-down. Every console of the commands prints no emoji."""
+    missing = tmp_path / "a:-1:b:smile:.toml"
+    result = CliRunner().invoke(app, ["plan", str(missing)])
+    assert result.exit_code == 2
+    assert (
+        result.stderr == f"error: {missing}: cannot read scenario file: No such file or directory\n"
+    )
+    console = render.Stream(file=io.StringIO())
+    console.print("localhost:-1: :smile:")
+    assert console.file.getvalue() == "localhost:-1: :smile:\n"
+    assert all(isinstance(c, render.Stream) for c in (render.out_console, render.err_console))
+    task = SimpleNamespace(description="connecting to localhost:-1 [b]")
+    assert render.description_column().render(task).plain == "connecting to localhost:-1 [b]"

@@ -103,6 +103,30 @@ def test_an_unfinished_sweep_says_how_far_it_got(tmp_path):
     ]
 
 
+def test_a_sweep_killed_before_its_summary_is_called_so_and_resume_writes_it(tmp_path):
+    """Every row, no sweep.json: not "unfinished (6 of 6 tasks done)", and --resume plans
+    nothing but writes the summary, after which the sweep is finished."""
+    path = write(tmp_path, GRID)
+    out = tmp_path / "o"
+    assert runner.invoke(app, ["sweep", str(path), "--out", str(out), "-q"]).exit_code == 0
+    rows = (out / "rows.jsonl").read_bytes()
+    (out / "sweep.json").unlink()  # killed after the last row
+    again = runner.invoke(app, ["sweep", str(path), "--out", str(out)])
+    assert again.exit_code == 2
+    assert again.stderr.splitlines() == [
+        f"error: --out {out}: already holds a sweep, all tasks done, its summary not written; "
+        "--resume writes it (or choose another --out)"
+    ]
+    resumed = runner.invoke(app, ["sweep", str(path), "--out", str(out), "--resume", "--json"])
+    assert resumed.exit_code == 0, resumed.output
+    summary = json.loads(resumed.stdout)
+    assert summary["done"] == 6 and summary["planned_this_run"] == 0
+    assert (out / "sweep.json").is_file()
+    assert (out / "rows.jsonl").read_bytes() == rows
+    finished = runner.invoke(app, ["sweep", str(path), "--out", str(out)])
+    assert finished.exit_code == 2 and "already holds a finished sweep" in finished.stderr
+
+
 def test_a_directory_of_other_files_is_refused_as_out(tmp_path):
     plan_record(tmp_path / "runs")  # a run record, as `stratplan plan` leaves in runs/
     before = sorted(p.name for p in (tmp_path / "runs").iterdir())

@@ -65,3 +65,28 @@ def test_no_progress_is_reported_before_the_cluster_answers(closed_port):
             AUTO, dask=f"tcp://127.0.0.1:{closed_port}", progress=lambda *a: calls.append(a)
         )
     assert calls == []
+
+
+@pytest.mark.parametrize(
+    "address, port",
+    [("localhost:-1", "-1"), ("tcp://localhost:70000", "70000"), ("localhost:abc", "abc")],
+)
+def test_an_invalid_port_is_called_so_not_an_unknown_host(tmp_path, address, port):
+    out = tmp_path / "o"
+    result = runner.invoke(
+        app, ["sweep", str(write(tmp_path, GRID)), "--dask", address, "--out", str(out)]
+    )
+    assert result.exit_code == 2, result.output
+    assert result.stderr.splitlines() == [
+        f"error: --dask {address}: invalid port '{port}' (a number from 0 to 65535)"
+    ]  # verbatim: `:-1` is no emoji
+    assert not out.exists()
+
+
+def test_an_inproc_address_is_refused_in_words(tmp_path):
+    with pytest.raises(InputError) as info:
+        stratcli.run_sweep(write(tmp_path, GRID), tmp_path / "o", dask="inproc://x")
+    assert str(info.value) == (
+        "--dask inproc://x: an inproc:// address is usable only inside the process that made "
+        "it; give the scheduler's tcp:// address (host:port) or its scheduler file"
+    )

@@ -55,3 +55,18 @@ def test_prepare_refuses_an_existing_or_different_sweep(tmp_path):
     (tmp_path / "f").write_text("")
     with pytest.raises(InputError, match="not a directory"):
         sweepdir.prepare(tmp_path / "f", spec, "text", resume=False)
+
+
+def test_finished_means_every_row_and_a_summary_that_counts_them(tmp_path):
+    """The one predicate both the refusal without --resume and --resume itself use."""
+    rows = {k: {"index": k} for k in range(3)}
+    assert sweepdir.finished_summary(tmp_path, rows, 3) is None  # no sweep.json yet
+    (tmp_path / sweepdir.SUMMARY).write_text('{"done": 2}')  # an older, partial summary
+    assert sweepdir.finished_summary(tmp_path, rows, 3) is None
+    (tmp_path / sweepdir.SUMMARY).write_text('{"done": 3}')
+    assert sweepdir.finished_summary(tmp_path, rows, 3) == {"done": 3}
+    (tmp_path / sweepdir.SUMMARY).write_text('{"done": 4}')
+    assert sweepdir.finished_summary(tmp_path, {**rows, 7: {}}, 4) is None  # 7 is no task of 4
+    assert sweepdir.finished_summary(tmp_path, {**rows, 3: {}}, 4) == {"done": 4}
+    (tmp_path / sweepdir.SUMMARY).write_text("{torn")
+    assert sweepdir.finished_summary(tmp_path, {**rows, 3: {}}, 4) is None

@@ -107,3 +107,78 @@ def test_check_at_names_what_an_angle_may_use():
     assert result.exit_code == 2
     assert "unknown name 'foo' (only numbers, pi (π), E" in result.output
     assert "allowed names: none" not in result.output
+
+
+AUTO_QUADRATURE = """
+name = "u"
+[model]
+kind = "custom"
+states = ["x", "y", "theta"]
+inputs = ["v", "w"]
+fields = { v = ["cos(theta)", "sin(theta)", 0], w = [0, 0, "1+x"] }
+strata = [{ name = "drive", active = ["v", "w"] }]
+[task]
+start = [0, 0, 0]
+goal = [0, 1, 0]
+[planner]
+evaluator = "quadrature"
+leg_duration = 2.0
+[decompose]
+max_length = 1
+"""
+
+
+@pytest.mark.parametrize("strata", ["", 'strata = ["drive"]\n'], ids=["all", "listed"])
+def test_auto_mode_refuses_an_evaluator_its_strata_cannot_use(tmp_path, strata):
+    """theta's row depends on x: no quadrature path, in auto mode as with [[legs]]."""
+    path = tmp_path / "s.toml"
+    path.write_text(AUTO_QUADRATURE + strata)
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
+    assert result.exit_code == 2, result.output
+    assert isinstance(result.exception, SystemExit) and "Traceback" not in result.output
+    errors = [line for line in result.output.splitlines() if line.startswith("error:")]
+    assert errors == [
+        f"error: {path}: planner.evaluator: stratum drive does not allow the quadrature path "
+        "(a non-constant row depends on a non-explicit coordinate); use 'auto' or 'ode'"
+    ], result.output
+    assert not (tmp_path / "runs").exists()
+
+
+BROKEN_UNICYCLE = """
+name = "u"
+[model]
+kind = "custom"
+states = ["x", "y", "theta"]
+inputs = ["v", "w"]
+fields = { v = ["cos(thetaa)", "sin(theta)", 0], w = [0, 0, 1] }
+strata = [{ name = "drive", active = ["v", "w"] }]
+[task]
+start = { x = 0, y = 0, theta = 0 }
+goal = [0, 1, 0]
+[[legs]]
+stratum = "drive"
+"""
+
+
+def test_a_name_table_on_a_broken_model_lists_its_states_as_written(tmp_path):
+    """The model does not build (`thetaa`), so `stratplan models FILE` would fail on this
+    file with the same line: the hint lists the states the model declares instead."""
+    line = _problem(tmp_path, BROKEN_UNICYCLE)
+    assert line.startswith(
+        "task.start: Input should be a valid list: a configuration by name (a table) is for "
+        "URDF models only; write a list of the model's coordinates in order (x, y, theta) "
+        "(got {'x'"
+    ), line
+    assert "models FILE" not in line
+
+
+def test_a_name_table_on_a_model_without_states_names_the_model_problem(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(BROKEN_UNICYCLE.replace('["x", "y", "theta"]', '"x y theta"'))
+    with pytest.raises(InputError) as info:
+        load_scenario(path)
+    start = [p.message for p in info.value.problems if p.path == "task.start"]
+    assert len(start) == 1 and "models FILE" not in start[0]
+    assert (
+        "coordinates in order (fix the model first: model.states: Input should be a " in (start[0])
+    )

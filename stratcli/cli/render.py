@@ -32,7 +32,14 @@ PIPE_WIDTH = 10_000  # not a terminal: lines are as long as their text, never wr
 
 
 class Stream(Console):
-    """A console that wraps to the terminal's width, and not at all when it is no terminal."""
+    """A console that wraps to the terminal's width, and not at all when it is no terminal.
+
+    It prints no emoji: messages quote user text, where `:-1:` (as in `localhost:-1`) is
+    text, not a thumbs-down.
+    """
+
+    def __init__(self, *args: Any, emoji: bool = False, **kwargs: Any) -> None:
+        super().__init__(*args, emoji=emoji, **kwargs)
 
     @property
     def size(self) -> ConsoleDimensions:
@@ -107,6 +114,12 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
         raise typer.Exit(4) from None
 
 
+def description_column() -> TextColumn:
+    """A progress column showing the task's description as it is: no markup, no emoji (the
+    description may quote user text, a scheduler address for one)."""
+    return TextColumn("{task.description}", markup=False)
+
+
 @contextmanager
 def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
     """A `progress(done, total)` callback drawing a bar on stderr (None when disabled),
@@ -137,9 +150,9 @@ def until_first_update(bar: Progress, waiting: str | None) -> Iterator[Callable[
     by a thread, which `show` stops): connecting to a cluster is not progress at 0."""
     note = None
     if waiting is not None:
-        columns = (SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn())
+        columns = (SpinnerColumn(), description_column(), TimeElapsedColumn())
         note = Progress(*columns, console=err_console, transient=True)
-        note.add_task(escape(waiting), total=None)
+        note.add_task(waiting, total=None)
         note.start()
 
     def show() -> None:
@@ -169,15 +182,15 @@ def phases(enabled: bool) -> Iterator[Callable[[str], None] | None]:
     if not enabled:
         yield None
         return
-    columns = (SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn())
+    columns = (SpinnerColumn(), description_column(), TimeElapsedColumn())
     with Progress(*columns, console=err_console, auto_refresh=False, transient=True) as bar:
         jobs = []
 
         def update(phase: str) -> None:
             if jobs:
-                bar.update(jobs[0], description=escape(phase))
+                bar.update(jobs[0], description=phase)
             else:
-                jobs.append(bar.add_task(escape(phase), total=None))
+                jobs.append(bar.add_task(phase, total=None))
             bar.refresh()
 
         yield update

@@ -125,19 +125,42 @@ def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> di
     return {}
 
 
+def finished_summary(out: Path, rows: dict[int, Any], count: Any) -> dict[str, Any] | None:
+    """sweep.json of a finished sweep in `out`, or None: finished means a row for every one
+    of its `count` tasks and a sweep.json that counts them all (a sweep killed after its last
+    row, before its summary, is not finished: --resume writes the summary)."""
+    if not isinstance(count, int) or sum(0 <= k < count for k in rows) < count:
+        return None
+    try:
+        summary = json.loads((out / SUMMARY).read_text())
+    except (OSError, ValueError):
+        return None
+    return summary if isinstance(summary, dict) and summary.get("done") == count else None
+
+
 def _already(out: Path, spec: dict[str, Any]) -> str:
     """Why `out`, a sweep directory, is refused without --resume: finished or not."""
     count = spec.get("count")
-    done = len([k for k in read_rows(out / ROWS) if not isinstance(count, int) or k < count])
-    if isinstance(count, int) and done >= count and (out / SUMMARY).is_file():
+    rows = read_rows(out / ROWS)
+    if finished_summary(out, rows, count) is not None:
         return (
             f"--out {out}: already holds a finished sweep ({count} tasks, all done); "
             f"--resume would only print its summary again (as stratplan show {out} does); "
             "choose another --out to run it again"
         )
-    of = f" of {count}" if isinstance(count, int) else ""
+    if not isinstance(count, int):
+        return (
+            f"--out {out}: already holds a sweep, unfinished ({len(rows)} tasks done); "
+            "add --resume to finish it, or choose another --out"
+        )
+    done = sum(0 <= k < count for k in rows)
+    if done >= count:
+        return (
+            f"--out {out}: already holds a sweep, all tasks done, its summary not written; "
+            "--resume writes it (or choose another --out)"
+        )
     return (
-        f"--out {out}: already holds a sweep, unfinished ({done}{of} tasks done); "
+        f"--out {out}: already holds a sweep, unfinished ({done} of {count} tasks done); "
         "add --resume to finish it, or choose another --out"
     )
 

@@ -130,6 +130,8 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
             raise InputError(
                 f"--dask {address}: not a readable Dask scheduler file (JSON with an address)"
             ) from None
+    if (problem := _address_problem(target)) is not None:
+        raise InputError(f"--dask {address}: {problem}")
     refused = _unreachable(target)
     if refused is not None:
         raise InputError(f"--dask {address}: cannot reach the scheduler ({refused})")
@@ -143,6 +145,34 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
         yield client.get_executor(pure=False), info
     finally:
         client.close()
+
+
+def _address_problem(address: str) -> str | None:
+    """Why `address` cannot be a scheduler's, as far as its text tells: a port that is not a
+    number from 0 to 65535, or an in-process (inproc://) address, which only the process that
+    made it can use. None otherwise (other mistakes are left to `Client`'s own words)."""
+    from distributed.comm.addressing import parse_address
+
+    try:
+        scheme, location = parse_address(address)
+    except ValueError:
+        return None
+    if scheme == "inproc":
+        return (
+            "an inproc:// address is usable only inside the process that made it; give the "
+            "scheduler's tcp:// address (host:port) or its scheduler file"
+        )
+    if scheme not in ("tcp", "tls", "ws", "wss", "ucx"):
+        return None
+    if location.startswith("["):  # [IPv6]:port
+        _, _, rest = location.partition("]")
+        colon, port = rest[:1] == ":", rest[1:]
+    else:
+        _, colon, port = location.partition(":")
+        colon = bool(colon) and ":" not in port  # a bare IPv6 address has no port
+    if colon and not (port.isascii() and port.isdigit() and int(port) <= 65535):
+        return f"invalid port {port!r} (a number from 0 to 65535)"
+    return None
 
 
 def _unreachable(address: str) -> str | None:
@@ -312,14 +342,10 @@ def run_sweep(
 
 
 def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOutcome | None:
-    """The outcome of a sweep that has every row and the sweep.json saying so, or None."""
-    if len(rows) < count:
-        return None
-    try:
-        summary = json.loads((out / sweepdir.SUMMARY).read_text())
-    except (OSError, ValueError):
-        return None  # killed before its summary: the tables, plots and summary are written
-    if not isinstance(summary, dict) or summary.get("done") != count:
+    """The outcome of a finished sweep (`sweepdir.finished_summary`), or None: killed before
+    its summary, it has its tables, plots and summary written again."""
+    summary = sweepdir.finished_summary(out, rows, count)
+    if summary is None:
         return None
     names = (sweepdir.TABLE, *summary.get("plots", ()))
     files = [out / name for name in names if (out / name).is_file()]
