@@ -93,7 +93,6 @@ def compare_decomposition(
     progress=None,
     exhaustive: bool = False,
     executor=None,
-    dask: str | None = None,
 ) -> tuple[Comparison, float]:
     """Compile the candidates' strata, then plan and rank every candidate of `decomposition`
     by `auto.criterion`; returns the comparison and the compile time. InputError when no
@@ -102,16 +101,8 @@ def compare_decomposition(
     With the energy objective and criterion the candidates are screened (`compare.compare`,
     `screen=SCREEN_TOP`, branch and bound: `stratcli.screen`) unless `exhaustive`: every
     candidate searched to its minimum.
-    `executor` (any concurrent.futures.Executor) or `dask` (a scheduler's address or file):
+    `executor` (any concurrent.futures.Executor, e.g. a Dask cluster's: `planning._cluster`):
     plan there instead of in `jobs` forked processes."""
-    if dask is not None and executor is None:  # on a Dask cluster (`sweep.run.dask_executor`)
-        from ..sweep.run import dask_executor
-
-        with dask_executor(dask) as (cluster, _):
-            return compare_decomposition(
-                task, auto, decomposition, jobs=jobs, progress=progress,
-                exhaustive=exhaustive, executor=cluster,
-            )  # fmt: skip
     compile_time = compile_strata(task.system, decomposition.candidates_strata)
     comparison = compare(
         task.system,
