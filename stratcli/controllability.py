@@ -82,16 +82,20 @@ def sample_configurations(n: int, count: int, seed: int = 0) -> np.ndarray:
 
 
 def _rank_and_sigma(B: np.ndarray, dim: int) -> tuple[np.ndarray, np.ndarray]:
-    """Rank and the `dim`-th singular value (0 when fewer fields) of stacks B (..., rows, r)."""
-    S = np.linalg.svd(B, compute_uv=False)
+    """Rank and the `dim`-th singular value (0 when fewer fields) of stacks B (..., rows, r).
+
+    A stack that is not finite (a model whose fields overflow there) has rank 0 and σ NaN:
+    no rank at all, which `api.check` reports as a model problem, not as a missing direction.
+    """
+    finite = np.isfinite(B).all(axis=(-2, -1))
+    S = np.linalg.svd(np.where(finite[..., None, None], B, 0.0), compute_uv=False)
     if S.shape[-1] == 0:
-        zero = np.zeros(B.shape[:-2])
-        return zero.astype(int), zero
+        return np.zeros(B.shape[:-2], dtype=int), np.where(finite, 0.0, np.nan)
     top = S[..., :1]
     rank = np.sum(S > RANK_RTOL * np.maximum(top, 1e-300), axis=-1)
-    rank = np.where(top[..., 0] > 0, rank, 0)
+    rank = np.where((top[..., 0] > 0) & finite, rank, 0)
     sigma = S[..., dim - 1] if S.shape[-1] >= dim else np.zeros(B.shape[:-2])
-    return rank, sigma
+    return rank, np.where(finite, sigma, np.nan)
 
 
 def _rows(system: System, what: tuple, Q: np.ndarray, compute) -> tuple[np.ndarray, ...]:
@@ -353,7 +357,7 @@ def leg_reports(
         goal = np.asarray(leg.goal, dtype=float)
         targets = tuple(j for j in s.free(system.n) if not np.isnan(goal[j]))
         Q = np.vstack([nominal, samples]) if len(samples) else nominal[None]
-        rank, sigma, finite = _target_rank(system, s.name, targets, Q, degree)
+        rank, sigma = _target_rank(system, s.name, targets, Q, degree)
         bad = np.flatnonzero(rank < len(targets))
         out.append(
             LegReport(
@@ -365,7 +369,7 @@ def leg_reports(
                 float(sigma[0]),
                 Q[bad[0]].copy() if bad.size else None,
                 int(rank[bad[0]]) if bad.size else 0,
-                bool(finite[bad[0]]) if bad.size else True,
+                bool(np.isfinite(sigma[bad[0]])) if bad.size else True,
                 bool(bad.size and bad[0] > 0),
             )
         )
@@ -377,20 +381,16 @@ def _target_rank(system, stratum, targets, Q, degree):
     lb = lie_basis(system, stratum, degree)
     rows = [lb.free.index(j) for j in targets]
     if not rows:
-        return np.zeros(len(Q), dtype=int), np.ones(len(Q)), np.ones(len(Q), dtype=bool)
+        return np.zeros(len(Q), dtype=int), np.ones(len(Q))
 
     def compute(R: np.ndarray) -> tuple[np.ndarray, ...]:
-        with np.errstate(all="ignore"):  # a model that overflows: told by `finite`
-            B = lb.evaluate(R)[:, rows]
-            finite = np.isfinite(B).all(axis=(-2, -1))
-            rank, sigma = _rank_and_sigma(np.where(np.isfinite(B), B, 0.0), len(rows))
+        with np.errstate(all="ignore"):  # a model that overflows: σ NaN (`_rank_and_sigma`)
+            rank, sigma = _rank_and_sigma(lb.evaluate(R)[:, rows], len(rows))
             short = rank < len(rows)
             if np.any(short) and degree < MAX_DEGREE and _can_escalate(system, stratum):
                 lb3 = lie_basis(system, stratum, MAX_DEGREE)
-                B3 = lb3.evaluate(R[short])[:, rows]
-                finite[short] &= np.isfinite(B3).all(axis=(-2, -1))
-                r3, s3 = _rank_and_sigma(np.where(np.isfinite(B3), B3, 0.0), len(rows))
+                r3, s3 = _rank_and_sigma(lb3.evaluate(R[short])[:, rows], len(rows))
                 rank[short], sigma[short] = r3, s3
-        return rank, sigma, finite
+        return rank, sigma
 
     return _rows(system, ("leg", stratum, targets, degree), Q, compute)

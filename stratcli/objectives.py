@@ -214,7 +214,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
             if len(inside) >= wanted:
                 break
     if inside:  # the lowest of the starts that got inside (`constrained_starts`)
-        energy, coefficients, notes = min(inside, key=lambda found: found[0])
+        _, coefficients, notes = min(inside, key=lambda found: found[0])
         if wanted > 1:
             energies = ", ".join(f"{e:.6g}" for e, _, _ in inside)
             notes = [

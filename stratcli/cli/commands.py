@@ -13,6 +13,7 @@ from typing import Annotated, Literal
 
 import typer
 
+from ..errors import Problem
 from . import render, render_tables
 from .options import Animation, Json, MaxLength, Out, Quiet, Scenario, Strategy, TaskScenario
 from .render_analysis import check_report, decomposition
@@ -259,8 +260,8 @@ def check(
         render.print_json(report.document)
     else:
         check_report(report)
-    for problem in report.document.get("model_problems", ()):
-        render.error("error", f"{target}: model.fields: {problem}")
+    for problem in report.document.get("model_problems", ()):  # as `plan` says it
+        render.error("error", Problem("model.fields", problem).render(target))
     for problem in report.problems:
         render.error("not controllable", problem)
     for warning in report.document.get("warnings", ()):
