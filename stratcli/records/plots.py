@@ -148,7 +148,7 @@ def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> int:
     axes[-1].set_xlabel("time [s]")
     keys = (["- - switch"] if switches else []) + (["│ Lie step"] if steps else [])
     if keys:
-        axes[0].figure.text(0.015, 0.975, "   ".join(keys), color="0.3", va="top", fontsize=8)
+        _corner_key(axes[0].figure, "   ".join(keys), "top left", "0.3")
     return notes
 
 
@@ -226,9 +226,19 @@ def _mark_goals(plan: SequencePlan, axes: list[Any]) -> None:
             clip_on=False,  # the last leg's goal sits on the right edge
         )
     if any(ends):
-        axes[0].figure.text(
-            0.985, 0.975, "○ goal of the leg", color=GOAL_COLOR, ha="right", va="top", fontsize=8
-        )
+        _corner_key(axes[0].figure, "○ goal of the leg", "top right", GOAL_COLOR)
+
+
+KEY_INSET = 0.015  # a corner key's distance from the figure's edges (fraction of the figure)
+
+
+def _corner_key(fig, text: str, corner: str, color) -> None:
+    """A small key in a corner of the time plots ("top left", "top right", "bottom left"),
+    inset from the edges so that it is not cut by them."""
+    vertical, horizontal = corner.split()
+    x = KEY_INSET if horizontal == "left" else 1.0 - KEY_INSET
+    y = KEY_INSET if vertical == "bottom" else 1.0 - 1.5 * KEY_INSET
+    fig.text(x, y, text, color=color, ha=horizontal, va=vertical, fontsize=8)
 
 
 def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any]) -> None:
@@ -260,10 +270,8 @@ def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any]) -> None
             ax.plot(traj.t[k], traj.q[k, i], "x", color=FAILED_COLOR, ms=6, mew=1.4, zorder=5)
             shown = True
     if shown:
-        axes[0].figure.text(
-            0.005, 0.005, "- - joint limit (shaded beyond it); × closest approach",
-            color=FAILED_COLOR, ha="left", va="bottom", fontsize=8,
-        )  # fmt: skip
+        key = "- - joint limit (shaded beyond it); × closest approach"
+        _corner_key(axes[0].figure, key, "bottom left", FAILED_COLOR)
 
 
 def _mark_off_inputs(plan: SequencePlan, axes: list[Any]) -> None:
