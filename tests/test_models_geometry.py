@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stratcli.models.geometry import base_extent, world_geometry
+from stratcli.models.geometry import base_extent, world_bodies, world_geometry
+from stratcli.models.presets import preset
 
 
 def test_trajectory_reintegrates_every_leg(any_run):
@@ -58,3 +59,15 @@ def test_base_rectangle_carries_the_arms(arm_run):
     x = c[:, None] * rel[..., 0] + s[:, None] * rel[..., 1]  # back to the base frame
     y = -s[:, None] * rel[..., 0] + c[:, None] * rel[..., 1]
     np.testing.assert_allclose(np.maximum(np.abs(x) / hx, np.abs(y) / hy), 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["one-arm", "two-arm"])
+def test_world_bodies_are_world_geometrys_bodies_to_the_bit(name):
+    """The search's lean geometry places the base and the links as the records draw them."""
+    robot = preset(name).robot
+    q = np.random.default_rng(5).normal(scale=2.0, size=(64, robot.n_joints + 1))
+    corners, links = world_bodies(robot, q)
+    geo = world_geometry(robot, q)
+    np.testing.assert_array_equal(corners, geo["base_corners"])
+    np.testing.assert_array_equal(links[:, :, 0], geo["proximal"])
+    np.testing.assert_array_equal(links[:, :, 1], geo["distal"])

@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from .planar import PlanarManipulator, link_geometry
+from .planar import PlanarManipulator, kinematics, link_geometry, structure
 
-__all__ = ["base_extent", "world_geometry"]
+__all__ = ["base_extent", "world_bodies", "world_geometry"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -94,3 +94,26 @@ def world_geometry(robot: PlanarManipulator, q: Any) -> dict[str, np.ndarray]:
         "link_angle": geo["angle"],
         "system_com": pc,
     }
+
+
+def world_bodies(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The base's corners (N, 4, 2) and the links' ends (N, k, 2, 2: proximal, distal) in the
+    inertial frame at configurations q (N, k + 1), as `world_geometry` places them (the same
+    arithmetic), without its other keys: clearances are measured on these alone, and the
+    constrained search (`node_margins`) measures them hundreds of times a plan."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    k = robot.n_joints
+    st = structure(robot)
+    _, (ux, uy), (ox, oy), (px, py) = kinematics(st, np.ascontiguousarray(q[:, :k].T))
+    pcx, pcy = (st.m @ px) / st.M, (st.m @ py) / st.M  # (N,): p_c
+    theta = q[:, k]
+    c, s = np.cos(theta), np.sin(theta)
+
+    def world(x: np.ndarray, y: np.ndarray) -> np.ndarray:  # (k, N) base frame -> (N, k, 2)
+        dx, dy = (x - pcx).T, (y - pcy).T
+        return np.stack((c[:, None] * dx - s[:, None] * dy, s[:, None] * dx + c[:, None] * dy), -1)
+
+    links = np.stack((world(ox, oy), world(ox + st.length * ux, oy + st.length * uy)), axis=2)
+    hx, hy = base_extent(robot)
+    corners = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
+    return world(corners[:, 0, None], corners[:, 1, None]), links
