@@ -23,6 +23,8 @@ non-negative between the nodes too; `NodeMargins.refined` adds nodes where it do
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 from .clearance import penetration, separating_axes
@@ -229,6 +231,7 @@ class NodeMargins:
         self.times = np.zeros(0)  # per row: the node's time in its leg
         self._last = None  # (z, clearances, kinds) of the last call: the next often repeats z
         self._limit_rows: list[tuple] = []  # (leg, coordinate, sign, first row, rows) of limits
+        self._moving = self._rows_of = None  # index arrays of the clearance rows, made once
 
     def refined(self, z: np.ndarray, dense: int) -> NodeMargins | None:
         """These margins with more nodes where `dense` equally spaced samples a leg find less
@@ -278,12 +281,8 @@ class NodeMargins:
                 self._last = (z.copy(), g_all, kinds)
             if jacobian:  # differences at nodes near contact, in coordinates that move there
                 slopes = np.zeros((len(self.geo_coords), *g_all.shape))
-                leg_of = np.repeat(np.arange(len(self.legs)), [len(c[0]) for c in configurations])
                 near = (g_all < self.reach).any(axis=1)
-                where = []
-                for cidx in self.geo_coords:
-                    moves = [i for i, leg in enumerate(self.legs) if cidx in leg.moving]
-                    where.append(np.flatnonzero(near & np.isin(leg_of, moves)))
+                where = [np.flatnonzero(near & moves) for moves in self._moving_nodes()]
                 steps = [
                     q[w] + FD_STEP * np.eye(q.shape[1])[c]
                     for c, w in zip(self.geo_coords, where, strict=True)
@@ -311,15 +310,36 @@ class NodeMargins:
             self.labels, self.times = labels, np.concatenate(times) if times else np.zeros(0)
         if jacobian and self.geometric:  # for `curvature`: each clearance row's node and pair
             first = g.size - g_all.size
-            sizes = [len(c[0]) for c in configurations]
-            node = np.concatenate(
-                [np.tile(np.arange(o, o + n), g_all.shape[1]) for o, n in zip(
-                    np.cumsum([0, *sizes[:-1]]), sizes, strict=True)]
-            )  # fmt: skip
-            pair = np.concatenate([np.repeat(np.arange(g_all.shape[1]), n) for n in sizes])
+            node, pair = self._node_and_pair(g_all.shape[1])
             dqz_all = np.concatenate([c[1][:, self.geo_coords] for c in configurations])
-            self._curvature_at = (z.copy(), first, node, pair, q, dqz_all, slopes, sizes)
+            self._curvature_at = (z.copy(), first, node, pair, q, dqz_all, slopes, self._sizes)
         return g, G
+
+    @cached_property
+    def _sizes(self) -> list[int]:
+        return [len(leg.t) for leg in self.legs]
+
+    def _moving_nodes(self) -> list[np.ndarray]:
+        """Per clearance coordinate, a mask of the nodes (all legs') of legs it moves on."""
+        if self._moving is None:
+            leg_of = np.repeat(np.arange(len(self.legs)), self._sizes)
+            self._moving = [
+                np.isin(leg_of, [i for i, leg in enumerate(self.legs) if c in leg.moving])
+                for c in self.geo_coords
+            ]
+        return self._moving
+
+    def _node_and_pair(self, pairs: int) -> tuple[np.ndarray, np.ndarray]:
+        """Each clearance row's node (all legs') and pair of bodies: the rows run leg by
+        leg, pair by pair within a leg, node by node within a pair."""
+        if self._rows_of is None:
+            sizes, offsets = self._sizes, np.cumsum([0, *self._sizes[:-1]])
+            node = [
+                np.tile(np.arange(o, o + n), pairs) for o, n in zip(offsets, sizes, strict=True)
+            ]
+            pair = [np.repeat(np.arange(pairs), n) for n in sizes]
+            self._rows_of = (np.concatenate(node), np.concatenate(pair))
+        return self._rows_of
 
     def curvature(self, z: np.ndarray, weights: np.ndarray) -> np.ndarray:
         """Σ_r weights[r] ∇²g_r(z) over the rows with a positive weight: the clearances' from
