@@ -36,3 +36,14 @@ def test_a_solution_that_blows_up_stops_with_out_of_steps():
     """y' = y², y(0) = 1 reaches infinity at t = 1."""
     with pytest.raises(OutOfSteps):
         dop853(lambda t, y: y**2, 2.0, np.array([1.0]), np.array([0.5, 2.0]), 1e-10, 1e-12)
+
+
+def test_dense_output_in_batches_gives_the_same_states(monkeypatch):
+    """Points are interpolated a batch of steps at a time; any batch size, the same numbers."""
+    import stratcli.odeint as odeint
+
+    t_eval = np.linspace(0.0, 7.3, 301)
+    whole = dop853(_pendulum, 7.3, np.array([1.0, 0.0]), t_eval, 1e-10, 1e-12)
+    monkeypatch.setattr(odeint, "_BATCH", 7)
+    batched = dop853(_pendulum, 7.3, np.array([1.0, 0.0]), t_eval, 1e-10, 1e-12)
+    assert np.array_equal(batched, whole) and np.isfinite(whole).all()

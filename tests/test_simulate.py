@@ -16,3 +16,38 @@ def test_reintegration_is_bounded_and_says_so(unicycle_plan, monkeypatch):
     monkeypatch.undo()
     traj = simulate.sample(plan, 50)
     assert np.isfinite(traj.q).all() and traj.notes == ()
+
+
+def test_the_fast_field_gives_the_generic_numbers():
+    """`_field` (φ into one buffer, `ArrayFunction.at`, `.dot`) is `G(y) @ (L @ φ(t))`."""
+    from stratcli.controls import FourierBasis
+    from stratcli.models.presets import two_arm
+
+    system, rng = two_arm(), np.random.default_rng(3)
+    basis = FourierBasis(harmonics=4, period=1.3)
+    for stratum in system.strata:
+        G = system.compiled(stratum).G
+        L = rng.standard_normal((len(system.strata[stratum].active), basis.size))
+        field = simulate._field(G, basis, L)
+        for t, y in zip(rng.uniform(0, 5, 20), rng.uniform(-3, 3, (20, system.n)), strict=True):
+            np.testing.assert_allclose(
+                field(t, y), G(y) @ (L @ basis.values(t)), rtol=1e-13, atol=1e-15
+            )
+
+
+def test_a_field_at_one_point_where_python_floats_fail_is_numpys():
+    """1/0.0 raises and (-8.0)**(1/3) is complex on Python floats; numpy scalars give inf and
+    NaN, as `G(q)` does, and `at` must too (a trial step may pass there and recover)."""
+    import sympy as sp
+
+    from stratcli.models.generated import ArrayFunction
+
+    x, y = sp.symbols("x y", real=True)
+    G = ArrayFunction(sp.Matrix([[1 / x, y ** sp.Rational(1, 3)], [0, sp.sin(x) + y]]), [x, y])
+    with np.errstate(all="ignore"):
+        for q in ([0.0, 2.0], [0.5, -8.0], [0.5, 8.0]):
+            q = np.array(q)
+            assert G.at(q).shape == (2, 2)
+            np.testing.assert_array_equal(G.at(q), G(q))
+        assert np.isinf(G.at(np.array([0.0, 2.0]))[0, 0])
+        assert np.isnan(G.at(np.array([0.5, -8.0]))[0, 1])
