@@ -17,7 +17,7 @@ Use cases: `load_scenario`, `plan`, `plan_auto`, `decompose`, `compare_sequences
 `Trajectory`, `Task`, `LegSpec`, and the settings `PlannerSettings`, `LieSettings`,
 `DecomposeSettings`, `FourierBasis`. Models: `System`, `Stratum`, `PlanarManipulator`, `Arm`,
 `Base`, `Link`, `preset`. Outcomes: `Status`. Errors: `StratplanError`, `InputError`,
-`ModelError`, `NotControllableError`, `Problem`.
+`ModelError`, `NotControllableError`, `Problem`; warnings: `IllConditionedWarning`.
 """
 
 from __future__ import annotations
@@ -72,6 +72,7 @@ _PUBLIC = {
     "InputError": "errors",
     "ModelError": "errors",
     "NotControllableError": "errors",
+    "IllConditionedWarning": "errors",
     "Problem": "errors",
 }
 
@@ -102,6 +103,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .api import run_sweep as run_sweep
     from .api import write_record as write_record
     from .controls import FourierBasis as FourierBasis
+    from .errors import IllConditionedWarning as IllConditionedWarning
     from .errors import InputError as InputError
     from .errors import ModelError as ModelError
     from .errors import NotControllableError as NotControllableError

@@ -61,3 +61,8 @@ class NotControllableError(StratplanError):
 class RecordError(StratplanError, OSError):
     """A run record that could not be written (disk full, permissions, a name the file system
     refuses); nothing complete-looking is left behind."""
+
+
+class IllConditionedWarning(UserWarning):
+    """A leg the controllability check expects to be ill-conditioned, and what to try instead:
+    `stratcli.plan` warns with it (the command line prints it as `warning: ...`)."""

@@ -100,9 +100,12 @@ class Scenario(_Strict):
     constraints: ConstraintsSpec | None = None
 
 
-@dataclass
+@dataclass(frozen=True)
 class Task:
-    """A validated scenario, ready to plan."""
+    """A validated scenario, ready to plan: a value, resolved from `scenario` (its start,
+    goal, legs and settings), which records write as they were planned. To change it, use
+    `with_changes` (validated and resolved again); a `dataclasses.replace` that lets the
+    settings, start or goal disagree with `scenario` is refused."""
 
     scenario: Scenario
     system: System
@@ -113,12 +116,72 @@ class Task:
     source: str
     text: str
     constraints: Constraints | None = None  # the [constraints] table, resolved on the model
+    base_dir: Path | None = None  # what a URDF model's relative path is relative to
+
+    def __post_init__(self):
+        given = self.scenario.task
+        if (
+            self.settings != self.scenario.planner
+            or not _same(self.start, given.start)
+            or not _same(self.goal, given.goal)
+        ):
+            raise ValueError(
+                "a Task's settings, start and goal are its scenario's: change them with "
+                "task.with_changes({...}) (e.g. {'planner': {'objective': 'newton'}})"
+            )
 
     @property
     def model_name(self) -> str:
         """Preset name, "planar-manipulator" or "custom" (the result.json `model` key)."""
         model = self.scenario.model
         return model.name if model.kind == "preset" else model.kind
+
+    def with_changes(self, changes: Mapping[str, Any]) -> Task:
+        """This scenario with `changes`, validated and resolved again (as `load_scenario`).
+
+        Parameters
+        ----------
+        changes : Mapping
+            In the scenario file's structure. Tables are merged key by key, anything else
+            (a value, a list such as `legs`) replaces what was there; None removes the key.
+            E.g. ``{"planner": {"objective": "newton"}, "task": {"goal": [0, 1, 0.5, 0]}}``.
+
+        Returns
+        -------
+        Task
+            A new task (this one is unchanged); its records hold the changed scenario.
+
+        Raises
+        ------
+        InputError
+            Naming every problem of the changed scenario.
+        """
+        if not isinstance(changes, Mapping):
+            raise TypeError(f"changes must be a mapping (a dict), not {type(changes).__name__}")
+        raw = _merged(parse_toml(self.text, self.source), changes)
+        return _from_raw(raw, None, self.source, self.base_dir)
+
+
+def _same(values: np.ndarray | None, given: list | None) -> bool:
+    if values is None or given is None:
+        return values is None and given is None
+    resolved = np.array([np.nan if v is None else v for v in given], dtype=float)
+    return resolved.shape == np.shape(values) and bool(
+        np.array_equal(resolved, values, equal_nan=True)
+    )
+
+
+def _merged(raw: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
+    """`raw` with `changes` merged in (`Task.with_changes`); neither is modified."""
+    out = dict(raw)
+    for key, value in changes.items():
+        if value is None:
+            out.pop(key, None)
+        elif isinstance(value, Mapping) and isinstance(out.get(key), dict):
+            out[key] = _merged(out[key], value)
+        else:
+            out[key] = value
+    return out
 
 
 def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = None) -> Task:
@@ -183,7 +246,7 @@ def _from_raw(
         except (TypeError, ValueError) as exc:
             raise InputError(f"cannot be written as TOML: {exc}", source) from None
     try:
-        return _resolve(scenario, source, text, system)
+        return _resolve(scenario, source, text, system, base_dir)
     except InputError as exc:
         raise exc.with_source(source) from None
 
@@ -242,7 +305,9 @@ def _duration_problems(scenario: Scenario, legs: list[LegSpec]) -> list[Problem]
     return problems
 
 
-def _resolve(scenario: Scenario, source: str, text: str, system: System | None = None) -> Task:
+def _resolve(
+    scenario: Scenario, source: str, text: str, system: System | None = None, base_dir=None
+) -> Task:
     if system is None:
         system = build_system(scenario.model)
     system.spec = scenario.model
@@ -384,7 +449,7 @@ def _resolve(scenario: Scenario, source: str, text: str, system: System | None =
         raise InputError(problems)
 
     check_legs(system, start, legs, settings)
-    return Task(scenario, system, start, goal, legs, settings, source, text, constraints)
+    return Task(scenario, system, start, goal, legs, settings, source, text, constraints, base_dir)
 
 
 __all__ = ["PRESETS", "Scenario", "Task", "build_system", "load_scenario", "parse_scenario"]

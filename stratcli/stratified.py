@@ -301,6 +301,16 @@ def chain_legs(
     return assemble(system, settings, start, legs, planned)
 
 
+def _distinct(a: float, b: float) -> tuple[str, str]:
+    """a and b with the fewest digits (at least 6) that tell them apart: -pi/3 and -1.0472
+    differ only in the sixth digit."""
+    for digits in range(6, 18):
+        shown = f"{a:.{digits}g}", f"{b:.{digits}g}"
+        if shown[0] != shown[1]:
+            return shown
+    return repr(a), repr(b)
+
+
 def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings: PlannerSettings):
     """Problems found before planning: locked coordinates asked to move, too few coefficients.
 
@@ -318,12 +328,12 @@ def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings:
             if np.isnan(leg.goal[k]) or np.isnan(previous[k]):
                 continue  # not prescribed, or only known once the previous leg is planned
             if abs(leg.goal[k] - previous[k]) > 1e-9:
-                name, was = system.states[k], f"{previous[k]:.6g}"
+                name, (was, goal) = system.states[k], _distinct(previous[k], leg.goal[k])
                 problems.append(
                     Problem(
                         f"legs[{i}].goal",
                         f"leg {i + 1} on {leg.stratum}: {name} is locked at {was} on this "
-                        f"stratum but its goal is {leg.goal[k]:.6g}; use a stratum that "
+                        f"stratum but its goal is {goal}; use a stratum that "
                         f"moves {name} or keep it at {was}",
                     )
                 )

@@ -18,6 +18,7 @@ from mcap.reader import make_reader
 from typer.testing import CliRunner
 
 from stratcli.api import plan_auto, plan_run
+from stratcli.api.planning import with_legs
 from stratcli.cli import app
 from stratcli.models.presets import preset
 from stratcli.objectives import plan_sequence
@@ -53,10 +54,10 @@ def plan_document(path, **changes):
     """
     task = load_scenario(path)
     if changes:
-        task.settings = dataclasses.replace(task.settings, **changes)
+        task = task.with_changes({"planner": changes})
     if not task.legs:  # auto mode: re-integrate the sequence it chose
         outcome = plan_auto(task, check=False)
-        task.legs = list(outcome.comparison.best.candidate.legs)
+        task = with_legs(task, outcome.comparison.best.candidate.legs)
         return task, result_document(outcome.best.result, task.scenario.name, task.model_name)
     result = plan_sequence(task.system, task.start, task.legs, task.settings)
     return task, result_document(result, task.scenario.name, task.model_name)
@@ -139,8 +140,7 @@ def small_plan(request) -> SimpleNamespace:
 def sim4():
     """Sim 4's auto scenario, with the Newton objective."""
     task = load_scenario(ROOT / "scenarios" / "sim4_auto.toml")
-    task.settings = newton_objective(task.settings)
-    return task
+    return task.with_changes({"planner": {"objective": "newton"}})
 
 
 @pytest.fixture(scope="session")

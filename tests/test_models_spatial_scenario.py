@@ -1,7 +1,6 @@
 """Scenarios with `[model] kind = "urdf"`: the path relative to the file, configurations by
 joint name with `attitude` or `rpy`, one-line errors, and plans verified independently."""
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -98,7 +97,7 @@ def test_unsupported_joint_and_missing_pinocchio_exit_2(tmp_path, monkeypatch):
 
 def _planned(name, objective="newton", **settings):
     task = load_scenario(SPATIAL / f"{name}.toml")
-    task.settings = dataclasses.replace(task.settings, objective=objective, **settings)
+    task = task.with_changes({"planner": {"objective": objective, **settings}})
     return task, plan_run(task, check=False)
 
 

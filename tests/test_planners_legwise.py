@@ -78,7 +78,7 @@ def test_the_legwise_search_reaches_a_lower_minimum_than_the_plain_starts(name):
     every via with continuous controls at the switches."""
     task = load_scenario(SCENARIOS / f"{name}.toml")
     plain = energy_plan(task, "starts")
-    task.settings = replace(task.settings, search="legwise")
+    task = task.with_changes({"planner": {"search": "legwise"}})
     wide = energy_plan(task, "legwise")
     assert wide.ok and plain.ok
     opt = wide.optimisation
@@ -113,7 +113,7 @@ def test_legs_that_nothing_ties_are_searched_alone_and_not_joined():
     """Without continuity conditions the legs' own minima are the stacked problem's: the
     legwise start is their stack, and the plan is no higher than the plain starts'."""
     task = load_scenario(SCENARIOS / "sim4_task_d.toml")
-    task.settings = replace(task.settings, continuity="none")
+    task = task.with_changes({"planner": {"continuity": "none"}})
     plain = energy_plan(task, "starts")
     wide = energy_plan(task, "legwise")
     assert [s.kind for s in wide.optimisation.starts][-1] == "legwise"

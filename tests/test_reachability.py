@@ -67,6 +67,17 @@ def test_plan_warns_before_any_iteration():
     assert outcome.result.legs[0].stratum == "S12"  # planned as asked all the same
 
 
+def test_the_python_api_warns_with_a_python_warning_at_the_callers_line():
+    """`stratcli.plan` has no terminal: the check's warning is an IllConditionedWarning,
+    attributed to the line that called `plan` (a notebook shows it there)."""
+    import stratcli
+
+    with pytest.warns(stratcli.IllConditionedWarning, match="theta is hard to move") as seen:
+        plan = stratcli.plan(WEAK)  # the caller's line
+    assert plan.legs[0].stratum == "S12"
+    assert len(seen) == 1 and seen[0].filename == __file__
+
+
 def test_check_prints_one_warning_line_and_exits_0(tmp_path):
     path = tmp_path / "weak.toml"
     path.write_text(WEAK)

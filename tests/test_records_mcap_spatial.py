@@ -1,6 +1,5 @@
 """The MCAP of a spatial plan: /tf frames named after the URDF links, the URDF attached."""
 
-import dataclasses
 import io
 from pathlib import Path
 
@@ -23,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="module")
 def spatial_run():
     task = load_scenario(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
-    task.settings = dataclasses.replace(task.settings, objective="newton")
+    task = task.with_changes({"planner": {"objective": "newton"}})
     out = plan_run(task, check=False)
     traj = sample(out.result, samples_per_leg=20)
     data = mcap_bytes(out.result, traj, out.document, {}, task.text, "arm3_reorient")

@@ -1,6 +1,5 @@
 """Plots of a spatial plan: a stroboscope on the principal planes, times series in rad."""
 
-import dataclasses
 from pathlib import Path
 
 import pytest
@@ -17,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_stroboscope_and_units():
     task = load_scenario(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
-    task.settings = dataclasses.replace(task.settings, objective="newton")
+    task = task.with_changes({"planner": {"objective": "newton"}})
     plan = plan_run(task, check=False).result
     traj = sample(plan, samples_per_leg=30)
     files = render_plots(plan, traj, "arm3", animation=False)

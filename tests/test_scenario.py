@@ -242,3 +242,33 @@ def test_a_model_without_a_valid_kind_names_the_kinds(model, words):
     with pytest.raises(InputError) as info:
         load_scenario({"name": "x", "model": model, "task": task})
     assert words in str(info.value) and "discriminator" not in str(info.value)
+
+
+def test_a_task_is_a_value_changed_only_through_its_scenario(tmp_path):
+    """Assigning to a task fails; `dataclasses.replace` may not let its settings disagree
+    with its scenario (the record would say otherwise); `with_changes` re-validates, and a
+    record of the changed task re-plans to the same energy."""
+    import dataclasses
+    import json
+
+    import stratcli
+
+    task = stratcli.load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        task.goal = task.goal * 0  # type: ignore[misc]
+    newton = dataclasses.replace(task.settings, objective="newton")
+    with pytest.raises(ValueError, match="with_changes"):
+        dataclasses.replace(task, settings=newton)
+    changed = task.with_changes({"planner": {"objective": "newton"}})
+    assert changed.settings == newton and task.settings.objective == "energy"
+    plan = stratcli.plan(changed)
+    run = stratcli.write_record(tmp_path, plan)
+    again = stratcli.plan(json.loads((run / "resolved.json").read_text()))
+    assert again.total_energy == pytest.approx(plan.total_energy, rel=1e-12)
+    assert plan.total_energy > 1.5 * stratcli.plan(task).total_energy  # Newton's, not least
+    with pytest.raises(InputError, match=r"planner\.objectiv: unknown key"):
+        task.with_changes({"planner": {"objectiv": "newton"}})
+    goal = [*task.scenario.task.goal[:3], -0.2]  # θ only: the last leg (S1) moves it
+    assert task.with_changes({"task": {"goal": goal}}).legs[-1].goal[3] == -0.2
+    auto = task.with_changes({"legs": None, "decompose": {"max_length": 2}})
+    assert auto.legs == [] and auto.scenario.decompose is not None

@@ -21,9 +21,7 @@ AUTO = ROOT / "scenarios" / "sim4_auto.toml"
 
 
 def _task(objective: str):
-    task = load_scenario(AUTO)
-    task.settings = dataclasses.replace(task.settings, objective=objective)
-    return task
+    return load_scenario(AUTO).with_changes({"planner": {"objective": objective}})
 
 
 def _doc(outcome) -> str:
@@ -48,8 +46,11 @@ def test_a_spawned_pool_and_threads_give_the_forked_comparison(forked):
 def test_a_model_made_in_python_needs_forked_workers():
     task = _task("newton")
     one = preset("one-arm")
-    task.system = System(
-        "made-in-python", one.states, one.inputs, one.fields, one.strata, dict(one.parameters)
+    task = dataclasses.replace(
+        task,
+        system=System(
+            "made-in-python", one.states, one.inputs, one.fields, one.strata, dict(one.parameters)
+        ),
     )  # no [model] table: a worker could not rebuild it
     with ThreadPoolExecutor(1) as pool, pytest.raises(ValueError, match="made in Python"):
         compare_sequences(task, executor=pool)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Executor
 from contextlib import contextmanager
@@ -14,7 +15,7 @@ from ..compare import CRITERIA
 from ..constraints import enforce
 from ..decomposition import STRATEGIES, pi_fraction
 from ..durations import optimise_durations
-from ..errors import InputError, Problem
+from ..errors import IllConditionedWarning, InputError, Problem
 from ..objectives import plan_sequence
 from ..records.comparison import comparison_document
 from ..records.manifest import Phases, phase, since_start
@@ -77,11 +78,21 @@ def plan(
         Bad input, naming the field.
     NotControllableError
         When `check` finds a stratum that cannot do its leg; nothing is planned.
+
+    Warns
+    -----
+    IllConditionedWarning
+        For each leg the check expects to be ill-conditioned, with what to try instead.
     """
     task = as_task(scenario)
     if not task.legs:
         return plan_auto(task, check=check, jobs=jobs).best.result
-    return plan_run(task, check=check, time_scale=time_scale).result
+    return plan_run(task, check=check, time_scale=time_scale, warn=_warn).result
+
+
+def _warn(sentence: str) -> None:
+    """The check's warnings as Python warnings, attributed to the caller of `plan`."""
+    warnings.warn(sentence, IllConditionedWarning, stacklevel=5)
 
 
 def plan_run(
