@@ -51,6 +51,16 @@ def test_decompose_lists_the_candidates_without_planning():
         api.decompose(task, strategy="eager")
 
 
+def test_plan_in_auto_mode_says_which_sequence_it_chose(sim4):
+    """`stratcli.plan` of a scenario without legs returns the chosen plan only: its first
+    note says what was compared and what was chosen, as the command line prints."""
+    plan = api.plan(sim4.with_changes({"decompose": {"max_length": 2}}))
+    first = plan.notes[0]
+    assert first.startswith("auto mode: ") and "candidate sequences (max length 2" in first
+    chosen = "(" + ", ".join(leg.stratum for leg in plan.legs) + ")"
+    assert f"chose {chosen}" in first
+
+
 @pytest.mark.parametrize("stem", [p.stem for p in SCENARIOS])
 def test_shipped_scenario_plans_and_reintegrates(shipped_plans, stem):
     """Every shipped scenario, planned once per session as `stratplan regress` plans it."""

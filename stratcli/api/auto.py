@@ -122,3 +122,15 @@ def compare_decomposition(
             task.source,
         )
     return comparison, compile_time
+
+
+def auto_choice(outcome) -> str:
+    """What auto mode compared and chose, one sentence (a `ComparisonOutcome`): the command
+    line prints it, and `stratcli.plan` adds it to the chosen plan's notes."""
+    auto, outcomes = outcome.settings, outcome.comparison.outcomes
+    bounded = any(o.status == "bounded" for o in outcomes)
+    return (
+        f"auto mode: {len(outcomes)} candidate sequences (max length {auto.max_length}, "
+        f"{' + '.join(auto.strategies)}) {'compared' if bounded else 'planned'}; chose "
+        f"{outcome.comparison.choice()}"
+    )

@@ -24,7 +24,7 @@ from ..scenario import LegEntry, Task, load_scenario
 from ..sequence import SequencePlan
 from ..stratified import time_scaled
 from ..trie import default_jobs
-from .auto import auto_settings, compare_decomposition, decompose_task
+from .auto import auto_choice, auto_settings, compare_decomposition, decompose_task
 from .inspection import controllability_first
 from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
 
@@ -86,7 +86,9 @@ def plan(
     """
     task = as_task(scenario)
     if not task.legs:
-        return plan_auto(task, check=check, jobs=jobs).best.result
+        outcome = plan_auto(task, check=check, jobs=jobs)
+        best = outcome.best.result
+        return dataclasses.replace(best, notes=(auto_choice(outcome), *best.notes))
     return plan_run(task, check=check, time_scale=time_scale, warn=_warn).result
 
 

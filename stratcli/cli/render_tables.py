@@ -118,13 +118,9 @@ def comparison_footer(outcome, run_dir: Path) -> None:
 
 def auto_mode(outcome, run_dir: Path) -> None:
     """`plan` in auto mode: what was compared, the chosen plan, where the ranking is."""
-    auto = outcome.settings
-    bounded = sum(o.status == "bounded" for o in outcome.comparison.outcomes)
-    say(
-        f"auto mode: {len(outcome.comparison.outcomes)} candidate sequences (max length "
-        f"{auto.max_length}, {' + '.join(auto.strategies)}) "
-        f"{'compared' if bounded else 'planned'}; chose {outcome.comparison.choice()}"
-    )
+    from ..api.auto import auto_choice
+
+    say(auto_choice(outcome))
     render.plan_summary(outcome.best.document)
     comparison_footer(outcome, run_dir)
     say(
