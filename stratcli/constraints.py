@@ -394,6 +394,8 @@ def enforce(plan, c: Constraints):
     report = replace(verify(plan, c), duration_set_by=which if s < 1.0 else "")
     plan = replace(plan, constraints=report)
     if not report.ok and plan.legs and all(leg.converged for leg in plan.legs):
-        why = f"{plan.message}; " if plan.message else ""  # where the search stalled
-        plan = replace(plan, message=f"{report.violated}; {why}{plan.status.value}")
+        violated = report.violated
+        if plan.message:  # where the search stalled: the plan is the one found without limits
+            violated = f"{plan.message}; the plan found without the limits is kept: {violated}"
+        plan = replace(plan, message=f"{violated}; {plan.status.value}")
     return plan
