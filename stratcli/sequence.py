@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from .arguments import integer, wrong_type
+from .errors import InputError, Problem
 from .models.specs import system_from_ref
 from .resultdoc import plan_document, plan_from_document
 from .results import (
@@ -28,6 +30,8 @@ from .simulate import Trajectory, sample
 from .status import Status
 
 __all__ = ["SequencePlan"]
+
+TIME_ROUNDING = 1e-9  # relative: how far outside [0, duration] `controls` still takes a time
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,11 +129,28 @@ class SequencePlan:
 
     # ---- controls and trajectory ---------------------------------------------------------
     def controls(self, t: np.ndarray | float, derivative: bool = False) -> np.ndarray:
-        """All inputs at plan times `t`, shape (len(t), m); at a switch the later leg."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        """All inputs at plan times `t`, shape (len(t), m); at a switch the later leg.
+
+        Raises
+        ------
+        InputError
+            A time outside [0, duration] (beyond rounding, `TIME_ROUNDING` of the duration):
+            the Fourier series would be extrapolated, not the plan.
+        """
+        try:
+            t = np.atleast_1d(np.asarray(t, dtype=float))
+        except (TypeError, ValueError):
+            raise wrong_type("t", "a time or an array of times (s)", t) from None
         out = np.zeros((t.size, len(self.inputs)))
         if not self.legs:
             return out
+        total, slack = self.duration, TIME_ROUNDING * self.duration
+        outside = ~(np.isfinite(t) & (t >= -slack) & (t <= total + slack))
+        if outside.any():
+            bad = t[outside][0]
+            raise InputError(
+                [Problem("t", f"must be within the plan, from 0 to {total:g} s (got {bad:g})")]
+            )
         starts = np.array([leg.t0 for leg in self.legs])
         which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.legs) - 1)
         for k, leg in enumerate(self.legs):
@@ -152,7 +173,8 @@ class SequencePlan:
             With arrays `t` (N,), `q` (N, n), `u` (N, m), `du` (N, m) and `leg` (N,);
             unpacks as ``t, q, u = plan.sample()``.
         """
-        return sample(self, samples_per_leg)
+        integer(2)("samples_per_leg", samples_per_leg)
+        return sample(self, int(samples_per_leg))
 
     # ---- result.json ---------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
