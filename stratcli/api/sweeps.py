@@ -52,8 +52,9 @@ def run_sweep(
 
     Parameters
     ----------
-    file : str, Path or Sweep
-        The sweep file (TOML), or one already loaded (`stratcli.sweep.load_sweep`).
+    file : str, Path, Mapping or Sweep
+        What `stratcli.sweep.load_sweep` takes (a sweep file's path, TOML text or a dict of
+        the same structure), or a sweep it loaded.
     out : str or Path, optional
         The sweep directory (default: ``sweeps/<name>``).
     jobs : int, optional
