@@ -34,7 +34,7 @@ __all__ = ["SequencePlan"]
 TIME_ROUNDING = 1e-9  # relative: how far outside [0, duration] `controls` still takes a time
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)  # eq=False: == is identity (arrays inside)
 class SequencePlan:
     """A planned sequence of legs (or how far it got).
 
@@ -68,6 +68,13 @@ class SequencePlan:
         object.__setattr__(self, "legs", tuple(self.legs))
         object.__setattr__(self, "switches", tuple(self.switches))
         object.__setattr__(self, "notes", tuple(self.notes))
+
+    def __repr__(self) -> str:  # the fields' reprs run to many kB (settings, legs' arrays)
+        legs = ", ".join(leg.stratum for leg in self.legs)
+        return (
+            f"SequencePlan({self.scenario!r}: {self.status.name}, energy "
+            f"{self.total_energy:.6g}, {len(self.legs)} legs ({legs}), {self.duration:g} s)"
+        )
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)

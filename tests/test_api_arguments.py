@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -151,3 +152,29 @@ def test_use_case_errors_name_the_argument_and_the_command_line_the_flag():
     bad = CliRunner().invoke(app, ["check", "one-arm", "--at", "0, 1"])
     assert bad.exit_code == 2
     assert "error: --at: needs 4 values (q1, q2, q3, theta), got 2" in bad.output
+
+
+def test_outcomes_and_record_error_are_public_names():
+    for name, value in [
+        ("PlanOutcome", api.PlanOutcome),
+        ("ComparisonOutcome", api.ComparisonOutcome),
+        ("RecordError", stratcli.errors.RecordError),
+    ]:
+        assert name in stratcli.__all__ and name in dir(stratcli)
+        assert getattr(stratcli, name) is value
+        assert f"`{name}`" in stratcli.__doc__  # help(stratcli) lists it
+
+
+def test_reprs_are_short_and_say_name_status_energy_and_legs(plan):
+    text = repr(plan)
+    assert len(text) < 200, text
+    assert text.startswith("SequencePlan('unicycle': SUCCESS, energy ") and "1 legs (drive)" in text
+    assert f"{plan.total_energy:.6g}" in text
+    outcome = api.PlanOutcome(None, plan, plan.to_dict(), None, 0.0, 0.0)
+    assert repr(outcome) == f"PlanOutcome({text})"
+    fake = SimpleNamespace(scenario=SimpleNamespace(name="auto"))
+    comparison = api.ComparisonOutcome(
+        fake, None, SimpleNamespace(candidates=[1, 2, 3]), None, {}, outcome
+    )
+    assert repr(comparison) == f"ComparisonOutcome('auto': 3 candidate sequences, best {text})"
+    assert plan == plan and plan != stratcli.time_scaled(plan, 1.0)  # eq=False: identity

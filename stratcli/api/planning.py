@@ -216,7 +216,8 @@ def plan_auto(
     Returns
     -------
     ComparisonOutcome
-        The ranking and, in `.best`, the chosen sequence's plan.
+        The ranking and, in `.best`, the chosen sequence's `PlanOutcome` (its plan, a
+        `SequencePlan`: `.best.result`).
 
     Raises
     ------
@@ -274,7 +275,16 @@ def compare_sequences(
     Returns
     -------
     ComparisonOutcome
-        Outcomes, ranking, comparison.json and the best sequence's plan.
+        Outcomes, ranking, comparison.json and, in `.best`, the best sequence's
+        `PlanOutcome` (its plan: `.best.result`).
+
+    Raises
+    ------
+    InputError
+        Bad input, naming the field or the argument (`max_length`, `strategy`, ...), or no
+        candidate sequence could even be planned.
+    TypeError
+        An argument of the wrong type, named.
     """
     task = as_task(scenario)
     auto, dec = _decomposition(task, max_length, strategy, criterion)
