@@ -38,6 +38,32 @@ def test_numpy_scalars_and_arrays_in_a_dict_are_python_values():
     assert type(source["planner"]["seed"]) is np.int64  # the caller's dict is left as it is
 
 
+@pytest.mark.parametrize(
+    ("goal", "expected"),
+    [
+        (np.array([0.0, 1.0, np.nan]), ["task.goal[2]: must be a finite number (got nan)"]),
+        ([0.0, 1.0, np.float64(np.inf)], ["task.goal[2]: must be a finite number (got inf)"]),
+        (
+            np.zeros((3, 1)),
+            [
+                f"task.goal[{i}]: expected a number or an expression such as 'pi/3' (got [0.0])"
+                for i in range(3)
+            ],
+        ),
+        ([True, 1, 0], ["task.goal[0]: expected a number (got True)"]),
+    ],
+    ids=["nan-array", "inf-scalar", "2-d", "bool"],
+)
+def test_a_bad_value_is_shown_once(goal, expected):
+    source = copy.deepcopy(UNICYCLE)
+    source["task"]["goal"] = goal
+    with pytest.raises(InputError) as caught:
+        stratcli.load_scenario(source)
+    lines = str(caught.value).splitlines()
+    assert lines == [f"<dict>: {line}" for line in expected]
+    assert all(line.count("(got ") == 1 for line in lines)
+
+
 def test_a_sweep_is_a_path_toml_text_or_a_dict_with_numpy_axes(tmp_path):
     path = write(tmp_path, GRID)
     text = path.read_text()
