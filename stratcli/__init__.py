@@ -16,8 +16,15 @@ Use cases: `load_scenario`, `plan`, `plan_auto`, `decompose`, `compare_sequences
 `LegPlan`, `Piece`, `Switch`, `Optimisation`, `StartOutcome`, `ModelRef`, `Timings`,
 `Trajectory`, `Task`, `LegSpec`, and the settings `PlannerSettings`, `LieSettings`,
 `DecomposeSettings`, `FourierBasis`. Models: `System`, `Stratum`, `PlanarManipulator`, `Arm`,
-`Base`, `Link`, `preset`. Outcomes: `Status`. Errors: `StratplanError`, `InputError`,
-`ModelError`, `NotControllableError`, `Problem`; warnings: `IllConditionedWarning`.
+`Base`, `Link`, `preset`. Outcomes: `Status`; `PlanOutcome` (a plan in `.result` with its
+result.json and timings) and `ComparisonOutcome` (what `plan_auto` and `compare_sequences`
+return: the ranking, and in `.best` the chosen sequence's `PlanOutcome`, its plan in
+`.best.result`). Errors: `StratplanError`, `InputError`, `ModelError`,
+`NotControllableError`, `RecordError` (`write_record` could not write), `Problem`;
+warnings: `IllConditionedWarning`.
+
+Arguments are checked before any work: a value of the wrong type raises `TypeError`, a value
+out of range or not one of the choices `InputError` (a `ValueError`); both name the argument.
 """
 
 from __future__ import annotations
@@ -46,6 +53,8 @@ _PUBLIC = {
     "run_sweep": "api",
     "read_sweep": "api",
     "time_scaled": "stratified",
+    "PlanOutcome": "api",
+    "ComparisonOutcome": "api",
     "LegSpec": "stratified",
     "SequencePlan": "sequence",
     "LegPlan": "results",
@@ -73,6 +82,7 @@ _PUBLIC = {
     "ModelError": "errors",
     "NotControllableError": "errors",
     "IllConditionedWarning": "errors",
+    "RecordError": "errors",
     "Problem": "errors",
 }
 
@@ -93,6 +103,8 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # the same names, for type checkers and IDEs
+    from .api import ComparisonOutcome as ComparisonOutcome
+    from .api import PlanOutcome as PlanOutcome
     from .api import check_controllability as check_controllability
     from .api import compare_sequences as compare_sequences
     from .api import decompose as decompose
@@ -108,6 +120,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .errors import ModelError as ModelError
     from .errors import NotControllableError as NotControllableError
     from .errors import Problem as Problem
+    from .errors import RecordError as RecordError
     from .errors import StratplanError as StratplanError
     from .models.planar import Arm as Arm
     from .models.planar import Base as Base

@@ -41,7 +41,7 @@ from .models.numbers import parse_number
 from .models.specs import STRICT
 from .results import ConstraintReport, LegMargins
 from .simulate import sample
-from .stratified import time_scaled
+from .stratified import scale_time
 
 __all__ = [
     "VERIFY_SAMPLES",
@@ -389,7 +389,7 @@ def enforce(plan, c: Constraints):
     driftless system) and verified against every limit; a violation fails the plan."""
     s, which = rate_limited(plan, c)
     if s < 1.0:
-        plan = time_scaled(plan, s)
+        plan = scale_time(plan, s)
         plan = replace(plan, notes=(*plan.notes, f"slowed {1 / s:.4g}x to meet {which}"))
     report = replace(verify(plan, c), duration_set_by=which if s < 1.0 else "")
     plan = replace(plan, constraints=report)

@@ -22,7 +22,8 @@ class StratplanError(Exception):
 
 
 class InputError(StratplanError, ValueError):
-    """Bad input (scenario file, model definition, command-line value); exit code 2."""
+    """Bad input (scenario file, model definition, command-line value, or the value of a
+    public function's argument: `stratcli.arguments`); exit code 2."""
 
     def __init__(self, problems: list[Problem] | str, source: str | None = None):
         if isinstance(problems, str):

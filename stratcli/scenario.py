@@ -7,6 +7,7 @@ evaluated as code (angles such as "pi/3" or "60deg" go through the safe expressi
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +23,7 @@ from pydantic import (
 )
 
 from . import tomlwrite
+from .arguments import wrong_type
 from .constraints import Constraints, ConstraintsSpec, check_configuration, resolve
 from .controls import MAX_PERIODS_PER_LEG
 from .endpoint import evaluator_problems
@@ -46,7 +48,7 @@ from .settings import (
     PlannerSettings,
 )
 from .stratified import LegSpec, check_legs
-from .tomlread import parse_toml, read_scenario_text, reject_non_finite
+from .tomlread import parse_toml, plain, read_scenario_text, reject_non_finite
 
 MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
 
@@ -204,9 +206,17 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
     ------
     InputError
         Naming every problem, one line each: `source: field.path: message (got value)`.
+    TypeError
+        `source` is none of these.
     """
     if isinstance(source, Mapping):
-        return _from_raw(dict(source), None, name or "<dict>")
+        try:  # numpy values as Python's, here for every caller (sweeps' tasks too)
+            raw = plain(source)
+        except InputError as exc:
+            raise exc.with_source(name or "<dict>") from None
+        return _from_raw(raw, None, name or "<dict>")
+    if not isinstance(source, str | os.PathLike):
+        raise wrong_type("source", "a scenario path, TOML text or a dict", source)
     if isinstance(source, str) and ("\n" in source or "=" in source):
         return parse_scenario(source, name or "<text>")
     path = Path(source)

@@ -98,7 +98,8 @@ def validation_problems(
             what = "is missing" if got is None else f"is {_short(got)}, not a {field}"
             out.append(Problem(_path((*loc, field)), f"{what} (one of: {tags})"))
             continue
-        shown = "" if kind == "missing" else f" (got {_short(err['input'])})"
+        # a validator's own message may show the value already (parse_number's do)
+        shown = "" if kind == "missing" or "(got " in msg else f" (got {_short(err['input'])})"
         problem = Problem(_path(loc), f"{msg}{shown}")
         if loc != raw:  # one form of several: grouped by the value they are forms of
             value = raw[: next(i for i, item in enumerate(raw) if _form(item, models))]

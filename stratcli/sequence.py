@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from .arguments import integer, wrong_type
+from .errors import InputError, Problem
 from .models.specs import system_from_ref
 from .resultdoc import plan_document, plan_from_document
 from .results import (
@@ -29,8 +31,10 @@ from .status import Status
 
 __all__ = ["SequencePlan"]
 
+TIME_ROUNDING = 1e-9  # relative: how far outside [0, duration] `controls` still takes a time
 
-@dataclass(frozen=True, eq=False)
+
+@dataclass(frozen=True, eq=False, repr=False)  # eq=False: == is identity (arrays inside)
 class SequencePlan:
     """A planned sequence of legs (or how far it got).
 
@@ -64,6 +68,13 @@ class SequencePlan:
         object.__setattr__(self, "legs", tuple(self.legs))
         object.__setattr__(self, "switches", tuple(self.switches))
         object.__setattr__(self, "notes", tuple(self.notes))
+
+    def __repr__(self) -> str:  # the fields' reprs run to many kB (settings, legs' arrays)
+        legs = ", ".join(leg.stratum for leg in self.legs)
+        return (
+            f"SequencePlan({self.scenario!r}: {self.status.name}, energy "
+            f"{self.total_energy:.6g}, {len(self.legs)} legs ({legs}), {self.duration:g} s)"
+        )
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -125,11 +136,28 @@ class SequencePlan:
 
     # ---- controls and trajectory ---------------------------------------------------------
     def controls(self, t: np.ndarray | float, derivative: bool = False) -> np.ndarray:
-        """All inputs at plan times `t`, shape (len(t), m); at a switch the later leg."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        """All inputs at plan times `t`, shape (len(t), m); at a switch the later leg.
+
+        Raises
+        ------
+        InputError
+            A time outside [0, duration] (beyond rounding, `TIME_ROUNDING` of the duration):
+            the Fourier series would be extrapolated, not the plan.
+        """
+        try:
+            t = np.atleast_1d(np.asarray(t, dtype=float))
+        except (TypeError, ValueError):
+            raise wrong_type("t", "a time or an array of times (s)", t) from None
         out = np.zeros((t.size, len(self.inputs)))
         if not self.legs:
             return out
+        total, slack = self.duration, TIME_ROUNDING * self.duration
+        outside = ~(np.isfinite(t) & (t >= -slack) & (t <= total + slack))
+        if outside.any():
+            bad = t[outside][0]
+            raise InputError(
+                [Problem("t", f"must be within the plan, from 0 to {total:g} s (got {bad:g})")]
+            )
         starts = np.array([leg.t0 for leg in self.legs])
         which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.legs) - 1)
         for k, leg in enumerate(self.legs):
@@ -152,7 +180,8 @@ class SequencePlan:
             With arrays `t` (N,), `q` (N, n), `u` (N, m), `du` (N, m) and `leg` (N,);
             unpacks as ``t, q, u = plan.sample()``.
         """
-        return sample(self, samples_per_leg)
+        integer(2)("samples_per_leg", samples_per_leg)
+        return sample(self, int(samples_per_leg))
 
     # ---- result.json ---------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

@@ -69,7 +69,13 @@ class Trajectory:
         return int(self.t.size)
 
     def leg_slice(self, k: int) -> slice:
-        """Index range of leg k's samples (they are contiguous)."""
+        """Index range of leg k's samples (they are contiguous); IndexError for a leg the
+        trajectory does not have."""
+        legs = len(self.strata)
+        if not 0 <= k < legs:
+            raise IndexError(
+                f"leg {k} out of range: the trajectory has {legs} legs (0 to {legs - 1})"
+            )
         idx = np.flatnonzero(self.leg == k)
         return slice(int(idx[0]), int(idx[-1]) + 1) if idx.size else slice(0, 0)
 

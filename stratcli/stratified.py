@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .arguments import checked, instance, number
 from .controls import FourierBasis, energy
 from .errors import InputError, Problem
 from .interrupts import checkpoint
@@ -22,7 +23,7 @@ from .planners import PLANNERS, LegPlanner, LegProblem
 from .planners.base import SearchDiverged
 from .results import LegPlan, ModelRef, Switch, make_leg
 from .sequence import SequencePlan
-from .settings import LieSettings, PlannerSettings
+from .settings import MAX_TIME_SCALE, LieSettings, PlannerSettings
 from .status import Status
 
 __all__ = [
@@ -351,6 +352,10 @@ def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings:
         raise InputError(problems)
 
 
+@checked(
+    plan=instance("a SequencePlan", SequencePlan),
+    s=number(1.0 / MAX_TIME_SCALE, MAX_TIME_SCALE),  # as planner.time_scale
+)
 def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
     """The same path run `s` times faster (paper §6): `u(t) → s·u(s·t)`.
 
@@ -363,13 +368,20 @@ def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
     plan : SequencePlan
         A plan (at any time scale).
     s : float
-        The speed-up (> 0); below 1 the path runs slower.
+        The speed-up, from 0.001 to 1000 (as `planner.time_scale`); below 1 the path runs
+        slower.
 
     Returns
     -------
     SequencePlan
         The same path in 1/s of the time; `time_scale` multiplied by `s`.
     """
+    return scale_time(plan, s)
+
+
+def scale_time(plan: SequencePlan, s: float) -> SequencePlan:
+    """`time_scaled` without the check of `s` (`constraints.enforce` slows a plan by any
+    factor its rate limits need)."""
     old = plan.settings.basis
     basis = FourierBasis(old.harmonics, old.period / s)
     legs = []

@@ -17,6 +17,7 @@ import math
 import os
 import stat
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -25,16 +26,24 @@ from .errors import InputError, Problem
 MAX_BYTES = 1_000_000
 MAX_DEPTH = 64
 
-__all__ = ["MAX_BYTES", "MAX_DEPTH", "parse_toml", "read_scenario_text", "reject_non_finite"]
+__all__ = [
+    "MAX_BYTES",
+    "MAX_DEPTH",
+    "parse_toml",
+    "plain",
+    "read_scenario_text",
+    "reject_non_finite",
+]
 
 
-def read_scenario_text(path: str | Path, limit: int = MAX_BYTES) -> str:
+def read_scenario_text(path: str | Path, limit: int = MAX_BYTES, kind: str = "scenario") -> str:
     """The text of a scenario file, read with bounded memory.
 
     Parameters
     ----------
     path : file to read; must be a regular file.
     limit : largest accepted size in bytes.
+    kind : what the file is, as messages name it ("scenario", "sweep").
 
     Returns
     -------
@@ -50,15 +59,15 @@ def read_scenario_text(path: str | Path, limit: int = MAX_BYTES) -> str:
     try:
         # stat before opening: opening a FIFO would block until someone writes to it
         if not stat.S_ISREG(os.stat(path).st_mode):
-            raise InputError("not a regular file (a scenario must be a .toml file)", source)
+            raise InputError(f"not a regular file (a {kind} must be a .toml file)", source)
         with open(path, "rb") as fh:
             if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
-                raise InputError("not a regular file (a scenario must be a .toml file)", source)
+                raise InputError(f"not a regular file (a {kind} must be a .toml file)", source)
             data = fh.read(limit + 1)
     except OSError as exc:
-        raise InputError(f"cannot read scenario file: {exc.strerror or exc}", source) from None
+        raise InputError(f"cannot read {kind} file: {exc.strerror or exc}", source) from None
     if len(data) > limit:
-        raise InputError(f"file is larger than {limit} bytes; a scenario is a small file", source)
+        raise InputError(f"file is larger than {limit} bytes; a {kind} is a small file", source)
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -129,6 +138,31 @@ def parse_toml(text: str, source: str = "<scenario>", max_depth: int = MAX_DEPTH
         raise InputError(f"not valid TOML: {exc}", source) from None
     except (RecursionError, MemoryError):
         raise InputError("arrays or inline tables nested too deeply to parse", source) from None
+
+
+def plain(raw: Mapping[str, Any], max_depth: int = MAX_DEPTH) -> dict[str, Any]:
+    """A dict source as the TOML file it stands for: numpy scalars (``np.int64(5)``,
+    ``np.True_``) as Python's (``.item()``), numpy arrays and tuples as lists, mappings as
+    dicts; a copy, `raw` is left as it is.
+
+    Raises
+    ------
+    InputError
+        Nested more than `max_depth` levels (as a TOML file may not be).
+    """
+
+    def convert(value: Any, depth: int) -> Any:
+        if depth > max_depth:
+            raise InputError(f"tables or lists nested more than {max_depth} levels")
+        if isinstance(value, Mapping):
+            return {key: convert(item, depth + 1) for key, item in value.items()}
+        if type(value).__module__ == "numpy" and hasattr(value, "tolist"):
+            value = value.tolist()  # np.generic: the Python scalar; np.ndarray: nested lists
+        if isinstance(value, list | tuple):
+            return [convert(item, depth + 1) for item in value]
+        return value
+
+    return convert(raw, 0)
 
 
 def reject_non_finite(raw: Any, prefix: str = "") -> list[Problem]:

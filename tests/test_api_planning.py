@@ -47,7 +47,7 @@ def test_decompose_lists_the_candidates_without_planning():
     outcome = api.decompose(task, max_length=2, strategy="both")
     assert outcome.document["strategies"] == ["conservative", "postponed"]
     assert len(outcome.document["sequences"]) == len(outcome.decomposition.candidates)
-    with pytest.raises(InputError, match="--strategy"):
+    with pytest.raises(InputError, match=r"^strategy: must be conservative, postponed or both"):
         api.decompose(task, strategy="eager")
 
 

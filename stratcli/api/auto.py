@@ -25,7 +25,9 @@ class AutoSettings:
     strategies: tuple[str, ...]
     criterion: str
     strata: tuple[str, ...] | None
-    origin: dict[str, str]  # field -> "decompose.<field>" (file), "--<option>" or "default"
+    # field -> "decompose.<field>" (the file) or the argument's name (given, or the default;
+    # the command line shows it as its flag: `cli.render.reported`)
+    origin: dict[str, str]
     notes: tuple[str, ...] = ()  # for the user: the scenario's [[legs]] are not used here
 
 
@@ -47,13 +49,12 @@ def auto_settings(
         ("criterion", criterion),
     ):
         default = getattr(defaults, name)
-        option = "--" + name.replace("_", "-")
         if given is not None:
-            values[name], origin[name] = given, option
+            values[name], origin[name] = given, name
         elif spec is not None:
             values[name], origin[name] = getattr(spec, name), f"decompose.{name}"
         else:
-            values[name], origin[name] = default, option
+            values[name], origin[name] = default, name
     strata = None if spec is None or spec.strata is None else tuple(spec.strata)
     origin["strata"] = "decompose.strata" if strata is not None else "task.goal"
     strategy_value = values["strategy"]

@@ -8,7 +8,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..arguments import checked, integer, source
 from ..errors import InputError, NotControllableError, Problem
+from ..liealgebra import MAX_DEGREE
 from ..models.numbers import parse_number
 from ..models.presets import PRESETS, preset
 from ..models.system import System
@@ -78,6 +80,12 @@ def controllability_first(
     return time.perf_counter() - clock
 
 
+@checked(
+    target=source("scenario", Task),
+    samples=integer(0),
+    degree=integer(1, MAX_DEGREE),
+    seed=integer(0, 2**63 - 1),
+)
 def check_controllability(
     target: str | Path | Mapping[str, Any] | Task,
     at: str | Sequence[float] | None = None,
@@ -105,6 +113,13 @@ def check_controllability(
     -------
     CheckReport
         The check document (`.controllable`, `.problems`), a title and the time taken.
+
+    Raises
+    ------
+    InputError
+        A bad scenario or `at`, or `samples`, `degree` or `seed` out of range (named).
+    TypeError
+        An argument of the wrong type, named.
     """
     task = preset_or_scenario(target)
     if isinstance(task, str):
@@ -152,9 +167,10 @@ def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | T
     return load_scenario(target)
 
 
-def configuration(system: System, at: str | Sequence[float], option: str = "--at") -> list:
+def configuration(system: System, at: str | Sequence[float], option: str = "at") -> list:
     """A configuration of `system` from text such as ``"(0, pi/3, 0, 0)"``; InputError naming
-    `option` when it does not parse or has the wrong length."""
+    `option` (the argument; the command line shows its flag) when it does not parse or has
+    the wrong length."""
     try:
         if isinstance(at, str):
             values = [parse_number(x.strip()) for x in at.strip("()[] ").split(",")]

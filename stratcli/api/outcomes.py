@@ -17,9 +17,9 @@ from .auto import AutoSettings
 __all__ = ["ComparisonOutcome", "DecompositionOutcome", "PlanOutcome"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class PlanOutcome:
-    """A planned scenario: the plan, its result.json document and what it took."""
+    """A planned scenario: the plan (`result`), its result.json document and what it took."""
 
     task: Task  # in auto mode: the scenario with the chosen sequence's legs
     result: SequencePlan
@@ -36,10 +36,14 @@ class PlanOutcome:
         """Every leg reached its goal."""
         return self.result.ok
 
+    def __repr__(self) -> str:  # the fields' reprs run to many kB (scenario text, models)
+        return f"PlanOutcome({self.result!r})"
 
-@dataclass(frozen=True)
+
+@dataclass(frozen=True, repr=False)
 class ComparisonOutcome:
-    """Every candidate sequence planned and ranked; `best` is the chosen one's plan."""
+    """Every candidate sequence planned and ranked; `best` is the chosen sequence's
+    `PlanOutcome` (its plan: `best.result`)."""
 
     task: Task
     settings: AutoSettings  # the [decompose] table with overrides applied
@@ -52,6 +56,13 @@ class ComparisonOutcome:
     def ok(self) -> bool:
         """Some sequence reached the goal."""
         return self.best.ok
+
+    def __repr__(self) -> str:
+        candidates = len(self.decomposition.candidates)
+        return (
+            f"ComparisonOutcome({self.task.scenario.name!r}: {candidates} candidate sequences, "
+            f"best {self.best.result!r})"
+        )
 
 
 @dataclass(frozen=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import sys
 import warnings
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Executor
@@ -11,17 +12,19 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from ..arguments import checked, choice, flag, instance, integer, number, optional, source
 from ..compare import CRITERIA
 from ..constraints import enforce
 from ..decomposition import STRATEGIES, pi_fraction
 from ..durations import optimise_durations
-from ..errors import IllConditionedWarning, InputError, Problem
+from ..errors import IllConditionedWarning, InputError
 from ..objectives import plan_sequence
 from ..records.comparison import comparison_document
 from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
 from ..scenario import LegEntry, Task, load_scenario
 from ..sequence import SequencePlan
+from ..settings import MAX_TIME_SCALE
 from ..stratified import time_scaled
 from ..trie import default_jobs
 from .auto import auto_choice, auto_settings, compare_decomposition, decompose_task
@@ -32,6 +35,15 @@ IMPORTED = since_start()  # the end of the planner's imports: the "import" phase
 Progress = Callable[[int, int], None]  # (sequences planned so far, sequences in all)
 # a loaded scenario, or what load_scenario takes (a path, TOML text or a dict)
 ScenarioLike = Task | str | Path | Mapping[str, Any]
+
+# the arguments of the use cases below, checked before any work (`stratcli.arguments`)
+SCENARIO = source("scenario", Task)
+JOBS = optional(integer(1))
+TIME_SCALE = optional(number(1.0 / MAX_TIME_SCALE, MAX_TIME_SCALE))
+MAX_LENGTH = optional(integer(1, 8))  # as the [decompose] table allows
+STRATEGY = optional(choice(*STRATEGIES, "both"))
+CRITERION = optional(choice(*CRITERIA))
+PROGRESS = optional(instance("a callable", Callable))  # type: ignore[arg-type]
 
 
 def as_task(scenario: ScenarioLike) -> Task:
@@ -44,6 +56,7 @@ def as_task(scenario: ScenarioLike) -> Task:
 # ------------------------------------------------------------------------------------------
 
 
+@checked(scenario=SCENARIO, check=flag, time_scale=TIME_SCALE, jobs=JOBS)
 def plan(
     scenario: Task | str | Path | Mapping[str, Any],
     *,
@@ -93,8 +106,14 @@ def plan(
 
 
 def _warn(sentence: str) -> None:
-    """The check's warnings as Python warnings, attributed to the caller of `plan`."""
-    warnings.warn(sentence, IllConditionedWarning, stacklevel=5)
+    """The check's warnings as Python warnings, attributed to the caller of `plan`: the first
+    frame outside this package (however many of its frames are between, the argument checks'
+    `arguments.checked` among them)."""
+    package = Path(__file__).resolve().parents[1]
+    frame, level = sys._getframe(1), 2
+    while frame is not None and Path(frame.f_code.co_filename).resolve().is_relative_to(package):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(sentence, IllConditionedWarning, stacklevel=level)
 
 
 def plan_run(
@@ -172,6 +191,7 @@ def plan_run(
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases)
 
 
+@checked(scenario=SCENARIO, check=flag, jobs=JOBS, progress=PROGRESS)
 def plan_auto(
     scenario: ScenarioLike,
     *,
@@ -196,7 +216,8 @@ def plan_auto(
     Returns
     -------
     ComparisonOutcome
-        The ranking and, in `.best`, the chosen sequence's plan.
+        The ranking and, in `.best`, the chosen sequence's `PlanOutcome` (its plan, a
+        `SequencePlan`: `.best.result`).
 
     Raises
     ------
@@ -211,6 +232,10 @@ def plan_auto(
     return compare_sequences(task, jobs=jobs, progress=progress)
 
 
+@checked(
+    scenario=SCENARIO, max_length=MAX_LENGTH, strategy=STRATEGY, criterion=CRITERION, jobs=JOBS,
+    progress=PROGRESS, exhaustive=flag, dask=optional(instance("an address or file name", str)),
+)  # fmt: skip
 def compare_sequences(
     scenario: ScenarioLike,
     *,
@@ -250,7 +275,16 @@ def compare_sequences(
     Returns
     -------
     ComparisonOutcome
-        Outcomes, ranking, comparison.json and the best sequence's plan.
+        Outcomes, ranking, comparison.json and, in `.best`, the best sequence's
+        `PlanOutcome` (its plan: `.best.result`).
+
+    Raises
+    ------
+    InputError
+        Bad input, naming the field or the argument (`max_length`, `strategy`, ...), or no
+        candidate sequence could even be planned.
+    TypeError
+        An argument of the wrong type, named.
     """
     task = as_task(scenario)
     auto, dec = _decomposition(task, max_length, strategy, criterion)
@@ -309,6 +343,7 @@ def _cluster(dask: str | None, executor: Executor | None) -> Iterator[Executor |
         yield cluster
 
 
+@checked(scenario=SCENARIO, max_length=MAX_LENGTH, strategy=STRATEGY)
 def decompose(
     scenario: ScenarioLike, *, max_length: int | None = None, strategy: str | None = None
 ) -> DecompositionOutcome:
@@ -355,20 +390,8 @@ def decompose(
 
 
 def _decomposition(task: Task, max_length, strategy, criterion=None):
-    """[decompose] settings with overrides, and the decomposition; InputError on bad values."""
-    problems = []
-    if strategy is not None and strategy not in (*STRATEGIES, "both"):
-        problems.append(
-            Problem("--strategy", f"must be conservative, postponed or both (got {strategy!r})")
-        )
-    if criterion is not None and criterion not in CRITERIA:
-        problems.append(
-            Problem("--criterion", f"must be one of {', '.join(CRITERIA)} (got {criterion!r})")
-        )
-    if max_length is not None and max_length > 8:
-        problems.append(Problem("--max-length", f"must be at most 8 (got {max_length})"))
-    if problems:
-        raise InputError(problems)
+    """[decompose] settings with overrides (checked by the use cases: `MAX_LENGTH`, ...), and
+    the decomposition; InputError naming the field or argument to change."""
     auto = auto_settings(task, max_length=max_length, strategy=strategy, criterion=criterion)
     return auto, decompose_task(task, auto)
 

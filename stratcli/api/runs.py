@@ -14,6 +14,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..arguments import checked, choice, flag, instance, pathlike
 from ..errors import InputError
 from ..records.rundir import clean_partials  # stdlib only: light
 from ..records.store import Record, list_records, mcap_summary, read_record
@@ -47,6 +48,20 @@ class RegressReport:
 # ------------------------------------------------------------------------------------------
 
 
+def _outcome_types() -> tuple[type, ...]:
+    from ..sequence import SequencePlan  # start-up speed (module comment)
+    from .outcomes import ComparisonOutcome, PlanOutcome
+
+    return SequencePlan, PlanOutcome, ComparisonOutcome
+
+
+OUTCOME = "a SequencePlan, PlanOutcome or ComparisonOutcome (plan, plan_auto, compare_sequences)"
+FORMATS = ("png", "svg", "pdf")  # of the plots (`records.figure_common.FORMATS`)
+
+
+@checked(
+    out=pathlike, outcome=instance(OUTCOME, _outcome_types), animation=flag, fmt=choice(*FORMATS)
+)
 def write_record(
     out: str | Path,
     outcome: SequencePlan | PlanOutcome | ComparisonOutcome,
@@ -76,6 +91,15 @@ def write_record(
     Path
         The run directory. The outcome's `phases` (a `PlanOutcome`'s, or the best's) gain
         the record's parts, `write` and `total` (see `stratcli.records.manifest`).
+
+    Raises
+    ------
+    RecordError
+        The record could not be written (nothing complete-looking is left).
+    InputError
+        `fmt` is not png, svg or pdf; a plan without a scenario to record.
+    TypeError
+        `outcome` is not one of those values (or another argument of the wrong type).
     """
     wall, cpu = time.perf_counter(), time.process_time()
     from ..records import run as run_files  # start-up speed (module comment)

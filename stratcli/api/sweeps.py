@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from concurrent.futures import Executor
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..arguments import checked, choice, flag, instance, integer, optional, pathlike, source
 from ..records import sweepdir
 from ..sweep.outputs import summarise
-from ..sweep.run import ExecutorInfo, Progress, SweepOutcome, dask_executor
+from ..sweep.run import RECORDS, ExecutorInfo, Progress, SweepOutcome, dask_executor
 from ..sweep.run import run_sweep as run_tasks
 from ..sweep.spec import Sweep, load_sweep
 
@@ -26,8 +28,17 @@ class SweepReport:
     finished: bool  # sweep.json was written (the last run got to the end)
 
 
+@checked(
+    file=source("sweep", Sweep),
+    out=optional(pathlike),
+    jobs=optional(integer(1)),
+    dask=optional(instance("an address or file name", str)),
+    resume=flag,
+    records=choice(*RECORDS),
+    progress=optional(instance("a callable", Callable)),  # type: ignore[arg-type]
+)
 def run_sweep(
-    file: str | Path | Sweep,
+    file: str | Path | Mapping[str, Any] | Sweep,
     out: str | Path | None = None,
     *,
     jobs: int | None = None,
@@ -41,8 +52,9 @@ def run_sweep(
 
     Parameters
     ----------
-    file : str, Path or Sweep
-        The sweep file (TOML), or one already loaded (`stratcli.sweep.load_sweep`).
+    file : str, Path, Mapping or Sweep
+        What `stratcli.sweep.load_sweep` takes (a sweep file's path, TOML text or a dict of
+        the same structure), or a sweep it loaded.
     out : str or Path, optional
         The sweep directory (default: ``sweeps/<name>``).
     jobs : int, optional

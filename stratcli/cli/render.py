@@ -26,7 +26,7 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from ..errors import InputError, NotControllableError, RecordError
+from ..errors import InputError, NotControllableError, Problem, RecordError
 
 PIPE_WIDTH = 10_000  # not a terminal: lines are as long as their text, never wrapped
 
@@ -92,6 +92,21 @@ def print_json(doc: Any) -> None:
     print(json.dumps(doc, indent=2))
 
 
+# The library names a use case's Python argument (`at: needs 4 values`); the command line
+# shows the flag that passed it (`--at: needs 4 values`). A scenario's or sweep file's field
+# path is dotted or a table's name, never one of these.
+FLAGS = {
+    name: "--" + name.replace("_", "-")
+    for name in ("at", "max_length", "strategy", "criterion", "time_scale", "degree", "samples",
+                 "seed", "jobs", "records", "dask")
+} | {"fmt": "--format"}  # fmt: skip
+
+
+def flagged(problem: Problem) -> Problem:
+    """`problem` naming the command-line flag where it names a use case's argument."""
+    return Problem(FLAGS.get(problem.path, problem.path), problem.message)
+
+
 @contextmanager
 def reported(scenario: Path | None = None) -> Iterator[None]:
     """Map errors to exit codes: bad input 2, not controllable 3 (naming `scenario`), a
@@ -100,7 +115,7 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
         yield
     except InputError as exc:
         for problem in exc.problems:
-            error("error", problem.render(exc.source))
+            error("error", flagged(problem).render(exc.source))
         raise typer.Exit(2) from None
     except NotControllableError as exc:
         for problem in exc.problems:

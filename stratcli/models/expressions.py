@@ -209,14 +209,14 @@ _DEG = re.compile(r"^\s*(.+?)\s*(deg|°)\s*$")
 def parse_number(value: float | int | str) -> float:
     """A real number from a TOML value: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°"."""
     if isinstance(value, bool):
-        raise ExpressionError(f"expected a number, got {value!r}")
+        raise ExpressionError(f"expected a number (got {value!r})")
     if isinstance(value, int | float):
         number = float(value)
         if not math.isfinite(number):
             raise ExpressionError(f"must be a finite number (got {number})")
         return number
     if not isinstance(value, str):
-        raise ExpressionError(f"expected a number or an expression such as 'pi/3', got {value!r}")
+        raise ExpressionError(f"expected a number or an expression such as 'pi/3' (got {value!r})")
     scale = 1.0
     text = value
     match = _DEG.match(value)

@@ -85,14 +85,14 @@ def parse_number(value: float | int | str) -> float:
         Not a finite real constant (the message says why).
     """
     if isinstance(value, bool):
-        raise ExpressionError(f"expected a number, got {value!r}")
+        raise ExpressionError(f"expected a number (got {value!r})")
     if isinstance(value, int | float):
         number = float(value)
         if not math.isfinite(number):
             raise ExpressionError(f"must be a finite number (got {number})")
         return number
     if not isinstance(value, str):
-        raise ExpressionError(f"expected a number or an expression such as 'pi/3', got {value!r}")
+        raise ExpressionError(f"expected a number or an expression such as 'pi/3' (got {value!r})")
     match = _DEG.match(value)
     text, scale = (match.group(1), math.pi / 180.0) if match else (value, 1.0)
     number = _plain(text)

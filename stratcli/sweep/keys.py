@@ -96,7 +96,8 @@ def number(value: Any, field: str, problems: list[Problem]) -> float | None:
     try:
         return parse_number(value)
     except (ValueError, InputError) as exc:
-        problems.append(Problem(field, f"{exc} (got {value!r})"))
+        got = "" if "(got " in str(exc) else f" (got {value!r})"  # parse_number's may show it
+        problems.append(Problem(field, f"{exc}{got}"))
         return None
 
 

@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import blas
-from ..errors import InputError
+from ..errors import InputError, Problem
 from ..records import sweepdir
 from ..records.rundir import write_run
 from .spec import Sweep
@@ -273,7 +273,7 @@ def run_sweep(
     from ..trie import default_jobs
 
     if records not in RECORDS:
-        raise InputError(f"--records: one of {', '.join(RECORDS)} (got {records!r})")
+        raise InputError([Problem("records", f"one of {', '.join(RECORDS)} (got {records!r})")])
     out = Path(out)
     clock, started = time.perf_counter(), datetime.now(UTC)
     rows = sweepdir.prepare(out, spec_document(sweep), sweep.text, resume)

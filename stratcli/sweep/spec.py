@@ -30,7 +30,7 @@ import hashlib
 import itertools
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -38,11 +38,13 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, Field, ValidationError
 
+from .. import tomlwrite
+from ..arguments import wrong_type
 from ..errors import InputError, Problem
 from ..models.specs import STRICT
 from ..scenario import load_scenario
 from ..schema_problems import validation_problems
-from ..tomlread import parse_toml, read_scenario_text, reject_non_finite
+from ..tomlread import parse_toml, plain, read_scenario_text, reject_non_finite
 from .keys import (
     MAX_TASKS,
     assign,
@@ -186,13 +188,19 @@ class Sweep:
 # ------------------------------------------------------------------------------------------
 
 
-def load_sweep(path: str | Path) -> Sweep:
+def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) -> Sweep:
     """Read and validate a sweep file.
 
     Parameters
     ----------
-    path : str or Path
-        The sweep file (TOML); a base scenario path in it is relative to its directory.
+    source : str, Path or Mapping
+        What `load_scenario` takes: a path to the sweep file (TOML; a base scenario path in it
+        is relative to its directory); TOML text (a string with a newline or "="); or a plain
+        `dict` of the same structure (numpy values and arrays as Python's: a grid axis may be
+        ``np.arange(...)``). A base scenario path in text or a dict is relative to the
+        current directory.
+    name : str, optional
+        How messages refer to the source (default: the path, "<text>" or "<dict>").
 
     Returns
     -------
@@ -203,23 +211,41 @@ def load_sweep(path: str | Path) -> Sweep:
     ------
     InputError
         Naming every problem, one line each: `file: field.path: message (got value)`.
+    TypeError
+        `source` is none of these.
     """
-    source = str(path)
-    try:
-        text = read_scenario_text(path)
-    except InputError as exc:
-        raise exc.with_source(source) from None
-    raw = parse_toml(text, source)
+    folder = Path()
+    if isinstance(source, Mapping):
+        where = name or "<dict>"
+        try:
+            raw = plain(source)
+            text = tomlwrite.dumps(raw)
+        except InputError as exc:
+            raise exc.with_source(where) from None
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"cannot be written as TOML: {exc}", where) from None
+    elif isinstance(source, str) and ("\n" in source or "=" in source):
+        where, text = name or "<text>", source
+        raw = parse_toml(text, where)
+    elif isinstance(source, str | os.PathLike):
+        where, folder = name or str(source), Path(source).parent
+        try:
+            text = read_scenario_text(source, kind="sweep")
+        except InputError as exc:
+            raise exc.with_source(where) from None
+        raw = parse_toml(text, where)
+    else:
+        raise wrong_type("source", "a sweep path, TOML text or a dict", source)
     if non_finite := reject_non_finite(raw):
-        raise InputError(non_finite, source)
+        raise InputError(non_finite, where)
     try:
         spec = SweepFile.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(validation_problems(exc, root=SweepFile), source) from None
+        raise InputError(validation_problems(exc, root=SweepFile), where) from None
     try:
-        return _resolve(spec, Path(path).parent, source, text)
+        return _resolve(spec, folder, where, text)
     except InputError as exc:
-        raise exc.with_source(source) from None
+        raise exc.with_source(where) from None
 
 
 def _base(spec: SweepFile, folder: Path) -> tuple[dict[str, Any], str]:

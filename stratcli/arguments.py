@@ -1,0 +1,197 @@
+"""Checks of the public API's arguments: one line naming the argument and what it may be,
+raised before any work is done (stdlib only: the light use cases import it too).
+
+One rule at every entry point: a value of the wrong Python type raises `TypeError` (nothing a
+scenario file or the command line can produce: a programming mistake); a value of the right
+type that is out of range or not one of the choices raises `InputError` (a `ValueError`),
+the error the same value gets from a scenario file or a command-line flag, which the command
+line turns into exit code 2. Both read ``name: must be ... (got value)``.
+
+Use `checked` on a function (``@checked(check=flag, jobs=optional(integer(1)))``), or call a
+rule directly: ``integer(2)("samples_per_leg", n)``.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+import numbers
+import os
+from collections.abc import Callable, Mapping
+from typing import Any, TypeVar
+
+from .errors import InputError, Problem
+
+__all__ = [
+    "checked",
+    "choice",
+    "flag",
+    "instance",
+    "integer",
+    "number",
+    "optional",
+    "pathlike",
+    "source",
+]
+
+Rule = Callable[[str, Any], None]  # rule(name, value): returns, or raises naming `name`
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def checked(**rules: Rule) -> Callable[[F], F]:
+    """Decorate a public function: each named argument passes its rule before the call.
+
+    A call that does not match the signature fails as it would without the decorator; an
+    argument left at its default is not checked (the default is right).
+    """
+
+    def decorate(func: F) -> F:
+        signature = inspect.signature(func)
+        unknown = set(rules) - set(signature.parameters)
+        if unknown:  # a typo here would silently check nothing
+            raise AssertionError(f"{func.__qualname__} has no argument {', '.join(unknown)}")
+
+        @functools.wraps(func)
+        def call(*args: Any, **kwargs: Any) -> Any:
+            given = signature.bind(*args, **kwargs).arguments
+            for name, rule in rules.items():
+                if name in given:
+                    rule(name, given[name])
+            return func(*args, **kwargs)
+
+        return call  # type: ignore[return-value]
+
+    return decorate
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else f"{text[:77]}..."
+
+
+def wrong_type(name: str, what: str, value: Any) -> TypeError:
+    """The TypeError of an argument `name` that must be `what`."""
+    return TypeError(f"{name}: must be {what} (got {_shown(value)} of type {type(value).__name__})")
+
+
+def bad_value(name: str, what: str, value: Any) -> InputError:
+    """The InputError of an argument `name` whose value must be `what`."""
+    return InputError([Problem(name, f"must be {what} (got {_shown(value)})")])
+
+
+def _is_bool(value: Any) -> bool:
+    if isinstance(value, bool):
+        return True
+    return type(value).__module__ == "numpy" and type(value).__name__ in ("bool", "bool_")
+
+
+def flag(name: str, value: Any) -> None:
+    """True or False (numpy's booleans too)."""
+    if not _is_bool(value):
+        raise wrong_type(name, "True or False", value)
+
+
+def _range(low: float | None, high: float | None, above: bool) -> str:
+    if low is not None and high is not None:
+        return f"from {low:g} to {high:g}"
+    if low is not None:
+        return f"above {low:g}" if above else f"of at least {low:g}"
+    return f"of at most {high:g}" if high is not None else ""
+
+
+def number(low: float | None = None, high: float | None = None, *, above: bool = False) -> Rule:
+    """A finite real number (numpy's too) in [low, high]; `above`: strictly greater than low."""
+    where = _range(low, high, above)
+
+    def rule(name: str, value: Any) -> None:
+        if _is_bool(value) or not isinstance(value, numbers.Real):
+            raise wrong_type(name, f"a number{' ' + where if where else ''}", value)
+        x = float(value)
+        if (
+            not math.isfinite(x)
+            or (low is not None and (x <= low if above else x < low))
+            or (high is not None and x > high)
+        ):
+            raise bad_value(name, f"a finite number{' ' + where if where else ''}", value)
+
+    return rule
+
+
+def integer(low: int | None = None, high: int | None = None) -> Rule:
+    """An integer (numpy's too, not a bool) in [low, high]."""
+    where = _range(low, high, False)
+
+    def rule(name: str, value: Any) -> None:
+        if _is_bool(value) or not isinstance(value, numbers.Integral):
+            raise wrong_type(name, f"an integer{' ' + where if where else ''}", value)
+        if (low is not None and value < low) or (high is not None and value > high):
+            raise bad_value(name, f"an integer {where}", value)
+
+    return rule
+
+
+def _either(words: tuple[str, ...]) -> str:
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} or {words[-1]}"
+
+
+def choice(*options: str) -> Rule:
+    """One of the strings `options`."""
+    what = _either(options)
+
+    def rule(name: str, value: Any) -> None:
+        if not isinstance(value, str):
+            raise wrong_type(name, f"a string: {what}", value)
+        if value not in options:
+            raise bad_value(name, what, value)
+
+    return rule
+
+
+def optional(inner: Rule) -> Rule:
+    """None, or what `inner` accepts."""
+
+    def rule(name: str, value: Any) -> None:
+        if value is not None:
+            inner(name, value)
+
+    return rule
+
+
+def _classes(types: tuple) -> tuple[type, ...]:
+    """`types`, each a class or a function returning classes (called when a value is checked:
+    classes of heavy modules are imported only then)."""
+    out: list[type] = []
+    for t in types:
+        found = t if isinstance(t, type) else t()
+        out.extend(found if isinstance(found, tuple) else (found,))
+    return tuple(out)
+
+
+def instance(what: str, *types: type | Callable[[], type | tuple[type, ...]]) -> Rule:
+    """An instance of one of `types` (see `_classes`)."""
+
+    def rule(name: str, value: Any) -> None:
+        if not isinstance(value, _classes(types)):
+            raise wrong_type(name, what, value)
+
+    return rule
+
+
+def pathlike(name: str, value: Any) -> None:
+    """A file system path: str or os.PathLike."""
+    if not isinstance(value, str | os.PathLike):
+        raise wrong_type(name, "a path (str or pathlib.Path)", value)
+
+
+def source(what: str, *loaded: type | Callable[[], type | tuple[type, ...]]) -> Rule:
+    """What `load_scenario` takes (a path, TOML text or a dict), or an instance of `loaded`
+    (the value already loaded); `what` names the file kind in the message."""
+
+    def rule(name: str, value: Any) -> None:
+        classes = _classes(loaded)
+        if not isinstance(value, (str, os.PathLike, Mapping, *classes)):
+            names = "".join(f"a {c.__name__}, " for c in classes)
+            raise wrong_type(name, f"{names}a {what} path, TOML text or a dict", value)
+
+    return rule

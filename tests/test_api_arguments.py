@@ -1,0 +1,180 @@
+"""The public API's arguments are checked at the entry points, before any work: a wrong type is
+a TypeError, a bad value an InputError (a ValueError), each one line naming the argument and
+what it may be (`stratcli.arguments`)."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from conftest import ROOT
+from typer.testing import CliRunner
+
+import stratcli
+from stratcli import api
+from stratcli.cli import app
+from stratcli.errors import InputError
+
+UNICYCLE = tomllib.loads((ROOT / "scenarios" / "unicycle.toml").read_text())
+AUTO = ROOT / "scenarios" / "sim4_auto.toml"
+
+
+@pytest.fixture(scope="module")
+def plan():
+    """The unicycle parked sideways: one 2 s leg, planned through the public API."""
+    return stratcli.plan(UNICYCLE, check=False)
+
+
+def _raises(kind, pattern, call):
+    with pytest.raises(kind, match=pattern) as caught:
+        call()
+    assert type(caught.value) is kind  # not a subclass met by accident (pydantic's, numpy's)
+    assert "\n" not in str(caught.value)  # one line
+    return caught.value
+
+
+ONE_TO_1000 = r"from 0\.001 to 1000"
+BAD_CALLS = {
+    "scenario None": (TypeError, r"^scenario: must be a Task, a scenario path, TOML text or a "
+                      r"dict \(got None of type NoneType\)$", lambda: stratcli.plan(None)),
+    "scenario int": (TypeError, r"^scenario: .* \(got 42 of type int\)$",
+                     lambda: stratcli.plan(42)),
+    "scenario list": (TypeError, r"^scenario: .* \(got \[1, 2\] of type list\)$",
+                      lambda: stratcli.plan([1, 2])),
+    "time_scale -1": (InputError, rf"^time_scale: must be a finite number {ONE_TO_1000} "
+                      r"\(got -1\)$", lambda: stratcli.plan(UNICYCLE, time_scale=-1)),
+    "time_scale str": (TypeError, r"^time_scale: must be a number .*\(got '2' of type str\)$",
+                       lambda: stratcli.plan(UNICYCLE, time_scale="2")),
+    "check str": (TypeError, r"^check: must be True or False \(got 'no' of type str\)$",
+                  lambda: stratcli.plan(UNICYCLE, check="no")),
+    "jobs 0": (InputError, r"^jobs: must be an integer of at least 1 \(got 0\)$",
+               lambda: stratcli.plan(UNICYCLE, jobs=0)),
+    "degree 7": (InputError, r"^degree: must be an integer from 1 to 3 \(got 7\)$",
+                 lambda: stratcli.check_controllability("one-arm", degree=7)),
+    "samples -1": (InputError, r"^samples: must be an integer of at least 0 \(got -1\)$",
+                   lambda: stratcli.check_controllability("one-arm", samples=-1)),
+    "target None": (TypeError, r"^target: ", lambda: stratcli.check_controllability(None)),
+    "strategy": (InputError, r"^strategy: must be conservative, postponed or both "
+                 r"\(got 'eager'\)$", lambda: stratcli.decompose(UNICYCLE, strategy="eager")),
+    "criterion": (InputError, r"^criterion: must be energy, peak-control, excursion or "
+                  r"duration \(got 'fast'\)$",
+                  lambda: stratcli.compare_sequences(UNICYCLE, criterion="fast")),
+    "max_length 9": (InputError, r"^max_length: must be an integer from 1 to 8 \(got 9\)$",
+                     lambda: stratcli.compare_sequences(UNICYCLE, max_length=9)),
+    "max_length 0": (InputError, r"^max_length: must be an integer from 1 to 8 \(got 0\)$",
+                     lambda: stratcli.decompose(UNICYCLE, max_length=0)),
+    "sweep int": (TypeError, r"^file: must be a Sweep, a sweep path, TOML text or a dict",
+                  lambda: stratcli.run_sweep(42)),
+    "sweep records": (InputError, r"^records: must be best, failed, all or none \(got 'some'\)$",
+                      lambda: stratcli.run_sweep({}, records="some")),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(BAD_CALLS))
+def test_a_bad_argument_of_a_use_case_is_one_line_naming_it(case):
+    kind, pattern, call = BAD_CALLS[case]
+    error = _raises(kind, pattern, call)
+    if kind is InputError:
+        assert isinstance(error, ValueError) and error.source is None
+
+
+def test_time_scaled_names_its_speed_up_and_takes_numpy_numbers(plan):
+    for s in (0, -2, math.nan, 1e4):
+        _raises(
+            InputError,
+            rf"^s: must be a finite number {ONE_TO_1000} \(got ",
+            lambda s=s: stratcli.time_scaled(plan, s),
+        )
+    _raises(
+        TypeError,
+        r"^plan: must be a SequencePlan \(got \{\} of type dict\)$",
+        lambda: stratcli.time_scaled({}, 2.0),
+    )
+    faster = stratcli.time_scaled(plan, np.float64(2.0))
+    assert faster.duration == pytest.approx(plan.duration / 2)
+
+
+def test_write_record_names_a_wrong_outcome_and_format_before_writing(tmp_path, plan):
+    out = tmp_path / "runs"
+    _raises(
+        TypeError,
+        r"^outcome: must be a SequencePlan, PlanOutcome or ComparisonOutcome",
+        (lambda: stratcli.write_record(out, UNICYCLE)),
+    )
+    _raises(
+        InputError,
+        r"^fmt: must be png, svg or pdf \(got 'jpg'\)$",
+        lambda: stratcli.write_record(out, plan, fmt="jpg"),
+    )
+    _raises(TypeError, r"^out: must be a path", lambda: stratcli.write_record(None, plan))
+    assert not out.exists()  # nothing was started
+
+
+def test_sample_takes_an_integer_of_at_least_two(plan):
+    _raises(
+        InputError,
+        r"^samples_per_leg: must be an integer of at least 2 \(got 0\)$",
+        (lambda: plan.sample(0)),
+    )
+    _raises(TypeError, r"^samples_per_leg: .*\(got 2\.5 of type float\)$", lambda: plan.sample(2.5))
+    assert plan.sample(np.int64(3)).size == 3 * len(plan.legs)
+
+
+def test_controls_refuse_times_outside_the_plan_but_not_rounding(plan):
+    T = plan.duration
+    for t in (99.0, -1.0, [0.0, 3.0], math.nan):
+        _raises(
+            InputError,
+            rf"^t: must be within the plan, from 0 to {T:g} s \(got ",
+            (lambda t=t: plan.controls(t)),
+        )
+    inside = plan.controls([-1e-12 * T, 0.0, T / 2, T, T * (1 + 1e-12)])
+    assert inside.shape == (5, len(plan.inputs)) and np.all(np.isfinite(inside))
+    end = plan.legs[-1].controls(plan.legs[-1].duration)[0]
+    np.testing.assert_allclose(inside[3], end, rtol=0, atol=1e-12)
+
+
+def test_leg_slice_of_a_leg_the_trajectory_has_not_is_an_index_error(plan):
+    traj = plan.sample(5)
+    assert traj.leg_slice(0) == slice(0, 5)
+    for k in (1, 5, -1):
+        with pytest.raises(IndexError, match=rf"^leg {k} out of range: the trajectory has 1 legs"):
+            traj.leg_slice(k)
+
+
+def test_use_case_errors_name_the_argument_and_the_command_line_the_flag():
+    with pytest.raises(InputError) as caught:
+        api.decompose(AUTO, max_length=1)
+    assert [p.path for p in caught.value.problems] == ["max_length"]
+    bad = CliRunner().invoke(app, ["check", "one-arm", "--at", "0, 1"])
+    assert bad.exit_code == 2
+    assert "error: --at: needs 4 values (q1, q2, q3, theta), got 2" in bad.output
+
+
+def test_outcomes_and_record_error_are_public_names():
+    for name, value in [
+        ("PlanOutcome", api.PlanOutcome),
+        ("ComparisonOutcome", api.ComparisonOutcome),
+        ("RecordError", stratcli.errors.RecordError),
+    ]:
+        assert name in stratcli.__all__ and name in dir(stratcli)
+        assert getattr(stratcli, name) is value
+        assert f"`{name}`" in stratcli.__doc__  # help(stratcli) lists it
+
+
+def test_reprs_are_short_and_say_name_status_energy_and_legs(plan):
+    text = repr(plan)
+    assert len(text) < 200, text
+    assert text.startswith("SequencePlan('unicycle': SUCCESS, energy ") and "1 legs (drive)" in text
+    assert f"{plan.total_energy:.6g}" in text
+    outcome = api.PlanOutcome(None, plan, plan.to_dict(), None, 0.0, 0.0)
+    assert repr(outcome) == f"PlanOutcome({text})"
+    fake = SimpleNamespace(scenario=SimpleNamespace(name="auto"))
+    comparison = api.ComparisonOutcome(
+        fake, None, SimpleNamespace(candidates=[1, 2, 3]), None, {}, outcome
+    )
+    assert repr(comparison) == f"ComparisonOutcome('auto': 3 candidate sequences, best {text})"
+    assert plan == plan and plan != stratcli.time_scaled(plan, 1.0)  # eq=False: identity
