@@ -43,7 +43,9 @@ def checked(**rules: Rule) -> Callable[[F], F]:
     """Decorate a public function: each named argument passes its rule before the call.
 
     A call that does not match the signature fails as it would without the decorator; an
-    argument left at its default is not checked (the default is right).
+    argument left at its default is not checked (the default is right). A checked numpy
+    scalar (``np.int64(2)``, ``np.float32(2)``) is passed on as Python's: it would otherwise
+    reach the records, which JSON cannot write.
     """
 
     def decorate(func: F) -> F:
@@ -54,15 +56,24 @@ def checked(**rules: Rule) -> Callable[[F], F]:
 
         @functools.wraps(func)
         def call(*args: Any, **kwargs: Any) -> Any:
-            given = signature.bind(*args, **kwargs).arguments
+            bound = signature.bind(*args, **kwargs)
+            given = bound.arguments
             for name, rule in rules.items():
                 if name in given:
                     rule(name, given[name])
-            return func(*args, **kwargs)
+                    given[name] = _python(given[name])
+            return func(*bound.args, **bound.kwargs)
 
         return call  # type: ignore[return-value]
 
     return decorate
+
+
+def _python(value: Any) -> Any:
+    """A numpy scalar as the Python number or bool it stands for; anything else as it is."""
+    if type(value).__module__ == "numpy" and getattr(value, "ndim", None) == 0:
+        return value.item()
+    return value
 
 
 def _shown(value: Any) -> str:

@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 
 import stratcli
 from stratcli import api
+from stratcli.arguments import checked, flag, integer
 from stratcli.cli import app
 from stratcli.errors import InputError
 
@@ -178,3 +179,20 @@ def test_reprs_are_short_and_say_name_status_energy_and_legs(plan):
     )
     assert repr(comparison) == f"ComparisonOutcome('auto': 3 candidate sequences, best {text})"
     assert plan == plan and plan != stratcli.time_scaled(plan, 1.0)  # eq=False: identity
+
+
+def test_numpy_scalars_are_passed_on_as_python_numbers_the_records_can_write(tmp_path):
+    """A numpy argument passes the check and reaches the records: result.json (JSON) could not
+    write `np.float32`, comparison.json `np.int64` jobs."""
+    seen = {}
+
+    @checked(jobs=integer(1), flag=flag)
+    def use(*, jobs, flag):
+        seen.update(jobs=jobs, flag=flag)
+
+    use(jobs=np.int64(2), flag=np.True_)
+    assert type(seen["jobs"]) is int and type(seen["flag"]) is bool
+    slower = stratcli.plan(UNICYCLE, check=False, time_scale=np.float32(0.5))
+    assert type(slower.time_scale) is float
+    run = stratcli.write_record(tmp_path / "run", slower)
+    assert (run / "result.json").is_file()
