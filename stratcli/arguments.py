@@ -103,12 +103,16 @@ def flag(name: str, value: Any) -> None:
         raise wrong_type(name, "True or False", value)
 
 
+def _bound(x: float) -> str:
+    return str(x) if isinstance(x, int) else f"{x:g}"  # an integer's in full: seed's 2**63 - 1
+
+
 def _range(low: float | None, high: float | None, above: bool) -> str:
     if low is not None and high is not None:
-        return f"from {low:g} to {high:g}"
+        return f"from {_bound(low)} to {_bound(high)}"
     if low is not None:
-        return f"above {low:g}" if above else f"of at least {low:g}"
-    return f"of at most {high:g}" if high is not None else ""
+        return f"above {_bound(low)}" if above else f"of at least {_bound(low)}"
+    return f"of at most {_bound(high)}" if high is not None else ""
 
 
 def number(low: float | None = None, high: float | None = None, *, above: bool = False) -> Rule:

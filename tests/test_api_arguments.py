@@ -57,6 +57,8 @@ BAD_CALLS = {
                  lambda: stratcli.check_controllability("one-arm", degree=7)),
     "samples -1": (InputError, r"^samples: must be an integer of at least 0 \(got -1\)$",
                    lambda: stratcli.check_controllability("one-arm", samples=-1)),
+    "seed -1": (InputError, r"^seed: must be an integer from 0 to 9223372036854775807 \(got -1\)$",
+                lambda: stratcli.check_controllability("one-arm", seed=-1)),
     "target None": (TypeError, r"^target: ", lambda: stratcli.check_controllability(None)),
     "strategy": (InputError, r"^strategy: must be conservative, postponed or both "
                  r"\(got 'eager'\)$", lambda: stratcli.decompose(UNICYCLE, strategy="eager")),
