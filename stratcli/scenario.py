@@ -131,6 +131,9 @@ class Task:
                 "a Task's settings, start and goal are its scenario's: change them with "
                 "task.with_changes({...}) (e.g. {'planner': {'objective': 'newton'}})"
             )
+        for array in (self.start, self.goal, *(leg.goal for leg in self.legs)):
+            if array is not None:  # t.goal[0] = ... would plan what the records do not say
+                array.setflags(write=False)
 
     @property
     def model_name(self) -> str:

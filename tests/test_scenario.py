@@ -272,3 +272,11 @@ def test_a_task_is_a_value_changed_only_through_its_scenario(tmp_path):
     assert task.with_changes({"task": {"goal": goal}}).legs[-1].goal[3] == -0.2
     auto = task.with_changes({"legs": None, "decompose": {"max_length": 2}})
     assert auto.legs == [] and auto.scenario.decompose is not None
+
+
+def test_a_tasks_configurations_cannot_be_changed_in_place():
+    """`t.goal[0] = ...` would plan a goal that resolved.json does not record."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
+    for array in (task.start, task.goal, *(leg.goal for leg in task.legs)):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 1.0
