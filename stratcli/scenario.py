@@ -241,6 +241,7 @@ def _from_raw(
 ) -> Task:
     if non_finite := reject_non_finite(raw):
         raise InputError(non_finite, source)
+    base_dir = (base_dir or Path.cwd()).absolute()  # as now: `with_changes` may run elsewhere
     system = None
     if isinstance(raw.get("model"), dict) and raw["model"].get("kind") == "urdf":
         from .models.spatial_scenario import prepare_urdf  # configurations by joint name

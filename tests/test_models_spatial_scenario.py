@@ -56,6 +56,21 @@ def test_path_is_relative_to_the_scenario_file(tmp_path):
     assert Path(task.scenario.model.path) == (tmp_path / "robots" / "r.urdf").resolve()
 
 
+def test_with_changes_finds_a_relative_urdf_path_after_a_change_of_directory(tmp_path, monkeypatch):
+    """A relative path is relative to the file's directory (or, in text, to the working
+    directory) as it was when the scenario was loaded: a notebook's os.chdir in between
+    must not send `with_changes` looking for the URDF file elsewhere."""
+    (tmp_path / "robots").mkdir()
+    (tmp_path / "robots" / "r.urdf").write_text((ROOT / "robots" / "arm3.urdf").read_text())
+    (tmp_path / "s.toml").write_text(_text(path="robots/r.urdf"))
+    monkeypatch.chdir(tmp_path)
+    loaded = [load_scenario("s.toml"), load_scenario(_text(path="robots/r.urdf"))]
+    monkeypatch.chdir(ROOT)
+    for task in loaded:
+        changed = task.with_changes({"planner": {"tolerance": 1e-5}})
+        assert Path(changed.scenario.model.path) == (tmp_path / "robots" / "r.urdf").resolve()
+
+
 @pytest.mark.parametrize(
     "start, words",
     [
