@@ -160,10 +160,16 @@ class Task:
         ------
         InputError
             Naming every problem of the changed scenario.
+        TypeError
+            `changes` is not a mapping.
         """
         if not isinstance(changes, Mapping):
-            raise TypeError(f"changes must be a mapping (a dict), not {type(changes).__name__}")
-        raw = _merged(parse_toml(self.text, self.source), changes)
+            raise wrong_type("changes", "a mapping (a dict)", changes)
+        try:  # numpy values as Python's, as a dict given to `load_scenario`
+            plain_changes = plain(changes)
+        except InputError as exc:
+            raise exc.with_source(self.source) from None
+        raw = _merged(parse_toml(self.text, self.source), plain_changes)
         return _from_raw(raw, None, self.source, self.base_dir)
 
 

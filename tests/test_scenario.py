@@ -280,3 +280,16 @@ def test_a_tasks_configurations_cannot_be_changed_in_place():
     for array in (task.start, task.goal, *(leg.goal for leg in task.legs)):
         with pytest.raises(ValueError, match="read-only"):
             array[0] = 1.0
+
+
+def test_with_changes_takes_numpy_values_as_load_scenario_does():
+    """A dict of changes may hold numpy numbers, as a dict scenario may (`tomlread.plain`);
+    a change that is no mapping is a one-line TypeError naming the argument."""
+    import numpy as np
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
+    changed = task.with_changes({"planner": {"max_iterations": np.int64(50)}})
+    assert changed.settings.max_iterations == 50
+    assert "max_iterations = 50\n" in changed.text
+    with pytest.raises(TypeError, match=r"^changes: must be a mapping \(a dict\) \(got \["):
+        task.with_changes([("planner", {})])
