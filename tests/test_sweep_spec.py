@@ -146,3 +146,16 @@ def test_a_missing_base_scenario_names_the_path_as_given_and_as_read(tmp_path):
         load_sweep(sweep)
     read = str(tmp_path / "nope.toml")
     assert f"sweep.scenario: ../nope.toml ({read}): cannot read scenario file" in str(exc.value)
+
+
+def test_a_base_scenarios_relative_urdf_path_is_relative_to_that_scenario(tmp_path):
+    """As when the base scenario is planned alone: not relative to the working directory
+    (its tasks are dicts, loaded where the sweep runs)."""
+    pytest.importorskip("pinocchio")
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(
+        '[sweep]\nname = "u"\nscenario = "%s"\n[sweep.grid]\n"planner.tolerance" = [1e-5]\n'
+        % (ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
+    )
+    (task,) = load_sweep(sweep).tasks()
+    assert load_scenario(task.scenario).system.n == 6

@@ -261,12 +261,25 @@ def _base(spec: SweepFile, folder: Path) -> tuple[dict[str, Any], str]:
     path = folder / spec.sweep.scenario
     try:
         text = read_scenario_text(path)
-        return parse_toml(text, str(path)), spec.sweep.scenario
+        return _urdf_from(parse_toml(text, str(path)), path.parent), spec.sweep.scenario
     except InputError as exc:  # say which file: the path is relative to the sweep file
         given, read = spec.sweep.scenario, os.path.normpath(path)
         where = given if read == os.path.normpath(given) else f"{given} ({read})"
         problems = [Problem("sweep.scenario", f"{where}: {p.message}") for p in exc.problems]
         raise InputError(problems) from None
+
+
+def _urdf_from(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
+    """A base scenario's relative URDF path made relative to its file's `folder`, as when the
+    file is planned alone (its tasks are dicts: read from the working directory otherwise)."""
+    model = raw.get("model")
+    if (
+        isinstance(model, dict)
+        and model.get("kind") == "urdf"
+        and isinstance(model.get("path"), str)
+    ):
+        model["path"] = str((folder / Path(model["path"]).expanduser()).absolute())
+    return raw
 
 
 def _resolve(spec: SweepFile, folder: Path, source: str, text: str) -> Sweep:
