@@ -75,6 +75,19 @@ def test_zero_momentum_and_fixed_centre_of_mass(arm3):
     np.testing.assert_allclose(pin.centerOfMass(robot.model, robot.data, x), 0.0, atol=1e-14)
 
 
+def test_a_spatial_system_and_its_task_have_a_repr():
+    """A notebook shows a loaded URDF scenario: its repr read the symbolic `fields`, which a
+    URDF model has not (ModelError)."""
+    from stratcli.scenario import load_scenario
+
+    task = load_scenario(ROBOTS.parent / "scenarios" / "spatial" / "arm3_reorient.toml")
+    assert (
+        repr(task.system)
+        == "SpatialSystem('ff_arm3': coordinates j1, j2, j3, rx, ry, rz; strata S1, S2, S3)"
+    )
+    assert repr(task.system) in repr(task)
+
+
 def test_system_pickles_and_rebuilds(arm3):
     again = pickle.loads(pickle.dumps(arm3))
     q = np.array([[0.1, 0.2, 0.3]])

@@ -350,6 +350,12 @@ class SpatialSystem(System):
     def fields(self, value) -> None:
         pass
 
+    def __repr__(self) -> str:  # the dataclass's would read `fields`, which raises here
+        return (
+            f"SpatialSystem({self.spatial.summary.name!r}: coordinates "
+            f"{', '.join(self.states)}; strata {', '.join(self.strata)})"
+        )
+
     @cached_property
     def attitude(self) -> slice:
         """Where the rotation vector sits in a configuration."""
