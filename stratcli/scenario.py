@@ -48,7 +48,7 @@ from .settings import (
     PlannerSettings,
 )
 from .stratified import LegSpec, check_legs
-from .tomlread import parse_toml, plain, read_scenario_text, reject_non_finite
+from .tomlread import is_toml_text, parse_toml, plain, read_scenario_text, reject_non_finite
 
 MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
 
@@ -201,8 +201,9 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
     Parameters
     ----------
     source : str, Path or Mapping
-        A path to a TOML file; TOML text (a string with a newline or "="); or a plain `dict`
-        with the same structure as the file (so a sweep never templates TOML strings).
+        A path to a TOML file; TOML text (a string with a newline, or an "=" that names no
+        file); or a plain `dict` with the same structure as the file (so a sweep never
+        templates TOML strings).
     name : str, optional
         How messages refer to the source (default: the path, "<text>" or "<dict>").
 
@@ -226,7 +227,7 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
         return _from_raw(raw, None, name or "<dict>")
     if not isinstance(source, str | os.PathLike):
         raise wrong_type("source", "a scenario path, TOML text or a dict", source)
-    if isinstance(source, str) and ("\n" in source or "=" in source):
+    if isinstance(source, str) and is_toml_text(source):
         return parse_scenario(source, name or "<text>")
     path = Path(source)
     where = name or str(path)

@@ -29,11 +29,18 @@ MAX_DEPTH = 64
 __all__ = [
     "MAX_BYTES",
     "MAX_DEPTH",
+    "is_toml_text",
     "parse_toml",
     "plain",
     "read_scenario_text",
     "reject_non_finite",
 ]
+
+
+def is_toml_text(source: str) -> bool:
+    """Whether a string given for a file is TOML text rather than a path: it has a newline,
+    or an "=" and names no existing file (a path such as ``runs/lr=0.1/sweep.toml`` is one)."""
+    return "\n" in source or ("=" in source and not os.path.exists(source))
 
 
 def read_scenario_text(path: str | Path, limit: int = MAX_BYTES, kind: str = "scenario") -> str:

@@ -8,7 +8,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from sweep_files import GRID, TASK_A, write
+from sweep_files import GRID, ROOT, TASK_A, write
 
 import stratcli
 from stratcli.errors import InputError
@@ -94,3 +94,17 @@ def test_run_sweep_plans_a_dict(tmp_path):
     sweep = {"sweep": {"name": "d", "grid": {"goal.y": np.array([1.0])}}, "scenario": UNICYCLE}
     outcome = stratcli.run_sweep(sweep, tmp_path / "d", jobs=1, records="none")
     assert outcome.summary["done"] == 1 and outcome.rows[0]["status"] == "ok"
+
+
+def test_a_path_with_an_equals_sign_is_a_path(tmp_path):
+    """Directories such as `lr=0.1` are common; only a string naming no file is read as TOML
+    text for its "=" (one line of text is never a whole scenario anyway)."""
+    folder = tmp_path / "tol=1e-3"
+    folder.mkdir()
+    (folder / "s.toml").write_text((ROOT / "scenarios" / "unicycle.toml").read_text())
+    task = stratcli.load_scenario(str(folder / "s.toml"))
+    assert task.source == str(folder / "s.toml")
+    assert stratcli.check_controllability(str(folder / "s.toml"), samples=0).controllable
+    assert load_sweep(str(write(folder, GRID))).count == 6
+    with pytest.raises(InputError, match=r"^<text>: "):
+        stratcli.load_scenario('name = "one line"')

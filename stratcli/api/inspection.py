@@ -15,6 +15,7 @@ from ..models.numbers import parse_number
 from ..models.presets import PRESETS, preset
 from ..models.system import System
 from ..scenario import Task, load_scenario
+from ..tomlread import is_toml_text
 from .check import check_document
 
 
@@ -159,7 +160,7 @@ def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | T
     """
     if isinstance(target, Task):
         return target
-    text = isinstance(target, str) and ("\n" in target or "=" in target)  # TOML text
+    text = isinstance(target, str) and is_toml_text(target)
     if isinstance(target, str | Path) and not text and not Path(target).exists():
         if str(target) in PRESETS:
             return str(target)

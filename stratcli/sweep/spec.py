@@ -44,7 +44,13 @@ from ..errors import InputError, Problem
 from ..models.specs import STRICT
 from ..scenario import load_scenario
 from ..schema_problems import validation_problems
-from ..tomlread import parse_toml, plain, read_scenario_text, reject_non_finite
+from ..tomlread import (
+    is_toml_text,
+    parse_toml,
+    plain,
+    read_scenario_text,
+    reject_non_finite,
+)
 from .keys import (
     MAX_TASKS,
     assign,
@@ -195,10 +201,10 @@ def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) 
     ----------
     source : str, Path or Mapping
         What `load_scenario` takes: a path to the sweep file (TOML; a base scenario path in it
-        is relative to its directory); TOML text (a string with a newline or "="); or a plain
-        `dict` of the same structure (numpy values and arrays as Python's: a grid axis may be
-        ``np.arange(...)``). A base scenario path in text or a dict is relative to the
-        current directory.
+        is relative to its directory); TOML text (a string with a newline, or an "=" that
+        names no file: `tomlread.is_toml_text`); or a plain `dict` of the same structure
+        (numpy values and arrays as Python's: a grid axis may be ``np.arange(...)``). A base
+        scenario path in text or a dict is relative to the current directory.
     name : str, optional
         How messages refer to the source (default: the path, "<text>" or "<dict>").
 
@@ -224,7 +230,7 @@ def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) 
             raise exc.with_source(where) from None
         except (TypeError, ValueError) as exc:
             raise InputError(f"cannot be written as TOML: {exc}", where) from None
-    elif isinstance(source, str) and ("\n" in source or "=" in source):
+    elif isinstance(source, str) and is_toml_text(source):
         where, text = name or "<text>", source
         raw = parse_toml(text, where)
     elif isinstance(source, str | os.PathLike):
