@@ -131,6 +131,13 @@ class Task:
                 "a Task's settings, start and goal are its scenario's: change them with "
                 "task.with_changes({...}) (e.g. {'planner': {'objective': 'newton'}})"
             )
+        self._read_only()
+
+    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
+        self.__dict__.update(state)
+        self._read_only()
+
+    def _read_only(self) -> None:
         for array in (self.start, self.goal, *(leg.goal for leg in self.legs)):
             if array is not None:  # t.goal[0] = ... would plan what the records do not say
                 array.setflags(write=False)

@@ -276,10 +276,14 @@ def test_a_task_is_a_value_changed_only_through_its_scenario(tmp_path):
 
 def test_a_tasks_configurations_cannot_be_changed_in_place():
     """`t.goal[0] = ...` would plan a goal that resolved.json does not record."""
+    import copy
+    import pickle
+
     task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
-    for array in (task.start, task.goal, *(leg.goal for leg in task.legs)):
-        with pytest.raises(ValueError, match="read-only"):
-            array[0] = 1.0
+    for t in (task, pickle.loads(pickle.dumps(task)), copy.deepcopy(task)):
+        for array in (t.start, t.goal, *(leg.goal for leg in t.legs)):
+            with pytest.raises(ValueError, match="read-only"):
+                array[0] = 1.0
 
 
 def test_with_changes_takes_numpy_values_as_load_scenario_does():
@@ -293,3 +297,4 @@ def test_with_changes_takes_numpy_values_as_load_scenario_does():
     assert "max_iterations = 50\n" in changed.text
     with pytest.raises(TypeError, match=r"^changes: must be a mapping \(a dict\) \(got \["):
         task.with_changes([("planner", {})])
+
