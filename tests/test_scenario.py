@@ -298,3 +298,16 @@ def test_with_changes_takes_numpy_values_as_load_scenario_does():
     with pytest.raises(TypeError, match=r"^changes: must be a mapping \(a dict\) \(got \["):
         task.with_changes([("planner", {})])
 
+
+def test_a_checked_task_still_pickles_for_worker_processes():
+    """The check caches the Lie brackets' generated code on the system, which does not
+    pickle: a task sent to a spawned worker or Dask after `stratcli.plan` failed."""
+    import pickle
+
+    import stratcli
+
+    task = load_scenario(ROOT / "scenarios" / "sim3_hybrid.toml")
+    assert stratcli.check_controllability(task, samples=0).controllable
+    assert "_lie_cache" in task.system.__dict__
+    again = pickle.loads(pickle.dumps(task))
+    assert stratcli.check_controllability(again, samples=0).controllable

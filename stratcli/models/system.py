@@ -196,6 +196,7 @@ class System:
         state = dict(self.__dict__)
         state["_compiled"] = {}
         state.pop("_row_cache", None)  # `controllability._rows`: only a speed-up
+        state.pop("_lie_cache", None)  # Lie brackets (`liealgebra`): generated code, likewise
         return state
 
     @cached_property
