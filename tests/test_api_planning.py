@@ -61,6 +61,18 @@ def test_plan_in_auto_mode_says_which_sequence_it_chose(sim4):
     assert f"chose {chosen}" in first
 
 
+def test_auto_mode_runs_the_chosen_plan_at_the_time_scale_asked(sim4):
+    """`time_scale` (the argument, else planner.time_scale) applies in auto mode as with legs:
+    it was silently dropped there. Driftless: s times faster, s times the energy."""
+    short = sim4.with_changes({"decompose": {"max_length": 2}})
+    plain = api.plan(short)
+    fast = api.plan(short, time_scale=2.0)
+    scaled = api.plan(short.with_changes({"planner": {"time_scale": 4.0}}))
+    assert fast.duration == pytest.approx(plain.duration / 2, rel=1e-12)
+    assert fast.total_energy == pytest.approx(2 * plain.total_energy, rel=1e-9)
+    assert scaled.duration == pytest.approx(plain.duration / 4, rel=1e-12)
+
+
 @pytest.mark.parametrize("stem", [p.stem for p in SCENARIOS])
 def test_shipped_scenario_plans_and_reintegrates(shipped_plans, stem):
     """Every shipped scenario, planned once per session as `stratplan regress` plans it."""

@@ -99,7 +99,7 @@ def plan(
     """
     task = as_task(scenario)
     if not task.legs:
-        outcome = plan_auto(task, check=check, jobs=jobs)
+        outcome = plan_auto(task, check=check, jobs=jobs, time_scale=time_scale)
         best = outcome.best.result
         return dataclasses.replace(best, notes=(auto_choice(outcome), *best.notes))
     return plan_run(task, check=check, time_scale=time_scale, warn=_warn).result
@@ -191,13 +191,14 @@ def plan_run(
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases)
 
 
-@checked(scenario=SCENARIO, check=flag, jobs=JOBS, progress=PROGRESS)
+@checked(scenario=SCENARIO, check=flag, jobs=JOBS, progress=PROGRESS, time_scale=TIME_SCALE)
 def plan_auto(
     scenario: ScenarioLike,
     *,
     check: bool = True,
     jobs: int | None = None,
     progress: Progress | None = None,
+    time_scale: float | None = None,
 ) -> ComparisonOutcome:
     """Auto mode: plan every candidate sequence of the [decompose] table, keep the best.
 
@@ -212,6 +213,10 @@ def plan_auto(
         Worker processes (default: all cores).
     progress : callable, optional
         Called as `progress(done, total)` while sequences are planned.
+    time_scale : float, optional
+        Run the chosen plan this many times faster; default: the scenario's
+        `planner.time_scale`. The candidates are ranked as planned (a time scale changes
+        every candidate's energy, peak control and duration by the same factor).
 
     Returns
     -------
@@ -229,7 +234,13 @@ def plan_auto(
     task = as_task(scenario)
     if check:
         controllability_first(task)
-    return compare_sequences(task, jobs=jobs, progress=progress)
+    outcome = compare_sequences(task, jobs=jobs, progress=progress)
+    scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
+    if scale == 1.0:
+        return outcome
+    result = time_scaled(outcome.best.result, scale)
+    best = dataclasses.replace(outcome.best, result=result, document=result.to_dict())
+    return dataclasses.replace(outcome, best=best)
 
 
 @checked(

@@ -82,7 +82,7 @@ def plan(
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
-        _plan_auto(task, file, out, json_output, quiet, animation, check, fmt)
+        _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale)
     with render.phases(render.interactive(quiet, json_output)) as progress:
         with render.reported(file):
             outcome = api.plan_run(
@@ -99,13 +99,15 @@ def plan(
     raise typer.Exit(0 if outcome.ok else 1)
 
 
-def _plan_auto(task, file: Path, out: Path, json_output, quiet, animation, check, fmt) -> None:
+def _plan_auto(
+    task, file: Path, out: Path, json_output, quiet, animation, check, fmt, time_scale=None
+) -> None:
     """`plan` on a scenario without legs: compare the candidates, record and show the best."""
     from .. import api  # start-up speed
 
     interactive = render.interactive(quiet, json_output)
     with render.reported(file), render.progress_bar(interactive) as bar:
-        outcome = api.plan_auto(task, check=check, progress=bar)
+        outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale)
     with render.phases(interactive) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:
