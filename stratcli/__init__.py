@@ -42,7 +42,7 @@ _STARTED = time.perf_counter()  # the wall clock's zero of a run's phases (manif
 # explicit list of dependencies, mirrored for type checkers under TYPE_CHECKING).
 _PUBLIC = {
     "load_scenario": "scenario",
-    "Task": "scenario",
+    "Task": "task",
     "plan": "api",
     "plan_auto": "api",
     "decompose": "api",
@@ -136,7 +136,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .results import StartOutcome as StartOutcome
     from .results import Switch as Switch
     from .results import Timings as Timings
-    from .scenario import Task as Task
+    from .task import Task as Task
     from .scenario import load_scenario as load_scenario
     from .sequence import SequencePlan as SequencePlan
     from .settings import DecomposeSettings as DecomposeSettings

@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -48,6 +47,7 @@ from .settings import (
     PlannerSettings,
 )
 from .stratified import LegSpec, check_legs
+from .task import Task
 from .tomlread import is_toml_text, parse_toml, plain, read_scenario_text, reject_non_finite
 
 MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
@@ -102,106 +102,6 @@ class Scenario(_Strict):
     constraints: ConstraintsSpec | None = None
 
 
-@dataclass(frozen=True)
-class Task:
-    """A validated scenario, ready to plan: a value, resolved from `scenario` (its start,
-    goal, legs and settings), which records write as they were planned. To change it, use
-    `with_changes` (validated and resolved again); a `dataclasses.replace` that lets the
-    settings, start or goal disagree with `scenario` is refused."""
-
-    scenario: Scenario
-    system: System
-    start: np.ndarray
-    goal: np.ndarray
-    legs: list[LegSpec]
-    settings: PlannerSettings
-    source: str
-    text: str
-    constraints: Constraints | None = None  # the [constraints] table, resolved on the model
-    base_dir: Path | None = None  # what a URDF model's relative path is relative to
-
-    def __post_init__(self):
-        given = self.scenario.task
-        if (
-            self.settings != self.scenario.planner
-            or not _same(self.start, given.start)
-            or not _same(self.goal, given.goal)
-        ):
-            raise ValueError(
-                "a Task's settings, start and goal are its scenario's: change them with "
-                "task.with_changes({...}) (e.g. {'planner': {'objective': 'newton'}})"
-            )
-        self._read_only()
-
-    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
-        self.__dict__.update(state)
-        self._read_only()
-
-    def _read_only(self) -> None:
-        for array in (self.start, self.goal, *(leg.goal for leg in self.legs)):
-            if array is not None:  # t.goal[0] = ... would plan what the records do not say
-                array.setflags(write=False)
-
-    @property
-    def model_name(self) -> str:
-        """Preset name, "planar-manipulator" or "custom" (the result.json `model` key)."""
-        model = self.scenario.model
-        return model.name if model.kind == "preset" else model.kind
-
-    def with_changes(self, changes: Mapping[str, Any]) -> Task:
-        """This scenario with `changes`, validated and resolved again (as `load_scenario`).
-
-        Parameters
-        ----------
-        changes : Mapping
-            In the scenario file's structure. Tables are merged key by key, anything else
-            (a value, a list such as `legs`) replaces what was there; None removes the key.
-            E.g. ``{"planner": {"objective": "newton"}, "task": {"goal": [0, 1, 0.5, 0]}}``.
-
-        Returns
-        -------
-        Task
-            A new task (this one is unchanged); its records hold the changed scenario.
-
-        Raises
-        ------
-        InputError
-            Naming every problem of the changed scenario.
-        TypeError
-            `changes` is not a mapping.
-        """
-        if not isinstance(changes, Mapping):
-            raise wrong_type("changes", "a mapping (a dict)", changes)
-        try:  # numpy values as Python's, as a dict given to `load_scenario`
-            plain_changes = plain(changes)
-        except InputError as exc:
-            raise exc.with_source(self.source) from None
-        raw = _merged(parse_toml(self.text, self.source), plain_changes)
-        return _from_raw(raw, None, self.source, self.base_dir)
-
-
-def _same(values: np.ndarray | None, given: list | None) -> bool:
-    if values is None or given is None:
-        return values is None and given is None
-    resolved = np.array([np.nan if v is None else v for v in given], dtype=float)
-    return resolved.shape == np.shape(values) and bool(
-        np.array_equal(resolved, values, equal_nan=True)
-    )
-
-
-def _merged(raw: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
-    """`raw` with `changes` merged in (`Task.with_changes`); neither is modified."""
-    out = dict(raw)
-    for key, value in changes.items():
-        if value is None:
-            out.pop(key, None)
-        elif isinstance(value, Mapping) and isinstance(out.get(key), dict):
-            out[key] = _merged(out[key], value)
-        else:
-            out[key] = value
-    return out
-
-
 def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = None) -> Task:
     """Read, validate and resolve a scenario.
 
@@ -231,7 +131,7 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
             raw = plain(source)
         except InputError as exc:
             raise exc.with_source(name or "<dict>") from None
-        return _from_raw(raw, None, name or "<dict>")
+        return from_raw(raw, None, name or "<dict>")
     if not isinstance(source, str | os.PathLike):
         raise wrong_type("source", "a scenario path, TOML text or a dict", source)
     if isinstance(source, str) and is_toml_text(source):
@@ -247,10 +147,10 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
 
 def parse_scenario(text: str, source: str = "<scenario>", base_dir: Path | None = None) -> Task:
     """`load_scenario` for TOML text; a URDF `path` is relative to `base_dir` (default: cwd)."""
-    return _from_raw(parse_toml(text, source), text, source, base_dir)
+    return from_raw(parse_toml(text, source), text, source, base_dir)
 
 
-def _from_raw(
+def from_raw(
     raw: dict[str, Any], text: str | None, source: str, base_dir: Path | None = None
 ) -> Task:
     if non_finite := reject_non_finite(raw):

@@ -266,8 +266,13 @@ def test_a_task_is_a_value_changed_only_through_its_scenario(tmp_path):
     again = stratcli.plan(json.loads((run / "resolved.json").read_text()))
     assert again.total_energy == pytest.approx(plan.total_energy, rel=1e-12)
     assert plan.total_energy > 1.5 * stratcli.plan(task).total_energy  # Newton's, not least
-    with pytest.raises(InputError, match=r"planner\.objectiv: unknown key"):
+    with pytest.raises(InputError, match=r"\(with changes\): planner\.objectiv: unknown key"):
         task.with_changes({"planner": {"objectiv": "newton"}})
+    with pytest.raises(ValueError, match="with_changes"):
+        dataclasses.replace(task, legs=task.legs[:1])  # would record two legs, plan one
+    obstacles = stratcli.load_scenario(ROOT / "scenarios" / "sim4_task_d_obstacles.toml")
+    with pytest.raises(ValueError, match="with_changes"):
+        dataclasses.replace(obstacles, constraints=None)
     goal = [*task.scenario.task.goal[:3], -0.2]  # θ only: the last leg (S1) moves it
     assert task.with_changes({"task": {"goal": goal}}).legs[-1].goal[3] == -0.2
     auto = task.with_changes({"legs": None, "decompose": {"max_length": 2}})

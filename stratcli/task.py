@@ -1,0 +1,133 @@
+"""A loaded scenario, ready to plan (`Task`): a value resolved from its scenario's tables,
+changed only through them (`Task.with_changes`), so that a record holds what was planned."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .arguments import wrong_type
+from .errors import InputError
+from .tomlread import parse_toml, plain
+
+if TYPE_CHECKING:
+    from .constraints import Constraints
+    from .models.system import System
+    from .scenario import Scenario
+    from .settings import PlannerSettings
+    from .stratified import LegSpec
+
+__all__ = ["Task"]
+
+
+@dataclass(frozen=True)
+class Task:
+    """A validated scenario, ready to plan: a value, resolved from `scenario` (its start,
+    goal, legs and settings), which records write as they were planned. To change it, use
+    `with_changes` (validated and resolved again); a `dataclasses.replace` that lets the
+    settings, start, goal, legs' strata or constraints disagree with `scenario` is refused."""
+
+    scenario: Scenario
+    system: System
+    start: np.ndarray
+    goal: np.ndarray
+    legs: list[LegSpec]
+    settings: PlannerSettings
+    source: str
+    text: str
+    constraints: Constraints | None = None  # the [constraints] table, resolved on the model
+    base_dir: Path | None = None  # what a URDF model's relative path is relative to
+
+    def __post_init__(self):
+        given, entries = self.scenario.task, self.scenario.legs or []
+        if (
+            self.settings != self.scenario.planner
+            or not _same(self.start, given.start)
+            or not _same(self.goal, given.goal)
+            or [leg.stratum for leg in self.legs] != [entry.stratum for entry in entries]
+            or (self.constraints is None) != (self.scenario.constraints is None)
+        ):
+            raise ValueError(
+                "a Task's settings, start, goal, legs and constraints are its scenario's: "
+                "change them with task.with_changes({...}) (e.g. {'planner': {'objective': "
+                "'newton'}})"
+            )
+        self._read_only()
+
+    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
+        self.__dict__.update(state)
+        self._read_only()
+
+    def _read_only(self) -> None:
+        for array in (self.start, self.goal, *(leg.goal for leg in self.legs)):
+            if array is not None:  # t.goal[0] = ... would plan what the records do not say
+                array.setflags(write=False)
+
+    @property
+    def model_name(self) -> str:
+        """Preset name, "planar-manipulator" or "custom" (the result.json `model` key)."""
+        model = self.scenario.model
+        return model.name if model.kind == "preset" else model.kind
+
+    def with_changes(self, changes: Mapping[str, Any]) -> Task:
+        """This scenario with `changes`, validated and resolved again (as `load_scenario`).
+
+        Parameters
+        ----------
+        changes : Mapping
+            In the scenario file's structure. Tables are merged key by key, anything else
+            (a value, a list such as `legs`) replaces what was there; None removes the key.
+            E.g. ``{"planner": {"objective": "newton"}, "task": {"goal": [0, 1, 0.5, 0]}}``.
+
+        Returns
+        -------
+        Task
+            A new task (this one is unchanged); its records hold the changed scenario.
+
+        Raises
+        ------
+        InputError
+            Naming every problem of the changed scenario.
+        TypeError
+            `changes` is not a mapping.
+        """
+        from .scenario import from_raw  # (which builds tasks)
+
+        if not isinstance(changes, Mapping):
+            raise wrong_type("changes", "a mapping (a dict)", changes)
+        where = f"{self.source} (with changes)"  # the file itself may be fine
+        try:  # numpy values as Python's, as a dict given to `load_scenario`
+            plain_changes = plain(changes)
+        except InputError as exc:
+            raise exc.with_source(where) from None
+        raw = _merged(parse_toml(self.text, self.source), plain_changes)
+        try:
+            return from_raw(raw, None, self.source, self.base_dir)
+        except InputError as exc:  # (ModelError included: the same problems, re-sourced)
+            raise exc.with_source(where) from None
+
+
+def _same(values: np.ndarray | None, given: list | None) -> bool:
+    if values is None or given is None:
+        return values is None and given is None
+    resolved = np.array([np.nan if v is None else v for v in given], dtype=float)
+    return resolved.shape == np.shape(values) and bool(
+        np.array_equal(resolved, values, equal_nan=True)
+    )
+
+
+def _merged(raw: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
+    """`raw` with `changes` merged in (`Task.with_changes`); neither is modified."""
+    out = dict(raw)
+    for key, value in changes.items():
+        if value is None:
+            out.pop(key, None)
+        elif isinstance(value, Mapping) and isinstance(out.get(key), dict):
+            out[key] = _merged(out[key], value)
+        else:
+            out[key] = value
+    return out
