@@ -136,7 +136,6 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .results import StartOutcome as StartOutcome
     from .results import Switch as Switch
     from .results import Timings as Timings
-    from .task import Task as Task
     from .scenario import load_scenario as load_scenario
     from .sequence import SequencePlan as SequencePlan
     from .settings import DecomposeSettings as DecomposeSettings
@@ -146,3 +145,4 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .status import Status as Status
     from .stratified import LegSpec as LegSpec
     from .stratified import time_scaled as time_scaled
+    from .task import Task as Task
