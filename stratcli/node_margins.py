@@ -332,7 +332,7 @@ class NodeMargins:
     def _node_and_pair(self, pairs: int) -> tuple[np.ndarray, np.ndarray]:
         """Each clearance row's node (all legs') and pair of bodies: the rows run leg by
         leg, pair by pair within a leg, node by node within a pair."""
-        if self._rows_of is None:
+        if self._rows_of is None or self._rows_of[1].size != pairs * sum(self._sizes):
             sizes, offsets = self._sizes, np.cumsum([0, *self._sizes[:-1]])
             node = [
                 np.tile(np.arange(o, o + n), pairs) for o, n in zip(offsets, sizes, strict=True)

@@ -198,3 +198,18 @@ def test_numpy_scalars_are_passed_on_as_python_numbers_the_records_can_write(tmp
     assert type(slower.time_scale) is float
     run = stratcli.write_record(tmp_path / "run", slower)
     assert (run / "result.json").is_file()
+
+
+def test_a_dask_scheduler_file_may_be_a_path_object(tmp_path):
+    """`dask=` takes a scheduler address or file: a pathlib.Path is a file name like a str
+    (it was a TypeError); a file that is not there is bad input, named."""
+    from pathlib import Path
+
+    missing = Path(tmp_path) / "scheduler.json"
+    for call in (
+        lambda: stratcli.compare_sequences(ROOT / "scenarios" / "sim4_auto.toml", dask=missing),
+        lambda: stratcli.run_sweep(ROOT / "scenarios" / "sweeps" / "sim4_goal_map.toml",
+                                   tmp_path / "out", dask=missing),
+    ):  # fmt: skip
+        with pytest.raises(InputError, match="dask"):
+            call()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import os
 import sys
 import warnings
 from collections.abc import Callable, Iterator, Mapping
@@ -39,6 +40,7 @@ ScenarioLike = Task | str | Path | Mapping[str, Any]
 # the arguments of the use cases below, checked before any work (`stratcli.arguments`)
 SCENARIO = source("scenario", Task)
 JOBS = optional(integer(1))
+DASK = optional(instance("an address or file name", str, os.PathLike))
 TIME_SCALE = optional(number(1.0 / MAX_TIME_SCALE, MAX_TIME_SCALE))
 MAX_LENGTH = optional(integer(1, 8))  # as the [decompose] table allows
 STRATEGY = optional(choice(*STRATEGIES, "both"))
@@ -245,7 +247,7 @@ def plan_auto(
 
 @checked(
     scenario=SCENARIO, max_length=MAX_LENGTH, strategy=STRATEGY, criterion=CRITERION, jobs=JOBS,
-    progress=PROGRESS, exhaustive=flag, dask=optional(instance("an address or file name", str)),
+    progress=PROGRESS, exhaustive=flag, dask=DASK,
 )  # fmt: skip
 def compare_sequences(
     scenario: ScenarioLike,
@@ -257,7 +259,7 @@ def compare_sequences(
     progress: Progress | None = None,
     exhaustive: bool = False,
     executor: Executor | None = None,
-    dask: str | None = None,
+    dask: str | os.PathLike | None = None,
 ) -> ComparisonOutcome:
     """Plan every candidate sequence of strata in parallel and rank them.
 
@@ -342,7 +344,9 @@ def compare_sequences(
 
 
 @contextmanager
-def _cluster(dask: str | None, executor: Executor | None) -> Iterator[Executor | None]:
+def _cluster(
+    dask: str | os.PathLike | None, executor: Executor | None
+) -> Iterator[Executor | None]:
     """`executor`, or the executor of the Dask cluster at `dask` (InputError when it cannot
     be reached: `sweep.run.dask_executor`)."""
     if dask is None or executor is not None:
@@ -350,7 +354,7 @@ def _cluster(dask: str | None, executor: Executor | None) -> Iterator[Executor |
         return
     from ..sweep.run import dask_executor
 
-    with dask_executor(dask) as (cluster, _):
+    with dask_executor(os.fspath(dask)) as (cluster, _):
         yield cluster
 
 

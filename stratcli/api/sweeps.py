@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping
 from concurrent.futures import Executor
 from contextlib import nullcontext
@@ -32,7 +33,7 @@ class SweepReport:
     file=source("sweep", Sweep),
     out=optional(pathlike),
     jobs=optional(integer(1)),
-    dask=optional(instance("an address or file name", str)),
+    dask=optional(instance("an address or file name", str, os.PathLike)),
     resume=flag,
     records=choice(*RECORDS),
     progress=optional(instance("a callable", Callable)),  # type: ignore[arg-type]
@@ -42,7 +43,7 @@ def run_sweep(
     out: str | Path | None = None,
     *,
     jobs: int | None = None,
-    dask: str | None = None,
+    dask: str | os.PathLike | None = None,
     executor: Executor | None = None,
     resume: bool = False,
     records: str = "failed",
@@ -83,7 +84,11 @@ def run_sweep(
     """
     loaded = file if isinstance(file, Sweep) else load_sweep(file)
     target = Path(out) if out is not None else Path("sweeps") / loaded.name
-    context = dask_executor(dask) if dask and executor is None else nullcontext((executor, None))
+    context = (
+        dask_executor(os.fspath(dask))
+        if dask and executor is None
+        else nullcontext((executor, None))
+    )
     with context as (chosen, info):
         return run_tasks(
             loaded,
