@@ -18,7 +18,7 @@ from mcap.reader import make_reader
 from typer.testing import CliRunner
 
 from stratcli.api import plan_auto, plan_run
-from stratcli.api.planning import with_legs
+from stratcli.api.sequences import with_legs
 from stratcli.cli import app
 from stratcli.models.presets import preset
 from stratcli.objectives import plan_sequence

@@ -22,8 +22,8 @@ _NAMES = {
     "ComparisonOutcome": "outcomes",
     "DecompositionOutcome": "outcomes",
     "PlanOutcome": "outcomes",
-    "compare_sequences": "planning",
-    "decompose": "planning",
+    "compare_sequences": "sequences",
+    "decompose": "sequences",
     "plan": "planning",
     "plan_auto": "planning",
     "plan_run": "planning",
@@ -63,8 +63,6 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .outcomes import ComparisonOutcome as ComparisonOutcome
     from .outcomes import DecompositionOutcome as DecompositionOutcome
     from .outcomes import PlanOutcome as PlanOutcome
-    from .planning import compare_sequences as compare_sequences
-    from .planning import decompose as decompose
     from .planning import plan as plan
     from .planning import plan_auto as plan_auto
     from .planning import plan_run as plan_run
@@ -75,6 +73,8 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .runs import read_run as read_run
     from .runs import regress as regress
     from .runs import write_record as write_record
+    from .sequences import compare_sequences as compare_sequences
+    from .sequences import decompose as decompose
     from .sweeps import SweepReport as SweepReport
     from .sweeps import read_sweep as read_sweep
     from .sweeps import run_sweep as run_sweep

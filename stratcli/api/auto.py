@@ -102,7 +102,7 @@ def compare_decomposition(
     With the energy objective and criterion the candidates are screened (`compare.compare`,
     `screen=SCREEN_TOP`, branch and bound: `stratcli.screen`) unless `exhaustive`: every
     candidate searched to its minimum.
-    `executor` (any concurrent.futures.Executor, e.g. a Dask cluster's: `planning._cluster`):
+    `executor` (any concurrent.futures.Executor, e.g. a Dask cluster's: `sequences._cluster`):
     plan there instead of in `jobs` forked processes."""
     compile_time = compile_strata(task.system, decomposition.candidates_strata)
     comparison = compare(

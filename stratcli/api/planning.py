@@ -1,4 +1,5 @@
-"""Planning use cases: a scenario's legs, auto mode, comparing and decomposing sequences."""
+"""Planning use cases: a scenario's legs, and auto mode (comparing and decomposing sequences:
+`sequences`)."""
 
 from __future__ import annotations
 
@@ -6,9 +7,7 @@ import dataclasses
 import os
 import sys
 import warnings
-from collections.abc import Callable, Iterator, Mapping
-from concurrent.futures import Executor
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -16,21 +15,19 @@ from typing import Any
 from ..arguments import checked, choice, flag, instance, integer, number, optional, source
 from ..compare import CRITERIA
 from ..constraints import enforce
-from ..decomposition import STRATEGIES, pi_fraction
+from ..decomposition import STRATEGIES
 from ..durations import optimise_durations
 from ..errors import IllConditionedWarning, InputError
 from ..objectives import plan_sequence
-from ..records.comparison import comparison_document
 from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
-from ..scenario import LegEntry, Task, load_scenario
+from ..scenario import Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import MAX_TIME_SCALE
 from ..stratified import time_scaled
-from ..trie import default_jobs
-from .auto import auto_choice, auto_settings, compare_decomposition, decompose_task
+from .auto import auto_choice
 from .inspection import controllability_first
-from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
+from .outcomes import ComparisonOutcome, PlanOutcome
 
 IMPORTED = since_start()  # the end of the planner's imports: the "import" phase of a run
 Progress = Callable[[int, int], None]  # (sequences planned so far, sequences in all)
@@ -236,6 +233,8 @@ def plan_auto(
     task = as_task(scenario)
     if check:
         controllability_first(task)
+    from .sequences import compare_sequences  # (which imports this module)
+
     outcome = compare_sequences(task, jobs=jobs, progress=progress)
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale == 1.0:
@@ -243,184 +242,6 @@ def plan_auto(
     result = time_scaled(outcome.best.result, scale)
     best = dataclasses.replace(outcome.best, result=result, document=result.to_dict())
     return dataclasses.replace(outcome, best=best)
-
-
-@checked(
-    scenario=SCENARIO, max_length=MAX_LENGTH, strategy=STRATEGY, criterion=CRITERION, jobs=JOBS,
-    progress=PROGRESS, exhaustive=flag, dask=DASK,
-)  # fmt: skip
-def compare_sequences(
-    scenario: ScenarioLike,
-    *,
-    max_length: int | None = None,
-    strategy: str | None = None,
-    criterion: str | None = None,
-    jobs: int | None = None,
-    progress: Progress | None = None,
-    exhaustive: bool = False,
-    executor: Executor | None = None,
-    dask: str | os.PathLike | None = None,
-) -> ComparisonOutcome:
-    """Plan every candidate sequence of strata in parallel and rank them.
-
-    Parameters
-    ----------
-    scenario : Task, str, Path or Mapping
-        A scenario (loaded, or what `load_scenario` takes); its start and goal are decomposed.
-    max_length : int, optional
-        Longest sequence of strata (default: decompose table, else 3; at most 8).
-    strategy : str, optional
-        conservative | postponed | both (default: decompose table, else conservative).
-    criterion : str, optional
-        energy | peak-control | excursion | duration (default: decompose table, else energy).
-    jobs : int, optional
-        Worker processes (default: all cores).
-    progress : callable, optional
-        Called as `progress(done, total)` while sequences are planned.
-    exhaustive : bool
-        With the energy objective and criterion: search every candidate to its minimum
-        instead of screening them (`compare.compare`, `screen`; the rows not searched, only
-        bounded, are marked `screened` in comparison.json).
-    executor, dask : concurrent.futures.Executor or str, optional
-        Plan on this executor, or on the Dask cluster of this scheduler address or file,
-        instead of `jobs` forked processes (the same results; a scenario's model only).
-
-    Returns
-    -------
-    ComparisonOutcome
-        Outcomes, ranking, comparison.json and, in `.best`, the best sequence's
-        `PlanOutcome` (its plan: `.best.result`).
-
-    Raises
-    ------
-    InputError
-        Bad input, naming the field or the argument (`max_length`, `strategy`, ...), or no
-        candidate sequence could even be planned.
-    TypeError
-        An argument of the wrong type, named.
-    """
-    task = as_task(scenario)
-    auto, dec = _decomposition(task, max_length, strategy, criterion)
-    started = datetime.now(UTC)
-    total, done = len(dec.candidates), 0
-
-    def advance(k: int) -> None:
-        nonlocal done
-        done += k
-        if progress is not None:
-            progress(done, total)
-
-    with _cluster(dask, executor) as chosen:  # connected before any progress is shown
-        if progress is not None:
-            progress(0, total)
-        comparison, compile_time = compare_decomposition(
-            task, auto, dec, jobs=jobs or default_jobs(), progress=advance,
-            exhaustive=exhaustive, executor=chosen,
-        )  # fmt: skip
-    doc = comparison_document(
-        comparison,
-        dec,
-        scenario=task.scenario.name,
-        model=task.model_name,
-        states=task.system.states,
-        start=task.start,
-        goal=task.goal,
-        settings={
-            k: getattr(task.settings, k)
-            for k in ("continuity", "soft_start", "full_stop", "tolerance", "seed", "objective")
-            if hasattr(task.settings, k)
-        },
-        compile_time=compile_time,
-    )
-    best = comparison.best
-    best_task = with_legs(task, best.candidate.legs)
-    timings = Timings(started.isoformat(), compile_time, comparison.wall_time)
-    result = _named(best.plan, task, timings)
-    plan = PlanOutcome(
-        best_task, result, result.to_dict(), started, compile_time, comparison.wall_time
-    )
-    plan.phases["import"] = dict(IMPORTED)
-    return ComparisonOutcome(task, auto, dec, comparison, doc, plan)
-
-
-@contextmanager
-def _cluster(
-    dask: str | os.PathLike | None, executor: Executor | None
-) -> Iterator[Executor | None]:
-    """`executor`, or the executor of the Dask cluster at `dask` (InputError when it cannot
-    be reached: `sweep.run.dask_executor`)."""
-    if dask is None or executor is not None:
-        yield executor
-        return
-    from ..sweep.run import dask_executor
-
-    with dask_executor(os.fspath(dask)) as (cluster, _):
-        yield cluster
-
-
-@checked(scenario=SCENARIO, max_length=MAX_LENGTH, strategy=STRATEGY)
-def decompose(
-    scenario: ScenarioLike, *, max_length: int | None = None, strategy: str | None = None
-) -> DecompositionOutcome:
-    """The candidate sequences of strata and their via configurations, without planning.
-
-    Parameters
-    ----------
-    scenario : Task, str, Path or Mapping
-        A scenario (loaded, or what `load_scenario` takes); its start and goal are decomposed.
-    max_length : int, optional
-        Longest sequence of strata (default: decompose table, else 3; at most 8).
-    strategy : str, optional
-        conservative | postponed | both (default: decompose table, else conservative).
-
-    Returns
-    -------
-    DecompositionOutcome
-        The decomposition and its JSON document.
-    """
-    task = as_task(scenario)
-    auto, dec = _decomposition(task, max_length, strategy)
-    system = task.system
-    rows = [
-        {
-            "index": k + 1,
-            "sequence": list(cand.sequence),
-            "strategy": cand.strategy,
-            "vias": [[None if x != x else float(x) for x in v] for v in cand.vias],
-            "vias_pi": [[pi_fraction(float(x)) for x in v] for v in cand.vias],
-            "loops": list(cand.redundant_legs(task.start)),
-        }
-        for k, cand in enumerate(dec.candidates)
-    ]
-    doc = {
-        "scenario": task.scenario.name,
-        "coordinates": list(system.states),
-        "essential": [system.states[i] for i in dec.essential],
-        "candidate_strata": list(dec.candidates_strata),
-        "max_length": dec.max_length,
-        "strategies": list(dec.strategies),
-        "sequences": rows,
-    }
-    return DecompositionOutcome(task, auto, dec, doc)
-
-
-def _decomposition(task: Task, max_length, strategy, criterion=None):
-    """[decompose] settings with overrides (checked by the use cases: `MAX_LENGTH`, ...), and
-    the decomposition; InputError naming the field or argument to change."""
-    auto = auto_settings(task, max_length=max_length, strategy=strategy, criterion=criterion)
-    return auto, decompose_task(task, auto)
-
-
-def with_legs(task: Task, legs) -> Task:
-    """The scenario rewritten with a chosen sequence's legs (what resolved.json records): a
-    plain scenario that plans that sequence again. The [decompose] table that chose it is
-    left out (a scenario gives one or the other); comparison.json keeps its settings."""
-    entries = [
-        LegEntry(stratum=leg.stratum, method=leg.method, goal=list(leg.goal), duration=leg.duration)
-        for leg in legs
-    ]
-    scenario = task.scenario.model_copy(update={"legs": entries, "decompose": None})
-    return dataclasses.replace(task, scenario=scenario, legs=list(legs))
 
 
 def _named(plan: SequencePlan, task: Task, timings: Timings) -> SequencePlan:

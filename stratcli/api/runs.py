@@ -205,7 +205,8 @@ def _outcome_of(plan: SequencePlan) -> PlanOutcome:
     """What a record needs of a plan value: its scenario (re-read from the plan's text)."""
     from ..scenario import load_scenario  # start-up speed (module comment)
     from ..stratified import LegSpec
-    from .planning import PlanOutcome, with_legs
+    from .planning import PlanOutcome
+    from .sequences import with_legs
 
     if not plan.scenario_text:
         raise InputError(
