@@ -1,7 +1,7 @@
 """Compare replayed scenarios with a committed baseline (for users' CI).
 
 Pure functions over summaries (status, total energy, each leg's error and energy); the
-replaying itself is `stratcli.api.runs.regress`.
+replaying itself is `stratcli.api.regression.regress`.
 """
 
 from __future__ import annotations

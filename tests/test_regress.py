@@ -9,7 +9,7 @@ import shutil
 from conftest import ROOT, SCENARIOS
 from typer.testing import CliRunner
 
-from stratcli.api.runs import summarise
+from stratcli.api.regression import summarise
 from stratcli.cli import app
 from stratcli.regress import compare, load_baseline, summary_of
 
@@ -35,6 +35,23 @@ def test_summary_of_a_plan_is_what_regress_keeps(shipped_plans):
     others are not planned twice)."""
     _, outcome = shipped_plans["unicycle"]
     assert summary_of(outcome.result) == summarise(ROOT / "scenarios" / "unicycle.toml")
+
+
+def test_regress_replays_auto_mode_unscaled_as_it_does_legs(tmp_path):
+    """The baseline keeps plans as planned: a planner.time_scale of an auto-mode scenario is
+    not applied (plan_auto honours it since it was found dropped; summarise must not)."""
+    import tomllib
+
+    from stratcli.tomlwrite import dumps
+
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_auto.toml").read_text())
+    raw["decompose"]["max_length"] = 2
+    raw.setdefault("planner", {})["objective"] = "newton"
+    plain, fast = tmp_path / "plain.toml", tmp_path / "fast.toml"
+    plain.write_text(dumps(raw))
+    raw["planner"]["time_scale"] = 2.0
+    fast.write_text(dumps(raw))
+    assert summarise(fast)["total_energy"] == summarise(plain)["total_energy"]
 
 
 def test_regress_detects_a_regression(tmp_path):

@@ -27,7 +27,7 @@ _NAMES = {
     "plan": "planning",
     "plan_auto": "planning",
     "plan_run": "planning",
-    "RegressReport": "runs",
+    "RegressReport": "regression",
     "SweepReport": "sweeps",
     "read_sweep": "sweeps",
     "run_sweep": "sweeps",
@@ -35,7 +35,7 @@ _NAMES = {
     "load_run": "runs",
     "prepare_out": "runs",
     "read_run": "runs",
-    "regress": "runs",
+    "regress": "regression",
     "write_record": "runs",
 }
 
@@ -66,12 +66,12 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .planning import plan as plan
     from .planning import plan_auto as plan_auto
     from .planning import plan_run as plan_run
-    from .runs import RegressReport as RegressReport
+    from .regression import RegressReport as RegressReport
+    from .regression import regress as regress
     from .runs import list_runs as list_runs
     from .runs import load_run as load_run
     from .runs import prepare_out as prepare_out
     from .runs import read_run as read_run
-    from .runs import regress as regress
     from .runs import write_record as write_record
     from .sequences import compare_sequences as compare_sequences
     from .sequences import decompose as decompose

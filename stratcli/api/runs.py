@@ -1,15 +1,15 @@
-"""Run-record use cases: writing and reading records, replaying scenarios against a baseline."""
+"""Run-record use cases: writing and reading records (replaying scenarios against a baseline:
+`regression`)."""
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import tempfile
 import time
 import tomllib
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -18,29 +18,12 @@ from ..arguments import checked, choice, flag, instance, pathlike
 from ..errors import InputError
 from ..records.rundir import clean_partials  # stdlib only: light
 from ..records.store import Record, list_records, mcap_summary, read_record
-from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
-from ..regress import compare as compare_baseline
 
 # The planner (scipy, sympy, matplotlib) is imported by the functions that write, load or
 # replay records, not here: `stratplan runs` and `show` only read JSON (start-up speed).
 if TYPE_CHECKING:
     from ..sequence import SequencePlan
     from .outcomes import ComparisonOutcome, PlanOutcome
-
-
-@dataclass(frozen=True)
-class RegressReport:
-    """Scenarios replayed against a baseline file."""
-
-    scenarios: int
-    baseline: Path
-    tolerances: dict[str, float]
-    differences: list[Difference]
-    updated: bool  # the baseline was rewritten from this run
-
-    @property
-    def regressions(self) -> int:
-        return sum(d.regression for d in self.differences)
 
 
 # ------------------------------------------------------------------------------------------
@@ -332,81 +315,3 @@ def clean_runs(out: Path) -> list[Path]:
         an hour. A run still writing its record keeps its directory.
     """
     return clean_partials(Path(out))
-
-
-# ------------------------------------------------------------------------------------------
-# Regression against a baseline
-# ------------------------------------------------------------------------------------------
-
-
-def regress(
-    directory: Path,
-    baseline: Path,
-    update: bool = False,
-    progress: Callable[[str, dict[str, Any], float], None] | None = None,
-) -> RegressReport:
-    """Plan every scenario in `directory` and compare with a baseline file.
-
-    Parameters
-    ----------
-    directory : Path
-        Directory of scenario files (``*.toml``).
-    baseline : Path
-        Baseline JSON file (schema ``stratplan.baseline/1``).
-    update : bool
-        Rewrite the baseline from this run (keeping its tolerances when it exists).
-    progress : callable, optional
-        Called as `progress(name, summary, seconds)` after each scenario is planned (its
-        status, energies and errors, and the seconds it took); default: silent.
-
-    Returns
-    -------
-    RegressReport
-        Every difference beyond the baseline's tolerances; `.regressions` counts the ones
-        that fail CI.
-    """
-    paths = sorted(Path(directory).glob("*.toml"))
-    if not paths:
-        raise InputError(f"no scenario files (*.toml) in {directory}")
-    old, tolerances = {}, dict(DEFAULT_TOLERANCES)
-    if not update or baseline.exists():
-        try:
-            old, tolerances = load_baseline(baseline)
-        except InputError:
-            if not update:
-                raise
-    now = {}
-    for path in paths:
-        clock = time.perf_counter()
-        now[path.stem] = summarise(path)
-        if progress is not None:
-            progress(path.stem, now[path.stem], time.perf_counter() - clock)
-    diffs = compare_baseline(now, old, tolerances)
-    if update:
-        baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")
-    return RegressReport(len(now), baseline, tolerances, diffs, update)
-
-
-def summarise(path: Path) -> dict[str, Any]:
-    """Plan one scenario (as `plan` does, unchecked and not time-scaled) and keep what the
-    baseline compares.
-
-    Parameters
-    ----------
-    path : Path
-        A scenario file; in auto mode the best candidate sequence is kept.
-
-    Returns
-    -------
-    dict
-        status, total_energy, errors and energies (one per leg).
-    """
-    from ..scenario import load_scenario  # start-up speed (module comment)
-    from .planning import plan_auto, plan_run
-
-    task = load_scenario(path)
-    if task.legs:
-        result = plan_run(task, check=False, time_scale=1.0).result
-    else:  # auto mode ([decompose], no [[legs]]): the best candidate sequence
-        result = plan_auto(task, check=False).best.result
-    return summary_of(result)
