@@ -19,9 +19,10 @@ Use cases: `load_scenario`, `plan`, `plan_auto`, `decompose`, `compare_sequences
 `Base`, `Link`, `preset`. Outcomes: `Status`; `PlanOutcome` (a plan in `.result` with its
 result.json and timings) and `ComparisonOutcome` (what `plan_auto` and `compare_sequences`
 return: the ranking, and in `.best` the chosen sequence's `PlanOutcome`, its plan in
-`.best.result`). Errors: `StratplanError`, `InputError`, `ModelError`,
-`NotControllableError`, `RecordError` (`write_record` could not write), `Problem`;
-warnings: `IllConditionedWarning`.
+`.best.result`), `DecompositionOutcome` (`decompose`), `CheckReport`
+(`check_controllability`), `SweepOutcome` (`run_sweep`), `SweepReport` (`read_sweep`).
+Errors: `StratplanError`, `InputError`, `ModelError`, `NotControllableError`, `RecordError`
+(`write_record` could not write), `Problem`; warnings: `IllConditionedWarning`.
 
 Arguments are checked before any work: a value of the wrong type raises `TypeError`, a value
 out of range or not one of the choices `InputError` (a `ValueError`); both name the argument.
@@ -55,6 +56,10 @@ _PUBLIC = {
     "time_scaled": "stratified",
     "PlanOutcome": "api",
     "ComparisonOutcome": "api",
+    "DecompositionOutcome": "api",
+    "CheckReport": "api",
+    "SweepReport": "api",
+    "SweepOutcome": "sweep.run",
     "LegSpec": "stratified",
     "SequencePlan": "sequence",
     "LegPlan": "results",
@@ -103,8 +108,11 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # the same names, for type checkers and IDEs
+    from .api import CheckReport as CheckReport
     from .api import ComparisonOutcome as ComparisonOutcome
+    from .api import DecompositionOutcome as DecompositionOutcome
     from .api import PlanOutcome as PlanOutcome
+    from .api import SweepReport as SweepReport
     from .api import check_controllability as check_controllability
     from .api import compare_sequences as compare_sequences
     from .api import decompose as decompose
@@ -145,4 +153,5 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .status import Status as Status
     from .stratified import LegSpec as LegSpec
     from .stratified import time_scaled as time_scaled
+    from .sweep.run import SweepOutcome as SweepOutcome
     from .task import Task as Task

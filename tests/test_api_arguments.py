@@ -158,10 +158,16 @@ def test_use_case_errors_name_the_argument_and_the_command_line_the_flag():
 
 
 def test_outcomes_and_record_error_are_public_names():
+    from stratcli.sweep.run import SweepOutcome
+
     for name, value in [
         ("PlanOutcome", api.PlanOutcome),
         ("ComparisonOutcome", api.ComparisonOutcome),
         ("RecordError", stratcli.errors.RecordError),
+        ("DecompositionOutcome", api.DecompositionOutcome),
+        ("CheckReport", api.CheckReport),
+        ("SweepReport", api.SweepReport),
+        ("SweepOutcome", SweepOutcome),
     ]:
         assert name in stratcli.__all__ and name in dir(stratcli)
         assert getattr(stratcli, name) is value
