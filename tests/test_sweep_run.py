@@ -57,6 +57,7 @@ def test_any_executor_gives_the_same_rows(reference, tmp_path):
         threads = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "t", executor=pool)
     assert strip(threads.rows) == strip(reference.rows)
     assert threads.summary["executor"]["kind"] == "ThreadPoolExecutor"
+    assert list(threads.rows) == list(range(len(threads.rows)))  # in task order, as the table
 
 
 @pytest.mark.slow

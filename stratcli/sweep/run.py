@@ -338,6 +338,7 @@ def run_sweep(
     summary, files = finish(
         sweep, out, rows, info, wall, planned, resumed, missing, started.isoformat()
     )
+    rows = dict(sorted(rows.items()))  # in task order, as results.csv (they came as finished)
     return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)
 
 
