@@ -1,7 +1,7 @@
 """Robustness benchmark: seeded random tasks planned with lr-C1 and verified independently.
 
 Usage: python benchmarks/bench_random.py [--tasks 200] [--seed 0] [--jobs 1] [--only SEED]
-                                         [--theta-vias conservative|free]
+                                         [--theta-vias conservative|free] [--constraints]
 
 Each task (issue 14, item 5) draws from its own `numpy.random.default_rng(task_seed)`, the task
 seeds from `--seed`: the one-arm or the two-arm preset; a sequence of 2-4 strata (one-arm
@@ -26,6 +26,12 @@ failure (task seed, model, sequence, status, message, what its worst leg was ask
 percentiles of the planning CPU time per task (`time.process_time()` around `stratcli.plan`,
 after an untimed warm-up per model and process). Results do not depend on `--jobs`;
 `--only SEED` re-runs one task and prints its scenario as JSON.
+
+`--constraints` plans every task with and without a [constraints] table (joints within
+±2.5 rad, self-collision with clearance 0.05; tasks whose start, vias or goal break it are
+redrawn and counted) and prints the status counts, the recorded margins of the ok plans, the
+energy ratio constrained/free, the CPU times both ways and every task not ok
+(benchmarks/random_constraints.py says how).
 """
 
 from __future__ import annotations
@@ -43,6 +49,7 @@ import shlex
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +58,7 @@ import stratcli
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
+import random_constraints
 from reintegrate import PRINTED, reintegrate
 
 JOINTS = {"one-arm": 3, "two-arm": 4}
@@ -212,12 +220,17 @@ def task_seeds(master: int, n: int) -> list[int]:
     return [int(s) for s in np.random.default_rng(master).integers(0, 2**31, n)]
 
 
-def run_all(seeds: list[int], jobs: int, theta_vias: str) -> list[dict]:
+def run_pair(seed: int, theta_vias: str = "conservative") -> dict:
+    """One task planned free and under the benchmark's [constraints] table."""
+    return random_constraints.run_pair(seed, theta_vias, make_task, warm_up, verify)
+
+
+def run_all(seeds: list[int], jobs: int, theta_vias: str, task=run_task) -> list[dict]:
     if jobs <= 1:
-        return [run_task(s, theta_vias) for s in seeds]
+        return [task(s, theta_vias) for s in seeds]
     context = multiprocessing.get_context("fork")
     with ProcessPoolExecutor(jobs, mp_context=context) as pool:
-        return list(pool.map(run_task, seeds, [theta_vias] * len(seeds)))
+        return list(pool.map(task, seeds, [theta_vias] * len(seeds)))
 
 
 def _one_line(text: str, width: int = 120) -> str:
@@ -225,9 +238,9 @@ def _one_line(text: str, width: int = 120) -> str:
     return text if len(text) <= width else text[: width - 1] + "…"
 
 
-def report(rows: list[dict], args, load_before, load_after, wall: float) -> str:
-    out = [
-        "# bench_random",
+def header(rows: list[dict], args, load_before, load_after, wall: float) -> list[str]:
+    return [
+        "# bench_random" + (" --constraints" if args.constraints else ""),
         "",
         f"`{shlex.join(['python', *sys.argv])}`",
         "",
@@ -235,6 +248,12 @@ def report(rows: list[dict], args, load_before, load_after, wall: float) -> str:
         f"load average (1/5/15 min) before {_load(load_before)}, after {_load(load_after)}",
         f"- master seed {args.seed}, {len(rows)} tasks, jobs {args.jobs}, θ on vias: "
         f"{args.theta_vias}, wall {wall:.1f} s",
+    ]
+
+
+def report(rows: list[dict], args, load_before, load_after, wall: float) -> str:
+    out = [
+        *header(rows, args, load_before, load_after, wall),
         "",
         "| model | tasks | verified | rate |",
         "|---|---:|---:|---:|",
@@ -291,6 +310,11 @@ def main(argv: list[str] | None = None) -> int:
         default="conservative",
         help='θ on intermediate vias: the goal θ from the first leg on, or "*" (free)',
     )
+    parser.add_argument(
+        "--constraints",
+        action="store_true",
+        help="plan every task also under joint limits ±2.5 rad and self-collision (0.05)",
+    )
     args = parser.parse_args(argv)
     if args.only is not None:
         print(json.dumps(make_task(args.only, args.theta_vias)))
@@ -298,11 +322,35 @@ def main(argv: list[str] | None = None) -> int:
         args.jobs = 1
     else:
         seeds = task_seeds(args.seed, args.tasks)
+    if args.constraints:
+        return run_constrained(seeds, args)
     load_before = os.getloadavg()
     clock = time.perf_counter()
     rows = run_all(seeds, args.jobs, args.theta_vias)
     wall = time.perf_counter() - clock
     print(report(rows, args, load_before, os.getloadavg(), wall))
+    return 0
+
+
+def run_constrained(seeds: list[int], args) -> int:
+    """`--constraints`: redraw tasks that break the table, plan each both ways, report."""
+    if args.only is None:
+        stream = task_seeds(args.seed, args.tasks * random_constraints.REDRAWS)
+        seeds, rejected = random_constraints.feasible_seeds(
+            stream, args.tasks, partial(make_task, theta_vias=args.theta_vias)
+        )
+    else:
+        rejected = {}
+        reason = random_constraints.pre_violation(make_task(args.only, args.theta_vias))
+        if reason:
+            print(f"task {args.only} breaks the table at its start, a via or the goal: {reason}")
+            return 0
+    load_before = os.getloadavg()
+    clock = time.perf_counter()
+    rows = run_all(seeds, args.jobs, args.theta_vias, task=run_pair)
+    wall = time.perf_counter() - clock
+    head = header(rows, args, load_before, os.getloadavg(), wall)
+    print("\n".join([*head, *random_constraints.report(rows, rejected, _one_line)]))
     return 0
 
 
