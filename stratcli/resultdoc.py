@@ -25,6 +25,7 @@ from .results import (
     Switch,
     finite_or_none,
     nan_to_none,
+    none_to_nan,
 )
 from .settings import PlannerSettings
 from .status import Status
@@ -146,7 +147,7 @@ def _document(plan: SequencePlan) -> dict[str, Any]:
 
 
 def _vector(values: list[float | None] | None) -> np.ndarray:
-    return np.array([np.nan if v is None else v for v in (values or [])], dtype=float)
+    return none_to_nan(values or [])
 
 
 def _leg_from(doc: dict, i: int, coordinates: list[str], inputs: list[str]) -> LegPlan:

@@ -41,6 +41,7 @@ __all__ = [
     "finite_or_none",
     "make_leg",
     "nan_to_none",
+    "none_to_nan",
 ]
 
 SCHEMA = "stratplan.result/1"
@@ -224,6 +225,12 @@ def make_leg(**values: Any) -> LegPlan:
 def nan_to_none(x: Any) -> list[float | None]:
     """A vector for JSON: NaN (not prescribed) and other non-finite values become null."""
     return [float(v) if math.isfinite(v) else None for v in np.asarray(x, dtype=float)]
+
+
+def none_to_nan(values: Any) -> np.ndarray:
+    """A vector from JSON or a scenario's tables: null ("*", not prescribed) becomes NaN (the
+    inverse of `nan_to_none`)."""
+    return np.array([np.nan if v is None else v for v in values], dtype=float)
 
 
 def finite_or_none(x: float | None) -> float | None:

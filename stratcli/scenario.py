@@ -37,6 +37,7 @@ from .models.specs import (
 from .models.system import System
 from .node_margins import searchable
 from .planners import PLANNERS
+from .results import none_to_nan
 from .scenario_hints import hinted
 from .schema_problems import validation_problems
 from .settings import (
@@ -249,7 +250,7 @@ def _resolve(
             return None
         if values is None:
             return None
-        return np.array([np.nan if v is None else v for v in values], dtype=float)
+        return none_to_nan(values)
 
     start = vector(scenario.task.start, "task.start")
     goal = vector(scenario.task.goal, "task.goal")

@@ -12,6 +12,7 @@ import numpy as np
 
 from .arguments import wrong_type
 from .errors import InputError
+from .results import none_to_nan
 from .tomlread import parse_toml, plain
 
 if TYPE_CHECKING:
@@ -114,7 +115,7 @@ class Task:
 def _same(values: np.ndarray | None, given: list | None) -> bool:
     if values is None or given is None:
         return values is None and given is None
-    resolved = np.array([np.nan if v is None else v for v in given], dtype=float)
+    resolved = none_to_nan(given)
     return resolved.shape == np.shape(values) and bool(
         np.array_equal(resolved, values, equal_nan=True)
     )
