@@ -7,7 +7,6 @@ evaluated as code (angles such as "pi/3" or "60deg" go through the safe expressi
 from __future__ import annotations
 
 import dataclasses
-import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any
@@ -22,7 +21,6 @@ from pydantic import (
 )
 
 from . import tomlwrite
-from .arguments import wrong_type
 from .constraints import Constraints, ConstraintsSpec, check_configuration, resolve
 from .controls import MAX_PERIODS_PER_LEG
 from .endpoint import evaluator_problems
@@ -49,7 +47,7 @@ from .settings import (
 )
 from .stratified import LegSpec, check_legs
 from .task import Task
-from .tomlread import is_toml_text, parse_toml, plain, read_scenario_text, reject_non_finite
+from .tomlread import parse_toml, read_source, reject_non_finite
 
 MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
 
@@ -127,23 +125,8 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
     TypeError
         `source` is none of these.
     """
-    if isinstance(source, Mapping):
-        try:  # numpy values as Python's, here for every caller (sweeps' tasks too)
-            raw = plain(source)
-        except InputError as exc:
-            raise exc.with_source(name or "<dict>") from None
-        return from_raw(raw, None, name or "<dict>")
-    if not isinstance(source, str | os.PathLike):
-        raise wrong_type("source", "a scenario path, TOML text or a dict", source)
-    if isinstance(source, str) and is_toml_text(source):
-        return parse_scenario(source, name or "<text>")
-    path = Path(source)
-    where = name or str(path)
-    try:
-        text = read_scenario_text(path)
-    except InputError as exc:
-        raise exc.with_source(where) from None
-    return parse_scenario(text, where, base_dir=path.parent)
+    raw, text, where, folder = read_source(source, name, "scenario")
+    return from_raw(raw, text, where, folder)
 
 
 def parse_scenario(text: str, source: str = "<scenario>", base_dir: Path | None = None) -> Task:

@@ -33,6 +33,7 @@ __all__ = [
     "parse_toml",
     "plain",
     "read_scenario_text",
+    "read_source",
     "reject_non_finite",
 ]
 
@@ -170,6 +171,48 @@ def plain(raw: Mapping[str, Any], max_depth: int = MAX_DEPTH) -> dict[str, Any]:
         return value
 
     return convert(raw, 0)
+
+
+def read_source(
+    source: Any, name: str | None = None, kind: str = "scenario"
+) -> tuple[dict[str, Any], str | None, str, Path | None]:
+    """A scenario or sweep as `load_scenario` and `load_sweep` take it: a path, TOML text
+    (`is_toml_text`) or a dict of the file's structure (`plain`).
+
+    Returns
+    -------
+    tuple
+        Its tables; its TOML text (None for a dict); how messages name it (`name`, else the
+        path, "<text>" or "<dict>"); the folder its relative paths are relative to (None:
+        the working directory).
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, is not TOML, or the dict is nested too deeply.
+    TypeError
+        `source` is none of these.
+    """
+    from .arguments import wrong_type  # (stdlib only)
+
+    if isinstance(source, Mapping):
+        where = name or "<dict>"
+        try:  # numpy values as Python's, here for every caller (sweeps' tasks too)
+            return plain(source), None, where, None
+        except InputError as exc:
+            raise exc.with_source(where) from None
+    if not isinstance(source, str | os.PathLike):
+        raise wrong_type("source", f"a {kind} path, TOML text or a dict", source)
+    if isinstance(source, str) and is_toml_text(source):
+        where = name or "<text>"
+        return parse_toml(source, where), source, where, None
+    path = Path(source)
+    where = name or str(path)
+    try:
+        text = read_scenario_text(path, kind=kind)
+    except InputError as exc:
+        raise exc.with_source(where) from None
+    return parse_toml(text, where), text, where, path.parent
 
 
 def reject_non_finite(raw: Any, prefix: str = "") -> list[Problem]:

@@ -39,18 +39,11 @@ import numpy as np
 from pydantic import BaseModel, Field, ValidationError
 
 from .. import tomlwrite
-from ..arguments import wrong_type
 from ..errors import InputError, Problem
 from ..models.specs import STRICT
 from ..scenario import load_scenario
 from ..schema_problems import validation_problems
-from ..tomlread import (
-    is_toml_text,
-    parse_toml,
-    plain,
-    read_scenario_text,
-    reject_non_finite,
-)
+from ..tomlread import parse_toml, read_scenario_text, read_source, reject_non_finite
 from .keys import (
     MAX_TASKS,
     assign,
@@ -220,28 +213,13 @@ def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) 
     TypeError
         `source` is none of these.
     """
-    folder = Path()
-    if isinstance(source, Mapping):
-        where = name or "<dict>"
+    raw, text, where, folder = read_source(source, name, "sweep")
+    if text is None:  # a dict: recorded as the TOML file it stands for
         try:
-            raw = plain(source)
             text = tomlwrite.dumps(raw)
-        except InputError as exc:
-            raise exc.with_source(where) from None
         except (TypeError, ValueError) as exc:
             raise InputError(f"cannot be written as TOML: {exc}", where) from None
-    elif isinstance(source, str) and is_toml_text(source):
-        where, text = name or "<text>", source
-        raw = parse_toml(text, where)
-    elif isinstance(source, str | os.PathLike):
-        where, folder = name or str(source), Path(source).parent
-        try:
-            text = read_scenario_text(source, kind="sweep")
-        except InputError as exc:
-            raise exc.with_source(where) from None
-        raw = parse_toml(text, where)
-    else:
-        raise wrong_type("source", "a sweep path, TOML text or a dict", source)
+    folder = folder or Path()
     if non_finite := reject_non_finite(raw):
         raise InputError(non_finite, where)
     try:
