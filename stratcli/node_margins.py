@@ -231,7 +231,7 @@ class NodeMargins:
         self.times = np.zeros(0)  # per row: the node's time in its leg
         self._last = None  # (z, clearances, kinds) of the last call: the next often repeats z
         self._limit_rows: list[tuple] = []  # (leg, coordinate, sign, first row, rows) of limits
-        self._moving = self._rows_of = None  # index arrays of the clearance rows, made once
+        self._rows_of = None  # (node, pair) of each clearance row, made once
 
     def refined(self, z: np.ndarray, dense: int) -> NodeMargins | None:
         """These margins with more nodes where `dense` equally spaced samples a leg find less
@@ -282,7 +282,7 @@ class NodeMargins:
             if jacobian:  # differences at nodes near contact, in coordinates that move there
                 slopes = np.zeros((len(self.geo_coords), *g_all.shape))
                 near = (g_all < self.reach).any(axis=1)
-                where = [np.flatnonzero(near & moves) for moves in self._moving_nodes()]
+                where = [np.flatnonzero(near & moves) for moves in self._moving_nodes]
                 steps = [
                     q[w] + FD_STEP * np.eye(q.shape[1])[c]
                     for c, w in zip(self.geo_coords, where, strict=True)
@@ -319,15 +319,14 @@ class NodeMargins:
     def _sizes(self) -> list[int]:
         return [len(leg.t) for leg in self.legs]
 
+    @cached_property
     def _moving_nodes(self) -> list[np.ndarray]:
         """Per clearance coordinate, a mask of the nodes (all legs') of legs it moves on."""
-        if self._moving is None:
-            leg_of = np.repeat(np.arange(len(self.legs)), self._sizes)
-            self._moving = [
-                np.isin(leg_of, [i for i, leg in enumerate(self.legs) if c in leg.moving])
-                for c in self.geo_coords
-            ]
-        return self._moving
+        leg_of = np.repeat(np.arange(len(self.legs)), self._sizes)
+        return [
+            np.isin(leg_of, [i for i, leg in enumerate(self.legs) if c in leg.moving])
+            for c in self.geo_coords
+        ]
 
     def _node_and_pair(self, pairs: int) -> tuple[np.ndarray, np.ndarray]:
         """Each clearance row's node (all legs') and pair of bodies: the rows run leg by
