@@ -71,6 +71,8 @@ def test_auto_mode_runs_the_chosen_plan_at_the_time_scale_asked(sim4):
     assert fast.duration == pytest.approx(plain.duration / 2, rel=1e-12)
     assert fast.total_energy == pytest.approx(2 * plain.total_energy, rel=1e-9)
     assert scaled.duration == pytest.approx(plain.duration / 4, rel=1e-12)
+    assert fast.notes[0].endswith("(as planned, before time scaling by 2)")  # its energies
+    assert "before time scaling" not in plain.notes[0]
 
 
 @pytest.mark.parametrize("stem", [p.stem for p in SCENARIOS])

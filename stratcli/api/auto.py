@@ -130,8 +130,10 @@ def auto_choice(outcome) -> str:
     line prints it, and `stratcli.plan` adds it to the chosen plan's notes."""
     auto, outcomes = outcome.settings, outcome.comparison.outcomes
     bounded = any(o.status == "bounded" for o in outcomes)
+    scale = outcome.best.result.time_scale  # the chosen plan was then run this much faster
     return (
         f"auto mode: {len(outcomes)} candidate sequences (max length {auto.max_length}, "
         f"{' + '.join(auto.strategies)}) {'compared' if bounded else 'planned'}; chose "
         f"{outcome.comparison.choice()}"
+        + (f" (as planned, before time scaling by {scale:g})" if scale != 1.0 else "")
     )
