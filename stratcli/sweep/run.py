@@ -35,6 +35,7 @@ from .. import blas
 from ..errors import InputError, Problem
 from ..records import sweepdir
 from ..records.rundir import write_run
+from .spawning import BareSpawnContext
 from .spec import Sweep
 from .worker import run_task
 
@@ -83,8 +84,10 @@ def local_executor(jobs: int) -> ProcessPoolExecutor:
     forked worker starts with what this process has imported, in a few milliseconds instead
     of the 0.3 s a fresh interpreter needs to import numpy, pydantic and the planner.
     Otherwise spawned: a worker imports numpy itself, after the BLAS variables are set,
-    whatever threads the calling process runs (a notebook, Dask's client). Workers die with
-    the process that started them and leave SIGINT to it (`trie.worker_init`).
+    whatever threads the calling process runs (a notebook, Dask's client); it does not import
+    the caller's `__main__` (`spawning`): a script read from standard input works too, and no
+    script needs the `if __name__ == "__main__":` guard. Workers die with the process that
+    started them and leave SIGINT to it (`trie.worker_init`).
     """
     from ..trie import worker_init
 
@@ -94,7 +97,7 @@ def local_executor(jobs: int) -> ProcessPoolExecutor:
         from .worker import preload
 
         preload()  # once here, instead of once in every worker
-    context = multiprocessing.get_context("fork" if fork else "spawn")
+    context = multiprocessing.get_context("fork") if fork else BareSpawnContext()
     return ProcessPoolExecutor(
         max_workers=jobs, mp_context=context, initializer=worker_init, initargs=(os.getpid(),)
     )
