@@ -115,14 +115,16 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
     Raises
     ------
     InputError
-        Dask is not installed (the `stratplan[dask]` extra) or the scheduler cannot be reached.
+        Naming the argument `dask`: Dask is not installed (the `stratplan[dask]` extra), or
+        the scheduler cannot be reached.
     """
     try:
         from distributed import Client
     except ImportError:
-        raise InputError(
-            "--dask: dask.distributed is not installed (pip install 'stratplan[dask]'; in a "
-            "source checkout: pip install -e '.[dask]')"
+        raise _bad_dask(
+            None,
+            "dask.distributed is not installed (pip install 'stratplan[dask]'; in a source "
+            "checkout: pip install -e '.[dask]')",
         ) from None
     target = address
     if address.endswith(".json") or Path(address).is_file():  # a scheduler file: its address
@@ -130,24 +132,28 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
             target = json.loads(Path(address).read_text())["address"]
             assert isinstance(target, str)
         except (OSError, ValueError, KeyError, TypeError, AssertionError):
-            raise InputError(
-                f"--dask {address}: not a readable Dask scheduler file (JSON with an address)"
+            raise _bad_dask(
+                address, "not a readable Dask scheduler file (JSON with an address)"
             ) from None
     if (problem := _address_problem(target)) is not None:
-        raise InputError(f"--dask {address}: {problem}")
-    refused = _unreachable(target)
-    if refused is not None:
-        raise InputError(f"--dask {address}: cannot reach the scheduler ({refused})")
+        raise _bad_dask(address, problem)
+    if (refused := _unreachable(target)) is not None:
+        raise _bad_dask(address, f"cannot reach the scheduler ({refused})")
     try:
         client = Client(target, timeout=CONNECT_TIMEOUT)
     except Exception as exc:  # whatever distributed raises for an address it cannot use
-        raise InputError(f"--dask {address}: cannot reach the scheduler ({exc})") from None
+        raise _bad_dask(address, f"cannot reach the scheduler ({exc})") from None
     try:
         workers = len(client.scheduler_info().get("workers", {}))
         info = ExecutorInfo("dask", workers, str(client.scheduler.address))
         yield client.get_executor(pure=False), info
     finally:
         client.close()
+
+
+def _bad_dask(address: str | None, message: str) -> InputError:
+    """The error of the `dask` argument (`--dask` on the command line: `cli.render.FLAGS`)."""
+    return InputError([Problem("dask", message, given=address)])
 
 
 def _address_problem(address: str) -> str | None:
