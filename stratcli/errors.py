@@ -2,19 +2,29 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 
 @dataclass(frozen=True)
 class Problem:
-    """One problem in an input file: where it is and what is wrong."""
+    """One problem in an input file or argument: where it is and what is wrong.
+
+    `path` is a field's dotted path, or a use case's Python argument (the command line shows
+    its flag instead: `cli.render.flagged`). For an argument, `given` is its value, shown as
+    ``out='sweeps/x': ...`` (``--out sweeps/x: ...`` on the command line), and
+    `flag_message`, if set, is the message as the command line words it where it names
+    other arguments (``add --resume``, where Python reads ``add resume=True``).
+    """
 
     path: str
     message: str
+    given: str | None = None
+    flag_message: str | None = None
 
     def render(self, source: str | None = None) -> str:
         where = f"{source}: " if source else ""
-        return f"{where}{self.path}: {self.message}" if self.path else f"{where}{self.message}"
+        head = self.path if self.given is None else f"{self.path}={self.given!r}"
+        return f"{where}{head}: {self.message}" if head else f"{where}{self.message}"
 
 
 class StratplanError(Exception):
@@ -38,7 +48,7 @@ class InputError(StratplanError, ValueError):
     def prefixed(self, prefix: str) -> InputError:
         """The same problems, with `prefix` put in front of every field path."""
         return InputError(
-            [Problem(f"{prefix}.{p.path}" if p.path else prefix, p.message) for p in self.problems],
+            [replace(p, path=f"{prefix}.{p.path}" if p.path else prefix) for p in self.problems],
             self.source,
         )
 

@@ -25,12 +25,17 @@ if TYPE_CHECKING:
 __all__ = ["Task"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Task:
     """A validated scenario, ready to plan: a value, resolved from `scenario` (its start,
     goal, legs and settings), which records write as they were planned. To change it, use
     `with_changes` (validated and resolved again); a `dataclasses.replace` that lets the
-    settings, start, goal, legs' strata or constraints disagree with `scenario` is refused."""
+    settings, start, goal, legs' strata or constraints disagree with `scenario` is refused.
+
+    Two tasks are equal when their scenarios are (what is planned follows from it), whatever
+    they were read from (`source`, `text`: a path, its TOML text or a dict); tasks hash
+    accordingly, so they can key a dict or fill a set.
+    """
 
     scenario: Scenario
     system: System
@@ -58,6 +63,14 @@ class Task:
                 "'newton'}})"
             )
         self._read_only()
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Task):
+            return NotImplemented
+        return self is other or self.scenario == other.scenario
+
+    def __hash__(self) -> int:
+        return hash(_frozen(self.scenario.model_dump()))
 
     def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
         self.__dict__.update(state)
@@ -110,6 +123,19 @@ class Task:
             return from_raw(raw, None, self.source, self.base_dir)
         except InputError as exc:  # (ModelError included: the same problems, re-sourced)
             raise exc.with_source(where) from None
+
+
+def _frozen(value: Any) -> Any:
+    """`value` (a scenario's `model_dump`) as nested tuples that hash as it compares: equal
+    values, equal hashes (0.0 and -0.0, 1 and 1.0 too); a NaN as one constant, since a NaN
+    compares equal to itself by identity in a list or dict but hashes by identity."""
+    if isinstance(value, Mapping):
+        return tuple(sorted((str(k), _frozen(v)) for k, v in value.items()))
+    if isinstance(value, list | tuple):
+        return tuple(_frozen(v) for v in value)
+    if isinstance(value, float) and value != value:
+        return "nan"
+    return value
 
 
 def _same(values: np.ndarray | None, given: list | None) -> bool:

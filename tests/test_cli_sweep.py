@@ -5,11 +5,14 @@ from __future__ import annotations
 import csv
 import json
 
+import pytest
 from conftest import plan_record
 from sweep_files import AUTO, GRID, RANDOM, write
 from typer.testing import CliRunner
 
+import stratcli
 from stratcli.cli import app
+from stratcli.errors import InputError
 from stratcli.records.store import read_record
 
 runner = CliRunner()
@@ -87,6 +90,29 @@ def test_a_finished_sweep_is_not_run_again_and_resume_only_reprints_it(tmp_path)
     assert resumed.exit_code == 0, resumed.output
     assert "6 of 6 tasks done" in resumed.stdout and "6 tasks in" in resumed.stdout
     assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == written
+
+
+def test_python_callers_read_the_arguments_where_the_command_line_reads_flags(tmp_path):
+    """The same refusals from `stratcli.run_sweep` name `out` and `resume=True`, which the
+    command line shows as --out and --resume (`cli.render.flagged`)."""
+    path = write(tmp_path, GRID)
+    out = tmp_path / "o"
+    assert runner.invoke(app, ["sweep", str(path), "--out", str(out), "-q"]).exit_code == 0
+    with pytest.raises(InputError) as info:
+        stratcli.run_sweep(path, out)
+    assert str(info.value) == (
+        f"out={str(out)!r}: already holds a finished sweep (6 tasks, all done); resume=True "
+        "would only return it again (as stratcli.read_sweep reads it); choose another out to "
+        "run it again"
+    )
+    other = write(tmp_path, GRID.replace("-0.2", "-0.1"), name="other")
+    why = f"{out} holds the sweep of another sweep file (or a changed one); use the same file"
+    with pytest.raises(InputError) as info:
+        stratcli.run_sweep(other, out, resume=True)
+    assert str(info.value) == f"resume: {why}, or another out"
+    result = runner.invoke(app, ["sweep", str(other), "--out", str(out), "--resume"])
+    assert result.exit_code == 2
+    assert result.stderr.splitlines() == [f"error: --resume: {why}, or another --out"]
 
 
 def test_an_unfinished_sweep_says_how_far_it_got(tmp_path):

@@ -84,9 +84,26 @@ def test_an_invalid_port_is_called_so_not_an_unknown_host(tmp_path, address, por
 
 
 def test_an_inproc_address_is_refused_in_words(tmp_path):
+    """Python reads the argument it passed (`dask=`), the command line its flag."""
+    why = (
+        "an inproc:// address is usable only inside the process that made it; give the "
+        "scheduler's tcp:// address (host:port) or its scheduler file"
+    )
     with pytest.raises(InputError) as info:
         stratcli.run_sweep(write(tmp_path, GRID), tmp_path / "o", dask="inproc://x")
-    assert str(info.value) == (
-        "--dask inproc://x: an inproc:// address is usable only inside the process that made "
-        "it; give the scheduler's tcp:// address (host:port) or its scheduler file"
+    assert str(info.value) == f"dask='inproc://x': {why}"
+    result = runner.invoke(
+        app, ["sweep", str(write(tmp_path, GRID)), "--dask", "inproc://x", "--out", str(tmp_path)]
     )
+    assert result.exit_code == 2 and result.stderr == f"error: --dask inproc://x: {why}\n"
+
+
+def test_python_callers_read_dask_not_the_flag(tmp_path, closed_port):
+    address = f"tcp://127.0.0.1:{closed_port}"
+    expected = f"dask={address!r}: cannot reach the scheduler (connection refused at "
+    with pytest.raises(InputError) as info:
+        stratcli.compare_sequences(AUTO, dask=address)
+    assert str(info.value).startswith(expected)
+    with pytest.raises(InputError) as info:
+        stratcli.run_sweep(write(tmp_path, GRID), tmp_path / "o", dask=address)
+    assert str(info.value).startswith(expected) and "--dask" not in str(info.value)

@@ -47,8 +47,12 @@ def test_prepare_refuses_an_existing_or_different_sweep(tmp_path):
     assert sweepdir.prepare(tmp_path / "s", spec, "text", resume=False) == {}
     assert sweepdir.is_sweep_dir(tmp_path / "s")
     assert (tmp_path / "s" / sweepdir.FILE_TEXT).read_text() == "text"
-    with pytest.raises(InputError, match="--resume"):
+    with pytest.raises(InputError) as info:  # Python's words: the arguments, not the flags
         sweepdir.prepare(tmp_path / "s", spec, "text", resume=False)
+    assert str(info.value) == (
+        f"out={str(tmp_path / 's')!r}: already holds a sweep, unfinished (0 tasks done); "
+        "add resume=True to finish it, or choose another out"
+    )
     with pytest.raises(InputError, match="another sweep file"):
         sweepdir.prepare(tmp_path / "s", {**spec, "digest": "b"}, "text", resume=True)
     assert sweepdir.prepare(tmp_path / "s", spec, "text", resume=True) == {}

@@ -316,3 +316,31 @@ def test_a_checked_task_still_pickles_for_worker_processes():
     assert "_lie_cache" in task.system.__dict__
     again = pickle.loads(pickle.dumps(task))
     assert stratcli.check_controllability(again, samples=0).controllable
+
+
+def test_tasks_compare_and_hash_by_their_scenario():
+    """A task is a value: loaded twice, from its file or its text, unpickled or with changes
+    that change nothing, it equals itself and hashes alike (a dict key, a set member); a
+    changed scenario is another task. (Equality raised ValueError on the arrays and hash()
+    raised TypeError on the pydantic Scenario.)"""
+    import dataclasses
+    import pickle
+
+    path = ROOT / "scenarios" / "sim4_task_a.toml"
+    task = load_scenario(path)
+    same = [
+        load_scenario(path),
+        parse_scenario(path.read_text(), "text"),
+        pickle.loads(pickle.dumps(task)),
+        task.with_changes({}),
+        dataclasses.replace(task, source="renamed"),
+    ]
+    for other in same:
+        assert other is not task and other == task and not other != task
+        assert hash(other) == hash(task)
+    assert len({task, *same}) == 1 and {task: 1}[same[0]] == 1
+    newton = task.with_changes({"planner": {"objective": "newton"}})
+    moved = task.with_changes({"task": {"goal": [-0.5, "pi/3", "pi/4", "-pi/12"]}})
+    assert newton != task and moved != task and newton != moved
+    assert len({task, newton, moved}) == 3
+    assert task != path.read_text() and task != 0  # other types: unequal, no error

@@ -247,3 +247,43 @@ def test_forked_and_spawned_workers_give_the_same_rows(monkeypatch, tmp_path):
             out = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / str(how), executor=pool)
         rows[how] = strip(out.rows)
     assert rows[True] == rows[False]  # bit for bit
+
+
+# Another thread runs, so the workers are spawned (`_fork_is_safe`); the script has no
+# `if __name__ == "__main__":` guard, and prints "main" once: no worker runs it again.
+SCRIPT = """
+import sys, threading, time
+threading.Thread(target=time.sleep, args=(60,), daemon=True).start()
+import stratcli
+from stratcli.sweep import run
+assert not run._fork_is_safe()
+print("main", flush=True)
+outcome = stratcli.run_sweep(sys.argv[1], sys.argv[2], jobs=2, records="none")
+print(outcome.complete, outcome.summary["counts"]["ok"], flush=True)
+"""
+TWO_TASKS = """[[sweep.task]]
+"goal.q1" = -0.5
+
+[[sweep.task]]
+"goal.q1" = -0.4
+"""
+
+
+@pytest.mark.parametrize("how", ["stdin", "-c", "file"])
+def test_spawned_workers_do_not_need_the_callers_main_module(tmp_path, how):
+    """A script read from standard input (`python - <<EOF`: its __file__ is "<stdin>", no
+    file a spawned worker could import), a notebook-like `python -c`, a script file."""
+    args = [str(write(tmp_path, TWO_TASKS)), str(tmp_path / "out")]
+    if how == "stdin":
+        command, given = [sys.executable, "-", *args], SCRIPT
+    elif how == "-c":
+        command, given = [sys.executable, "-c", SCRIPT, *args], None
+    else:
+        (tmp_path / "script.py").write_text(SCRIPT)
+        command, given = [sys.executable, str(tmp_path / "script.py"), *args], None
+    done = subprocess.run(
+        command, input=given, capture_output=True, text=True, cwd=tmp_path, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["main", "True 2"]
+    assert "Traceback" not in done.stderr and "Error" not in done.stderr

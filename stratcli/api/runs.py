@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..arguments import checked, choice, flag, instance, pathlike
-from ..errors import InputError
+from ..errors import InputError, Problem
 from ..records.rundir import clean_partials  # stdlib only: light
 from ..records.store import Record, list_records, mcap_summary, read_record
 
@@ -172,15 +172,16 @@ def prepare_out(out: str | Path) -> Path:
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: not a directory")
+        raise InputError([Problem("out", "not a directory", given=str(out))])
     try:
         out.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=out):
             pass
     except OSError as exc:
-        raise InputError(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
+        why = f"cannot write there ({exc.strerror or exc})"
+        raise InputError([Problem("out", why, given=str(out))]) from None
     if not os.access(out, os.W_OK | os.X_OK):
-        raise InputError(f"--out {out}: not writable")
+        raise InputError([Problem("out", "not writable", given=str(out))])
     return out
 
 

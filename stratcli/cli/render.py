@@ -98,13 +98,18 @@ def print_json(doc: Any) -> None:
 FLAGS = {
     name: "--" + name.replace("_", "-")
     for name in ("at", "max_length", "strategy", "criterion", "time_scale", "degree", "samples",
-                 "seed", "jobs", "records", "dask")
+                 "seed", "jobs", "records", "dask", "out", "resume")
 } | {"fmt": "--format"}  # fmt: skip
 
 
 def flagged(problem: Problem) -> Problem:
-    """`problem` naming the command-line flag where it names a use case's argument."""
-    return Problem(FLAGS.get(problem.path, problem.path), problem.message)
+    """`problem` naming the command-line flag where it names a use case's argument: `--out
+    sweeps/x: ...` where Python reads `out='sweeps/x': ...`, in the command line's words
+    where they differ (`Problem.flag_message`: `add --resume`, not `add resume=True`)."""
+    path = FLAGS.get(problem.path, problem.path)
+    if problem.given is not None:
+        path = f"{path} {problem.given}"
+    return Problem(path, problem.flag_message or problem.message)
 
 
 @contextmanager

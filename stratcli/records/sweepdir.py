@@ -28,7 +28,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError
+from ..errors import InputError, Problem
 
 ROWS = "rows.jsonl"
 SPEC = "spec.json"
@@ -99,7 +99,7 @@ def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> di
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: not a directory")
+        raise InputError([Problem("out", "not a directory", given=str(out))])
     existing = out / SPEC
     if not existing.exists() and out.is_dir():
         _refuse_foreign_files(out)
@@ -109,11 +109,17 @@ def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> di
         except (OSError, ValueError) as exc:
             raise InputError(f"{existing}: cannot be read ({exc})") from None
         if not resume:
-            raise InputError(_already(out, found))
+            raise InputError([_already(out, found)])
         if found.get("digest") != spec["digest"]:
+            why = f"{out} holds the sweep of another sweep file (or a changed one); "
             raise InputError(
-                f"--resume: {out} holds the sweep of another sweep file (or a changed one); "
-                "use the same file, or another --out"
+                [
+                    Problem(
+                        "resume",
+                        why + "use the same file, or another out",
+                        flag_message=why + "use the same file, or another --out",
+                    )
+                ]
             )
         return read_rows(out / ROWS)
     try:
@@ -121,7 +127,8 @@ def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> di
         write_atomic(out / FILE_TEXT, file_text.encode())
         write_atomic(out / SPEC, (json.dumps(spec, indent=2) + "\n").encode())
     except OSError as exc:
-        raise InputError(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
+        why = f"cannot write there ({exc.strerror or exc})"
+        raise InputError([Problem("out", why, given=str(out))]) from None
     return {}
 
 
@@ -138,30 +145,37 @@ def finished_summary(out: Path, rows: dict[int, Any], count: Any) -> dict[str, A
     return summary if isinstance(summary, dict) and summary.get("done") == count else None
 
 
-def _already(out: Path, spec: dict[str, Any]) -> str:
-    """Why `out`, a sweep directory, is refused without --resume: finished or not."""
+def _already(out: Path, spec: dict[str, Any]) -> Problem:
+    """Why `out`, a sweep directory, is refused without `resume`: finished or not (in
+    Python's words, and the command line's, which name its flags)."""
     count = spec.get("count")
     rows = read_rows(out / ROWS)
+    done = sum(0 <= k < count for k in rows) if isinstance(count, int) else len(rows)
     if finished_summary(out, rows, count) is not None:
-        return (
-            f"--out {out}: already holds a finished sweep ({count} tasks, all done); "
-            f"--resume would only print its summary again (as stratplan show {out} does); "
-            "choose another --out to run it again"
+        what = f"already holds a finished sweep ({count} tasks, all done); "
+        return Problem(
+            "out",
+            what + "resume=True would only return it again (as stratcli.read_sweep reads it); "
+            "choose another out to run it again",
+            given=str(out),
+            flag_message=what + "--resume would only print its summary again (as stratplan "
+            f"show {out} does); choose another --out to run it again",
         )
-    if not isinstance(count, int):
-        return (
-            f"--out {out}: already holds a sweep, unfinished ({len(rows)} tasks done); "
-            "add --resume to finish it, or choose another --out"
+    if isinstance(count, int) and done >= count:
+        what = "already holds a sweep, all tasks done, its summary not written; "
+        return Problem(
+            "out",
+            what + "resume=True writes it (or choose another out)",
+            given=str(out),
+            flag_message=what + "--resume writes it (or choose another --out)",
         )
-    done = sum(0 <= k < count for k in rows)
-    if done >= count:
-        return (
-            f"--out {out}: already holds a sweep, all tasks done, its summary not written; "
-            "--resume writes it (or choose another --out)"
-        )
-    return (
-        f"--out {out}: already holds a sweep, unfinished ({done} of {count} tasks done); "
-        "add --resume to finish it, or choose another --out"
+    of = f" of {count}" if isinstance(count, int) else ""
+    what = f"already holds a sweep, unfinished ({done}{of} tasks done); add "
+    return Problem(
+        "out",
+        what + "resume=True to finish it, or choose another out",
+        given=str(out),
+        flag_message=what + "--resume to finish it, or choose another --out",
     )
 
 
@@ -175,10 +189,9 @@ def _refuse_foreign_files(out: Path) -> None:
     )
     if foreign:
         more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
-        raise InputError(
-            f"--out {out}: not a sweep directory and not empty (it holds {foreign[0]!r}{more}); "
-            "choose a new or empty directory"
-        )
+        held = f"it holds {foreign[0]!r}{more}"
+        why = f"not a sweep directory and not empty ({held}); choose a new or empty directory"
+        raise InputError([Problem("out", why, given=str(out))])
 
 
 def read_rows(path: Path) -> dict[int, dict[str, Any]]:

@@ -35,6 +35,7 @@ from .. import blas
 from ..errors import InputError, Problem
 from ..records import sweepdir
 from ..records.rundir import write_run
+from .spawning import BareSpawnContext
 from .spec import Sweep
 from .worker import run_task
 
@@ -83,8 +84,10 @@ def local_executor(jobs: int) -> ProcessPoolExecutor:
     forked worker starts with what this process has imported, in a few milliseconds instead
     of the 0.3 s a fresh interpreter needs to import numpy, pydantic and the planner.
     Otherwise spawned: a worker imports numpy itself, after the BLAS variables are set,
-    whatever threads the calling process runs (a notebook, Dask's client). Workers die with
-    the process that started them and leave SIGINT to it (`trie.worker_init`).
+    whatever threads the calling process runs (a notebook, Dask's client); it does not import
+    the caller's `__main__` (`spawning`): a script read from standard input works too, and no
+    script needs the `if __name__ == "__main__":` guard. Workers die with the process that
+    started them and leave SIGINT to it (`trie.worker_init`).
     """
     from ..trie import worker_init
 
@@ -94,7 +97,7 @@ def local_executor(jobs: int) -> ProcessPoolExecutor:
         from .worker import preload
 
         preload()  # once here, instead of once in every worker
-    context = multiprocessing.get_context("fork" if fork else "spawn")
+    context = multiprocessing.get_context("fork") if fork else BareSpawnContext()
     return ProcessPoolExecutor(
         max_workers=jobs, mp_context=context, initializer=worker_init, initargs=(os.getpid(),)
     )
@@ -112,14 +115,16 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
     Raises
     ------
     InputError
-        Dask is not installed (the `stratplan[dask]` extra) or the scheduler cannot be reached.
+        Naming the argument `dask`: Dask is not installed (the `stratplan[dask]` extra), or
+        the scheduler cannot be reached.
     """
     try:
         from distributed import Client
     except ImportError:
-        raise InputError(
-            "--dask: dask.distributed is not installed (pip install 'stratplan[dask]'; in a "
-            "source checkout: pip install -e '.[dask]')"
+        raise _bad_dask(
+            None,
+            "dask.distributed is not installed (pip install 'stratplan[dask]'; in a source "
+            "checkout: pip install -e '.[dask]')",
         ) from None
     target = address
     if address.endswith(".json") or Path(address).is_file():  # a scheduler file: its address
@@ -127,24 +132,28 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
             target = json.loads(Path(address).read_text())["address"]
             assert isinstance(target, str)
         except (OSError, ValueError, KeyError, TypeError, AssertionError):
-            raise InputError(
-                f"--dask {address}: not a readable Dask scheduler file (JSON with an address)"
+            raise _bad_dask(
+                address, "not a readable Dask scheduler file (JSON with an address)"
             ) from None
     if (problem := _address_problem(target)) is not None:
-        raise InputError(f"--dask {address}: {problem}")
-    refused = _unreachable(target)
-    if refused is not None:
-        raise InputError(f"--dask {address}: cannot reach the scheduler ({refused})")
+        raise _bad_dask(address, problem)
+    if (refused := _unreachable(target)) is not None:
+        raise _bad_dask(address, f"cannot reach the scheduler ({refused})")
     try:
         client = Client(target, timeout=CONNECT_TIMEOUT)
     except Exception as exc:  # whatever distributed raises for an address it cannot use
-        raise InputError(f"--dask {address}: cannot reach the scheduler ({exc})") from None
+        raise _bad_dask(address, f"cannot reach the scheduler ({exc})") from None
     try:
         workers = len(client.scheduler_info().get("workers", {}))
         info = ExecutorInfo("dask", workers, str(client.scheduler.address))
         yield client.get_executor(pure=False), info
     finally:
         client.close()
+
+
+def _bad_dask(address: str | None, message: str) -> InputError:
+    """The error of the `dask` argument (`--dask` on the command line: `cli.render.FLAGS`)."""
+    return InputError([Problem("dask", message, given=address)])
 
 
 def _address_problem(address: str) -> str | None:
