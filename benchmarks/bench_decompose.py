@@ -1,6 +1,7 @@
 """compare-sequences on the paper's Sim 4 task: all sequences up to length 3, both strategies.
 
 Usage: python benchmarks/bench_decompose.py [--repeats N] [--jobs 1 2] [--no-energy]
+                                           [--end-to-end]
 
 Times the comparison itself (decomposition, planning every candidate with shared prefixes,
 ranking) after a warm-up; model compilation (once per stratum, in the parent before workers
@@ -8,8 +9,10 @@ fork) and process start-up are reported separately, as in bench_plan.py. Also re
 median of the per-sequence planning times (a sequence's own legs, shared ones included), how
 many legs sharing saved, the same work without sharing (plan_sequence per sequence, one
 process), and the CPU time the workers used (on a busy machine wall time also measures the
-neighbours). The energy-optimal objective is timed once per job count when the planner
-settings have an `objective`; otherwise that line is skipped, saying so.
+neighbours). The energy objective is timed twice: screened (branch and bound on the legs'
+minima, what the command does with the energy criterion; `--repeats` runs) and exhaustive
+(every candidate to its minimum, `--exhaustive`; once). `--end-to-end` also times the whole
+command as a user runs it, a fresh process per run, with both objectives.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from stratcli.compare import compare, compile_strata
+from stratcli.compare import SCREEN_TOP, compare, compile_strata
 from stratcli.decomposition import decompose
 from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
@@ -73,11 +76,11 @@ def parallel_capacity(jobs: int, n: int = 3_000_000) -> float:
     return serial / parallel
 
 
-def run(task, candidates, settings, jobs: int, repeats: int) -> dict:
+def run(task, candidates, settings, jobs: int, repeats: int, screen=None) -> dict:
     walls, cpus, result = [], [], None
     for _ in range(repeats):
         cpu = _cpu()
-        result = compare(task.system, task.start, candidates, settings, jobs=jobs)
+        result = compare(task.system, task.start, candidates, settings, jobs=jobs, screen=screen)
         walls.append(result.wall_time)
         cpus.append(_cpu() - cpu)
     per_sequence = [o.planning_time for o in result.outcomes]
@@ -102,21 +105,24 @@ def without_sharing(task, candidates, settings) -> float:
     return time.perf_counter() - clock
 
 
-def end_to_end(jobs: int, out: Path) -> float | None:
-    """`stratplan compare-sequences` as a user runs it (start-up, compile, records), seconds.
-
-    With `objective = "newton"` in the scenario.
-    """
+def end_to_end(objective: str, jobs: int, out: Path, repeats: int) -> dict:
+    """`stratplan compare-sequences --strategy both` as a user runs it: a fresh process each
+    time (start-up, compile, the search, the whole record), `repeats` times. Wall seconds
+    and the CPU seconds of the command and its workers, medians (and the fastest wall)."""
     text = re.sub(r"(?m)^objective\s*=.*$", "", SCENARIO.read_text())
-    text = text.replace("[planner]", '[planner]\nobjective = "newton"', 1)
+    text = text.replace("[planner]", f'[planner]\nobjective = "{objective}"', 1)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "sim4_auto_newton.toml"
+    path = out / f"sim4_auto_{objective}.toml"
     path.write_text(text)
-    clock = time.perf_counter()
     command = [sys.executable, "-m", "stratcli", "compare-sequences", str(path)]
     options = ["--strategy", "both", "--jobs", str(jobs), "--out", str(out), "--quiet"]
-    subprocess.run([*command, *options, "--no-animation"], check=False)
-    return time.perf_counter() - clock
+    walls, cpus = [], []
+    for _ in range(repeats):
+        cpu, clock = _cpu(), time.perf_counter()
+        subprocess.run([*command, *options], check=False)
+        walls.append(time.perf_counter() - clock)
+        cpus.append(_cpu() - cpu)
+    return {"wall": statistics.median(walls), "min": min(walls), "cpu": statistics.median(cpus)}
 
 
 def main() -> None:
@@ -146,17 +152,19 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     newton = _with_objective(task.settings, "newton") or task.settings
     compare(task.system, task.start, dec.candidates, newton, jobs=1)  # warm-up (caches)
-    objectives = [("newton", newton, args.repeats)]
+    objectives = [("newton", newton, args.repeats, None)]
     energy = _with_objective(task.settings, "energy")
     if args.no_energy:
         pass
     elif energy is None:
         print("(energy objective: not in the planner settings yet, skipped)")
     else:
-        objectives.append(("energy", energy, 1))
-    for name, settings, repeats in objectives:
+        # the command's default with the energy criterion: screened (branch and bound)
+        objectives.append(("energy, screened", energy, args.repeats, SCREEN_TOP))
+        objectives.append(("energy, exhaustive", energy, 1, None))
+    for name, settings, repeats, screen in objectives:
         for jobs in args.jobs:
-            r = run(task, dec.candidates, settings, jobs, repeats)
+            r = run(task, dec.candidates, settings, jobs, repeats, screen)
             print(
                 f"| {name} | {jobs} | {r['median_s']:.2f} | {r['min_s']:.2f} | {r['cpu_s']:.2f} "
                 f"| {r['per_sequence_ms']:.0f} | {r['ok']}/{len(dec.candidates)} | "
@@ -168,15 +176,19 @@ def main() -> None:
     print(f"\nnewton without sharing (plan_sequence per candidate, 1 process): {alone:.2f} s")
     if args.end_to_end:
         out = Path(os.environ.get("TMPDIR", "/tmp")) / "bench_decompose_runs"
-        for jobs in args.jobs:
-            seconds = end_to_end(jobs, out)
-            if seconds is None:
-                print("end to end: scenarios cannot set planner.objective yet, skipped")
-                break
-            print(
-                f"stratplan compare-sequences --strategy both --jobs {jobs} --no-animation "
-                f"(whole command: start-up, compile, records; Newton): {seconds:.2f} s"
-            )
+        print(
+            "\n`stratplan compare-sequences sim4_auto.toml --strategy both --jobs J` (whole "
+            f"command: start-up, compile, search, record; {args.repeats} runs, medians)\n"
+        )
+        print("| objective | jobs | median wall s | min wall s | CPU s (command + workers) |")
+        print("|---|---|---|---|---|")
+        for name in ("newton", "energy"):
+            for jobs in args.jobs:
+                r = end_to_end(name, jobs, out, args.repeats)
+                print(
+                    f"| {name} | {jobs} | {r['wall']:.2f} | {r['min']:.2f} | {r['cpu']:.2f} |",
+                    flush=True,
+                )
 
 
 if __name__ == "__main__":
