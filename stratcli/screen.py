@@ -52,28 +52,17 @@ import heapq
 import math
 import multiprocessing
 import os
-import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
-from .continuity import Constraints, sequence_constraints
 from .interrupts import checkpoint
-from .objectives import SEED_RESTARTS, _exact_hessians
-from .planners.energy import optimise_energy
-from .stratified import NUMERICAL_ERRORS, LegStart, _targets, plan_next_leg, planner_for
+from .leg_bounds import leg_items, plan_alone
 from .trie import STATE, plan_whole, run_units, stop_workers, worker_init
 
-__all__ = ["Screen", "leg_minimum", "screen_candidates"]
+__all__ = ["Screen", "screen_candidates"]
 
-START_RATIO = 100.0  # a leg's start this many times above its lowest start is not raced
-# Newton plans per leg bound, at least: a bound must not miss the leg's minimum, and the
-# sequence search's own default (2: the Newton plan pulled toward least energy, and itself)
-# starts from a whole sequence's plan, which a leg alone does not have
-BOUND_STARTS = 6
 LEG_BATCH = 8  # legs bounded per round, at most (beside the round's searches)
 SEARCH_BATCH = 2  # candidates searched per round, at most (the same for any number of jobs)
 ROUND_SPAN = 1.25  # a round takes candidates whose bound is within this factor of the front's
@@ -91,158 +80,10 @@ class Screen:
     seconds: float  # CPU time spent on the leg bounds (all processes)
 
 
-def _context(system, legs, i: int) -> tuple:
-    """What of leg i's neighbours enters its own boundary conditions: the inputs it must
-    start from rest (not active on the previous leg; "first": the sequence's start) and end
-    at rest (not active on the next one; "last": the sequence's end)."""
-    active = system.stratum(legs[i].stratum).active
-    if i == 0:
-        begin: tuple = ("first",)
-    else:
-        before = system.stratum(legs[i - 1].stratum).active
-        begin = tuple(k for k in active if k not in before)
-    if i + 1 == len(legs):
-        end: tuple = ("last",)
-    else:
-        after = system.stratum(legs[i + 1].stratum).active
-        end = tuple(k for k in active if k not in after)
-    return begin, end
-
-
-def _relaxed(settings):
-    """The leg alone, free at both ends: no continuity with its neighbours, no soft start, no
-    full stop."""
-    return replace(settings, continuity="none", soft_start=False, full_stop=False)
-
-
-def _leg_items(system, candidates, valid, start):
-    """Distinct legs, two keys each: (loose, tight) -> (start, legs, i, relaxed) or None when
-    it gets no bound (leg i among `legs`, itself and its neighbours; relaxed: free at both
-    ends, else under its own boundary conditions), and each candidate's pairs of keys."""
-    legs: dict[tuple, Any] = {}
-    keys: dict[int, list[tuple]] = {}
-    for k in valid:
-        at = np.asarray(start, dtype=float)
-        path = []
-        sequence = candidates[k].legs
-        for i, leg in enumerate(sequence):
-            goal = np.asarray(leg.goal, dtype=float)
-            loose = (leg.stratum, leg.method, float(leg.duration), at.tobytes(), goal.tobytes())
-            tight = (*loose, _context(system, sequence, i))
-            if tight not in legs:
-                unknown = bool(np.isnan(at).any())  # a start left to the planner
-                loop = not np.isnan(goal).any() and np.array_equal(goal, at)  # u = 0 reaches it
-                skip = unknown or loop or leg.method != "newton"
-                around = tuple(sequence[max(0, i - 1) : i + 2])
-                legs[tight] = None if skip else (at, around, i, False)
-                legs.setdefault(loose, None if skip else (at, (leg,), 0, True))
-            path.append((loose, tight))
-            at = np.where(np.isnan(goal), np.nan, goal)
-        keys[k] = path
-    return legs, keys
-
-
-def _local_constraints(system, settings, around, mid: int) -> Constraints:
-    """The boundary conditions of `around[mid]` that involve it alone (`around`: it and its
-    neighbours): those of the whole sequence minus the ones that tie it to a neighbour."""
-    actives = [system.stratum(leg.stratum).active for leg in around]
-    cons = sequence_constraints(
-        settings.basis,
-        [leg.duration for leg in around],
-        actives,
-        system.inputs,
-        settings.continuity,
-        soft_start=settings.soft_start,
-        full_stop=settings.full_stop,
-    )
-    size = settings.basis.size
-    offsets = np.cumsum([0, *(len(a) * size for a in actives)])
-    inside = np.zeros(cons.C.shape[1], dtype=bool)
-    inside[offsets[mid] : offsets[mid + 1]] = True
-    own = [r for r in range(len(cons.C)) if cons.C[r].any() and not cons.C[r, ~inside].any()]
-    C = cons.C[own][:, inside].reshape(len(own), int(inside.sum()))
-    return Constraints(C, cons.c[own], tuple(cons.labels[r] for r in own))
-
-
-def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> tuple:
-    """The least energy found for leg i of a sequence planned alone, under the boundary
-    conditions that involve it alone (`_local_constraints`; `around`: it and its neighbours);
-    (0.0, None) when no start reaches its goal; else (energy, its coefficients). `warm`
-    (flat coefficients, e.g. the leg's minimum free at both ends) is an extra first start,
-    projected onto the conditions.
-
-    The energy objective's multi-start search (`objectives.plan_with_objective`: a Newton plan
-    and `max(starts, BOUND_STARTS) - 1` seeded Newton plans, raced by the feasible SQP), with
-    Newton plans that start at rest after a previous leg (feasible: they satisfy more
-    conditions than needed),
-    except that starts `START_RATIO` times above the lowest are not raced (their iterations
-    are the costliest: the quadrature's nodes grow with the controls). With a `warm` start
-    (a tight bound: the loose one is known) no Newton plan falls back on continuation (seconds
-    on a hard leg; the warm start is a start already), and without any feasible start the
-    leg gets no tight bound (its loose one stands)."""
-    mid = 1 if i > 0 else 0
-    leg = around[mid]
-    after = around[mid + 1] if mid + 1 < len(around) else None
-    rest = (np.zeros(system.m), np.zeros(system.m))
-    begin = LegStart(at, rest, 0.0, 1) if i > 0 else LegStart(at)
-    seeds = []
-    starts = max(settings.starts, BOUND_STARTS)
-    for k in range(starts if _exact_hessians(system, [leg], settings) else 1):
-        extra = {} if k == 0 else {
-            "restarts": min(settings.restarts, SEED_RESTARTS),
-            "seed": settings.seed + 7919 * k,
-            "spread": 0.02 + 0.3 * k,
-        }  # fmt: skip
-        if warm is not None:
-            extra["continuation"] = False
-        planned = plan_next_leg(
-            system, settings, leg, begin, after, planner_for(leg, settings, **extra)
-        )
-        if planned.converged:
-            seeds.append(planned)
-        elif k == 0 and warm is None:
-            return 0.0, None  # as the sequence's search: no Newton plan, no search
-    if not seeds and warm is None:
-        return 0.0, None
-    low = min((p.energy for p in seeds), default=np.inf)
-    stacked = [("newton", p.coefficients.ravel()) for p in seeds if p.energy <= START_RATIO * low]
-    if warm is not None:
-        stacked.insert(0, ("warm start", np.ravel(warm)))
-    targets = [np.array(_targets(system, leg), dtype=int)]
-    local = _local_constraints(system, settings, around, mid)
-    with np.errstate(all="ignore"):
-        coefficients, search = optimise_energy(
-            system, [at], [leg], settings, targets, stacked, constraints=local
-        )
-    found = [s.energy for s in search.starts if s.converged and np.isfinite(s.energy)]
-    if coefficients is not None and found and min(found) <= low:
-        return float(min(found)), coefficients[0]
-    if not seeds:
-        return 0.0, None
-    best = min(seeds, key=lambda p: p.energy)
-    return float(low), best.coefficients
-
-
-def _plan_alone(items: list[tuple]) -> dict[tuple, tuple]:
-    """Each leg's minimum energy planned alone (0.0 when its search fails), the CPU seconds
-    and the coefficients (None when it failed)."""
-    system, settings = STATE["system"], STATE["settings"]
-    out = {}
-    for key, at, around, i, relaxed, warm in items:
-        clock = time.process_time()
-        own = _relaxed(settings) if relaxed else settings
-        try:
-            value, coefficients = leg_minimum(system, at, around, i, own, warm)
-        except (*NUMERICAL_ERRORS, ValueError):  # no bound from this leg
-            value, coefficients = 0.0, None
-        out[key] = (value, time.process_time() - clock, coefficients)
-    return out
-
-
 def _unit(item: tuple[str, list]) -> dict:
     """One unit of a round: ("leg", legs to bound) or ("search", sequences to plan)."""
     kind, work = item
-    return _plan_alone(work) if kind == "leg" else plan_whole(work)
+    return plan_alone(work) if kind == "leg" else plan_whole(work)
 
 
 def _pool(jobs: int):
@@ -303,7 +144,7 @@ def screen_candidates(system, settings, start, candidates, valid, jobs, advance,
 
 
 def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, start, pool):
-    legs, keys = _leg_items(system, candidates, valid, start)
+    legs, keys = leg_items(system, candidates, valid, start)
     known = {key: 0.0 for key, item in legs.items() if item is None}  # no search needed
     warm: dict[tuple, Any] = {}  # each bounded leg's minimising coefficients
     uses: dict[tuple, list[int]] = {}
