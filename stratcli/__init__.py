@@ -53,7 +53,7 @@ _PUBLIC = {
     "write_record": "api",
     "run_sweep": "api",
     "read_sweep": "api",
-    "time_scaled": "stratified",
+    "time_scaled": "time_scaling",
     "PlanOutcome": "api",
     "ComparisonOutcome": "api",
     "DecompositionOutcome": "api",
@@ -152,6 +152,6 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .simulate import Trajectory as Trajectory
     from .status import Status as Status
     from .stratified import LegSpec as LegSpec
-    from .stratified import time_scaled as time_scaled
     from .sweep.run import SweepOutcome as SweepOutcome
     from .task import Task as Task
+    from .time_scaling import time_scaled as time_scaled

@@ -41,7 +41,7 @@ from .models.numbers import parse_number
 from .models.specs import STRICT
 from .results import ConstraintReport, LegMargins
 from .simulate import sample
-from .stratified import scale_time
+from .time_scaling import scale_time
 
 __all__ = [
     "VERIFY_SAMPLES",

@@ -10,12 +10,10 @@ message). `objectives.plan_sequence` applies the objective over a whole sequence
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from .arguments import checked, instance, number
-from .controls import FourierBasis, energy
 from .errors import InputError, Problem
 from .interrupts import checkpoint
 from .models.system import System
@@ -23,7 +21,7 @@ from .planners import PLANNERS, LegPlanner, LegProblem
 from .planners.base import SearchDiverged
 from .results import LegPlan, ModelRef, Switch, make_leg
 from .sequence import SequencePlan
-from .settings import MAX_TIME_SCALE, LieSettings, PlannerSettings
+from .settings import LieSettings, PlannerSettings
 from .status import Status
 
 __all__ = [
@@ -34,7 +32,6 @@ __all__ = [
     "check_legs",
     "leg_problem",
     "plan_next_leg",
-    "time_scaled",
 ]
 
 # Exceptions that mean "the numbers broke down" inside a leg's search; they end the leg with
@@ -350,65 +347,3 @@ def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings:
         previous = np.where(unlocked, leg.goal, previous)
     if problems:
         raise InputError(problems)
-
-
-@checked(
-    plan=instance("a SequencePlan", SequencePlan),
-    s=number(1.0 / MAX_TIME_SCALE, MAX_TIME_SCALE),  # as planner.time_scale
-)
-def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
-    """The same path run `s` times faster (paper §6): `u(t) → s·u(s·t)`.
-
-    Durations and switch times are divided by `s`, the basis period too (so every piece is
-    still a Fourier series of the documented form), coefficients are multiplied by `s`;
-    energies grow by `s`, value jumps by `s` and derivative jumps by `s²`.
-
-    Parameters
-    ----------
-    plan : SequencePlan
-        A plan (at any time scale).
-    s : float
-        The speed-up, from 0.001 to 1000 (as `planner.time_scale`); below 1 the path runs
-        slower.
-
-    Returns
-    -------
-    SequencePlan
-        The same path in 1/s of the time; `time_scale` multiplied by `s`.
-    """
-    return scale_time(plan, s)
-
-
-def scale_time(plan: SequencePlan, s: float) -> SequencePlan:
-    """`time_scaled` without the check of `s` (`constraints.enforce` slows a plan by any
-    factor its rate limits need)."""
-    old = plan.settings.basis
-    basis = FourierBasis(old.harmonics, old.period / s)
-    legs = []
-    for leg in plan.legs:
-        pieces = tuple(
-            replace(p, t0=p.t0 / s, duration=p.duration / s, coefficients=p.coefficients * s)
-            for p in leg.pieces
-        )
-        legs.append(
-            replace(
-                leg,
-                t0=leg.t0 / s,
-                duration=leg.duration / s,
-                pieces=pieces,
-                basis=basis,
-                energy=float(sum(energy(basis, p.duration, p.coefficients) for p in pieces)),
-            )
-        )
-    switches = [
-        Switch(sw.time / s, sw.after_leg, sw.jump * s, sw.jump_derivative * s * s)
-        for sw in plan.switches
-    ]
-    out = replace(
-        plan,
-        legs=tuple(legs),
-        switches=tuple(switches),
-        settings=replace(plan.settings, basis=basis),
-        time_scale=plan.time_scale * s,
-    )
-    return out.with_system(plan._system) if plan._system is not None else out

@@ -105,7 +105,7 @@ def test_energies_are_compared_at_equal_total_duration(sim4):
     import pytest
 
     from stratcli.compare import Outcome, rank
-    from stratcli.stratified import time_scaled
+    from stratcli.time_scaling import time_scaled
 
     cand = decompose(sim4.system, sim4.start, sim4.goal, max_length=2).candidates[0]
     plan = plan_sequence(sim4.system, sim4.start, list(cand.legs), sim4.settings)

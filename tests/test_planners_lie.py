@@ -67,7 +67,7 @@ def test_hybrid_newton_lie_newton_keeps_continuity_and_reaches_every_goal(degree
 
     verify(SimpleNamespace(legs=legs, text=""), doc)  # what verify() needs from a task
     if rest:  # time scaling scales every piece of the Lie leg: same path, energy x s
-        from stratcli.stratified import time_scaled
+        from stratcli.time_scaling import time_scaled
 
         fast = time_scaled(plan, 2.0)
         assert fast.total_energy == pytest.approx(2.0 * plan.total_energy, rel=1e-9)

@@ -19,7 +19,8 @@ from stratcli.scenario import load_scenario
 from stratcli.sequence import SequencePlan
 from stratcli.settings import PlannerSettings
 from stratcli.status import Status
-from stratcli.stratified import LegSpec, chain_legs, time_scaled
+from stratcli.stratified import LegSpec, chain_legs
+from stratcli.time_scaling import time_scaled
 
 
 @pytest.mark.parametrize("name", ["sim4_task_d", "sim4_task_b", "sim2"])

@@ -24,7 +24,7 @@ from ..results import Timings
 from ..scenario import Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import MAX_TIME_SCALE
-from ..stratified import time_scaled
+from ..time_scaling import time_scaled
 from .auto import auto_choice
 from .inspection import controllability_first
 from .outcomes import ComparisonOutcome, PlanOutcome
