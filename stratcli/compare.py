@@ -196,6 +196,7 @@ def compare(
     progress: Callable[[int], None] | None = None,
     screen: int | None = None,
     executor: Executor | None = None,
+    constraints=None,
 ) -> Comparison:
     """Plan every candidate (sharing work), measure it, rank by `criterion`.
 
@@ -205,7 +206,9 @@ def compare(
     fully, the others against their minimum (see the module's docstring); None: all fully.
     `executor` (any `concurrent.futures.Executor`, e.g. a Dask cluster's): plan the sub-tries
     there instead of in forked processes; its workers rebuild the model from its `[model]`
-    table (a model made in Python has none: use `jobs`).
+    table (a model made in Python has none: use `jobs`). `constraints` (a resolved
+    [constraints] table): every candidate planned within its joint limits, self-collision and
+    obstacles, and failed where it still breaks one (`objectives.candidate_within_limits`).
     """
     if criterion not in CRITERIA:
         raise ValueError(f"unknown criterion {criterion!r} (known: {', '.join(CRITERIA)})")
@@ -231,7 +234,9 @@ def compare(
                 _ = cs.G, cs.dG  # the general path's functions are generated on first use
     durations = [sum(leg.duration for leg in cand.legs) for cand in candidates]
     reference = min((d for d in durations if d > 0), default=math.nan)
-    STATE.update(system=system, settings=settings, start=start, executor=executor)
+    STATE.update(
+        system=system, settings=settings, start=start, executor=executor, constraints=constraints
+    )
     try:
         if is_newton(settings):
             planned, requested, plans, times = compare_shared(

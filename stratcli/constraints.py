@@ -51,6 +51,7 @@ __all__ = [
     "enforce",
     "rate_limited",
     "resolve",
+    "verified_again",
     "verify",
 ]
 
@@ -382,6 +383,18 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
                     f"{-value:.3g} at t = {when:.3f} s"
                 )
     return ConstraintReport(c.spec, tuple(margins), samples, violated)
+
+
+def verified_again(plan):
+    """`plan` with its [constraints] report measured again on its own controls (after
+    re-timing, `time_scaled`), the limits resolved from the report's table; not slowed, so
+    a violation fails it, its message naming the limit, leg and time."""
+    c = resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
+    report = replace(verify(plan, c), duration_set_by=plan.constraints.duration_set_by)
+    out = replace(plan, constraints=report)
+    if not report.ok and plan.ok:
+        out = replace(out, message=f"{report.violated}; {out.status.value}")
+    return out
 
 
 def enforce(plan, c: Constraints):

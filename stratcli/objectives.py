@@ -25,7 +25,7 @@ from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
 
-__all__ = ["plan_sequence", "plan_with_objective", "within_limits"]
+__all__ = ["candidate_within_limits", "plan_sequence", "plan_with_objective", "within_limits"]
 
 SEED_RESTARTS = 2  # Newton restarts allowed for the extra starts of the energy objective
 # ... and Newton iterations per leg over all its attempts: a seed that needs more is dropped
@@ -340,3 +340,21 @@ def _silent(phase: str) -> None:
 
 def _noted(plan: SequencePlan, note: str) -> SequencePlan:
     return replace(plan, notes=(*plan.notes, note))
+
+
+def candidate_within_limits(system, start, legs, settings, plan, constraints, searched=False):
+    """A candidate sequence's plan for auto mode under `constraints`: moved inside the joint
+    limits, clear of itself and of the obstacles (`within_limits`, unless `searched`: planned
+    by `plan_sequence` with them already), then verified on a dense re-integration and failed
+    if it still breaks one, so that the comparison cannot choose it. Rate and acceleration
+    limits are not checked here: time scaling meets them exactly on whichever plan is chosen
+    (`constraints.enforce`), and at equal total duration they change no ranking."""
+    from .constraints import enforce  # (re-integration and figures' geometry: not needed above)
+
+    if constraints is None or not plan.ok:
+        return plan
+    plan = plan.with_system(system)
+    if searchable(constraints) and not searched:
+        plan = within_limits(system, start, legs, settings, plan, constraints)
+    geometric = replace(constraints, max_rate=None, max_acceleration=None)
+    return enforce(plan, geometric)

@@ -37,9 +37,16 @@ def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
     Returns
     -------
     SequencePlan
-        The same path in 1/s of the time; `time_scale` multiplied by `s`.
+        The same path in 1/s of the time; `time_scale` multiplied by `s`. A plan planned
+        under [constraints] has its limits verified again at the new speed (not slowed back:
+        a plan run faster than its rate limits allow is failed, naming the limit).
     """
-    return scale_time(plan, s)
+    out = scale_time(plan, s)
+    if plan.constraints is not None:  # its margins were measured at the old speed
+        from .constraints import verified_again  # (imports this module)
+
+        out = verified_again(out)
+    return out
 
 
 def scale_time(plan: SequencePlan, s: float) -> SequencePlan:

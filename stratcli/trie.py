@@ -40,7 +40,7 @@ import numpy as np
 
 from .interrupts import checkpoint
 from .models.system import System
-from .objectives import plan_sequence
+from .objectives import candidate_within_limits, plan_sequence
 from .results import LegPlan
 from .sequence import SequencePlan
 from .settings import PlannerSettings
@@ -157,11 +157,15 @@ def plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
     system: System = STATE["system"]
     settings: PlannerSettings = STATE["settings"]
     start: np.ndarray = STATE["start"]
+    constraints = STATE.get("constraints")  # auto mode under [constraints]
     out = {}
     for key, legs in items:
         clock = time.perf_counter()
         try:
-            plan = plan_sequence(system, start, legs, settings)
+            plan = plan_sequence(system, start, legs, settings, constraints=constraints)
+            plan = candidate_within_limits(
+                system, start, legs, settings, plan, constraints, searched=True
+            )
             out[key] = (plan, time.perf_counter() - clock, "")  # pickles without its model
         except Exception as exc:
             out[key] = (None, time.perf_counter() - clock, f"{exc}")
@@ -320,8 +324,27 @@ def compare_shared(system, settings, start, candidates, valid, jobs, advance):
                 break
         plans[k] = error or assemble(system, settings, start, list(cand.legs), legs)
         times[k] = seconds
+    if STATE.get("constraints") is not None:  # auto mode under [constraints]: a second pass
+        units = [
+            ((k, list(candidates[k].legs), plan), 1)
+            for k, plan in plans.items()
+            if isinstance(plan, SequencePlan) and plan.ok
+        ]
+        for k, plan, seconds in run_units(_plan_within_limits, units, jobs, lambda w: None):
+            plans[k] = plan.with_system(system)
+            times[k] += seconds
     planned = len(done)
     return planned, requested, plans, times
+
+
+def _plan_within_limits(unit: tuple[int, list[LegSpec], SequencePlan]) -> tuple:
+    """One candidate's Newton plan moved inside its limits and verified
+    (`objectives.candidate_within_limits`): (index, plan, seconds)."""
+    k, legs, plan = unit
+    clock = time.perf_counter()
+    system, settings, start = STATE["system"], STATE["settings"], STATE["start"]
+    plan = candidate_within_limits(system, start, legs, settings, plan, STATE["constraints"])
+    return k, plan, time.perf_counter() - clock
 
 
 def compare_whole(system, settings, candidates, valid, jobs, advance):

@@ -115,6 +115,7 @@ def compare_decomposition(
         progress=progress,
         screen=None if exhaustive else SCREEN_TOP,
         executor=executor,
+        constraints=task.constraints,
     )
     best = comparison.best
     if best is None or best.plan is None:

@@ -24,7 +24,7 @@ from ..results import Timings
 from ..scenario import Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import MAX_TIME_SCALE
-from ..time_scaling import time_scaled
+from ..time_scaling import scale_time, time_scaled
 from .auto import auto_choice
 from .inspection import controllability_first
 from .outcomes import ComparisonOutcome, PlanOutcome
@@ -179,12 +179,12 @@ def plan_run(
             )  # fmt: skip
     planning_time = phases["planning"]["wall_s"]
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
-    if scale != 1.0:
-        result = time_scaled(result, scale)
     if task.constraints is not None:  # rate limits by time scaling; every limit verified
         with phase(phases, "constraints"):
             say("verifying the constraints on a dense re-integration")
-            result = enforce(result.with_system(task.system), task.constraints)
+            result = within_rates(result.with_system(task.system), task, scale)
+    elif scale != 1.0:
+        result = time_scaled(result, scale)
     result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
     doc = result.to_dict()
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases)
@@ -239,9 +239,29 @@ def plan_auto(
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale == 1.0:
         return outcome
-    result = time_scaled(outcome.best.result, scale)
+    result = outcome.best.result
+    if task.constraints is None:
+        result = time_scaled(result, scale)
+    elif result.ok:  # re-timed from the plan as compared (a failed one is kept as it is)
+        chosen = outcome.comparison.best.plan.with_system(task.system)
+        result = _named(within_rates(chosen, task, scale), task, result.timings)
     best = dataclasses.replace(outcome.best, result=result, document=result.to_dict())
     return dataclasses.replace(outcome, best=best)
+
+
+def within_rates(result: SequencePlan, task: Task, scale: float = 1.0) -> SequencePlan:
+    """`result` run `scale` times faster, then slowed to its rate and acceleration limits
+    where that was too fast, every limit of `task.constraints` verified (`enforce`); a
+    note says when the limits overrode the time scale asked for."""
+    scaled = scale_time(result, scale) if scale != 1.0 else result
+    out = enforce(scaled, task.constraints)
+    if scale > 1.0 and out.time_scale < scaled.time_scale:
+        note = (
+            f"the time scale {scale:g} asked for is too fast for the limits: "
+            f"{out.time_scale:.4g} in all"
+        )
+        out = dataclasses.replace(out, notes=(*out.notes, note))
+    return out
 
 
 def _named(plan: SequencePlan, task: Task, timings: Timings) -> SequencePlan:

@@ -31,6 +31,7 @@ from .planning import (
     ScenarioLike,
     _named,
     as_task,
+    within_rates,
 )
 
 __all__ = ["compare_sequences", "decompose", "with_legs"]
@@ -126,7 +127,10 @@ def compare_sequences(
     best = comparison.best
     best_task = with_legs(task, best.candidate.legs)
     timings = Timings(started.isoformat(), compile_time, comparison.wall_time)
-    result = _named(best.plan, task, timings)
+    result = best.plan
+    if task.constraints is not None and result.ok:  # rate limits met by time scaling
+        result = within_rates(result.with_system(task.system), task)
+    result = _named(result, task, timings)
     plan = PlanOutcome(
         best_task, result, result.to_dict(), started, compile_time, comparison.wall_time
     )

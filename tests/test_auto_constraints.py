@@ -1,0 +1,73 @@
+"""Auto mode (plan_auto, compare_sequences) under a [constraints] table, and re-timing a plan
+that carries a constraints report (`time_scaled`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from reintegrate import verify
+from test_planners_constrained import _dense, _self_clearance
+
+import stratcli
+
+ROOT = Path(__file__).resolve().parents[1]
+LIMITS = {"joint_limits": [-2.5, 2.5], "self_collision": True, "clearance": 0.05}
+
+
+def _auto(objective: str, **constraints):
+    """Sim 4 in auto mode, sequences of up to 2 strata, under the given constraints."""
+    task = stratcli.load_scenario(ROOT / "scenarios" / "sim4_auto.toml")
+    changes = {"decompose": {"max_length": 2}, "planner": {"objective": objective}}
+    return task.with_changes({**changes, "constraints": {**LIMITS, **constraints}})
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("objective", ["energy", "newton"])
+def test_auto_mode_chooses_a_plan_within_the_limits(objective):
+    free = stratcli.plan_auto(_auto(objective).with_changes({"constraints": None}), jobs=2)
+    q_free = _dense(free.best.task, free.best.document)
+    assert np.abs(q_free[:, :3]).max() > 2.5  # the unconstrained choice breaks the limits
+    task = _auto(objective)
+    outcome = stratcli.plan_auto(task, jobs=2)
+    plan = outcome.best.result
+    assert plan.ok, plan.message
+    assert plan.constraints is not None and plan.constraints.ok
+    assert outcome.best.document["constraints"]["legs"]
+    verify(outcome.best.task, outcome.best.document)  # goals reached on re-integration
+    q = _dense(outcome.best.task, outcome.best.document)
+    assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
+    robot = task.system.robot
+    assert _self_clearance(robot, q, 0.05).min() >= 0.05 - 1e-6
+    # within the limits costs energy: never below the free choice's (the same duration)
+    assert plan.total_energy >= free.best.result.total_energy * (1 - 1e-9)
+    # every candidate the comparison kept as reaching the goal is within the limits too
+    for o in outcome.comparison.outcomes:
+        if o.plan is not None and o.plan.ok:
+            assert o.plan.constraints is not None and o.plan.constraints.ok
+
+
+def test_a_rate_limit_in_auto_mode_slows_the_chosen_plan_and_says_so():
+    task = _auto("energy", max_rate=0.5).with_changes(
+        {"constraints": {"joint_limits": None, "self_collision": False}}
+    )
+    outcome = stratcli.plan_auto(task, jobs=1, time_scale=2.0)
+    plan = outcome.best.result
+    assert plan.ok, plan.message
+    peak = max(np.abs(p.controls(np.linspace(0, p.duration, 4001))).max() for p in plan.legs)
+    assert peak <= 0.5 * (1 + 1e-9)
+    assert plan.constraints.duration_set_by.startswith("the rate limit of")
+    assert any("the time scale 2 asked for is too fast" in n for n in plan.notes)
+
+
+def test_time_scaled_verifies_a_constrained_plan_again():
+    plan = stratcli.plan(ROOT / "scenarios" / "sim4_task_d_rate_limited.toml")
+    assert plan.ok
+    slower = stratcli.time_scaled(plan, 0.5)
+    assert slower.ok and slower.constraints.legs[0].rate > 0.2  # half the speed: room
+    faster = stratcli.time_scaled(plan, 10)
+    assert not faster.ok
+    assert faster.status is stratcli.Status.CONSTRAINT_VIOLATED
+    assert "violates the rate limit of" in faster.message
+    assert faster.to_dict()["constraints"]["violated"]
