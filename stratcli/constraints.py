@@ -35,6 +35,7 @@ from .clearance import (
     segment_polygon_distance,
     segment_segment_distance,
 )
+from .controls import MAX_PERIOD
 from .errors import InputError, Problem
 from .models.geometry import world_geometry
 from .models.numbers import parse_number
@@ -401,6 +402,18 @@ def enforce(plan, c: Constraints):
     """The plan slowed down to its rate and acceleration limits (time scaling, exact for a
     driftless system) and verified against every limit; a violation fails the plan."""
     s, which = rate_limited(plan, c)
+    if s < 1.0 and plan.settings.basis.period / s > MAX_PERIOD:
+        key = "max_rate" if which.startswith("the rate") else "max_acceleration"
+        raise InputError(
+            [
+                Problem(
+                    f"constraints.{key}",
+                    f"meeting {which} needs the plan {1 / s:.3g}x slower, more than the "
+                    f"{MAX_PERIOD / plan.settings.basis.period:.3g}x it can be slowed (its "
+                    f"basis period would pass {MAX_PERIOD:g} s)",
+                )
+            ]
+        )
     if s < 1.0:
         plan = scale_time(plan, s)
         plan = replace(plan, notes=(*plan.notes, f"slowed {1 / s:.4g}x to meet {which}"))

@@ -17,6 +17,7 @@ from pydantic.dataclasses import dataclass
 # Shared by every settings class: unknown keys and non-finite numbers are errors.
 CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False)
 MAX_PERIODS_PER_LEG = 1000  # duration / period of one leg (or one Lie step)
+MAX_PERIOD = 1e6  # s: the longest basis period (a plan slowed by time scaling stretches it)
 
 
 @dataclass(frozen=True, config=CONFIG)
@@ -29,7 +30,7 @@ class FourierBasis:
     """
 
     harmonics: Annotated[int, Strict(), Field(ge=1, le=40)] = 3
-    period: Annotated[float, Strict(), Field(gt=0, le=1e6)] = 2.17
+    period: Annotated[float, Strict(), Field(gt=0, le=MAX_PERIOD)] = 2.17
 
     @property
     def size(self) -> int:

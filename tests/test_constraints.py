@@ -89,6 +89,18 @@ def test_the_cli_reports_bad_constraints_with_exit_2(tmp_path):
     assert not (tmp_path / "runs").exists() or not any((tmp_path / "runs").iterdir())
 
 
+@pytest.mark.parametrize(("key", "value"), [("max_rate", 1e-9), ("max_acceleration", 1e-15)])
+def test_a_limit_no_slowing_down_can_meet_is_one_line_exit_2(tmp_path, key, value):
+    text = TASK_D.read_text() + f"\n[constraints]\n{key} = {value}\n"
+    path = tmp_path / "tiny.toml"
+    path.write_text(text)
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
+    assert result.exit_code == 2, result.output
+    (line,) = result.output.strip().splitlines()
+    assert line.startswith(f"error: {path}: constraints.{key}: meeting the "), line
+    assert "x slower, more than the" in line
+
+
 def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():
     free = plan(_task_d())
     task = load_scenario(_task_d(max_rate=0.8, max_acceleration=[3.0, 3.0, 3.0]))

@@ -254,7 +254,10 @@ def within_rates(result: SequencePlan, task: Task, scale: float = 1.0) -> Sequen
     where that was too fast, every limit of `task.constraints` verified (`enforce`); a
     note says when the limits overrode the time scale asked for."""
     scaled = scale_time(result, scale) if scale != 1.0 else result
-    out = enforce(scaled, task.constraints)
+    try:
+        out = enforce(scaled, task.constraints)
+    except InputError as exc:  # a rate limit too small to be met by any slowing down
+        raise exc.with_source(task.source) from None
     if scale > 1.0 and out.time_scale < scaled.time_scale:
         note = (
             f"the time scale {scale:g} asked for is too fast for the limits: "
