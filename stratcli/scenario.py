@@ -196,6 +196,31 @@ def _lie_problems(constraints: Constraints, legs: list[LegSpec]) -> list[Problem
     ]
 
 
+def _acceleration_problems(scenario: Scenario) -> list[Problem]:
+    """An acceleration limit holds only if the controls never jump: from rest at the start
+    (`soft_start`), to rest at the end (`full_stop`) and at the switches (lr-continuity)."""
+    c, planner = scenario.constraints, scenario.planner
+    if c is None or c.max_acceleration is None:
+        return []
+    missing = [
+        f"planner.{key} = {value}"
+        for key, value, ok in (
+            ("soft_start", "true", planner.soft_start),
+            ("full_stop", "true", planner.full_stop),
+            ("continuity", '"lr-C1" (or "lr-C0")', planner.continuity.startswith("lr-")),
+        )
+        if not ok
+    ]
+    if not missing:
+        return []
+    message = (
+        f"holds only if the controls never jump (a jump is an unbounded acceleration): set "
+        f"{' and '.join(missing)}; otherwise they jump from rest at the start, to rest at the "
+        "end or at a switch"
+    )
+    return [Problem("constraints.max_acceleration", message)]
+
+
 def _duration_problems(scenario: Scenario, legs: list[LegSpec]) -> list[Problem]:
     """`durations = "optimise"` needs the energy objective, Newton legs and [[legs]]."""
     p = scenario.planner
@@ -339,6 +364,7 @@ def _resolve(
         if entry.method != "lie" and entry.lie is not None:
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
     problems.extend(_duration_problems(scenario, legs))
+    problems.extend(_acceleration_problems(scenario))
     if constraints is not None:
         problems.extend(_lie_problems(constraints, legs))
         if start is not None:

@@ -91,7 +91,8 @@ def test_the_cli_reports_bad_constraints_with_exit_2(tmp_path):
 
 @pytest.mark.parametrize(("key", "value"), [("max_rate", 1e-9), ("max_acceleration", 1e-15)])
 def test_a_limit_no_slowing_down_can_meet_is_one_line_exit_2(tmp_path, key, value):
-    text = TASK_D.read_text() + f"\n[constraints]\n{key} = {value}\n"
+    text = TASK_D.read_text().replace("[planner]", "[planner]\nsoft_start = true\nfull_stop = true")
+    text += f"\n[constraints]\n{key} = {value}\n"
     path = tmp_path / "tiny.toml"
     path.write_text(text)
     result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
@@ -101,9 +102,35 @@ def test_a_limit_no_slowing_down_can_meet_is_one_line_exit_2(tmp_path, key, valu
     assert "x slower, more than the" in line
 
 
+@pytest.mark.parametrize(
+    ("planner", "missing"),
+    [
+        ({}, "set planner.soft_start = true and planner.full_stop = true;"),
+        ({"soft_start": True}, "set planner.full_stop = true;"),
+        (
+            {"soft_start": True, "full_stop": True, "continuity": "l-C1"},
+            'set planner.continuity = "lr-C1" (or "lr-C0");',
+        ),
+    ],
+)
+def test_an_acceleration_limit_needs_controls_that_never_jump(planner, missing):
+    raw = _task_d(max_acceleration=1.0)
+    raw["planner"].update(planner)
+    (problem,) = _problems(raw)
+    assert problem.startswith("constraints.max_acceleration: holds only if the controls never")
+    assert missing in problem
+    raw["planner"].update(soft_start=True, full_stop=True, continuity="lr-C0")
+    assert load_scenario(raw).constraints.max_acceleration is not None
+
+
 def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():
-    free = plan(_task_d())
-    task = load_scenario(_task_d(max_rate=0.8, max_acceleration=[3.0, 3.0, 3.0]))
+    rest = {"soft_start": True, "full_stop": True}  # an acceleration limit needs both
+    free_raw = _task_d()
+    free_raw["planner"].update(rest)
+    free = plan(free_raw)
+    raw = _task_d(max_rate=0.8, max_acceleration=[3.0, 3.0, 3.0])
+    raw["planner"].update(rest)
+    task = load_scenario(raw)
     outcome = plan_run(task, check=False)
     limited = outcome.result
     assert limited.ok, limited.message
@@ -123,6 +150,10 @@ def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():
         du = np.array([controls(piece, doc["inputs"], s, derivative=True) for s in t])
         assert np.abs(u).max() <= 0.8 * (1 + 1e-6)
         assert np.abs(du).max() <= 3.0 * (1 + 1e-6)
+    # from rest and to rest: no jump hides an unbounded acceleration at either end
+    first, last = doc["legs"][0]["pieces"][0], doc["legs"][-1]["pieces"][-1]
+    assert np.abs(controls(first, doc["inputs"], 0.0)).max() <= 1e-9
+    assert np.abs(controls(last, doc["inputs"], last["duration"])).max() <= 1e-9
     # one of the two limits is met with equality (up to the peak's estimate)
     peaks = [min(m.rate, m.acceleration) for m in report.legs]
     assert min(peaks) == pytest.approx(0.0, abs=1e-5)
