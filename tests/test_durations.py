@@ -45,6 +45,17 @@ def test_optimised_durations_beat_equal_ones_and_verify_independently():
     verify(task, outcome.document)  # goals, chaining, energies, continuity at the switch
 
 
+def test_optimised_durations_say_their_limits_are_verified_not_searched():
+    raw = _task_d(durations="optimise", total_duration=2.0)
+    raw["constraints"] = {"joint_limits": [-3.0, 3.0]}
+    plan = plan_run(load_scenario(raw), check=False).result
+    assert plan.constraints is not None  # verified
+    assert any(n.startswith("the limits were verified, not searched for") for n in plan.notes)
+    raw["constraints"] = {"max_rate": 5.0}  # a rate limit alone asks the search for nothing
+    plan = plan_run(load_scenario(raw), check=False).result
+    assert not any("not searched for" in n for n in plan.notes)
+
+
 @pytest.mark.parametrize(
     ("planner", "field"),
     [

@@ -18,6 +18,7 @@ from ..constraints import enforce
 from ..decomposition import STRATEGIES
 from ..durations import optimise_durations
 from ..errors import IllConditionedWarning, InputError
+from ..node_margins import searchable
 from ..objectives import plan_sequence
 from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
@@ -172,6 +173,12 @@ def plan_run(
             result = optimise_durations(
                 task.system, task.start, task.legs, task.settings, total, progress
             )
+            if searchable(task.constraints):
+                note = (
+                    'the limits were verified, not searched for: durations = "optimise" '
+                    'does not search within [constraints] (durations = "fixed" does)'
+                )
+                result = dataclasses.replace(result, notes=(*result.notes, note))
         else:
             result = plan_sequence(
                 task.system, task.start, task.legs, task.settings, progress=progress,
