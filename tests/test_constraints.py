@@ -123,6 +123,19 @@ def test_an_acceleration_limit_needs_controls_that_never_jump(planner, missing):
     assert load_scenario(raw).constraints.max_acceleration is not None
 
 
+def test_the_terminal_shows_each_legs_smallest_margins(tmp_path):
+    text = TASK_D.read_text() + "\n[constraints]\njoint_limits = [-3.0, 3.0]\nmax_rate = 0.8\n"
+    path = tmp_path / "limited.toml"
+    path.write_text(text)
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path), "--no-animation"])
+    assert result.exit_code == 0, result.output
+    (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
+    legs = json.loads((run / "result.json").read_text())["constraints"]["legs"]
+    (line,) = [x for x in result.output.splitlines() if x.startswith("smallest margins")]
+    for i, m in enumerate(legs):
+        assert f"leg {i + 1}: joints {m['joint_limit']:.3g} rad, rate {m['rate']:.3g} rad/s" in line
+
+
 def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():
     rest = {"soft_start": True, "full_stop": True}  # an acceleration limit needs both
     free_raw = _task_d()

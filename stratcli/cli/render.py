@@ -318,6 +318,10 @@ def plan_summary(doc: dict) -> None:
         )
     for note in doc.get("notes") or []:
         out_console.print(f"note: {escape(note)}", highlight=False)
+    from .render_tables import limit_margins  # (which imports this module)
+
+    if margins := limit_margins(doc.get("constraints")):
+        out_console.print(margins, highlight=False)
     for i, leg in enumerate((doc.get("attitude") or {}).get("legs") or []):  # URDF robots
         if leg.get("audit"):
             a, err = leg["audit"], leg.get("goal_error")

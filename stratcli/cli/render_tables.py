@@ -263,3 +263,31 @@ def regress_progress(quiet: bool):
 
 def _show(x) -> str:
     return f"{x:.6g}" if isinstance(x, float) else str(x)
+
+
+MARGINS = (  # result.json's per-leg margins: (key, label, unit)
+    ("joint_limit", "joints", " rad"),
+    ("self_clearance", "self-clearance", ""),
+    ("obstacle_clearance", "obstacles", ""),
+    ("rate", "rate", " rad/s"),
+    ("acceleration", "acceleration", " rad/s²"),
+)
+
+
+def limit_margins(report: dict | None) -> str:
+    """One line of the smallest margin to each limit per leg (result.json's `constraints`),
+    negative where a limit is broken; "" without a [constraints] report."""
+    if not report or not report.get("legs"):
+        return ""
+    legs = []
+    for i, margins in enumerate(report["legs"]):
+        found = [
+            f"{label} {margins[key]:.3g}{unit}"
+            for key, label, unit in MARGINS
+            if margins.get(key) is not None
+        ]
+        legs.append(f"leg {i + 1}: {', '.join(found) or 'none limited'}")
+    samples = report.get("samples_per_leg")
+    return f"smallest margins to the limits ({samples} re-integrated samples a leg): " + "; ".join(
+        legs
+    )
