@@ -27,17 +27,10 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, Field, Strict
 
-from .clearance import (
-    box_corners,
-    point_polygon_distance,
-    point_segment_distance,
-    polygon_polygon_distance,
-    segment_polygon_distance,
-    segment_segment_distance,
-)
+from .body_clearances import check_configuration, clearances, closest_pair
+from .clearance import box_corners
 from .controls import MAX_PERIOD
 from .errors import InputError, Problem
-from .models.geometry import world_geometry
 from .models.numbers import parse_number
 from .models.specs import STRICT
 from .results import ConstraintReport, LegMargins
@@ -269,75 +262,6 @@ def rate_limited(plan, constraints: Constraints) -> tuple[float, str]:
 # --------------------------------------------------------------------------------------------
 
 
-def _clearances(robot, q: np.ndarray, c: Constraints) -> tuple[np.ndarray, np.ndarray]:
-    """Per sample: smallest surface distance between non-adjacent bodies, and from any body
-    to any obstacle (inf where there is nothing to measure)."""
-    geo = world_geometry(robot, q)
-    a, b = geo["proximal"], geo["distal"]  # (N, k, 2)
-    corners = geo["base_corners"]  # (N, 4, 2)
-    arm = geo["arm_of_link"]
-    r = c.link_radius
-    k = a.shape[1]
-    own = np.full(len(q), np.inf)
-    if c.self_collision:
-        first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
-        for i in range(k):
-            if i not in first:  # a first link is mounted on the base: not checked against it
-                d = segment_polygon_distance(a[:, i], b[:, i], corners) - r
-                own = np.minimum(own, d)
-            for j in range(i + 1, k):
-                if arm[j] == arm[i] and j == i + 1:
-                    continue  # neighbours share a joint
-                d = segment_segment_distance(a[:, i], b[:, i], a[:, j], b[:, j]) - 2 * r
-                own = np.minimum(own, d)
-    world = np.full(len(q), np.inf)
-    for centre, radius in c.circles:
-        world = np.minimum(
-            world, point_polygon_distance(np.broadcast_to(centre, (len(q), 2)), corners) - radius
-        )
-        for i in range(k):
-            d = point_segment_distance(centre, a[:, i], b[:, i]) - r - radius
-            world = np.minimum(world, d)
-    for box in c.boxes:
-        world = np.minimum(
-            world, polygon_polygon_distance(corners, np.broadcast_to(box, (len(q), 4, 2)))
-        )
-        for i in range(k):
-            d = segment_polygon_distance(a[:, i], b[:, i], np.broadcast_to(box, (len(q), 4, 2))) - r
-            world = np.minimum(world, d)
-    return own - c.clearance, world - c.clearance
-
-
-def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> list[Problem]:
-    """Problems (naming `where`) if configuration q breaks a joint limit or a clearance:
-    the start and every via must be inside the limits for a plan to exist."""
-    problems = []
-    q = np.asarray(q, dtype=float)
-    for i, name in enumerate(system.states):
-        if np.isfinite(q[i]) and not c.lower[i] <= q[i] <= c.upper[i]:
-            problems.append(
-                Problem(
-                    where,
-                    f"{name} = {q[i]:.4g} is outside its joint limits "
-                    f"[{c.lower[i]:g}, {c.upper[i]:g}]",
-                )
-            )
-    robot = getattr(system, "robot", None)
-    if c.geometric and robot is not None and np.all(np.isfinite(q)):
-        own, world = _clearances(robot, q[None, :], c)
-        if own[0] < 0:
-            problems.append(
-                Problem(
-                    where,
-                    f"the robot collides with itself here (clearance "
-                    f"{c.clearance:g}, link radius {c.link_radius:g})",
-                )
-            )
-        if world[0] < 0:
-            problems.append(Problem(where, "the robot touches an obstacle here"))
-    return problems
-
-
 def _first(values: np.ndarray, t: np.ndarray) -> tuple[float, float]:
     k = int(np.argmin(values))
     return float(values[k]), float(t[k])
@@ -371,11 +295,17 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
                     f"the {key} limit of {plan.inputs[j]} ({limit[j]:g} {unit})",
                 )
         if c.geometric and robot is not None:
-            own, world = _clearances(robot, q, c)
+            own, world = clearances(robot, q, c)
             if c.self_collision:
                 found["self_clearance"] = (*_first(own, t), "self-collision")
+                if own.min() < -VIOLATION_TOL:  # which bodies
+                    pair, _ = closest_pair(robot, q[int(np.argmin(own))], c, obstacles=False)
+                    found["self_clearance"] = (*_first(own, t), f"self-collision ({pair})")
             if c.circles or c.boxes:
                 found["obstacle_clearance"] = (*_first(world, t), "an obstacle")
+                if world.min() < -VIOLATION_TOL:
+                    pair, _ = closest_pair(robot, q[int(np.argmin(world))], c, obstacles=True)
+                    found["obstacle_clearance"] = (*_first(world, t), f"an obstacle ({pair})")
         margins.append(LegMargins(**{k: v[0] for k, v in found.items()}))
         for value, when, what in found.values():
             if not violated and value < -VIOLATION_TOL:

@@ -54,7 +54,7 @@ def geometric_margins(robot, q: np.ndarray, c) -> tuple[np.ndarray, list[str]]:
     """Signed clearances (N, P) at configurations q (N, n) less the link radius and the
     clearance (separating-axis gaps: exact inside, never above the distance apart, so a
     plan with positive margins here has them in `constraints.verify` too), one column per
-    pair of bodies (the pairs `constraints._clearances` checks), and
+    pair of bodies (the pairs `body_clearances.clearances` checks), and
     each column's kind ("self-collision" or "an obstacle"). Pairs of the same kinds of
     shape are measured in one batch (the search calls this hundreds of times a plan)."""
     corners, links = world_bodies(robot, q)  # (N, 4, 2), (N, k, 2, 2)

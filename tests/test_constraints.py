@@ -78,6 +78,20 @@ def test_a_start_outside_the_joint_limits_is_bad_input():
     assert any(p.startswith("legs[0].goal: q1 = -1.047") for p in problems), problems
 
 
+def test_a_start_in_collision_names_the_bodies_and_the_obstacle():
+    obstacles = [
+        {"shape": "box", "centre": [3.0, 3.0], "size": [0.2, 0.2]},
+        {"shape": "circle", "centre": [1.0, 0.0], "radius": 0.3},
+    ]
+    (problem,) = _problems(_task_d(obstacles=obstacles))
+    assert problem.startswith("task.start: the robot touches an obstacle here: link 2 and ")
+    assert "obstacles[1] (a circle) are " in problem and "into each other" in problem
+    raw = _task_d(self_collision=True, clearance=0.05)
+    raw["task"]["start"] = [0.0, 2.9, 2.9, 0.0]  # the arm folded back onto itself
+    (problem,) = _problems(raw)
+    assert problem.startswith("task.start: the robot collides with itself here: links 1 and 3")
+
+
 def test_the_cli_reports_bad_constraints_with_exit_2(tmp_path):
     text = TASK_D.read_text() + '\n[constraints]\nmax_rate = "fast"\n'
     path = tmp_path / "bad.toml"

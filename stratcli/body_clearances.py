@@ -1,0 +1,135 @@
+"""Clearances of a planar robot's bodies to each other and to the obstacles of a
+[constraints] table, pair by pair and named ("link 3 and the base", "link 2 and
+obstacles[0] (a circle)"): the margins of `constraints.verify` and the configurations the
+scenario checks (`check_configuration`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .clearance import (
+    point_polygon_distance,
+    point_segment_distance,
+    polygon_polygon_distance,
+    segment_polygon_distance,
+    segment_segment_distance,
+)
+from .errors import Problem
+from .models.geometry import world_geometry
+
+if TYPE_CHECKING:
+    from .constraints import Constraints
+
+__all__ = ["check_configuration", "clearances", "closest_pair"]
+
+
+def _obstacle_names(c: Constraints) -> tuple[list[str], list[str]]:
+    """The circles' and the boxes' names as the table gives them: obstacles[i] (shape)."""
+    shapes = [o.get("shape") for o in c.spec.get("obstacles") or []]
+    named = {kind: [f"obstacles[{i}] (a {s})" for i, s in enumerate(shapes) if s == kind]
+             for kind in ("circle", "box")}  # fmt: skip
+    circles = named["circle"] or [f"circle {i + 1}" for i in range(len(c.circles))]
+    boxes = named["box"] or [f"box {i + 1}" for i in range(len(c.boxes))]
+    return circles, boxes
+
+
+def _pair_distances(robot, q: np.ndarray, c: Constraints) -> tuple[list, list]:
+    """Surface distances per sample of each pair of non-adjacent bodies and of each body and
+    obstacle, named: two lists of (name, distances)."""
+    geo = world_geometry(robot, q)
+    a, b = geo["proximal"], geo["distal"]  # (N, k, 2)
+    corners = geo["base_corners"]  # (N, 4, 2)
+    arm = geo["arm_of_link"]
+    r = c.link_radius
+    k = a.shape[1]
+    own, world = [], []
+    if c.self_collision:
+        first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
+        for i in range(k):
+            if i not in first:  # a first link is mounted on the base: not checked against it
+                d = segment_polygon_distance(a[:, i], b[:, i], corners) - r
+                own.append((f"link {i + 1} and the base", d))
+            for j in range(i + 1, k):
+                if arm[j] == arm[i] and j == i + 1:
+                    continue  # neighbours share a joint
+                d = segment_segment_distance(a[:, i], b[:, i], a[:, j], b[:, j]) - 2 * r
+                own.append((f"links {i + 1} and {j + 1}", d))
+    circle_names, box_names = _obstacle_names(c)
+    for (centre, radius), name in zip(c.circles, circle_names, strict=True):
+        d = point_polygon_distance(np.broadcast_to(centre, (len(q), 2)), corners) - radius
+        world.append((f"the base and {name}", d))
+        for i in range(k):
+            d = point_segment_distance(centre, a[:, i], b[:, i]) - r - radius
+            world.append((f"link {i + 1} and {name}", d))
+    for box, name in zip(c.boxes, box_names, strict=True):
+        boxes = np.broadcast_to(box, (len(q), 4, 2))
+        world.append((f"the base and {name}", polygon_polygon_distance(corners, boxes)))
+        for i in range(k):
+            d = segment_polygon_distance(a[:, i], b[:, i], boxes) - r
+            world.append((f"link {i + 1} and {name}", d))
+    return own, world
+
+
+def _smallest(pairs: list, n: int, clearance: float) -> np.ndarray:
+    """Per sample, the smallest of the pairs' distances less the clearance (inf if none)."""
+    out = np.full(n, np.inf)
+    for _, d in pairs:
+        out = np.minimum(out, d)
+    return out - clearance
+
+
+def clearances(robot, q: np.ndarray, c: Constraints) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample: smallest surface distance between non-adjacent bodies, and from any body
+    to any obstacle, less the clearance (inf where there is nothing to measure)."""
+    own, world = _pair_distances(robot, q, c)
+    return _smallest(own, len(q), c.clearance), _smallest(world, len(q), c.clearance)
+
+
+def closest_pair(robot, q: np.ndarray, c: Constraints, obstacles: bool) -> tuple[str, float]:
+    """At one configuration: the pair (of bodies, or a body and an obstacle) closest to
+    touching, and its surface distance."""
+    own, world = _pair_distances(robot, q[None, :], c)
+    name, d = min(world if obstacles else own, key=lambda pair: pair[1][0])
+    return name, float(d[0])
+
+
+def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> list[Problem]:
+    """Problems (naming `where`) if configuration q breaks a joint limit or a clearance:
+    the start and every via must be inside the limits for a plan to exist."""
+    problems = []
+    q = np.asarray(q, dtype=float)
+    for i, name in enumerate(system.states):
+        if np.isfinite(q[i]) and not c.lower[i] <= q[i] <= c.upper[i]:
+            problems.append(
+                Problem(
+                    where,
+                    f"{name} = {q[i]:.4g} is outside its joint limits "
+                    f"[{c.lower[i]:g}, {c.upper[i]:g}]",
+                )
+            )
+    robot = getattr(system, "robot", None)
+    if c.geometric and robot is not None and np.all(np.isfinite(q)):
+        own, world = clearances(robot, q[None, :], c)
+        sizes = f"clearance {c.clearance:g}, link radius {c.link_radius:g}"
+        if own[0] < 0:
+            pair, d = closest_pair(robot, q, c, obstacles=False)
+            problems.append(
+                Problem(
+                    where,
+                    f"the robot collides with itself here: {pair} are {_apart(d)} ({sizes})",
+                )
+            )
+        if world[0] < 0:
+            pair, d = closest_pair(robot, q, c, obstacles=True)
+            problems.append(
+                Problem(
+                    where, f"the robot touches an obstacle here: {pair} are {_apart(d)} ({sizes})"
+                )
+            )
+    return problems
+
+
+def _apart(d: float) -> str:
+    return f"{d:.3g} apart" if d > 0 else f"{-d:.3g} into each other"
