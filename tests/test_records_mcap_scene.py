@@ -71,3 +71,30 @@ def test_mcap_frames_move_the_manipulator(arm_run):
         assert link["frame_id"] == f"link{j + 1}"
         cube = link["cubes"][0]
         assert cube["size"]["x"] == lengths[j] and cube["pose"]["position"]["x"] == lengths[j] / 2
+
+
+def test_the_scene_draws_the_obstacles_of_the_constraints():
+    import dataclasses
+    from pathlib import Path
+
+    import stratcli
+    from stratcli.records.mcap_scene import scene_update
+    from stratcli.results import ConstraintReport
+
+    root = Path(__file__).resolve().parents[1]
+    plan = stratcli.plan(root / "scenarios" / "sim4_task_d.toml")
+    obstacles = [
+        {"shape": "circle", "centre": [-0.3, 1.3], "radius": 0.15},
+        {"shape": "box", "centre": [1.9, 0.1], "size": [0.3, 0.2], "rotation": 0.5},
+    ]
+    plan = dataclasses.replace(plan, constraints=ConstraintReport({"obstacles": obstacles}))
+    geo = world_geometry(plan.system.robot, plan.sample(20).q)
+    found = {e["id"]: e for e in scene_update(plan, geo, 0)["entities"]}
+    circle, box = found["obstacle0"], found["obstacle1"]
+    assert circle["frame_id"] == box["frame_id"] == "world"
+    (cylinder,) = circle["cylinders"]
+    assert cylinder["pose"]["position"]["x"] == -0.3 and cylinder["size"]["x"] == 0.3
+    (cube,) = box["cubes"]
+    assert (cube["size"]["x"], cube["size"]["y"]) == (0.3, 0.2)
+    q = cube["pose"]["orientation"]
+    assert math.isclose(2 * math.atan2(q["z"], q["w"]), 0.5)

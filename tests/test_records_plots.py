@@ -268,10 +268,11 @@ def _annotations(fig) -> list[str]:
     return [t.get_text() for ax in fig.axes for t in ax.texts] + [t.get_text() for t in fig.texts]
 
 
-@pytest.mark.parametrize("constraints", [None, {"joint_limits": [-3.2, 3.2], "max_rate": 50.0}])
+@pytest.mark.parametrize("constraints", [None, {"joint_limits": [-3.2, 3.2], "max_rate": 2.0}])
 def test_off_labels_mark_inputs_only_and_limits_show_on_the_configuration(constraints):
     """'off (u = 0)' belongs to the controls figure (an input off on a leg), never to the
-    configuration figure, whose rows are coordinates; joint limits draw dashed lines there."""
+    configuration figure, whose rows are coordinates; joint limits draw dashed lines there,
+    rate limits on the controls."""
     import tomllib
 
     import stratcli
@@ -292,3 +293,9 @@ def test_off_labels_mark_inputs_only_and_limits_show_on_the_configuration(constr
     ]
     limit_lines = [line for line in dashed if np.allclose(line.get_ydata(), 3.2)]
     assert bool(limit_lines) == bool(constraints)
+    dashed = [
+        line for ax in controls.axes for line in ax.get_lines() if line.get_linestyle() == "--"
+    ]
+    rate_lines = [line for line in dashed if np.allclose(np.abs(line.get_ydata()), 2.0)]
+    assert bool(rate_lines) == bool(constraints)
+    assert any("rate limit" in t for t in _annotations(controls)) == bool(constraints)

@@ -167,4 +167,25 @@ def scene_update(plan: SequencePlan, geo: dict[str, np.ndarray], ns: int) -> dic
                 ],
             )
         )
+    entities.extend(_obstacles(plan, entity, 0.3 * min(2 * hx, 2 * hy)))
     return {"deletions": [], "entities": entities}
+
+
+def _obstacles(plan: SequencePlan, entity, height: float) -> list[dict]:
+    """The obstacles of [constraints] in the world frame, as tall as the base: circles as
+    cylinders, boxes as cubes (turned by their rotation)."""
+    spec = plan.constraints.spec if plan.constraints is not None else {}
+    out = []
+    color = _color(0.91, 0.30, 0.24, 0.5)
+    for i, o in enumerate(spec.get("obstacles") or []):
+        x, y = o["centre"]
+        if o["shape"] == "circle":
+            d = 2.0 * o["radius"]
+            shape = {"cylinders": [{"pose": {"position": _vec3(x, y), "orientation": _quat_z(0)},
+                                     "size": _vec3(d, d, height), "bottom_scale": 1.0,
+                                     "top_scale": 1.0, "color": color}]}  # fmt: skip
+        else:
+            pose = {"position": _vec3(x, y), "orientation": _quat_z(o.get("rotation", 0.0))}
+            shape = {"cubes": [{"pose": pose, "size": _vec3(*o["size"], height), "color": color}]}
+        out.append(entity("world", f"obstacle{i}", locked=False, **shape))
+    return out

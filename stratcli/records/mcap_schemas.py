@@ -233,6 +233,20 @@ SCENE_UPDATE_SCHEMA = {
                         "type": "array",
                         "items": {"title": "foxglove.SpherePrimitive", **_SIZED},
                     },
+                    "cylinders": {
+                        "type": "array",
+                        "items": {
+                            "title": "foxglove.CylinderPrimitive",
+                            "type": "object",
+                            "properties": {
+                                "pose": _POSE,
+                                "size": _VECTOR3,
+                                "bottom_scale": _NUMBER,
+                                "top_scale": _NUMBER,
+                                "color": _COLOR,
+                            },
+                        },
+                    },
                     "lines": {
                         "type": "array",
                         "items": {

@@ -193,8 +193,8 @@ def _time_series(
         _mark_goals(plan, axes)
     else:
         _mark_off_inputs(plan, axes)
-    if kind == "configuration" and plan.constraints is not None:
-        _shade_limits(plan, traj, axes)
+    if plan.constraints is not None:
+        _shade_limits(plan, traj, axes, kind)
     if not plan.ok:
         title += " — FAILED"
     fig.suptitle(title, fontsize=11, fontweight="bold", color="k" if plan.ok else FAILED_COLOR)
@@ -241,13 +241,20 @@ def _corner_key(fig, text: str, corner: str, color) -> None:
     fig.text(x, y, text, color=color, ha=horizontal, va=vertical, fontsize=8)
 
 
-def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any]) -> None:
-    """Joint limits of [constraints]: a dashed line at each limit near the data, the region
-    beyond it shaded, and each limited joint's closest approach marked ×."""
+def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any], kind: str) -> None:
+    """Limits of [constraints] (joint limits on the configuration, rate limits ±max_rate on
+    the controls): a dashed line at each limit near the data, the region beyond it shaded,
+    and each limited curve's closest approach marked ×."""
     limits = resolved_constraints(plan)
+    if kind == "configuration":
+        lower, upper, values, what = limits.lower, limits.upper, traj.q, "joint limit"
+    elif limits.max_rate is not None:
+        lower, upper, values, what = -limits.max_rate, limits.max_rate, traj.u, "rate limit"
+    else:
+        return
     shown = False
     for i, ax in enumerate(axes):
-        lo, hi = limits.lower[i], limits.upper[i]
+        lo, hi = lower[i], upper[i]
         if not (np.isfinite(lo) or np.isfinite(hi)):
             continue
         y0, y1 = ax.get_ylim()
@@ -264,13 +271,13 @@ def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any]) -> None
                 ax.axhspan(*band, color=FAILED_COLOR, alpha=0.12, lw=0, zorder=1)
             ax.set_ylim(bottom, top)
             shown = True
-        room = np.minimum(traj.q[:, i] - lo, hi - traj.q[:, i])
+        room = np.minimum(values[:, i] - lo, hi - values[:, i])
         if np.isfinite(room).any():
             k = int(np.nanargmin(room))
-            ax.plot(traj.t[k], traj.q[k, i], "x", color=FAILED_COLOR, ms=6, mew=1.4, zorder=5)
+            ax.plot(traj.t[k], values[k, i], "x", color=FAILED_COLOR, ms=6, mew=1.4, zorder=5)
             shown = True
     if shown:
-        key = "- - joint limit (shaded beyond it); × closest approach"
+        key = f"- - {what} (shaded beyond it); × closest approach"
         _corner_key(axes[0].figure, key, "bottom left", FAILED_COLOR)
 
 

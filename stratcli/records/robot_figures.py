@@ -308,6 +308,7 @@ def motion_gif(
     ax.set_xlabel("x [m]", fontsize=9, labelpad=1)
     ax.set_ylabel("y [m]", fontsize=9, labelpad=1)
     ax.grid(True, color="0.9", linewidth=0.5)
+    _draw_obstacles(ax, plan)
     _draw_poses(ax, geo, np.array([0]), ["0.7"], lw=1.3, zorder=1, linestyle="--")
     _draw_poses(ax, geo, np.array([traj.size - 1]), ["#7fb3d5"], lw=1.3, zorder=1, linestyle=":")
     (centre,) = ax.plot(0, 0, "+", color="k", markersize=7, zorder=7)
