@@ -180,6 +180,9 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
         lower[i], upper[i] = lo, hi
     rate = _per(spec.max_rate, m, "input", "constraints.max_rate", problems)
     acc = _per(spec.max_acceleration, m, "input", "constraints.max_acceleration", problems)
+    if spec.clearance > 0 and not (spec.self_collision or spec.obstacles):
+        message = "applies to self_collision = true and to obstacles, and neither is set"
+        problems.append(Problem("constraints.clearance", message))
     if (spec.self_collision or spec.obstacles) and robot is None:
         problems.append(
             Problem(

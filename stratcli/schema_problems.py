@@ -66,6 +66,9 @@ def _unwrap(ann: Any) -> Any:
     return None
 
 
+_BOUNDS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+
+
 def validation_problems(
     exc: ValidationError, prefix: tuple = (), root: Any = None
 ) -> list[Problem]:
@@ -87,6 +90,10 @@ def validation_problems(
             out.append(Problem(_path(loc), f"unknown key{hint}"))
             continue
         msg = err["msg"].removeprefix("Value error, ")
+        if kind in _BOUNDS and "ctx" in err:  # pydantic writes 1e-12 as 0.000000000001
+            bound = next(iter(err["ctx"].values()))
+            if isinstance(bound, float):
+                msg = f"{msg.rsplit(' to ', 1)[0]} to {bound:g}" if " to " in msg else msg
         if kind == "missing":
             msg = "required field is missing"
         if kind in ("union_tag_not_found", "union_tag_invalid"):  # a table without a valid tag

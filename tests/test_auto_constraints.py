@@ -50,7 +50,7 @@ def test_auto_mode_chooses_a_plan_within_the_limits(objective):
 
 def test_a_rate_limit_in_auto_mode_slows_the_chosen_plan_and_says_so():
     task = _auto("energy", max_rate=0.5).with_changes(
-        {"constraints": {"joint_limits": None, "self_collision": False}}
+        {"constraints": {"joint_limits": None, "self_collision": False, "clearance": 0.0}}
     )
     outcome = stratcli.plan_auto(task, jobs=1, time_scale=2.0)
     plan = outcome.best.result

@@ -48,6 +48,7 @@ def _problems(raw: dict) -> list[str]:
         ({"clearance": float("nan")}, "constraints.clearance"),
         ({"obstacles": [{"shape": "circle", "centre": [0, 1]}]}, "constraints.obstacles"),
         ({"speed": 1.0}, "constraints.speed"),
+        ({"clearance": 0.05}, "constraints.clearance: applies to self_collision = true and"),
     ],
 )
 def test_bad_constraints_name_their_field(constraints, field):
