@@ -260,7 +260,9 @@ def plan_summary(doc: dict) -> None:
     number_column(legs, "final error")
     number_column(legs, "energy")
     number_column(legs, "status", justify="left")
+    margins = (doc.get("constraints") or {}).get("legs") or []
     for i, leg in enumerate(doc["legs"]):
+        off = i < len(margins) and any(v < -1e-9 for v in margins[i].values() if v is not None)
         legs.add_row(
             str(i + 1),
             leg["stratum"],
@@ -269,7 +271,9 @@ def plan_summary(doc: dict) -> None:
             *((str(leg["iterations"]), str(leg["attempts"])) if per_leg else ()),
             fmt_error(leg["error"]),
             fmt(leg["energy"]),
-            "[green]ok[/]" if leg["converged"] else "[red]failed[/]",
+            "[red]failed[/]"
+            if not leg["converged"]
+            else ("[red]off limits[/]" if off else "[green]ok[/]"),
         )
     for i in range(len(doc["legs"]), doc.get("planned_legs") or 0):  # after a failed leg
         legs.add_row(str(i + 1), *["–"] * (7 if per_leg else 5), "[dim]not planned[/]")
