@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 from pathlib import Path
 
@@ -69,6 +70,27 @@ def test_joined_legs_meet_the_switch_conditions_and_the_goals():
     joined = problem.coefficients(z)
     assert np.abs(cons.C @ joined - cons.c).max() <= 1e-9
     assert np.abs(problem.constraint(z)).max() <= 1e-6
+
+
+def test_a_pulled_start_is_each_legs_start_as_it_is_and_a_newton_plan_is_pulled(monkeypatch):
+    """The stacked pulled start's parts already meet each leg's own rows and goals: they
+    start the legs as they are (no second pull, leg by leg); a plain Newton plan's parts are
+    pulled toward least energy first, one pull per leg."""
+    task, problem, lam = _problem("sim4_task_d")
+    pulled = energy.pulled_start(problem, problem.project(lam))
+    assert pulled is not None
+    calls = []
+    real = energy.pulled_start
+    monkeypatch.setattr(energy, "pulled_start", lambda p, z: calls.append(z) or real(p, z))
+    start = problem.coefficients(pulled)
+    parts = legwise.leg_minima(problem, task.system, task.legs, task.settings, start, True)
+    assert parts is not None and calls == []
+    again = legwise.leg_minima(problem, task.system, task.legs, task.settings, lam)
+    assert again is not None and len(calls) == len(task.legs)
+    # each leg's own minimum from there is no higher than its part of the pulled start
+    blocks = [problem.M[a:b, a:b] for a, b in itertools.pairwise(problem.offsets)]
+    for own, part, M in zip(parts, problem.split(start), blocks, strict=True):
+        assert float(own @ M @ own) <= float(part @ M @ part) * (1 + 1e-9)
 
 
 @pytest.mark.parametrize("name", ["sim1_l_c1", "sim4_task_a"])

@@ -259,7 +259,7 @@ def optimise_energy(
         # raced on its own, after the others: their race (which abandons a start that an
         # earlier low one outruns) is the default search's, so the result is never higher
         say(f"energy search: start {len(seeds) + 1}, made leg by leg (legwise)")
-        z = legwise_start(problem, system, legs, settings, _newton_part(seeds))
+        z = legwise_start(problem, system, legs, settings, *_newton_part(seeds))
         if z is not None:
             seeds = [*seeds, ("legwise", problem.coefficients(z))]
             runs += race(problem, [z], settings.tolerance)
@@ -385,7 +385,8 @@ def _starts(seeds: list) -> str:
     return f"{len(seeds)} start{'' if len(seeds) == 1 else 's'} ({shown})"
 
 
-def _newton_part(seeds: list) -> np.ndarray:
-    """The Newton plan among `seeds` (or its pulled start, or the first), for the legwise
-    start (`legwise.legwise_start`)."""
-    return next((lam for kind, lam in seeds if kind in ("newton", "pulled")), seeds[0][1])
+def _newton_part(seeds: list) -> tuple[np.ndarray, bool]:
+    """The Newton plan among `seeds` (or its pulled start, or the first) for the legwise
+    start (`legwise.legwise_start`), and whether it is the pulled start."""
+    kind, lam = next((s for s in seeds if s[0] in ("newton", "pulled")), seeds[0])
+    return lam, kind == "pulled"

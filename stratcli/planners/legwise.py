@@ -7,13 +7,14 @@ on which side and in which sense, to turn the base), and the legs are tied toget
 the linear continuity rows at their switches. So the search is split:
 
 1. **Each leg alone** (`leg_minima`): the leg's own problem, with the rows that tie it to
-   another leg dropped (its via is fixed either way), from its part of the Newton plan pulled
-   toward least energy and from its *loop modes* (`mode_starts`): near the energy's
-   minimiser the base's attitude is reached only at second order, by loops of the joints, so
-   the eigenvectors of that goal's curvature (on the directions that keep the other goals)
-   are the shapes of the loops - one turn, two turns, this side or that - and each, scaled to
-   the attitude still missing, is a start. They are brought onto the goals by minimum-norm
-   Gauss-Newton and raced as the stacked search's starts are.
+   another leg dropped (its via is fixed either way), from its part of the stacked pulled
+   start (the Newton plan pulled toward least energy, `energy.pulled_start`, which meets the
+   leg's own rows and goals already) and from its *loop modes* (`mode_starts`): near the
+   energy's minimiser the base's attitude is reached only at second order, by loops of the
+   joints, so the eigenvectors of that goal's curvature (on the directions that keep the
+   other goals) are the shapes of the loops - one turn, two turns, this side or that - and
+   each, scaled to the attitude still missing, is a start. They are brought onto the goals
+   by minimum-norm Gauss-Newton and raced as the stacked search's starts are.
 2. **Joined by continuation in the switches** (`join`): the legs' lowest minima, stacked,
    meet every row except the switch rows, which they miss by `r0`. The rows' right-hand side
    `c + (1 - s) r0` is moved from `s = 0` (where the stacked minima are feasible and a
@@ -100,24 +101,29 @@ def mode_starts(leg_problem) -> list[np.ndarray]:
     return starts
 
 
-def leg_minimum(own, settings, newton) -> np.ndarray | None:
+def leg_minimum(own, settings, newton, pulled: bool = False) -> np.ndarray | None:
     """The lowest minimum of one leg's own problem `own` (whitened z) from its Newton part
     pulled toward least energy and its loop modes (`mode_starts`), raced; None if no start
-    reaches the goals."""
+    reaches the goals. With `pulled` the part is pulled already (the stacked pulled start's)
+    and is the start as it is: pulling the leg alone again found no lower minimum on the
+    paper's scenarios and cost 6-12 % of the legwise start's end-point evaluations."""
     from .energy import pulled_start, race
 
     with np.errstate(all="ignore"):
-        pulled = pulled_start(own, own.project(newton))
-        starts = ([] if pulled is None else [pulled]) + mode_starts(own)
+        first = own.project(newton) if pulled else pulled_start(own, own.project(newton))
+        starts = ([] if first is None else [first]) + mode_starts(own)
         zs = [z for z in (restore(own, z) for z in starts) if z is not None]
     runs = [r for r in race(own, zs, settings.tolerance) if r.feasible]
     best = min(runs, key=lambda r: r.energy, default=None)
     return None if best is None else best.z
 
 
-def leg_minima(problem, system, legs, settings, newton) -> list[np.ndarray] | None:
+def leg_minima(
+    problem, system, legs, settings, newton, pulled: bool = False
+) -> list[np.ndarray] | None:
     """Each leg's lowest minimum of its own problem (flat coefficients per leg), or None if
-    a leg has no start that reaches its goals."""
+    a leg has no start that reaches its goals; `pulled`: `newton` is the stacked pulled
+    start (`leg_minimum`)."""
     from .energy import StackedProblem
 
     out = []
@@ -130,7 +136,7 @@ def leg_minima(problem, system, legs, settings, newton) -> list[np.ndarray] | No
             [problem.targets[i]],
             leg_constraints(problem.constraints, problem.offsets, i),
         )
-        z = leg_minimum(own, settings, part)
+        z = leg_minimum(own, settings, part, pulled)
         if z is None:
             return None
         out.append(own.coefficients(z))
@@ -162,11 +168,12 @@ def join(problem, parts: list[np.ndarray], tolerance: float) -> np.ndarray | Non
     return z
 
 
-def legwise_start(problem, system, legs, settings, newton) -> np.ndarray | None:
-    """The legwise start (module docstring) as whitened z of `problem`, or None."""
+def legwise_start(problem, system, legs, settings, newton, pulled=False) -> np.ndarray | None:
+    """The legwise start (module docstring) as whitened z of `problem`, or None; `pulled`:
+    `newton` is the stacked pulled start (`leg_minimum`)."""
     try:
         with np.errstate(all="ignore"):
-            parts = leg_minima(problem, system, legs, settings, newton)
+            parts = leg_minima(problem, system, legs, settings, newton, pulled)
             if parts is None:
                 return None
             if not tied_rows(problem.constraints, problem.offsets).any():
