@@ -13,9 +13,10 @@ driftless system run s times slower has controls s times smaller and their deriv
 times smaller, `time_scaling.rate_limited`); the plan notes which limit set its duration.
 Every limit is then verified on a dense re-integration (`verify`: at least 2000 samples per
 leg), and a plan that violates one is failed (`Status.CONSTRAINT_VIOLATED`), its message
-naming the limit, the leg and the time. Joint limits, self-collision and obstacles are kept
-by the search itself (`planners.constrained`, from `objectives.plan_sequence`); a plan it
-could not move inside them is reported here with the leg where that search stalled.
+naming the limit, the leg and the time (a URDF's own joint limits as such, with the advice
+of `urdf_limits.violation_advice`). Joint limits, self-collision and obstacles are kept by
+the search itself (`planners.constrained`, from `objectives.plan_sequence`); a plan it could
+not move inside them is reported here with the leg where that search stalled.
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from .models.specs import STRICT
 from .results import ConstraintReport, LegMargins
 from .simulate import sample
 from .time_scaling import rate_limited, scale_time
+from .urdf_limits import URDF_LIMIT, violation_advice
 
 __all__ = [
     "VERIFY_SAMPLES",
@@ -111,6 +113,7 @@ class Constraints:
     circles: tuple[tuple[np.ndarray, float], ...]  # (centre, radius)
     boxes: tuple[np.ndarray, ...]  # corners (4, 2)
     spec: dict[str, Any]  # the table as given (for result.json)
+    from_urdf: tuple[int, ...] = ()  # coordinates whose limits are the URDF's (not the table's)
 
     @property
     def geometric(self) -> bool:
@@ -202,9 +205,10 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
     boxes = tuple(
         box_corners(o.centre, o.size, o.rotation) for o in spec.obstacles if o.shape == "box"
     )
+    from_urdf = tuple(i for i in range(joints) if spatial is not None and i not in pairs)
     return Constraints(
         lower, upper, rate, acc, spec.self_collision, spec.clearance, spec.link_radius,
-        circles, boxes, spec.model_dump(mode="json"),
+        circles, boxes, spec.model_dump(mode="json"), from_urdf,
     )  # fmt: skip
 
 
@@ -300,9 +304,12 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
         limited = np.isfinite(c.lower) | np.isfinite(c.upper)
         if limited.any():
             room = np.minimum(q - c.lower, c.upper - q)[:, limited]
-            j = int(np.unravel_index(np.argmin(room), room.shape)[1])
-            name = np.asarray(plan.coordinates)[limited][j]
-            found["joint_limit"] = (*_first(room[:, j], t), f"the joint limits of {name}")
+            k = int(np.unravel_index(np.argmin(room), room.shape)[1])
+            j = int(np.flatnonzero(limited)[k])
+            name = plan.coordinates[j]
+            urdf = f"{URDF_LIMIT} {name} [{c.lower[j]:.3g}, {c.upper[j]:.3g}]"
+            what = urdf if j in c.from_urdf else f"the joint limits of {name}"
+            found["joint_limit"] = (*_first(room[:, k], t), what)
         for key, limit, values, unit in (
             ("rate", c.max_rate, u, "rad/s"),
             ("acceleration", c.max_acceleration, du, "rad/s²"),
@@ -338,7 +345,7 @@ def verified_again(plan):
     report = replace(verify(plan, c), duration_set_by=plan.constraints.duration_set_by)
     out = replace(plan, constraints=report)
     if not report.ok and plan.ok:
-        out = replace(out, message=f"{report.violated}; {out.status.value}")
+        out = replace(out, message=f"{report.violated}; {violation_advice(out, report.violated)}")
     return out
 
 
@@ -355,5 +362,5 @@ def enforce(plan, c: Constraints):
         violated = report.violated
         if plan.message:  # where the search stalled: the plan is the one found without limits
             violated = f"{plan.message}; the plan found without the limits is kept: {violated}"
-        plan = replace(plan, message=f"{violated}; {plan.status.value}")
+        plan = replace(plan, message=f"{violated}; {violation_advice(plan, report.violated)}")
     return plan

@@ -25,6 +25,7 @@ from ..scenario import Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import MAX_TIME_SCALE
 from ..time_scaling import scale_time, time_scaled
+from ..urdf_limits import with_limit_notes
 from .auto import auto_choice
 from .inspection import controllability_first
 from .outcomes import ComparisonOutcome, PlanOutcome
@@ -183,8 +184,10 @@ def plan_run(
         with phase(phases, "constraints"):
             say("verifying the constraints on a dense re-integration")
             result = within_rates(result.with_system(task.system), task, scale)
-    elif scale != 1.0:
-        result = time_scaled(result, scale)
+    else:  # a URDF's joint limits, unless [constraints] verified them: noted
+        result = with_limit_notes(result, task)
+        if scale != 1.0:
+            result = time_scaled(result, scale)
     result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
     doc = result.to_dict()
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases)
