@@ -5,11 +5,12 @@ verified like any other (`constraints.resolve`, `verify`): a plan that leaves th
 and its message says that the limit came from the URDF and what can help there
 (`violation_advice`: the constrained search does not run on URDF models). Without one, the
 plan is left as it is (its status unchanged) and gets a note instead (`with_limit_notes`):
-where its start, vias or goal lie outside the URDF's limits, and which legs leave them, how
-far and when. The joints of a URDF model are closed-form integrals of the Fourier controls
-(`FourierBasis.integrals`), so the check integrates nothing: it evaluates them at
-`SAMPLES` instants per piece. URDF velocity limits (`<limit velocity>`) are not used
-(rate limits are `[constraints] max_rate`).
+where its start, vias or goal lie outside the URDF's limits (`outside_limits`, which
+`stratplan check` prints as a warning), and which legs leave them, how far and when. The
+joints of a URDF model are closed-form integrals of the Fourier controls
+(`FourierBasis.integrals`), so the check integrates nothing: it evaluates them at `SAMPLES`
+instants per piece. URDF velocity limits (`<limit velocity>`) are not used (rate limits
+are `[constraints] max_rate`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 
 from .status import Status
 
-__all__ = ["URDF_LIMIT", "violation_advice", "with_limit_notes"]
+__all__ = ["URDF_LIMIT", "outside_limits", "violation_advice", "with_limit_notes"]
 
 SAMPLES = 2000  # per piece of a leg (a Newton leg has one)
 URDF_LIMIT = "the URDF's joint limits of"  # how `constraints.verify` names one it breaks
@@ -53,6 +54,17 @@ def violation_advice(plan, violated: str) -> str:
 
 def _fmt(x: float) -> str:
     return f"{x:.3g}"
+
+
+def outside_limits(task) -> list[str]:
+    """One sentence per start, via or goal coordinate of a URDF scenario without
+    [constraints] that lies outside the URDF's limits (what `stratplan check` warns of)."""
+    robot = getattr(task.system, "spatial", None)
+    if robot is None or task.constraints is not None:
+        return []
+    lower, upper = np.asarray(robot.lower, float), np.asarray(robot.upper, float)
+    found = _configurations(task, lower, upper, robot.joint_names)
+    return [f"{'; '.join(found)}; {REFUSED}"] if found else []
 
 
 def _configurations(task, lower, upper, names) -> list[str]:
@@ -132,9 +144,7 @@ def with_limit_notes(plan, task):
         return plan
     names = robot.joint_names
     lower, upper = np.asarray(robot.lower, float), np.asarray(robot.upper, float)
-    notes = []
-    if outside := _configurations(task, lower, upper, names):
-        notes.append(f"{'; '.join(outside)}; {REFUSED}")
+    notes = outside_limits(task)
     if left := _legs(plan, lower, upper, names):
         notes.append(f"{'; '.join(left)}; {VERIFIED}")
     return replace(plan, notes=(*plan.notes, *notes)) if notes else plan

@@ -126,3 +126,12 @@ def test_compare_sequences_notes_the_best_plans_urdf_limits(tmp_path):
         app, ["compare-sequences", str(scenario), "--out", str(tmp_path), "--jobs", "1"]
     )
     assert result.exit_code == 0 and f"note: {note}" in result.output
+
+
+def test_check_warns_of_a_start_outside_the_urdf_limits_and_exits_0(tmp_path):
+    scenario = str(_scenario(tmp_path, j2=1.2))
+    result = CliRunner().invoke(app, ["check", scenario, "--samples", "5"])
+    assert result.exit_code == 0, result.output
+    assert "warning: task.start has j2 = 1.2, outside the URDF's limits [-1, 1]" in result.output
+    inside = CliRunner().invoke(app, ["check", str(_scenario(tmp_path)), "--samples", "5"])
+    assert inside.exit_code == 0 and "URDF" not in inside.output
