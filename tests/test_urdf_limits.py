@@ -135,3 +135,13 @@ def test_check_warns_of_a_start_outside_the_urdf_limits_and_exits_0(tmp_path):
     assert "warning: task.start has j2 = 1.2, outside the URDF's limits [-1, 1]" in result.output
     inside = CliRunner().invoke(app, ["check", str(_scenario(tmp_path)), "--samples", "5"])
     assert inside.exit_code == 0 and "URDF" not in inside.output
+
+
+def test_the_notes_times_are_those_of_the_plan_as_run_with_a_time_scale(tmp_path):
+    path = _scenario(tmp_path)
+    t1 = float(NOTE.match(stratcli.plan(path).notes[0])["t"])
+    t2 = float(NOTE.match(stratcli.plan(path, time_scale=2.0).notes[0])["t"])
+    assert t2 == pytest.approx(t1 / 2, abs=1e-3)
+    auto = stratcli.plan_auto(ROOT / "scenarios" / "spatial" / "arm3_auto.toml", time_scale=2.0)
+    (note,) = auto.notes
+    assert "(reaches -4.25 at t = 0.454 s)" in note and auto.best.result.notes == (note,)
