@@ -154,3 +154,23 @@ def test_with_model_path_changes_the_path_only():
     spread = 'name = "x"\n[model]\nkind = "urdf"\npath = """\n../r.urdf"""\n'
     out = with_model_path(spread, "r.urdf")  # not one the text can take: written out again
     assert tomllib.loads(out) == {"name": "x", "model": {"kind": "urdf", "path": "r.urdf"}}
+
+
+@pytest.mark.parametrize(
+    "path, name",
+    [("/a/arm.urdf", "arm.urdf"), ("/a/result.json", "robot.urdf"), ("/a/.hidden", "robot.urdf")],
+)
+def test_the_urdf_never_replaces_another_file_of_the_record(path, name):
+    from types import SimpleNamespace
+
+    from stratcli.records.model_files import model_files
+
+    robot = SimpleNamespace(text="<robot/>", path=path)
+    task = SimpleNamespace(
+        system=SimpleNamespace(spatial=robot),
+        scenario=SimpleNamespace(model=SimpleNamespace(path=path)),
+        text=f'name = "x"\n[model]\nkind = "urdf"\npath = "{path}"\n',
+    )
+    text, files, entry = model_files(task, {"result.json", "scenario.toml"})
+    assert files == {name: "<robot/>"} and entry["file"] == name and entry["source"] == path
+    assert tomllib.loads(text)["model"]["path"] == name
