@@ -228,7 +228,8 @@ def load_run(path: str | Path) -> SequencePlan:
     -------
     SequencePlan
         The same plan type `plan` returns: `load_run(d).to_dict()` equals the record's
-        result.json; `.sample()` rebuilds the model from the record's scenario.
+        result.json; `.sample()` rebuilds the model from the record's scenario (a URDF
+        robot from the record's own copy of its URDF).
 
     Raises
     ------
