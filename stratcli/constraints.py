@@ -10,17 +10,17 @@ it is mounted on.
 
 What is done with them. Rate and acceleration limits are met exactly by time scaling (a
 driftless system run s times slower has controls s times smaller and their derivatives s²
-times smaller, `rate_limited`); the plan notes which limit set its duration. Every limit is
-then verified on a dense re-integration (`verify`: at least 2000 samples per leg), and a plan
-that violates one is failed (`Status.CONSTRAINT_VIOLATED`), its message naming the limit, the
-leg and the time. Joint limits, self-collision and obstacles are kept by the search itself
-(`planners.constrained`, from `objectives.plan_sequence`); a plan it could not move inside
-them is reported here with the leg where that search stalled.
+times smaller, `time_scaling.rate_limited`); the plan notes which limit set its duration.
+Every limit is then verified on a dense re-integration (`verify`: at least 2000 samples per
+leg), and a plan that violates one is failed (`Status.CONSTRAINT_VIOLATED`), its message
+naming the limit, the leg and the time (a URDF's own joint limits as such, with the advice
+of `urdf_limits.violation_advice`). Joint limits, self-collision and obstacles are kept by
+the search itself (`planners.constrained`, from `objectives.plan_sequence`); a plan it could
+not move inside them is reported here with the leg where that search stalled.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Annotated, Any, Literal
 
@@ -35,7 +35,8 @@ from .models.numbers import parse_number
 from .models.specs import STRICT
 from .results import ConstraintReport, LegMargins
 from .simulate import sample
-from .time_scaling import scale_time
+from .time_scaling import rate_limited, scale_time
+from .urdf_limits import URDF_LIMIT, violation_advice
 
 __all__ = [
     "VERIFY_SAMPLES",
@@ -106,6 +107,7 @@ class Constraints:
     circles: tuple[tuple[np.ndarray, float], ...]  # (centre, radius)
     boxes: tuple[np.ndarray, ...]  # corners (4, 2)
     spec: dict[str, Any]  # the table as given (for result.json)
+    from_urdf: tuple[int, ...] = ()  # coordinates whose limits are the URDF's (not the table's)
 
     @property
     def geometric(self) -> bool:
@@ -200,64 +202,11 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
     boxes = tuple(
         box_corners(o.centre, o.size, o.rotation) for o in spec.obstacles if o.shape == "box"
     )
+    from_urdf = tuple(i for i in range(joints) if spatial is not None and i not in pairs)
     return Constraints(
         lower, upper, rate, acc, spec.self_collision, spec.clearance, spec.link_radius,
-        circles, boxes, spec.model_dump(mode="json"),
+        circles, boxes, spec.model_dump(mode="json"), from_urdf,
     )  # fmt: skip
-
-
-# --------------------------------------------------------------------------------------------
-# Rates: time scaling
-# --------------------------------------------------------------------------------------------
-
-
-def _peak(values: np.ndarray) -> np.ndarray:
-    """Per column, the largest |value|, refined by a parabola through an interior sampled
-    maximum and its neighbours (a sampled peak of a Fourier series is low by O(h²)); a
-    maximum at either end is exact."""
-    a = np.abs(values)
-    k = a.argmax(axis=0)
-    interior = (k > 0) & (k < len(a) - 1)
-    k = np.clip(k, 1, len(a) - 2)
-    cols = np.arange(a.shape[1])
-    y0, y1, y2 = a[k - 1, cols], a[k, cols], a[k + 1, cols]
-    curve = y0 - 2 * y1 + y2
-    refine = interior & (curve < 0)
-    vertex = y1 - (y2 - y0) ** 2 / np.where(refine, 8 * curve, -np.inf)
-    return np.maximum(a.max(axis=0), np.where(refine, vertex, 0.0))
-
-
-def peaks(plan, samples: int = 20 * VERIFY_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
-    """Largest |u_j| and |du_j/dt| over the plan, per input (controls only: no integration)."""
-    m = len(plan.inputs)
-    u_peak, du_peak = np.zeros(m), np.zeros(m)
-    for leg in plan.legs:
-        tau = np.linspace(0.0, float(leg.duration), samples)
-        u_peak = np.maximum(u_peak, _peak(leg.controls(tau)))
-        du_peak = np.maximum(du_peak, _peak(leg.controls(tau, derivative=True)))
-    return u_peak, du_peak
-
-
-def rate_limited(plan, constraints: Constraints) -> tuple[float, str]:
-    """The speed-up s ≤ 1 that makes the plan meet its rate and acceleration limits exactly
-    (1 when it meets them already) and which limit sets it ("" when none does)."""
-    if (constraints.max_rate is None and constraints.max_acceleration is None) or not plan.legs:
-        return 1.0, ""
-    u_peak, du_peak = peaks(plan)
-    options = [(1.0, "")]
-    for j, name in enumerate(plan.inputs):
-        if constraints.max_rate is not None and u_peak[j] > 0:
-            limit = constraints.max_rate[j]
-            options.append((limit / u_peak[j], f"the rate limit of {name} ({limit:g} rad/s)"))
-        if constraints.max_acceleration is not None and du_peak[j] > 0:
-            limit = constraints.max_acceleration[j]
-            options.append(
-                (
-                    math.sqrt(limit / du_peak[j]),
-                    f"the acceleration limit of {name} ({limit:g} rad/s²)",
-                )
-            )
-    return min(options, key=lambda o: o[0])
 
 
 # --------------------------------------------------------------------------------------------
@@ -283,9 +232,12 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
         limited = np.isfinite(c.lower) | np.isfinite(c.upper)
         if limited.any():
             room = np.minimum(q - c.lower, c.upper - q)[:, limited]
-            j = int(np.unravel_index(np.argmin(room), room.shape)[1])
-            name = np.asarray(plan.coordinates)[limited][j]
-            found["joint_limit"] = (*_first(room[:, j], t), f"the joint limits of {name}")
+            k = int(np.unravel_index(np.argmin(room), room.shape)[1])
+            j = int(np.flatnonzero(limited)[k])
+            name = plan.coordinates[j]
+            urdf = f"{URDF_LIMIT} {name} [{c.lower[j]:.3g}, {c.upper[j]:.3g}]"
+            what = urdf if j in c.from_urdf else f"the joint limits of {name}"
+            found["joint_limit"] = (*_first(room[:, k], t), what)
         for key, limit, values, unit in (
             ("rate", c.max_rate, u, "rad/s"),
             ("acceleration", c.max_acceleration, du, "rad/s²"),
@@ -327,7 +279,7 @@ def verified_again(plan):
     report = replace(verify(plan, c), duration_set_by=plan.constraints.duration_set_by)
     out = replace(plan, constraints=report)
     if not report.ok and plan.ok:
-        out = replace(out, message=f"{report.violated}; {out.status.value}")
+        out = replace(out, message=f"{report.violated}; {violation_advice(out, report.violated)}")
     return out
 
 
@@ -356,5 +308,5 @@ def enforce(plan, c: Constraints):
         violated = report.violated
         if plan.message:  # where the search stalled: the plan is the one found without limits
             violated = f"{plan.message}; the plan found without the limits is kept: {violated}"
-        plan = replace(plan, message=f"{violated}; {plan.status.value}")
+        plan = replace(plan, message=f"{violated}; {violation_advice(plan, report.violated)}")
     return plan

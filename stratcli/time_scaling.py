@@ -4,7 +4,10 @@ planning again (`planner.time_scale`, and the rate limits of `[constraints]`).""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
+
+import numpy as np
 
 from .arguments import checked, instance, number
 from .controls import FourierBasis, energy
@@ -12,7 +15,9 @@ from .results import Switch
 from .sequence import SequencePlan
 from .settings import MAX_TIME_SCALE
 
-__all__ = ["scale_time", "time_scaled"]
+__all__ = ["peaks", "rate_limited", "scale_time", "time_scaled"]
+
+PEAK_SAMPLES = 40_000  # per leg: where the peak controls and their derivatives are sought
 
 
 @checked(
@@ -82,3 +87,56 @@ def scale_time(plan: SequencePlan, s: float) -> SequencePlan:
         time_scale=plan.time_scale * s,
     )
     return out.with_system(plan._system) if plan._system is not None else out
+
+
+# Rate and acceleration limits (`[constraints]`): met exactly by running the plan slower
+
+
+def _peak(values: np.ndarray) -> np.ndarray:
+    """Per column, the largest |value|, refined by a parabola through an interior sampled
+    maximum and its neighbours (a sampled peak of a Fourier series is low by O(h²)); a
+    maximum at either end is exact."""
+    a = np.abs(values)
+    k = a.argmax(axis=0)
+    interior = (k > 0) & (k < len(a) - 1)
+    k = np.clip(k, 1, len(a) - 2)
+    cols = np.arange(a.shape[1])
+    y0, y1, y2 = a[k - 1, cols], a[k, cols], a[k + 1, cols]
+    curve = y0 - 2 * y1 + y2
+    refine = interior & (curve < 0)
+    vertex = y1 - (y2 - y0) ** 2 / np.where(refine, 8 * curve, -np.inf)
+    return np.maximum(a.max(axis=0), np.where(refine, vertex, 0.0))
+
+
+def peaks(plan, samples: int = PEAK_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """Largest |u_j| and |du_j/dt| over the plan, per input (controls only: no integration)."""
+    m = len(plan.inputs)
+    u_peak, du_peak = np.zeros(m), np.zeros(m)
+    for leg in plan.legs:
+        tau = np.linspace(0.0, float(leg.duration), samples)
+        u_peak = np.maximum(u_peak, _peak(leg.controls(tau)))
+        du_peak = np.maximum(du_peak, _peak(leg.controls(tau, derivative=True)))
+    return u_peak, du_peak
+
+
+def rate_limited(plan, constraints) -> tuple[float, str]:
+    """The speed-up s ≤ 1 that makes the plan meet the rate and acceleration limits of
+    `constraints` (`constraints.Constraints`) exactly (1 when it meets them already) and
+    which limit sets it ("" when none does)."""
+    if (constraints.max_rate is None and constraints.max_acceleration is None) or not plan.legs:
+        return 1.0, ""
+    u_peak, du_peak = peaks(plan)
+    options = [(1.0, "")]
+    for j, name in enumerate(plan.inputs):
+        if constraints.max_rate is not None and u_peak[j] > 0:
+            limit = constraints.max_rate[j]
+            options.append((limit / u_peak[j], f"the rate limit of {name} ({limit:g} rad/s)"))
+        if constraints.max_acceleration is not None and du_peak[j] > 0:
+            limit = constraints.max_acceleration[j]
+            options.append(
+                (
+                    math.sqrt(limit / du_peak[j]),
+                    f"the acceleration limit of {name} ({limit:g} rad/s²)",
+                )
+            )
+    return min(options, key=lambda o: o[0])

@@ -52,3 +52,15 @@ def test_missing_file_and_bad_xml(tmp_path):
     bad.write_text("<robot")
     with pytest.raises(InputError, match="not valid XML"):
         read_urdf(bad)
+
+
+@pytest.mark.parametrize("role", ["parent", "child"])
+def test_a_joint_naming_a_missing_link_is_named(tmp_path, role):
+    """Not "needs exactly one root link, found 2": the typo itself, joint and link named."""
+    parent, child = ("x", "c") if role == "parent" else ("b", "x")
+    path = _write(tmp_path, _joint("j1", "revolute") + _joint("j2", "revolute", parent, child))
+    with pytest.raises(InputError) as err:
+        read_urdf(path)
+    text = str(err.value)
+    assert f"the {role} of joint 'j2', 'x', is not a link in the file (links: a, b, c)" in text
+    assert "exactly one root" not in text and "\n" not in text

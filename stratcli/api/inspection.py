@@ -135,6 +135,10 @@ def check_controllability(
     doc = check_document(system, strata, q, samples=samples, degree=degree, seed=seed, legs=legs)
     seconds = time.perf_counter() - clock
     doc["target"] = task.source if task is not None else str(target)
+    if task is not None:  # a URDF scenario's start, vias or goal outside the URDF's limits
+        from ..urdf_limits import outside_limits
+
+        doc["warnings"] += outside_limits(task)
     return CheckReport(doc, title, seconds)
 
 

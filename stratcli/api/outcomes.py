@@ -51,6 +51,9 @@ class ComparisonOutcome:
     comparison: Comparison
     document: dict[str, Any]  # comparison.json
     best: PlanOutcome
+    # for the user, about the best plan, which the ranking does not show (also in its notes):
+    # where it leaves its URDF's joint limits (`urdf_limits.with_limit_notes`)
+    notes: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:

@@ -26,6 +26,7 @@ from ..scenario import Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import MAX_TIME_SCALE
 from ..time_scaling import scale_time, time_scaled
+from ..urdf_limits import with_limit_notes
 from .auto import auto_choice
 from .inspection import controllability_first
 from .outcomes import ComparisonOutcome, PlanOutcome
@@ -190,8 +191,9 @@ def plan_run(
         with phase(phases, "constraints"):
             say("verifying the constraints on a dense re-integration")
             result = within_rates(result.with_system(task.system), task, scale)
-    elif scale != 1.0:
-        result = time_scaled(result, scale)
+    else:  # a URDF's joint limits, unless [constraints] verified them: noted (at its speed)
+        result = time_scaled(result, scale) if scale != 1.0 else result
+        result = with_limit_notes(result, task)
     result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
     doc = result.to_dict()
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases)
@@ -246,14 +248,17 @@ def plan_auto(
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale == 1.0:
         return outcome
-    result = outcome.best.result
-    if task.constraints is None:
-        result = time_scaled(result, scale)
+    result, notes = outcome.best.result, outcome.notes
+    if task.constraints is None:  # the notes' times (a URDF's limits) at the new speed
+        kept = tuple(note for note in result.notes if note not in notes)
+        result = time_scaled(dataclasses.replace(result, notes=kept), scale)
+        noted = with_limit_notes(result, task)
+        notes, result = noted.notes[len(result.notes) :], noted
     elif result.ok:  # re-timed from the plan as compared (a failed one is kept as it is)
         chosen = outcome.comparison.best.plan.with_system(task.system)
         result = _named(within_rates(chosen, task, scale), task, result.timings)
     best = dataclasses.replace(outcome.best, result=result, document=result.to_dict())
-    return dataclasses.replace(outcome, best=best)
+    return dataclasses.replace(outcome, best=best, notes=notes)
 
 
 def within_rates(result: SequencePlan, task: Task, scale: float = 1.0) -> SequencePlan:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import tempfile
@@ -197,7 +198,13 @@ def _outcome_of(plan: SequencePlan) -> PlanOutcome:
             "the plan has no scenario to record (it was not planned from one): plan it with "
             "stratcli.plan(scenario)"
         )
-    task = load_scenario(plan.scenario_text, name=plan.scenario or "<plan>")
+    text, spec = plan.scenario_text, plan.model.spec
+    if getattr(spec, "kind", None) == "urdf":  # its path is relative to a file unknown here
+        from ..records.model_files import with_model_path
+
+        text = with_model_path(text, spec.path)  # (absolute: as the plan was built)
+    task = load_scenario(text, name=plan.scenario or "<plan>")
+    task = replace(task, text=plan.scenario_text)  # recorded as given
     if not task.legs:  # auto mode: record the chosen sequence, as `stratplan plan` does
         legs = [LegSpec(leg.stratum, leg.goal, leg.method, leg.duration) for leg in plan.legs]
         task = with_legs(task, legs)
@@ -221,7 +228,8 @@ def load_run(path: str | Path) -> SequencePlan:
     -------
     SequencePlan
         The same plan type `plan` returns: `load_run(d).to_dict()` equals the record's
-        result.json; `.sample()` rebuilds the model from the record's scenario.
+        result.json; `.sample()` rebuilds the model from the record's scenario (a URDF
+        robot from the record's own copy of its URDF).
 
     Raises
     ------
@@ -229,7 +237,6 @@ def load_run(path: str | Path) -> SequencePlan:
         When the record is missing, incomplete or damaged.
     """
     from ..results import ModelRef, Timings  # start-up speed (module comment)
-    from ..scenario import Scenario
     from ..sequence import SequencePlan
 
     path = Path(path)
@@ -237,10 +244,7 @@ def load_run(path: str | Path) -> SequencePlan:
         path = path.parent
     record = read_record(path)
     text = (path / "scenario.toml").read_text(encoding="utf-8")
-    try:
-        scenario = Scenario.model_validate(tomllib.loads(text))
-    except (tomllib.TOMLDecodeError, ValueError) as exc:
-        raise InputError(f"{path}/scenario.toml: not a valid scenario ({exc})") from None
+    scenario = _record_scenario(path, text)
     model = ModelRef(record.result["model"], scenario.model)
     try:
         plan = SequencePlan.from_dict(record.result, scenario.planner, model)
@@ -253,6 +257,53 @@ def load_run(path: str | Path) -> SequencePlan:
         float(m.get("planning_time_s", float("nan"))),
     )
     return replace(plan, scenario_text=text, timings=timings)
+
+
+def _record_scenario(path: Path, text: str):
+    """The record's scenario.toml validated as `load_scenario` reads it (a URDF scenario's
+    configurations by joint name, its URDF path relative to the record), not resolved;
+    one `InputError` line naming the file when it is not a valid scenario.
+
+    A record written before records held their URDF names it relative to the scenario file
+    it came from: where that finds nothing, the absolute path of its resolved.json is used.
+    """
+    from pydantic import ValidationError
+
+    from ..scenario import Scenario
+    from ..schema_problems import validation_problems
+
+    where = f"{path}/scenario.toml"
+    try:
+        raw = tomllib.loads(text)
+        model = raw.get("model")
+        if isinstance(model, dict) and model.get("kind") == "urdf":
+            from ..models.spatial_scenario import prepare_urdf
+
+            raw["model"] = {**model, "path": _urdf_path(path, model.get("path"))}
+            raw, _ = prepare_urdf(raw, path)
+        return Scenario.model_validate(raw)
+    except tomllib.TOMLDecodeError as exc:
+        problems = [Problem("", f"not TOML ({exc})")]
+    except ValidationError as exc:
+        problems = validation_problems(exc, root=Scenario)
+    except InputError as exc:
+        problems = exc.problems
+    first = problems[0].render() if problems else "invalid"
+    more = f"; and {len(problems) - 1} more" if len(problems) > 1 else ""
+    raise InputError(f"{where}: not a valid scenario ({first}{more})") from None
+
+
+def _urdf_path(path: Path, given: Any) -> Any:
+    """`given` (the record's `[model] path`), or for an older record whose path does not lead
+    to a file from the record, the absolute path of its resolved.json if that exists."""
+    if not isinstance(given, str) or (path / Path(given).expanduser()).is_file():
+        return given
+    try:
+        resolved = json.loads((path / "resolved.json").read_text(encoding="utf-8"))
+        absolute = resolved["model"]["path"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return given
+    return absolute if isinstance(absolute, str) and Path(absolute).is_file() else given
 
 
 def read_run(path: Path) -> tuple[Record, dict[str, Any] | None]:

@@ -16,6 +16,7 @@ from ..records.comparison import comparison_document
 from ..results import Timings
 from ..scenario import LegEntry, Task
 from ..trie import default_jobs
+from ..urdf_limits import with_limit_notes
 from .auto import auto_settings, compare_decomposition, decompose_task
 from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
 from .planning import (
@@ -130,12 +131,14 @@ def compare_sequences(
     result = best.plan
     if task.constraints is not None and result.ok:  # rate limits met by time scaling
         result = within_rates(result.with_system(task.system), task)
+    noted = with_limit_notes(result, task)  # a URDF's limits without [constraints]
+    notes, result = noted.notes[len(result.notes) :], noted
     result = _named(result, task, timings)
     plan = PlanOutcome(
         best_task, result, result.to_dict(), started, compile_time, comparison.wall_time
     )
     plan.phases["import"] = dict(IMPORTED)
-    return ComparisonOutcome(task, auto, dec, comparison, doc, plan)
+    return ComparisonOutcome(task, auto, dec, comparison, doc, plan, notes)
 
 
 @contextmanager

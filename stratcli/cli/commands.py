@@ -197,6 +197,7 @@ def compare_sequences(
         render_tables.ranking(task, outcome.document)
         render.say(f"best: {outcome.comparison.choice()}")
         render_tables.comparison_footer(outcome, run_dir)
+    render.notes(outcome.notes)  # the best plan's (its URDF's joint limits)
     if not outcome.ok:
         render.error("no sequence reached the goal", outcome.comparison.choice())
     raise typer.Exit(0 if outcome.ok else 1)

@@ -90,6 +90,13 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
         joints.append(
             UrdfJoint(name, kind, parent.get("link", ""), child.get("link", ""), lower, upper)
         )
+    for joint in joints:  # else "needs exactly one root link", which hides the typo
+        for role, link in (("parent", joint.parent), ("child", joint.child)):
+            if link not in links:
+                raise _fail(
+                    f"{path}: the {role} of joint {joint.name!r}, {link!r}, is not a link in "
+                    f"the file (links: {', '.join(links[:10])}{', ...' if len(links) > 10 else ''})"
+                )
     children = {j.child for j in joints}
     roots = [link for link in links if link not in children]
     if len(roots) != 1:

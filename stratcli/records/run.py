@@ -11,6 +11,7 @@ from ..sequence import SequencePlan
 from .foxglove_layout import run_layout
 from .manifest import phase
 from .mcap_log import mcap_bytes
+from .model_files import model_files
 from .plots import render_plots
 from .rundir import run_name, write_run
 from .trajectory import sample
@@ -40,7 +41,8 @@ def record_files(
     animation: bool = False,
     fmt: str = "png",
 ) -> dict[str, Any]:
-    """Name → content of every file of the run directory (plots as `fmt`: png, svg or pdf).
+    """Name → content of every file of the run directory (plots as `fmt`: png, svg or pdf;
+    a URDF robot's URDF, `model_files`).
 
     The trajectory is re-integrated densely (≥ 200 samples per leg) for the MCAP log and the
     plots; both are built in memory so the run directory can be written atomically. Each part
@@ -58,11 +60,16 @@ def record_files(
         "result.json": doc,
         "manifest.json": manifest,
         "layout.json": layout,
+        **plots,
     }
+    # a URDF robot: its URDF beside scenario.toml, which names it (`model_files`)
+    later = {"run.mcap", "comparison.json", "comparison.csv", f"ranking.{fmt}"}
+    if urdf := model_files(task, {*files, *later}):
+        files["scenario.toml"], copy, manifest["urdf"] = urdf
+        files.update(copy)
     with phase(phases, "run.mcap"):
         name = task.scenario.name
         files["run.mcap"] = mcap_bytes(plan, traj, doc, manifest, task.text, name, layout)
-    files.update(plots)
     return files
 
 

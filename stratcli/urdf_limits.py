@@ -1,0 +1,150 @@
+"""A URDF's joint limits where the scenario has no `[constraints]` table: noted, not enforced.
+
+With a `[constraints]` table, a URDF model's joint limits default to the URDF's and are
+verified like any other (`constraints.resolve`, `verify`): a plan that leaves them fails,
+and its message says that the limit came from the URDF and what can help there
+(`violation_advice`: the constrained search does not run on URDF models). Without one, the
+plan is left as it is (its status unchanged) and gets a note instead (`with_limit_notes`):
+where its start, vias or goal lie outside the URDF's limits (`outside_limits`, which
+`stratplan check` prints as a warning), and which legs leave them, how far and when. The
+joints of a URDF model are closed-form integrals of the Fourier controls
+(`FourierBasis.integrals`), so the check integrates nothing: it evaluates them at `SAMPLES`
+instants per piece. URDF velocity limits (`<limit velocity>`) are not used (rate limits
+are `[constraints] max_rate`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from .status import Status
+
+__all__ = ["URDF_LIMIT", "outside_limits", "violation_advice", "with_limit_notes"]
+
+SAMPLES = 2000  # per piece of a leg (a Newton leg has one)
+URDF_LIMIT = "the URDF's joint limits of"  # how `constraints.verify` names one it breaks
+VERIFIED = (
+    "add a [constraints] table (even an empty one) to have them verified (the plan then fails)"
+)
+REFUSED = "with a [constraints] table, even an empty one, that is an error"
+URDF_ADVICE = (
+    "reached its goals but violates a joint limit of the URDF; the constrained search does "
+    "not run on URDF models (more harmonics or the other objective do not help): try via "
+    "configurations that keep the joint away from the limit, another stratum sequence, or "
+    "wider limits in [constraints].joint_limits"
+)
+SPATIAL_ADVICE = (
+    "reached its goals but violates a limit of [constraints]; the constrained search does "
+    "not run on URDF models: try via configurations that keep the robot away from the limit, "
+    "another stratum sequence, or wider limits"
+)
+
+
+def violation_advice(plan, violated: str) -> str:
+    """What to try after `violated` (a `constraints.verify` violation): for a URDF model's
+    limits what can help there, else the status' own advice."""
+    if URDF_LIMIT in violated:
+        return URDF_ADVICE
+    if getattr(plan.model.spec, "kind", plan.model.name) == "urdf":  # (no model built)
+        return SPATIAL_ADVICE
+    return Status.CONSTRAINT_VIOLATED.value
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.3g}"
+
+
+def outside_limits(task) -> list[str]:
+    """One sentence per start, via or goal coordinate of a URDF scenario without
+    [constraints] that lies outside the URDF's limits (what `stratplan check` warns of)."""
+    robot = getattr(task.system, "spatial", None)
+    if robot is None or task.constraints is not None:
+        return []
+    lower, upper = np.asarray(robot.lower, float), np.asarray(robot.upper, float)
+    found = _configurations(task, lower, upper, robot.joint_names)
+    return [f"{'; '.join(found)}; {REFUSED}"] if found else []
+
+
+def _configurations(task, lower, upper, names) -> list[str]:
+    """One phrase per start, via or goal coordinate outside the URDF's limits."""
+    k = len(names)
+    places = [("task.start", task.start)]
+    places += [(f"legs[{i}].goal", leg.goal) for i, leg in enumerate(task.legs[:-1])]
+    places += [("task.goal", task.goal)]
+    out = []
+    for where, q in places:
+        if q is None:
+            continue
+        q = np.asarray(q, dtype=float)[:k]
+        for j in np.flatnonzero(np.isfinite(q) & ((q < lower) | (q > upper))):
+            out.append(
+                f"{where} has {names[j]} = {_fmt(q[j])}, outside the URDF's limits "
+                f"[{_fmt(lower[j])}, {_fmt(upper[j])}]"
+            )
+    return out
+
+
+def joint_paths(leg, k: int, samples: int = SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """(leg-local times, joints (N, k)) of a URDF leg, in closed form from its controls."""
+    times, joints = [], []
+    q0 = np.asarray(leg.start, dtype=float)[:k].copy()
+    active = [i for i in leg.active if i < k]
+    for piece in leg.pieces:
+        tau = np.linspace(0.0, float(piece.duration), samples)
+        q = np.repeat(q0[None, :], samples, axis=0)
+        moved = leg.basis.integrals(tau) @ np.atleast_2d(piece.coefficients).T
+        q[:, active] += moved[:, : len(active)]
+        times.append(piece.t0 + tau)
+        joints.append(q)
+        q0 = q[-1].copy()
+    if not joints:
+        return np.zeros(0), np.zeros((0, k))
+    return np.concatenate(times), np.concatenate(joints)
+
+
+def _legs(plan, lower, upper, names) -> list[str]:
+    """Per joint, the legs that go outside its limits, and the farthest point: its value and
+    time on the plan's axis."""
+    k = len(names)
+    legs: dict[int, list[int]] = {}
+    worst: dict[int, tuple[float, float, float]] = {}  # joint -> (beyond, value, t)
+    for leg in plan.legs:
+        t, q = joint_paths(leg, k)
+        if not len(q) or not np.isfinite(q).all():
+            continue
+        beyond = np.maximum(lower - q, q - upper)  # > 0 outside
+        for j in np.flatnonzero(beyond.max(axis=0) > 0):
+            i = int(np.argmax(beyond[:, j]))
+            legs.setdefault(j, []).append(leg.index + 1)
+            if j not in worst or beyond[i, j] > worst[j][0]:
+                worst[j] = (float(beyond[i, j]), float(q[i, j]), leg.t0 + float(t[i]))
+    out = []
+    for j in sorted(legs):
+        numbers = legs[j]
+        which = (
+            f"leg {numbers[0]} leaves"
+            if len(numbers) == 1
+            else f"legs {', '.join(map(str, numbers[:-1]))} and {numbers[-1]} leave"
+        )
+        _, value, when = worst[j]
+        out.append(
+            f"{which} the URDF's limits of {names[j]} [{_fmt(lower[j])}, {_fmt(upper[j])}] "
+            f"(reach{'es' if len(numbers) == 1 else ''} {_fmt(value)} at t = {when:.3f} s)"
+        )
+    return out
+
+
+def with_limit_notes(plan, task):
+    """`plan` with a note for each way it or its task leaves the URDF's joint limits (only
+    for a URDF model in a scenario without [constraints]; else `plan` itself)."""
+    robot = getattr(task.system, "spatial", None)
+    if robot is None or task.constraints is not None:
+        return plan
+    names = robot.joint_names
+    lower, upper = np.asarray(robot.lower, float), np.asarray(robot.upper, float)
+    notes = outside_limits(task)
+    if left := _legs(plan, lower, upper, names):
+        notes.append(f"{'; '.join(left)}; {VERIFIED}")
+    return replace(plan, notes=(*plan.notes, *notes)) if notes else plan
