@@ -351,10 +351,10 @@ def candidate_within_limits(system, start, legs, settings, plan, constraints, se
     (`constraints.enforce`), and at equal total duration they change no ranking."""
     from .constraints import enforce  # (re-integration and figures' geometry: not needed above)
 
-    if constraints is None or not plan.ok:
+    if not searchable(constraints) or not plan.ok:  # (rate limits alone: nothing to do here)
         return plan
     plan = plan.with_system(system)
-    if searchable(constraints) and not searched:
+    if not searched:
         plan = within_limits(system, start, legs, settings, plan, constraints)
     geometric = replace(constraints, max_rate=None, max_acceleration=None)
     return enforce(plan, geometric)

@@ -40,6 +40,7 @@ import numpy as np
 
 from .interrupts import checkpoint
 from .models.system import System
+from .node_margins import searchable
 from .objectives import candidate_within_limits, plan_sequence
 from .results import LegPlan
 from .sequence import SequencePlan
@@ -324,7 +325,7 @@ def compare_shared(system, settings, start, candidates, valid, jobs, advance):
                 break
         plans[k] = error or assemble(system, settings, start, list(cand.legs), legs)
         times[k] = seconds
-    if STATE.get("constraints") is not None:  # auto mode under [constraints]: a second pass
+    if searchable(STATE.get("constraints")):  # auto mode within limits: a second pass
         units = [
             ((k, list(candidates[k].legs), plan), 1)
             for k, plan in plans.items()
