@@ -320,8 +320,10 @@ def plan_summary(doc: dict) -> None:
             + (" (energies before time scaling)" if scale != 1.0 else ""),
             highlight=False,
         )
+    failure = (doc.get("message") or "") if doc["status"] != "ok" else ""
     for note in doc.get("notes") or []:
-        out_console.print(f"note: {escape(note)}", highlight=False)
+        if note not in failure:  # (the failure line below says it: once is enough)
+            out_console.print(f"note: {escape(note)}", highlight=False)
     from .render_tables import limit_margins  # (which imports this module)
 
     if margins := limit_margins(doc.get("constraints")):
