@@ -61,3 +61,16 @@ def test_failed_invalid_and_erroring_tasks_are_rows(tmp_path):
     broken["scenario"] = None  # not a scenario at all: an exception inside the task
     row = run_task(broken)["row"]
     assert row["status"] == "error" and row["message"]
+
+
+def test_a_constrained_tasks_row_holds_its_smallest_margins(tmp_path):
+    task = list(load_sweep(write(tmp_path, GRID)).tasks())[3]
+    payload = _payload(task)
+    payload["scenario"]["constraints"] = {"joint_limits": [-3.0, 3.0], "max_rate": 5.0}
+    row = run_task(payload)["row"]
+    direct = plan_run(load_scenario(payload["scenario"])).result
+    legs = direct.constraints.legs
+    assert row["margin_joint_limit"] == min(m.joint_limit for m in legs)
+    assert row["margin_rate"] == min(m.rate for m in legs)
+    assert "margin_self_clearance" not in row  # not asked for
+    assert "margin_joint_limit" not in run_task(_payload(task))["row"]

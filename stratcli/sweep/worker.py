@@ -103,6 +103,7 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
             sequence=",".join(leg.stratum for leg in plan.legs),
             planning_time_s=planning,
         )
+        row.update(_margins(plan.constraints))
     except InputError as exc:
         row.update(status="invalid", message=str(exc).replace("\n", "; "))
     except NotControllableError as exc:
@@ -117,6 +118,20 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
     row["task_time_s"] = time.perf_counter() - clock
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
     return {"row": row, "record": record}
+
+
+MARGINS = ("joint_limit", "self_clearance", "obstacle_clearance", "rate", "acceleration")
+
+
+def _margins(report) -> dict[str, float]:
+    """Under [constraints]: the smallest margin to each limit over the legs, as columns
+    `margin_<limit>` (negative where a limit is broken)."""
+    out = {}
+    for key in MARGINS if report is not None else ():
+        values = [v for m in report.legs if (v := getattr(m, key)) is not None]
+        if values:
+            out[f"margin_{key}"] = _finite(min(values))
+    return out
 
 
 def _record_files(outcome, write_record, payload) -> tuple[str, dict[str, bytes]] | None:
