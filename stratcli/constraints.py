@@ -224,7 +224,7 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
     first violation, named by limit, leg and time."""
     trajectory = sample(plan, samples)
     robot = getattr(plan.system, "robot", None)
-    margins, violated = [], ""
+    margins, violated, violation = [], "", None
     for leg in plan.legs:
         sel = trajectory.leg == leg.index
         t, q, u, du = trajectory.t[sel], trajectory.q[sel], trajectory.u[sel], trajectory.du[sel]
@@ -262,13 +262,15 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
                     pair, _ = closest_pair(robot, q[int(np.argmin(world))], c, obstacles=True)
                     found["obstacle_clearance"] = (*_first(world, t), f"an obstacle ({pair})")
         margins.append(LegMargins(**{k: v[0] for k, v in found.items()}))
-        for value, when, what in found.values():
+        for key, (value, when, what) in found.items():
             if not violated and value < -VIOLATION_TOL:
                 violated = (
                     f"leg {leg.index + 1} ({leg.stratum}) violates {what} by "
                     f"{-value:.3g} at t = {when:.3f} s"
                 )
-    return ConstraintReport(c.spec, tuple(margins), samples, violated)
+                violation = {"leg": leg.index + 1, "limit": key, "what": what, "by": -value}
+                violation["t"] = when
+    return ConstraintReport(c.spec, tuple(margins), samples, violated, violation=violation)
 
 
 def verified_again(plan):

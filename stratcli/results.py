@@ -276,6 +276,8 @@ class ConstraintReport:
     samples_per_leg : re-integration samples per leg behind the margins.
     violated : empty when every margin is ≥ 0; else names the limit, the leg and the time.
     duration_set_by : the rate or acceleration limit that slowed the plan ("" if none did).
+    violation : the first violation for scripts (None if none): `leg` (1-based), `limit`
+        (a `LegMargins` key), `what` (the limit named), `by` (how far past it), `t` (s).
     """
 
     spec: dict[str, Any]
@@ -283,6 +285,7 @@ class ConstraintReport:
     samples_per_leg: int = 0
     violated: str = ""
     duration_set_by: str = ""
+    violation: dict[str, Any] | None = None
 
     @property
     def ok(self) -> bool:
@@ -296,6 +299,7 @@ class ConstraintReport:
             "samples_per_leg": self.samples_per_leg,
             "violated": self.violated or None,
             "duration_set_by": self.duration_set_by or None,
+            "violation": self.violation,
             "legs": [m.to_dict() for m in self.legs],
         }
 
@@ -308,4 +312,5 @@ class ConstraintReport:
             samples_per_leg=int(doc.get("samples_per_leg") or 0),
             violated=doc.get("violated") or "",
             duration_set_by=doc.get("duration_set_by") or "",
+            violation=doc.get("violation"),
         )

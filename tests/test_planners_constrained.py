@@ -211,6 +211,11 @@ def test_a_task_the_search_cannot_plan_fails_naming_the_limit_and_the_leg(tmp_pa
     (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
     doc = json.loads((run / "result.json").read_text())
     assert doc["status"] == "failed" and doc["constraints"]["violated"]
+    violation = doc["constraints"]["violation"]  # the same, for scripts
+    assert violation["limit"] in doc["constraints"]["legs"][violation["leg"] - 1]
+    margin = doc["constraints"]["legs"][violation["leg"] - 1][violation["limit"]]
+    assert violation["by"] > 0 and margin <= -violation["by"] + 1e-12
+    assert f"violates {violation['what']} by" in doc["constraints"]["violated"]
 
 
 @pytest.mark.slow
