@@ -280,6 +280,8 @@ def verified_again(plan):
     out = replace(plan, constraints=report)
     if not report.ok and plan.ok:
         out = replace(out, message=f"{report.violated}; {violation_advice(out, report.violated)}")
+    elif out.ok and not plan.ok:  # slowed back within its limits: the violation is gone
+        out = replace(out, message="")
     return out
 
 

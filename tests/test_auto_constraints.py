@@ -71,3 +71,7 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     assert faster.status is stratcli.Status.CONSTRAINT_VIOLATED
     assert "violates the rate limit of" in faster.message
     assert faster.to_dict()["constraints"]["violated"]
+    # slowed back within the limit: ok, and no message of the violation left behind
+    back = stratcli.time_scaled(faster, 0.1)
+    assert back.ok and back.message == "" and back.to_dict()["status"] == "ok"
+    assert back.constraints.legs[0].rate == pytest.approx(plan.constraints.legs[0].rate, abs=1e-6)
