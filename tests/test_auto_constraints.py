@@ -59,6 +59,15 @@ def test_a_rate_limit_in_auto_mode_slows_the_chosen_plan_and_says_so():
     assert peak <= 0.5 * (1 + 1e-9)
     assert plan.constraints.duration_set_by.startswith("the rate limit of")
     assert any("the time scale 2 asked for is too fast" in n for n in plan.notes)
+    # the notes for the user (compare-sequences prints them under its ranking, which shows
+    # the sequences as planned) say how much the best was slowed, at the speed it runs at
+    slowed = [n for n in outcome.notes if n.startswith("slowed")]
+    assert slowed and slowed == [n for n in plan.notes if n.startswith("slowed")]
+    compared = stratcli.compare_sequences(task, jobs=1)
+    assert [n for n in compared.notes if n.startswith("slowed")] == [
+        n for n in compared.best.result.notes if n.startswith("slowed")
+    ]
+    assert compared.notes and compared.best.result.duration > 10 * compared.comparison.best.duration
 
 
 def test_time_scaled_verifies_a_constrained_plan_again():
