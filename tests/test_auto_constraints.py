@@ -3,6 +3,7 @@ that carries a constraints report (`time_scaled`)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +80,11 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     assert not faster.ok
     assert faster.status is stratcli.Status.CONSTRAINT_VIOLATED
     assert "violates the rate limit of" in faster.message
+    # the advice is to run it slower, by how much (not the vias or harmonics of a plan that
+    # was planned off its limits: joint limits and clearances do not change with the speed)
+    assert "via configurations" not in faster.message
+    factor = float(re.search(r"time_scaled by ([0-9.e+-]+) or less", faster.message)[1])
+    assert 0.09 < factor <= 0.1 and stratcli.time_scaled(faster, factor).ok
     assert faster.to_dict()["constraints"]["violated"]
     # slowed back within the limit: ok, and no message of the violation left behind
     back = stratcli.time_scaled(faster, 0.1)
