@@ -21,6 +21,7 @@ not move inside them is reported here with the leg where that search stalled.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Annotated, Any, Literal
 
@@ -280,9 +281,22 @@ def verified_again(plan):
     c = resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
     report = replace(verify(plan, c), duration_set_by=plan.constraints.duration_set_by)
     out = replace(plan, constraints=report)
-    if not report.ok and plan.ok:
-        out = replace(out, message=f"{report.violated}; {violation_advice(out, report.violated)}")
+    if not report.ok and plan.ok:  # run too fast: only a rate or acceleration limit can break
+        out = replace(out, message=f"{report.violated}; {_too_fast(out, c)}")
+    elif out.ok and not plan.ok:  # slowed back within its limits: the violation is gone
+        out = replace(out, message="")
     return out
+
+
+def _too_fast(plan, c: Constraints) -> str:
+    """The advice for a plan re-timed faster than its rate or acceleration limits allow
+    (joint limits and clearances do not depend on the speed): how much slower meets them."""
+    s, which = rate_limited(plan, c)
+    k = 10.0 ** (2 - math.floor(math.log10(s)))  # 3 significant digits, rounded down
+    return (
+        f"re-timed too fast for {which}: time_scaled by {math.floor(s * k) / k:g} or less "
+        "meets every rate and acceleration limit"
+    )
 
 
 def enforce(plan, c: Constraints):

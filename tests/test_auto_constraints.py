@@ -3,6 +3,7 @@ that carries a constraints report (`time_scaled`)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +60,15 @@ def test_a_rate_limit_in_auto_mode_slows_the_chosen_plan_and_says_so():
     assert peak <= 0.5 * (1 + 1e-9)
     assert plan.constraints.duration_set_by.startswith("the rate limit of")
     assert any("the time scale 2 asked for is too fast" in n for n in plan.notes)
+    # the notes for the user (compare-sequences prints them under its ranking, which shows
+    # the sequences as planned) say how much the best was slowed, at the speed it runs at
+    slowed = [n for n in outcome.notes if n.startswith("slowed")]
+    assert slowed and slowed == [n for n in plan.notes if n.startswith("slowed")]
+    compared = stratcli.compare_sequences(task, jobs=1)
+    assert [n for n in compared.notes if n.startswith("slowed")] == [
+        n for n in compared.best.result.notes if n.startswith("slowed")
+    ]
+    assert compared.notes and compared.best.result.duration > 10 * compared.comparison.best.duration
 
 
 def test_time_scaled_verifies_a_constrained_plan_again():
@@ -70,4 +80,13 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     assert not faster.ok
     assert faster.status is stratcli.Status.CONSTRAINT_VIOLATED
     assert "violates the rate limit of" in faster.message
+    # the advice is to run it slower, by how much (not the vias or harmonics of a plan that
+    # was planned off its limits: joint limits and clearances do not change with the speed)
+    assert "via configurations" not in faster.message
+    factor = float(re.search(r"time_scaled by ([0-9.e+-]+) or less", faster.message)[1])
+    assert 0.09 < factor <= 0.1 and stratcli.time_scaled(faster, factor).ok
     assert faster.to_dict()["constraints"]["violated"]
+    # slowed back within the limit: ok, and no message of the violation left behind
+    back = stratcli.time_scaled(faster, 0.1)
+    assert back.ok and back.message == "" and back.to_dict()["status"] == "ok"
+    assert back.constraints.legs[0].rate == pytest.approx(plan.constraints.legs[0].rate, abs=1e-6)

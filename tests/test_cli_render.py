@@ -287,3 +287,18 @@ def test_messages_print_user_text_verbatim_not_as_emoji(tmp_path):
     assert all(isinstance(c, render.Stream) for c in (render.out_console, render.err_console))
     task = SimpleNamespace(description="connecting to localhost:-1 [b]")
     assert render.description_column().render(task).plain == "connecting to localhost:-1 [b]"
+
+
+def test_margins_met_exactly_print_as_zero_and_violations_as_they_are():
+    from stratcli.cli.render_tables import limit_margins
+
+    report = {
+        "samples_per_leg": 2000,
+        "legs": [
+            {"joint_limit": 0.2, "rate": -5.55e-16, "acceleration": None},
+            {"joint_limit": -0.01, "rate": 0.3, "acceleration": None},
+        ],
+    }
+    line = limit_margins(report)
+    assert "leg 1: joints 0.2 rad, rate 0 rad/s;" in line  # met exactly: rounding, not -5.55e-16
+    assert "leg 2: joints -0.01 rad, rate 0.3 rad/s" in line  # a violation keeps its sign

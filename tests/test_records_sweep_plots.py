@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from stratcli.records.sweep_plots import energy_map, sequence_map, sweep_figures
+from stratcli.records.sweep_plots import energy_hist, energy_map, sequence_map, sweep_figures
 
 
 def _spec(kind="grid", axes=((0.0, 1.0, 2.0), (-1.0, 1.0)), mode="auto"):
@@ -37,3 +37,15 @@ def test_a_1d_grid_and_random_tasks():
     assert sorted(sweep_figures(_spec(axes=((0.0, 1, 2, 3, 4, 5),)), _rows(6))) == ["energy.png"]
     assert sorted(sweep_figures(_spec(kind="random", axes=()), _rows(6))) == ["energy_hist.png"]
     assert sweep_figures(_spec(), {}) == {}
+
+
+def test_a_histogram_of_energies_equal_but_for_rounding():
+    # the same task at two tolerances: 84.04084130530867 and 84.04084130530865 (numpy
+    # refused 30 bins over that range: the sweep ended with a traceback, no results.csv)
+    rows = {k: {"index": k, "status": "ok", "energy": e, "sequence": "S3,S1"}
+            for k, e in enumerate((84.04084130530867, 84.04084130530865))}  # fmt: skip
+    figure = energy_hist(_spec(kind="random", axes=()), rows)
+    assert sum(patch.get_height() for patch in figure.axes[0].patches) == 2
+    assert sweep_figures(_spec(kind="random", axes=()), rows)["energy_hist.png"].startswith(
+        b"\x89PNG"
+    )

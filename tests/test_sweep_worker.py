@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 
+import pytest
 from reintegrate import verify
-from sweep_files import AUTO, GRID, write
+from sweep_files import AUTO, GRID, ROOT, write
 
 from stratcli.api import plan_auto, plan_run
 from stratcli.scenario import load_scenario
 from stratcli.sweep import load_sweep, run_task
+from stratcli.time_scaling import peaks
 
 
 def _payload(task, mode="legs", records="none", **changes):
@@ -74,3 +77,28 @@ def test_a_constrained_tasks_row_holds_its_smallest_margins(tmp_path):
     assert row["margin_rate"] == min(m.rate for m in legs)
     assert "margin_self_clearance" not in row  # not asked for
     assert "margin_joint_limit" not in run_task(_payload(task))["row"]
+
+
+def test_a_rows_peak_control_is_the_plans_as_run(tmp_path):
+    # the plan slowed to its rate limit (0.5 rad/s) has a longer basis period than the
+    # task's settings: a row measured with those read 7.06 rad/s and a 39 rad excursion
+    rated = ROOT / "scenarios" / "sim4_task_d_rate_limited.toml"
+    body = '[[sweep.task]]\n"planner.tolerance" = 1e-3\n'
+    task = next(load_sweep(write(tmp_path, body, scenario=rated)).tasks())
+    row = run_task(_payload(task))["row"]
+    plan = plan_run(load_scenario(task.scenario)).result
+    assert row["status"] == "ok" and plan.time_scale < 0.1
+    assert row["peak_control"] == pytest.approx(0.5, rel=1e-3)
+    assert row["peak_control"] == pytest.approx(peaks(plan)[0].max(), rel=1e-3)
+    assert row["excursion"] < 2 * math.pi
+
+
+def test_auto_mode_rows_measure_the_chosen_plan_after_time_scaling(tmp_path):
+    body = '[[sweep.task]]\n"planner.time_scale" = 2.0\n'
+    task = next(load_sweep(write(tmp_path, body, scenario=AUTO, mode="auto")).tasks())
+    row = run_task(_payload(task, mode="auto"))["row"]
+    direct = plan_auto(load_scenario(task.scenario), jobs=1)
+    as_planned = direct.comparison.best.peak_control
+    assert row["status"] == "ok" and direct.best.result.time_scale == 2.0
+    assert row["peak_control"] == pytest.approx(2.0 * as_planned, rel=1e-9)
+    assert row["peak_control"] == pytest.approx(peaks(direct.best.result)[0].max(), rel=1e-3)

@@ -52,7 +52,8 @@ class ComparisonOutcome:
     document: dict[str, Any]  # comparison.json
     best: PlanOutcome
     # for the user, about the best plan, which the ranking does not show (also in its notes):
-    # where it leaves its URDF's joint limits (`urdf_limits.with_limit_notes`)
+    # where it leaves its URDF's joint limits (`urdf_limits.with_limit_notes`), how much it
+    # was slowed to meet its rate limits (`planning.within_rates`)
     notes: tuple[str, ...] = ()
 
     @property

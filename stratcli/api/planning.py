@@ -257,6 +257,7 @@ def plan_auto(
     elif result.ok:  # re-timed from the plan as compared (a failed one is kept as it is)
         chosen = outcome.comparison.best.plan.with_system(task.system)
         result = _named(within_rates(chosen, task, scale), task, result.timings)
+        notes = result.notes[len(chosen.notes) :]  # slowed from this speed, not the old one
     best = dataclasses.replace(outcome.best, result=result, document=result.to_dict())
     return dataclasses.replace(outcome, best=best, notes=notes)
 

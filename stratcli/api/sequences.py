@@ -131,8 +131,8 @@ def compare_sequences(
     result = best.plan
     if task.constraints is not None and result.ok:  # rate limits met by time scaling
         result = within_rates(result.with_system(task.system), task)
-    noted = with_limit_notes(result, task)  # a URDF's limits without [constraints]
-    notes, result = noted.notes[len(result.notes) :], noted
+    result = with_limit_notes(result, task)  # a URDF's limits without [constraints]
+    notes = result.notes[len(best.plan.notes) :]  # what the ranking does not show: both
     result = _named(result, task, timings)
     plan = PlanOutcome(
         best_task, result, result.to_dict(), started, compile_time, comparison.wall_time

@@ -159,7 +159,10 @@ def energy_hist(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
             bins = np.geomspace(ratios.min(), ratios.max(), 30)
             ax.set_xscale("log")
             plain_log_labels(ax.xaxis, pattern="{:g}")
-        ax.hist(ratios, bins=bins, color=PALETTE[0])
+        spread = None  # numpy's own range, except for ratios equal but for rounding:
+        if not log and np.ptp(ratios) <= 1e-9 * max(1.0, float(np.abs(ratios).max())):
+            spread = (ratios.min() - 0.5, ratios.max() + 0.5)  # (it refuses 30 bins there)
+        ax.hist(ratios, bins=bins, range=spread, color=PALETTE[0])
         ax.axvline(1.0, color="0.3", ls="--", lw=0.8)
     counts: dict[str, int] = {}
     for r in rows.values():

@@ -72,8 +72,6 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
         if mode == "legs":
             outcome = plan_run(task, check=payload["check"])
             plan = outcome.result
-            peak, excursion = peak_and_excursion(plan, task.system, task.settings)
-            row.update(peak_control=_finite(peak), excursion=_finite(excursion))
             planning = outcome.planning_time
         else:
             if mode == "auto":
@@ -81,11 +79,8 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
             else:
                 outcome = compare_sequences(task, jobs=1, exhaustive=payload["exhaustive"])
             comparison = outcome.comparison
-            best = comparison.best
             plan = outcome.best.result
             row.update(
-                peak_control=_finite(best.peak_control),
-                excursion=_finite(best.excursion),
                 candidates=len(comparison.outcomes),
                 reached=sum(o.ok for o in comparison.outcomes),
             )
@@ -94,7 +89,13 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
                     comparison.outcomes[k].candidate.label for k in comparison.ranking
                 )
             planning = comparison.wall_time
+        # the plan as run: re-timed (planner.time_scale) and slowed to its rate limits, its
+        # own basis (the task's has the period before re-timing); in auto and compare mode
+        # not the comparison's numbers, which are the chosen sequence as planned
+        peak, excursion = peak_and_excursion(plan, task.system, plan.settings)
         row.update(
+            peak_control=_finite(peak),
+            excursion=_finite(excursion),
             status="ok" if plan.ok else "failed",
             message="" if plan.ok else plan.message,
             energy=_finite(plan.total_energy),
