@@ -38,6 +38,7 @@ import numpy as np
 
 from .decomposition import Candidate
 from .errors import InputError
+from .metrics import as_run, peak_and_excursion
 from .models.system import System
 from .screen import Screen, screen_candidates
 from .sequence import SequencePlan
@@ -52,7 +53,6 @@ CRITERION_LABELS = {
     "excursion": "largest joint excursion",
     "duration": "total duration",
 }
-SAMPLES_PER_LEG = 1001  # for peak |u| and joint excursions
 SCREEN_TOP = 1  # candidates fully searched (lowest bounds) before any is pruned
 
 
@@ -255,6 +255,7 @@ def compare(
     for k in valid:
         if k in plans:
             outcomes[k] = _outcome(k, candidates[k], plans[k], times[k], system, settings)
+            outcomes[k] = as_run(outcomes[k], constraints)
         else:  # pruned by the screen: not planned
             outcomes[k] = _bounded(k, candidates[k], screen_result.bounds[k])
         if screen_result is not None:
@@ -318,35 +319,6 @@ def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
     )
 
 
-def joint_coordinates(system: System, strata: Sequence[str]) -> tuple[int, ...]:
-    """Coordinates that are closed-form integrals of the controls on every given stratum."""
-    sets = [set(system.compiled(s).explicit) for s in strata]
-    return tuple(sorted(set.intersection(*sets))) if sets else ()
-
-
-def peak_and_excursion(plan: SequencePlan, system, settings) -> tuple[float, float]:
-    """max |u_k(t)| and the largest range max_t q_j − min_t q_j over the joints, sampled."""
-    basis = settings.basis
-    joints = joint_coordinates(system, [leg.stratum for leg in plan.legs])
-    peak = 0.0
-    lo = np.full(len(joints), np.inf)
-    hi = np.full(len(joints), -np.inf)
-    for leg in plan.legs:
-        t = np.linspace(0.0, leg.duration, SAMPLES_PER_LEG)
-        u = np.atleast_2d(basis.values(t)) @ leg.coefficients.T  # (samples, m_active)
-        peak = max(peak, float(np.abs(u).max(initial=0.0)))
-        if joints:
-            cs = system.compiled(leg.stratum)
-            rows = [cs.explicit.index(j) for j in joints]
-            q = leg.start[list(joints)] + (basis.integrals(t) @ leg.coefficients.T) @ (
-                cs.C_explicit[rows].T
-            )
-            lo = np.minimum(lo, q.min(axis=0))
-            hi = np.maximum(hi, q.max(axis=0))
-    excursion = float((hi - lo).max()) if joints and plan.legs else math.nan
-    return peak, excursion
-
-
 def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:
     """Outcome indices, best first.
 
@@ -390,6 +362,5 @@ __all__ = [
     "Outcome",
     "compare",
     "compile_strata",
-    "joint_coordinates",
     "rank",
 ]

@@ -60,15 +60,34 @@ def test_a_rate_limit_in_auto_mode_slows_the_chosen_plan_and_says_so():
     assert peak <= 0.5 * (1 + 1e-9)
     assert plan.constraints.duration_set_by.startswith("the rate limit of")
     assert any("the time scale 2 asked for is too fast" in n for n in plan.notes)
-    # the notes for the user (compare-sequences prints them under its ranking, which shows
-    # the sequences as planned) say how much the best was slowed, at the speed it runs at
+    # the notes for the user (compare-sequences prints them under its ranking) say how much
+    # the best was slowed, at the speed it runs at
     slowed = [n for n in outcome.notes if n.startswith("slowed")]
     assert slowed and slowed == [n for n in plan.notes if n.startswith("slowed")]
     compared = stratcli.compare_sequences(task, jobs=1)
     assert [n for n in compared.notes if n.startswith("slowed")] == [
         n for n in compared.best.result.notes if n.startswith("slowed")
     ]
-    assert compared.notes and compared.best.result.duration > 10 * compared.comparison.best.duration
+    # the ranking measures every candidate as it will run: slowed by its own factor
+    best = compared.comparison.best
+    assert compared.notes and best.duration > 10 * best.plan.duration
+    assert compared.best.result.duration == pytest.approx(best.duration, rel=1e-9)
+    assert best.peak_control == pytest.approx(0.5, rel=1e-6)
+
+
+def test_a_duration_ranking_sees_each_candidates_slow_down():
+    task = _auto("energy", max_rate=0.5).with_changes(
+        {
+            "decompose": {"criterion": "duration"},
+            "constraints": {"self_collision": False, "clearance": 0.0},
+        }
+    )
+    outcome = stratcli.compare_sequences(task, jobs=1)
+    ok = [o for o in outcome.comparison.outcomes if o.ok]
+    assert len({round(o.plan.duration, 9) for o in ok}) == 1  # all planned over 2 s
+    shortest = min(o.duration for o in ok)
+    assert outcome.comparison.best.duration == shortest  # as run: each slowed differently
+    assert outcome.best.result.duration == pytest.approx(shortest, rel=1e-9)
 
 
 def test_time_scaled_verifies_a_constrained_plan_again():

@@ -29,7 +29,7 @@ def _finite(x: Any) -> float | None:
 def preload() -> None:
     """Import what `run_task` needs (before forking workers that then need not)."""
     from ..api import compare_sequences, plan_auto, plan_run, write_record  # noqa: F401
-    from ..compare import peak_and_excursion  # noqa: F401
+    from ..metrics import peak_and_excursion  # noqa: F401
     from ..scenario import load_scenario  # noqa: F401
 
 
@@ -44,8 +44,8 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
         records to return, as file contents), `name` (the sweep's name).
     """
     from ..api import compare_sequences, plan_auto, plan_run, write_record  # in the worker
-    from ..compare import peak_and_excursion
     from ..errors import InputError, NotControllableError
+    from ..metrics import peak_and_excursion
     from ..scenario import load_scenario
 
     clock = time.perf_counter()
