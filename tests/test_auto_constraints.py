@@ -109,3 +109,16 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     back = stratcli.time_scaled(faster, 0.1)
     assert back.ok and back.message == "" and back.to_dict()["status"] == "ok"
     assert back.constraints.legs[0].rate == pytest.approx(plan.constraints.legs[0].rate, abs=1e-6)
+
+
+@pytest.mark.slow
+def test_when_no_candidate_keeps_the_limits_the_failed_best_is_still_time_scaled():
+    task = _auto("energy", joint_limits=[-1.1, 1.1])
+    outcome = stratcli.plan_auto(task, jobs=2, time_scale=2.0)
+    plan = outcome.best.result
+    assert not outcome.ok and not plan.ok
+    assert plan.time_scale == 2.0 and plan.constraints is not None and plan.constraints.violated
+    from stratcli.api.auto import auto_choice
+
+    sentence = auto_choice(outcome)
+    assert "no sequence reached the goal" in sentence and "chose no" not in sentence

@@ -134,7 +134,8 @@ def auto_choice(outcome) -> str:
     scale = outcome.best.result.time_scale  # the chosen plan was then run this much faster
     return (
         f"auto mode: {len(outcomes)} candidate sequences (max length {auto.max_length}, "
-        f"{' + '.join(auto.strategies)}) {'compared' if bounded else 'planned'}; chose "
-        f"{outcome.comparison.choice()}"
+        f"{' + '.join(auto.strategies)}) {'compared' if bounded else 'planned'}; "
+        + ("chose " if outcome.ok else "")
+        + outcome.comparison.choice()
         + (f" (as planned, before time scaling by {scale:g})" if scale != 1.0 else "")
     )

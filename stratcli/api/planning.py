@@ -254,10 +254,12 @@ def plan_auto(
         result = time_scaled(dataclasses.replace(result, notes=kept), scale)
         noted = with_limit_notes(result, task)
         notes, result = noted.notes[len(result.notes) :], noted
-    elif result.ok:  # re-timed from the plan as compared (a failed one is kept as it is)
+    elif result.ok:  # re-timed from the plan as compared
         chosen = outcome.comparison.best.plan.with_system(task.system)
         result = _named(within_rates(chosen, task, scale), task, result.timings)
         notes = result.notes[len(chosen.notes) :]  # slowed from this speed, not the old one
+    else:  # a failed one is run at the speed asked for too (as plan does), its limits re-measured
+        result = time_scaled(result.with_system(task.system), scale)
     best = dataclasses.replace(outcome.best, result=result, document=result.to_dict())
     return dataclasses.replace(outcome, best=best, notes=notes)
 
