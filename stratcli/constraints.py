@@ -277,9 +277,10 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
 def verified_again(plan):
     """`plan` with its [constraints] report measured again on its own controls (after
     re-timing, `time_scaled`), the limits resolved from the report's table; not slowed, so
-    a violation fails it, its message naming the limit, leg and time."""
+    a violation fails it, its message naming the limit, leg and time. No limit set its
+    duration any more (`duration_set_by` is empty): the caller's re-timing did."""
     c = resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
-    report = replace(verify(plan, c), duration_set_by=plan.constraints.duration_set_by)
+    report = verify(plan, c)
     out = replace(plan, constraints=report)
     if not report.ok and plan.ok:  # run too fast: only a rate or acceleration limit can break
         out = replace(out, message=f"{report.violated}; {_too_fast(out, c)}")

@@ -95,6 +95,7 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     assert plan.ok
     slower = stratcli.time_scaled(plan, 0.5)
     assert slower.ok and slower.constraints.legs[0].rate > 0.2  # half the speed: room
+    assert plan.constraints.duration_set_by and not slower.constraints.duration_set_by
     faster = stratcli.time_scaled(plan, 10)
     assert not faster.ok
     assert faster.status is stratcli.Status.CONSTRAINT_VIOLATED

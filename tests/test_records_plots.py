@@ -299,3 +299,17 @@ def test_off_labels_mark_inputs_only_and_limits_show_on_the_configuration(constr
     rate_lines = [line for line in dashed if np.allclose(np.abs(line.get_ydata()), 2.0)]
     assert bool(rate_lines) == bool(constraints)
     assert any("rate limit" in t for t in _annotations(controls)) == bool(constraints)
+
+
+def test_figures_show_an_obstacle_far_from_the_robot_whole():
+    import dataclasses
+
+    import stratcli
+    from stratcli.results import ConstraintReport
+
+    plan = stratcli.plan(ROOT / "scenarios" / "sim4_task_d.toml")
+    far = [{"shape": "circle", "centre": [5.0, -4.0], "radius": 0.5}]
+    plan = dataclasses.replace(plan, constraints=ConstraintReport({"obstacles": far}))
+    traj = plan.sample(50)
+    ax = stroboscope_figure(plan, traj).axes[0]
+    assert ax.get_xlim()[1] >= 5.5 and ax.get_ylim()[0] <= -4.5

@@ -46,7 +46,8 @@ from .figure_common import (
     save_figure,
     stamp_failed,
 )
-from .robot_figures import motion_gif, resolved_constraints, stroboscope_figure
+from .obstacles import resolved_constraints
+from .robot_figures import motion_gif, stroboscope_figure
 from .trajectory import Trajectory
 
 __all__ = ["FORMATS", "configuration_figure", "controls_figure", "render_plots", "save_figure"]

@@ -20,10 +20,9 @@ from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.colors import to_rgb, to_rgba
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Circle, Patch, Polygon
+from matplotlib.patches import Patch
 from matplotlib.ticker import MaxNLocator
 
-from ..constraints import ConstraintsSpec, resolve
 from ..sequence import SequencePlan
 from .figure_common import (
     DPI,
@@ -34,6 +33,7 @@ from .figure_common import (
     locked_names,
     stamp_failed,
 )
+from .obstacles import OBSTACLE_STYLE, draw_obstacles, has_obstacles, obstacle_points
 from .trajectory import Trajectory, world_geometry
 
 __all__ = ["DPI", "frame_schedule", "locked_names", "motion_gif", "stroboscope_figure"]
@@ -44,12 +44,16 @@ BASE_FACE = "#9aa5b1"
 MAX_PANELS = 12  # stroboscope panels
 
 
-def _limits(geo: dict[str, np.ndarray], margin: float = 0.25) -> tuple[tuple, tuple]:
+def _limits(
+    geo: dict[str, np.ndarray], margin: float = 0.25, extra: np.ndarray | None = None
+) -> tuple[tuple, tuple]:
+    """The axes' limits around the robot's every pose and the `extra` points (obstacles)."""
     pts = np.concatenate(
         [
             geo["base_corners"].reshape(-1, 2),
             geo["proximal"].reshape(-1, 2),
             geo["distal"].reshape(-1, 2),
+            np.zeros((0, 2)) if extra is None else extra,
         ]
     )
     pts = pts[np.all(np.isfinite(pts), axis=1)]
@@ -119,29 +123,6 @@ def _draw_poses(
     )
 
 
-def resolved_constraints(plan: SequencePlan):
-    """The plan's [constraints] table resolved on its model (limits per coordinate)."""
-    return resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
-
-
-OBSTACLE_STYLE = {"facecolor": "#f5b7b1", "edgecolor": FAILED_COLOR, "hatch": "///", "lw": 1.0}
-
-
-def _has_obstacles(plan: SequencePlan) -> bool:
-    return plan.constraints is not None and bool(plan.constraints.spec.get("obstacles"))
-
-
-def _draw_obstacles(ax, plan: SequencePlan) -> None:
-    """The obstacles of [constraints], hatched."""
-    if not _has_obstacles(plan):
-        return
-    c = resolved_constraints(plan)
-    for centre, radius in c.circles:
-        ax.add_patch(Circle(centre, radius, zorder=1, **OBSTACLE_STYLE))
-    for corners in c.boxes:
-        ax.add_patch(Polygon(corners, closed=True, zorder=1, **OBSTACLE_STYLE))
-
-
 def stroboscope_figure(
     plan: SequencePlan, traj: Trajectory, title: str = "", snapshots: int = 10
 ) -> Figure:
@@ -152,7 +133,7 @@ def stroboscope_figure(
     """
     robot = plan.system.robot
     geo = world_geometry(robot, traj.q)
-    xlim, ylim = _limits(geo)
+    xlim, ylim = _limits(geo, extra=obstacle_points(plan))
     shown = np.unique(np.linspace(0, len(plan.legs) - 1, MAX_PANELS).round().astype(int))
     if len(plan.legs) <= MAX_PANELS:
         shown = np.arange(len(plan.legs))
@@ -187,7 +168,7 @@ def stroboscope_figure(
         for a in range(tips.shape[1]):
             ax.plot(tips[s, a, 0], tips[s, a, 1], ":", color="#d35400", lw=1.2, zorder=6)
         ax.plot(0, 0, "+", color="k", markersize=7, zorder=7)
-        _draw_obstacles(ax, plan)
+        draw_obstacles(ax, plan)
         ax.set_xlim(*xlim)
         ax.set_ylim(*ylim)
         ax.set_aspect("equal")
@@ -212,7 +193,7 @@ def stroboscope_figure(
         Line2D([], [], color="#d35400", lw=1.2, ls=":", label="end-effector path"),
         Line2D([], [], color="k", marker="+", ls="none", label="system CM (fixed)"),
     ]
-    if _has_obstacles(plan):
+    if has_obstacles(plan):
         handles.append(Patch(label="obstacle", **OBSTACLE_STYLE))
     fig.legend(
         handles=handles,
@@ -291,7 +272,7 @@ def motion_gif(
 
     robot = plan.system.robot
     geo = world_geometry(robot, traj.q)
-    xlim, ylim = _limits(geo)
+    xlim, ylim = _limits(geo, extra=obstacle_points(plan))
     times, durations, speed = frame_schedule(traj.t[0], traj.t[-1], max_frames, frame_ms)
     # the sample at (or just after) each frame time; a switch instant shows the later leg
     index = np.minimum(np.searchsorted(traj.t, times, side="left"), traj.size - 1)
@@ -308,7 +289,7 @@ def motion_gif(
     ax.set_xlabel("x [m]", fontsize=9, labelpad=1)
     ax.set_ylabel("y [m]", fontsize=9, labelpad=1)
     ax.grid(True, color="0.9", linewidth=0.5)
-    _draw_obstacles(ax, plan)
+    draw_obstacles(ax, plan)
     _draw_poses(ax, geo, np.array([0]), ["0.7"], lw=1.3, zorder=1, linestyle="--")
     _draw_poses(ax, geo, np.array([traj.size - 1]), ["#7fb3d5"], lw=1.3, zorder=1, linestyle=":")
     (centre,) = ax.plot(0, 0, "+", color="k", markersize=7, zorder=7)
