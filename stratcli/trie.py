@@ -298,7 +298,8 @@ def compare_shared(system, settings, start, candidates, valid, jobs, advance):
             specs.append((n.id, n.parent, n.leg, n.next_leg))
             stack.extend(reversed(n.children))
         units.append((specs, per_root[r]))
-    results = run_units(_plan_subtree, units, jobs, advance)
+    within = searchable(STATE.get("constraints"))  # auto mode within limits: two passes
+    results = run_units(_plan_subtree, units, jobs, (lambda w: None) if within else advance)
     done: dict[int, _NodeResult] = {}
     for part in results:
         done.update(part)
@@ -325,13 +326,14 @@ def compare_shared(system, settings, start, candidates, valid, jobs, advance):
                 break
         plans[k] = error or assemble(system, settings, start, list(cand.legs), legs)
         times[k] = seconds
-    if searchable(STATE.get("constraints")):  # auto mode within limits: a second pass
+    if within:  # the second pass: each plan that reached its goals moved inside the limits
         units = [
             ((k, list(candidates[k].legs), plan), 1)
             for k, plan in plans.items()
             if isinstance(plan, SequencePlan) and plan.ok
         ]
-        for k, plan, seconds in run_units(_plan_within_limits, units, jobs, lambda w: None):
+        advance(len(valid) - len(units))  # the others are done (the progress counts these)
+        for k, plan, seconds in run_units(_plan_within_limits, units, jobs, advance):
             plans[k] = plan.with_system(system)
             times[k] += seconds
     planned = len(done)

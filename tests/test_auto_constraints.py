@@ -3,6 +3,7 @@ that carries a constraints report (`time_scaled`)."""
 
 from __future__ import annotations
 
+import itertools
 import re
 from pathlib import Path
 
@@ -123,3 +124,25 @@ def test_when_no_candidate_keeps_the_limits_the_failed_best_is_still_time_scaled
 
     sentence = auto_choice(outcome)
     assert "no sequence reached the goal" in sentence and "chose no" not in sentence
+
+
+@pytest.mark.slow
+def test_newton_auto_mode_counts_a_candidate_done_after_its_limits(monkeypatch):
+    from stratcli import trie
+
+    seen, during = [], []
+    original = trie._plan_within_limits
+
+    def spy(unit):  # the second pass, in this process (jobs=1): progress so far
+        during.append(seen[-1][0])
+        return original(unit)
+
+    monkeypatch.setattr(trie, "_plan_within_limits", spy)
+    task = _auto("newton")
+    stratcli.compare_sequences(
+        task, jobs=1, progress=lambda done, total: seen.append((done, total))
+    )
+    total = seen[-1][1]
+    assert during and max(during) < total  # not shown finished while it is being moved inside
+    assert seen[-1] == (total, total)
+    assert all(a[0] <= b[0] for a, b in itertools.pairwise(seen))
