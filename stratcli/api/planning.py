@@ -248,20 +248,23 @@ def plan_auto(
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if scale == 1.0:
         return outcome
-    result, notes = outcome.best.result, outcome.notes
-    if task.constraints is None:  # the notes' times (a URDF's limits) at the new speed
-        kept = tuple(note for note in result.notes if note not in notes)
-        result = time_scaled(dataclasses.replace(result, notes=kept), scale)
-        noted = with_limit_notes(result, task)
-        notes, result = noted.notes[len(result.notes) :], noted
-    elif result.ok:  # re-timed from the plan as compared
-        chosen = outcome.comparison.best.plan.with_system(task.system)
-        result = _named(within_rates(chosen, task, scale), task, result.timings)
-        notes = result.notes[len(chosen.notes) :]  # slowed from this speed, not the old one
-    else:  # a failed one is run at the speed asked for too (as plan does), its limits re-measured
-        result = time_scaled(result.with_system(task.system), scale)
+    chosen = outcome.comparison.best.plan  # re-timed from the plan as compared
+    result = _named(chosen_as_run(chosen, task, scale), task, outcome.best.result.timings)
+    notes = result.notes[len(chosen.notes) :]  # at this speed, not the one compared at
     best = dataclasses.replace(outcome.best, result=result, document=result.to_dict())
     return dataclasses.replace(outcome, best=best, notes=notes)
+
+
+def chosen_as_run(plan: SequencePlan, task: Task, scale: float = 1.0) -> SequencePlan:
+    """Auto mode's chosen plan as it will run: `scale` times faster, under [constraints]
+    slowed to its rate limits with every limit verified (`within_rates`) if it reached its
+    goals within them (a failed one is only re-timed, its limits measured again), without
+    them a URDF's joint limits noted at that speed (`urdf_limits.with_limit_notes`)."""
+    plan = plan.with_system(task.system)
+    if task.constraints is not None and plan.ok:
+        return within_rates(plan, task, scale)
+    plan = time_scaled(plan, scale) if scale != 1.0 else plan
+    return with_limit_notes(plan, task)
 
 
 def within_rates(result: SequencePlan, task: Task, scale: float = 1.0) -> SequencePlan:

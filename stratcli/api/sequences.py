@@ -16,7 +16,6 @@ from ..records.comparison import comparison_document
 from ..results import Timings
 from ..scenario import LegEntry, Task
 from ..trie import default_jobs
-from ..urdf_limits import with_limit_notes
 from .auto import auto_settings, compare_decomposition, decompose_task
 from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
 from .planning import (
@@ -32,7 +31,7 @@ from .planning import (
     ScenarioLike,
     _named,
     as_task,
-    within_rates,
+    chosen_as_run,
 )
 
 __all__ = ["compare_sequences", "decompose", "with_legs"]
@@ -128,10 +127,7 @@ def compare_sequences(
     best = comparison.best
     best_task = with_legs(task, best.candidate.legs)
     timings = Timings(started.isoformat(), compile_time, comparison.wall_time)
-    result = best.plan
-    if task.constraints is not None and result.ok:  # rate limits met by time scaling
-        result = within_rates(result.with_system(task.system), task)
-    result = with_limit_notes(result, task)  # a URDF's limits without [constraints]
+    result = chosen_as_run(best.plan, task)  # rate limits met, or a URDF's limits noted
     notes = result.notes[len(best.plan.notes) :]  # what the ranking does not show: both
     result = _named(result, task, timings)
     plan = PlanOutcome(
