@@ -252,16 +252,18 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
                 )
         if c.geometric and robot is not None:
             own, world = clearances(robot, q, c)
-            if c.self_collision:
-                found["self_clearance"] = (*_first(own, t), "self-collision")
-                if own.min() < -VIOLATION_TOL:  # which bodies
-                    pair, _ = closest_pair(robot, q[int(np.argmin(own))], c, obstacles=False)
-                    found["self_clearance"] = (*_first(own, t), f"self-collision ({pair})")
-            if c.circles or c.boxes:
-                found["obstacle_clearance"] = (*_first(world, t), "an obstacle")
-                if world.min() < -VIOLATION_TOL:
-                    pair, _ = closest_pair(robot, q[int(np.argmin(world))], c, obstacles=True)
-                    found["obstacle_clearance"] = (*_first(world, t), f"an obstacle ({pair})")
+            for key, values, what, wanted in (
+                ("self_clearance", own, "self-collision", c.self_collision),
+                ("obstacle_clearance", world, "an obstacle", bool(c.circles or c.boxes)),
+            ):
+                if not wanted:
+                    continue
+                value, when = _first(values, t)
+                if value < -VIOLATION_TOL:  # which bodies (and obstacle)
+                    k = int(np.argmin(values))
+                    pair, _ = closest_pair(robot, q[k], c, obstacles=key == "obstacle_clearance")
+                    what = f"{what} ({pair})"
+                found[key] = (value, when, what)
         margins.append(LegMargins(**{k: v[0] for k, v in found.items()}))
         for key, (value, when, what) in found.items():
             if not violated and value < -VIOLATION_TOL:
@@ -269,8 +271,8 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
                     f"leg {leg.index + 1} ({leg.stratum}) violates {what} by "
                     f"{-value:.3g} at t = {when:.3f} s"
                 )
-                violation = {"leg": leg.index + 1, "limit": key, "what": what, "by": -value}
-                violation["t"] = when
+                violation = {"leg": leg.index + 1, "limit": key, "what": what}
+                violation.update(by=-value, t=when)
     return ConstraintReport(c.spec, tuple(margins), samples, violated, violation=violation)
 
 

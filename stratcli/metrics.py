@@ -24,12 +24,9 @@ def as_run(outcome, constraints):
     run: slowed by the s ≤ 1 that meets them (energy × s, duration / s, peak |u| × s; the
     path, so its excursion, and the energy at equal duration stay). Each candidate is slowed
     by its own s, so a ranking by duration or peak control must see it."""
-    limited = constraints is not None and (
-        constraints.max_rate is not None or constraints.max_acceleration is not None
-    )
-    if not limited or outcome.plan is None or not outcome.plan.ok:
+    if constraints is None or outcome.plan is None or not outcome.plan.ok:
         return outcome
-    s, _ = rate_limited(outcome.plan, constraints)
+    s, _ = rate_limited(outcome.plan, constraints)  # 1 without rate or acceleration limits
     if s >= 1.0:
         return outcome
     return replace(
