@@ -59,12 +59,19 @@ def _fmt(x: float) -> str:
 def outside_limits(task) -> list[str]:
     """One sentence per start, via or goal coordinate of a URDF scenario without
     [constraints] that lies outside the URDF's limits (what `stratplan check` warns of)."""
+    limits = _unverified_limits(task)
+    found = _configurations(task, *limits) if limits else []
+    return [f"{'; '.join(found)}; {REFUSED}"] if found else []
+
+
+def _unverified_limits(task) -> tuple[np.ndarray, np.ndarray, tuple] | None:
+    """(lower, upper, joint names) of a URDF model in a scenario without [constraints] (which
+    would verify them); None for every other scenario."""
     robot = getattr(task.system, "spatial", None)
     if robot is None or task.constraints is not None:
-        return []
+        return None
     lower, upper = np.asarray(robot.lower, float), np.asarray(robot.upper, float)
-    found = _configurations(task, lower, upper, robot.joint_names)
-    return [f"{'; '.join(found)}; {REFUSED}"] if found else []
+    return lower, upper, robot.joint_names
 
 
 def _configurations(task, lower, upper, names) -> list[str]:
@@ -139,12 +146,10 @@ def _legs(plan, lower, upper, names) -> list[str]:
 def with_limit_notes(plan, task):
     """`plan` with a note for each way it or its task leaves the URDF's joint limits (only
     for a URDF model in a scenario without [constraints]; else `plan` itself)."""
-    robot = getattr(task.system, "spatial", None)
-    if robot is None or task.constraints is not None:
+    limits = _unverified_limits(task)
+    if limits is None:
         return plan
-    names = robot.joint_names
-    lower, upper = np.asarray(robot.lower, float), np.asarray(robot.upper, float)
     notes = outside_limits(task)
-    if left := _legs(plan, lower, upper, names):
+    if left := _legs(plan, *limits):
         notes.append(f"{'; '.join(left)}; {VERIFIED}")
     return replace(plan, notes=(*plan.notes, *notes)) if notes else plan
