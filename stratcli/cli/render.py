@@ -260,9 +260,11 @@ def plan_summary(doc: dict) -> None:
     number_column(legs, "final error")
     number_column(legs, "energy")
     number_column(legs, "status", justify="left")
+    from .render_tables import broken, limit_margins  # (which imports this module)
+
     margins = (doc.get("constraints") or {}).get("legs") or []
     for i, leg in enumerate(doc["legs"]):
-        off = i < len(margins) and any(v < -1e-9 for v in margins[i].values() if v is not None)
+        off = i < len(margins) and broken(margins[i])
         legs.add_row(
             str(i + 1),
             leg["stratum"],
@@ -324,8 +326,6 @@ def plan_summary(doc: dict) -> None:
     for note in doc.get("notes") or []:
         if note not in failure:  # (the failure line below says it: once is enough)
             out_console.print(f"note: {escape(note)}", highlight=False)
-    from .render_tables import limit_margins  # (which imports this module)
-
     if margins := limit_margins(doc.get("constraints")):
         out_console.print(margins, highlight=False)
     for i, leg in enumerate((doc.get("attitude") or {}).get("legs") or []):  # URDF robots

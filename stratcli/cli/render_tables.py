@@ -293,7 +293,14 @@ def limit_margins(report: dict | None) -> str:
     )
 
 
+VIOLATED = -1e-9  # a margin below this breaks its limit (`constraints.VIOLATION_TOL`)
+
+
+def broken(margins: dict) -> bool:
+    """Whether a leg's margins (result.json's `constraints.legs[i]`) break a limit."""
+    return any(v < VIOLATED for v in margins.values() if v is not None)
+
+
 def _met(margin: float) -> float:
-    """`margin`, rounding error below zero shown as 0 (a violation is below -1e-9, as in
-    `constraints.verify` and the table's 'off limits')."""
-    return 0.0 if -1e-9 <= margin < 0 else margin
+    """`margin`, rounding error below zero shown as 0 (`VIOLATED`)."""
+    return 0.0 if VIOLATED <= margin < 0 else margin

@@ -121,18 +121,15 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
     return {"row": row, "record": record}
 
 
-MARGINS = ("joint_limit", "self_clearance", "obstacle_clearance", "rate", "acceleration")
-
-
 def _margins(report) -> dict[str, float]:
     """Under [constraints]: the smallest margin to each limit over the legs, as columns
-    `margin_<limit>` (negative where a limit is broken)."""
-    out = {}
-    for key in MARGINS if report is not None else ():
-        values = [v for m in report.legs if (v := getattr(m, key)) is not None]
-        if values:
-            out[f"margin_{key}"] = _finite(min(values))
-    return out
+    `margin_<limit>` (`results.MARGINS` order; negative where a limit is broken)."""
+    out: dict[str, float] = {}
+    for margins in report.legs if report is not None else ():
+        for key, value in margins.items():
+            if value is not None:
+                out[f"margin_{key}"] = min(out.get(f"margin_{key}", value), value)
+    return {key: _finite(value) for key, value in out.items()}
 
 
 def _record_files(outcome, write_record, payload) -> tuple[str, dict[str, bytes]] | None:
