@@ -111,23 +111,17 @@ def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> li
             )
     robot = getattr(system, "robot", None)
     if c.geometric and robot is not None and np.all(np.isfinite(q)):
-        own, world = clearances(robot, q[None, :], c)
         sizes = f"clearance {c.clearance:g}, link radius {c.link_radius:g}"
-        if own[0] < 0:
-            pair, d = closest_pair(robot, q, c, obstacles=False)
-            problems.append(
-                Problem(
-                    where,
-                    f"the robot collides with itself here: {pair} are {_apart(d)} ({sizes})",
-                )
-            )
-        if world[0] < 0:
-            pair, d = closest_pair(robot, q, c, obstacles=True)
-            problems.append(
-                Problem(
-                    where, f"the robot touches an obstacle here: {pair} are {_apart(d)} ({sizes})"
-                )
-            )
+        for pairs, what in zip(
+            _pair_distances(robot, q[None, :], c),
+            ("the robot collides with itself here", "the robot touches an obstacle here"),
+            strict=True,
+        ):
+            if not pairs:
+                continue
+            pair, d = min(pairs, key=lambda named: named[1][0])
+            if d[0] - c.clearance < 0:
+                problems.append(Problem(where, f"{what}: {pair} are {_apart(d[0])} ({sizes})"))
     return problems
 
 
