@@ -8,6 +8,7 @@ import io
 import numpy as np
 import pytest
 from conftest import ROOT
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from PIL import Image
 from typer.testing import CliRunner
@@ -234,10 +235,24 @@ def test_ranking_shows_a_bounded_row_as_its_bound_not_as_a_failure():
     fig = ranking_figure(doc)
     (ax,) = fig.axes
     texts = [t.get_text() for t in ax.texts]
-    assert any(t.startswith(" ≥ 64.5") and "not searched" in t for t in texts)
+    assert " ≥ 64.5" in texts
     assert not any("failed" in t for t in texts)
     (legend,) = fig.legends
-    assert "failed" not in [t.get_text() for t in legend.get_texts()]
+    keys = [t.get_text() for t in legend.get_texts()]
+    assert "failed" not in keys and any(k.startswith("≥ bound: not searched") for k in keys)
+
+
+def test_the_ranking_labels_fit_in_the_figure():
+    """Fixed margins instead of constrained layout: the longest label still fits."""
+    doc = _ranking_doc([60.0, 65.0])
+    doc["rows"][1]["sequence"] = ["S1", "S2", "S3", "S1", "S2", "S3"]
+    fig = ranking_figure(doc)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    (ax,) = fig.axes
+    boxes = [t.get_window_extent(renderer) for t in ax.get_yticklabels()]
+    assert min(b.x0 for b in boxes) >= 0
+    legend = fig.legends[0].get_window_extent(renderer)
+    assert legend.y0 >= 0 and legend.y1 < ax.xaxis.get_tightbbox(renderer).y0
 
 
 @pytest.mark.parametrize(("fmt", "magic"), [("svg", (b"<?xml", b"<svg")), ("pdf", (b"%PDF",))])

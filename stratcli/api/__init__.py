@@ -33,6 +33,7 @@ _NAMES = {
     "run_sweep": "sweeps",
     "list_runs": "runs",
     "load_run": "runs",
+    "draw_ahead": "runs",
     "prepare_out": "runs",
     "read_run": "runs",
     "regress": "regression",
@@ -68,6 +69,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .planning import plan_run as plan_run
     from .regression import RegressReport as RegressReport
     from .regression import regress as regress
+    from .runs import draw_ahead as draw_ahead
     from .runs import list_runs as list_runs
     from .runs import load_run as load_run
     from .runs import prepare_out as prepare_out

@@ -86,10 +86,13 @@ def write_record(
         `outcome` is not one of those values (or another argument of the wrong type).
     """
     wall, cpu = time.perf_counter(), time.process_time()
+    from ..records import drawing
     from ..records import run as run_files  # start-up speed (module comment)
     from ..records.comparison import comparison_csv
     from ..records.manifest import manifest, phase, since_start
-    from ..records.ranking import ranking_png
+
+    if not drawing.running():  # no drawing process (`draw_ahead`): matplotlib loads here
+        from ..records import plots, ranking  # noqa: F401
 
     # matplotlib and mcap load here, on the first record a process writes: a phase of its own
     imported = {"wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu}
@@ -111,45 +114,38 @@ def write_record(
     info = manifest(task.text, command, task.settings.seed, timings, code, planned.phases)
     info["phases"]["record imports"] = imported
     comparing = isinstance(outcome, ComparisonOutcome)
-    # the bar chart is drawn in a second process meanwhile (as long as the plots: 0.3 s)
-    ranking, stop = _beside(ranking_png, outcome.document, fmt) if comparing else (None, None)
-    try:
-        files = run_files.record_files(task, planned.result, planned.document, info, animation, fmt)
-        phases = info["phases"]
-        if comparing:
-            with phase(phases, "comparison files"):  # what is left of them
-                files["comparison.json"] = outcome.document
-                files["comparison.csv"] = comparison_csv(outcome.document)
-                files[f"ranking.{fmt}"] = ranking()
-    finally:
-        if stop is not None:
-            stop()
+    ranking = outcome.document if comparing else None  # its chart is drawn with the plots
+    files = run_files.record_files(
+        task, planned.result, planned.document, info, animation, fmt, ranking
+    )
+    phases = info["phases"]
+    if comparing:
+        with phase(phases, "comparison files"):
+            files["comparison.json"] = outcome.document
+            files["comparison.csv"] = comparison_csv(outcome.document)
     with phase(phases, "write"):  # after manifest.json is written: in the outcome only
         run_dir = run_files.write_record(Path(out), task, files, planned.started)
     planned.phases.update(phases, total=since_start())
     return run_dir
 
 
-def _beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]]:
-    """Start `func(*args)` in a forked process (one that dies with this one and leaves
-    SIGINT to it, `trie.worker_init`); returns (a function that waits for its value, one
-    that ends the process). Where there is no fork (or only one core), `func` runs when its
-    value is asked for."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+def draw_ahead() -> bool:
+    """Start a process that loads matplotlib now and draws the figures of the records this
+    process writes (`records.drawing`).
 
-    from ..trie import default_jobs, stop_workers, worker_init
+    The command line calls it once a command's input is valid: the record then does not
+    wait for matplotlib to load, and its figures are drawn on two cores. The figures are the
+    same bytes. It does nothing where it cannot help: matplotlib already loaded (a notebook),
+    one core, no fork.
 
-    if default_jobs() < 2 or "fork" not in multiprocessing.get_all_start_methods():
-        return (lambda: func(*args)), (lambda: None)
-    pool = ProcessPoolExecutor(
-        max_workers=1,
-        mp_context=multiprocessing.get_context("fork"),
-        initializer=worker_init,
-        initargs=(os.getpid(),),
-    )
-    future = pool.submit(func, *args)
-    return future.result, lambda: stop_workers(pool, [future])
+    Returns
+    -------
+    bool
+        Whether the drawing process runs.
+    """
+    from ..records import drawing
+
+    return drawing.start()
 
 
 def prepare_out(out: str | Path) -> Path:

@@ -81,6 +81,7 @@ def plan(
     task = _load(file)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
+    api.draw_ahead()  # matplotlib loads while the plan is made
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale)
     with render.phases(render.interactive(quiet, json_output)) as progress:
@@ -181,6 +182,7 @@ def compare_sequences(
     task = _load(file)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
+    api.draw_ahead()  # matplotlib loads while the sequences are planned
     interactive = render.interactive(quiet, json_output)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     with render.reported(), render.progress_bar(interactive, waiting) as bar:

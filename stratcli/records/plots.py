@@ -28,6 +28,7 @@ stroboscope and the GIF are drawn by `robot_figures`.
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -50,7 +51,15 @@ from .obstacles import resolved_constraints
 from .robot_figures import motion_gif, stroboscope_figure
 from .trajectory import Trajectory
 
-__all__ = ["FORMATS", "configuration_figure", "controls_figure", "render_plots", "save_figure"]
+__all__ = [
+    "FORMATS",
+    "configuration_figure",
+    "controls_figure",
+    "draw",
+    "plot_makers",
+    "render_plots",
+    "save_figure",
+]
 
 SHADES = ("#e8eef8", "#f8efe2")  # alternate leg backgrounds
 SWITCH = {"color": "0.35", "linestyle": "--", "linewidth": 0.9}
@@ -346,6 +355,13 @@ def render_plots(
     is a GIF whatever it is). A plan without legs gives no files, and a plot that cannot be
     drawn (e.g. NaN samples of a failed plan) is left out.
     """
+    return draw(plot_makers(plan, traj, title, animation, fmt))
+
+
+def plot_makers(
+    plan: SequencePlan, traj: Trajectory, title: str, animation: bool, fmt: str
+) -> dict[str, Callable[[], bytes]]:
+    """{file name: a function drawing it} of `render_plots` (`drawing` shares them out)."""
     if fmt not in FORMATS:
         raise ValueError(f"figure format must be one of {', '.join(FORMATS)}, not {fmt!r}")
     if not plan.legs or traj.size == 0:
@@ -366,6 +382,11 @@ def render_plots(
         makers[f"stroboscope.{fmt}"] = lambda: save_figure(
             spatial_stroboscope_figure(plan, traj, title), fmt
         )
+    return makers
+
+
+def draw(makers: dict[str, Callable[[], bytes]]) -> dict[str, bytes]:
+    """Run `makers`; a plot that cannot be drawn (non-finite or absurd samples) is left out."""
     files = {}
     for name, make in makers.items():
         try:

@@ -12,7 +12,7 @@ from typing import Any
 from matplotlib.figure import Figure
 
 from ..compare import CRITERION_LABELS
-from .figure_common import LOG_RATIO, plain_log_labels, save_figure
+from .figure_common import LOG_RATIO, fixed_margins, plain_log_labels, save_figure
 
 __all__ = ["ranking_figure", "ranking_png"]
 
@@ -24,6 +24,7 @@ def _short(x: float) -> str:
 BEST_COLOR = "#2e7d32"
 OTHER_COLOR = "#4a6fa5"
 FAILED_COLOR = "#c0392b"
+LABEL_SIZE = 7.5  # pt, of the sequences' labels
 BOUNDED_COLOR = "#777777"
 # units of the ranking quantities for the presets and physical planar models (rad, rad/s)
 _UNITS = {"energy": "rad²/s", "peak-control": "rad/s", "excursion": "rad", "duration": "s"}
@@ -69,7 +70,7 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     log = ratio > LOG_RATIO
     floor = min(positive) / 2 if log else 0.0
     height = max(3.0, 0.26 * len(rows) + 1.5)
-    fig = Figure(figsize=(8.0, height), layout="constrained")
+    fig = Figure(figsize=(8.0, height))
     ax = fig.add_subplot()
     best = 0 if doc.get("best") == 0 and 0 in ok else None
     colors = [BEST_COLOR if i == best else OTHER_COLOR for i in ok]
@@ -77,15 +78,15 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     bars = ax.barh(ok, [v - floor for v in shown], left=floor, color=colors, height=0.7)
     for i, v, x in zip(ok, values, shown, strict=True):
         ax.text(x, i, f" {_short(v)}", va="center", fontsize=7.5)
-    failed = False
+    failed = screened = False
     for i, r in enumerate(rows):
         if i in ok:
             continue
         bounded = r["status"] == "bounded"  # energy_bound(_equal_time): no bar, its bound
         bound = r.get(key.replace("energy", "energy_bound", 1)) if bounded else None
-        if bound is not None:  # not searched: its lower bound, no bar
-            ax.text(floor, i, f" ≥ {_short(bound)}, not searched (bound)", va="center",
-                    fontsize=7.5, color=BOUNDED_COLOR)  # fmt: skip
+        if bound is not None:  # not searched: its lower bound, no bar (the legend says so)
+            ax.text(floor, i, f" ≥ {_short(bound)}", va="center", fontsize=7.5, color=BOUNDED_COLOR)
+            screened = True
             continue
         failed = True
         reason = " failed: " + (r["reason"] or r["status"])[:60]
@@ -94,7 +95,7 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         ax.set_xscale("log")
         plain_log_labels(ax.xaxis, minor=ratio < 1000)  # 2 and 5 too, up to three decades
         ax.tick_params(axis="x", which="minor", labelsize=8)
-    ax.set_yticks(range(len(rows)), labels, fontsize=7.5)
+    ax.set_yticks(range(len(rows)), labels, fontsize=LABEL_SIZE)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_xlabel(_axis_label(doc) + (" — log scale" if log else ""), fontsize=9)
     ranked_by = CRITERION_LABELS[doc["criterion"]]
@@ -112,23 +113,42 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         other = next(b for b, i in zip(bars, ok, strict=True) if i != best)
         other.set_label("reached the goal")
         handles.append(other)
-    if failed:
+    if failed or screened:
         from matplotlib.lines import Line2D
 
+    if screened:
+        label = "≥ bound: not searched, its lower bound is at least the best's value"
+        handles.append(Line2D([], [], ls="none", label=label))  # no mark (mathtext: 0.1 s)
+    if failed:
         handles.append(Line2D([], [], color=FAILED_COLOR, ls="none", marker="$x$", label="failed"))
     span = "from 0" if math.isinf(ratio) else f"{ratio:,.3g}×"
     relation = ">" if log else "≤"
     scale = f"{'log' if log else 'linear'} scale: values span {span} ({relation} {LOG_RATIO:g}×)"
     fig.legend(
         handles=handles,
-        loc="outside lower center",
+        loc="lower center",
+        bbox_to_anchor=(0.5, 0.0),
         ncols=len(handles),
         fontsize=8,
         title=scale,
         title_fontsize=8,
         frameon=False,
     )
+    left = _widest(fig, labels, LABEL_SIZE) + 0.25  # the labels, the ticks and a gap
+    fixed_margins(fig, left=left, right=0.15, top=0.32, bottom=1.05)
     return fig
+
+
+def _widest(fig: Figure, texts: list[str], size: float) -> float:
+    """Inches of the widest of `texts` at `size` pt: the labels' margin, measured once
+    (constrained layout measured every text of the figure twice: half the chart's time)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.font_manager import FontProperties
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    font = FontProperties(size=size)
+    widths = [renderer.get_text_width_height_descent(t, font, ismath=False)[0] for t in texts]
+    return max(widths, default=0.0) / fig.dpi
 
 
 def ranking_png(doc: dict[str, Any], fmt: str = "png") -> bytes:

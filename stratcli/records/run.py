@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 from typing import Any
 
 from ..scenario import Task
 from ..sequence import SequencePlan
+from . import drawing
 from .foxglove_layout import run_layout
 from .manifest import phase
 from .mcap_log import mcap_bytes
 from .model_files import model_files
-from .plots import render_plots
 from .rundir import run_name, write_run
 from .trajectory import sample
 
@@ -40,19 +41,23 @@ def record_files(
     manifest: dict,
     animation: bool = False,
     fmt: str = "png",
+    ranking: dict | None = None,
 ) -> dict[str, Any]:
     """Name → content of every file of the run directory (plots as `fmt`: png, svg or pdf;
-    a URDF robot's URDF, `model_files`).
+    a comparison's `ranking` chart of its document; a URDF robot's URDF, `model_files`).
 
     The trajectory is re-integrated densely (≥ 200 samples per leg) for the MCAP log and the
-    plots; both are built in memory so the run directory can be written atomically. Each part
-    is timed into `manifest["phases"]` (the log last, so that its copy has the plots' time).
+    plots; both are built in memory so the run directory can be written atomically. The
+    figures are drawn by the drawing process where the command started one (`drawing`),
+    else here. Each part is timed into `manifest["phases"]` (the log last, so that its copy
+    has the plots' time).
     """
     phases = manifest.setdefault("phases", {})
     with phase(phases, "sample"):
         traj = sample(plan)
-    with phase(phases, "plots"):
-        plots = render_plots(plan, traj, task.scenario.name, animation=animation, fmt=fmt)
+    title = task.scenario.name
+    wall = time.perf_counter()
+    drawn = drawing.ask(plan, traj, title, animation, fmt, ranking)
     layout = run_layout(plan, traj)
     files: dict[str, Any] = {
         "scenario.toml": task.text,
@@ -60,17 +65,42 @@ def record_files(
         "result.json": doc,
         "manifest.json": manifest,
         "layout.json": layout,
-        **plots,
     }
     # a URDF robot: its URDF beside scenario.toml, which names it (`model_files`)
-    later = {"run.mcap", "comparison.json", "comparison.csv", f"ranking.{fmt}"}
-    if urdf := model_files(task, {*files, *later}):
+    later = {"run.mcap", "comparison.json", "comparison.csv"}
+    later |= {f"{name}.{fmt}" for name in ("configuration", "controls", "stroboscope", "ranking")}
+    if urdf := model_files(task, {*files, *later, "motion.gif"}):
         files["scenario.toml"], copy, manifest["urdf"] = urdf
         files.update(copy)
+    with phase(phases, "plots"):
+        if (answer := drawn()) is not None:  # wall from asking; CPU of the drawing processes
+            plots, cpu = answer
+        else:
+            plots = _draw_here(plan, traj, title, animation, fmt, ranking)
+    if answer is not None:
+        phases["plots"] = {"wall_s": time.perf_counter() - wall, "cpu_s": cpu}
+    files.update(plots)
     with phase(phases, "run.mcap"):
-        name = task.scenario.name
-        files["run.mcap"] = mcap_bytes(plan, traj, doc, manifest, task.text, name, layout)
+        files["run.mcap"] = mcap_bytes(plan, traj, doc, manifest, task.text, title, layout)
     return files
+
+
+def _draw_here(plan, traj, title, animation, fmt, ranking) -> dict[str, bytes]:
+    """The figures drawn in this process (the ranking chart beside them in a fork)."""
+    from .plots import render_plots
+    from .ranking import ranking_png
+
+    ranked, stop = (None, None)
+    if ranking is not None:
+        ranked, stop = drawing.beside(ranking_png, ranking, fmt)
+    try:
+        plots = render_plots(plan, traj, title, animation=animation, fmt=fmt)
+        if ranked is not None:
+            plots[f"ranking.{fmt}"] = ranked()
+    finally:
+        if stop is not None:
+            stop()
+    return plots
 
 
 def write_record(out: Path, task: Task, files: dict[str, Any], started) -> Path:

@@ -1,0 +1,106 @@
+"""The drawing process (`records.drawing`) draws the same figures, and its failures fall back."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from stratcli.records import drawing
+from stratcli.records.plots import render_plots
+from stratcli.records.ranking import ranking_png
+from stratcli.records.trajectory import sample
+
+ROOT = Path(__file__).resolve().parents[1]
+AUTO = ROOT / "scenarios" / "sim4_auto.toml"
+TWO_CORES = len(os.sched_getaffinity(0)) >= 2 if hasattr(os, "sched_getaffinity") else False
+
+
+@pytest.fixture(scope="module")
+def comparison():
+    import stratcli
+
+    outcome = stratcli.compare_sequences(stratcli.load_scenario(AUTO), max_length=2, jobs=1)
+    plan = outcome.best.result
+    return plan, sample(plan), outcome.document
+
+
+def _here(plan, traj, doc) -> dict[str, bytes]:
+    files = render_plots(plan, traj, "sim4_auto", animation=False)
+    return {**files, "ranking.png": ranking_png(doc)}
+
+
+def test_figures_shared_between_two_processes_are_the_ones_drawn_here(comparison):
+    plan, traj, doc = comparison
+    files, fork_cpu = drawing._draw_shared(plan, traj, "sim4_auto", False, "png", doc)
+    assert list(files) == ["configuration.png", "controls.png", "stroboscope.png", "ranking.png"]
+    assert files == _here(plan, traj, doc)
+    assert fork_cpu > 0  # the other process drew a part of them
+
+
+def test_a_fork_that_fails_leaves_its_figures_to_the_drawing_process(comparison, monkeypatch):
+    plan, traj, doc = comparison
+
+    def failing_fork(makers):
+        reader, writer = os.pipe()
+        child = os.fork()
+        if child == 0:  # pragma: no cover - the fork dies without an answer
+            os._exit(1)
+        os.close(writer)
+        return reader, child
+
+    monkeypatch.setattr(drawing, "_fork", failing_fork)
+    files, fork_cpu = drawing._draw_shared(plan, traj, "sim4_auto", False, "png", doc)
+    assert files == _here(plan, traj, doc) and fork_cpu == 0.0
+
+
+def test_without_a_live_drawing_process_the_figures_are_drawn_here(comparison, monkeypatch):
+    plan, traj, _ = comparison
+
+    class Gone:
+        def is_alive(self):
+            return False
+
+    here, _ = multiprocessing.Pipe()
+    monkeypatch.setattr(drawing, "_DRAWER", {"process": Gone(), "connection": here})
+    assert not drawing.running()
+    assert drawing.ask(plan, traj, "x", False, "png")() is None
+    # one that dies while it is waited for
+    assert drawing._answer(here, Gone()) is None
+
+
+SCRIPT = """
+import pickle, sys
+import stratcli
+from stratcli import api
+task = stratcli.load_scenario(sys.argv[1])
+assert api.draw_ahead()
+outcome = stratcli.compare_sequences(task, max_length=2, jobs=1)
+run = api.write_record(sys.argv[2], outcome, argv=["test"])
+assert "matplotlib" not in sys.modules  # every figure was drawn by the drawing process
+with open(sys.argv[3], "wb") as f:
+    pickle.dump((str(run), outcome.best.result, outcome.document), f)
+"""
+
+
+@pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
+def test_a_record_drawn_by_the_drawing_process_has_the_figures_drawn_here(tmp_path):
+    dumped = tmp_path / "plan.pkl"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    script = textwrap.dedent(SCRIPT)
+    command = [sys.executable, "-c", script, str(AUTO), str(tmp_path / "runs"), str(dumped)]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    run_dir, plan, doc = pickle.loads(dumped.read_bytes())
+    expected = _here(plan, sample(plan), doc)
+    for name, data in expected.items():
+        assert (Path(run_dir) / name).read_bytes() == data, name
+    phases = json.loads((Path(run_dir) / "manifest.json").read_text())["phases"]
+    assert phases["plots"]["cpu_s"] > 0  # the drawing processes' CPU, not this one's
