@@ -76,6 +76,22 @@ def test_without_a_live_drawing_process_the_figures_are_drawn_here(comparison, m
     assert drawing._answer(here, Gone()) is None
 
 
+def test_a_plan_that_cannot_be_handed_over_is_drawn_here(comparison, monkeypatch):
+    plan, traj, _ = comparison
+
+    class Alive:
+        def is_alive(self):
+            return True
+
+    class Unpicklable:
+        def send(self, job):
+            raise TypeError("cannot pickle 'pinocchio.Model' object")
+
+    monkeypatch.setattr(drawing, "_DRAWER", {"process": Alive(), "connection": Unpicklable()})
+    assert drawing.running()
+    assert drawing.ask(plan, traj, "x", False, "png")() is None
+
+
 SCRIPT = """
 import pickle, sys
 import stratcli

@@ -74,9 +74,9 @@ def ask(
     if not running():
         return lambda: None
     connection = _DRAWER["connection"]
-    try:
+    try:  # pickled whole before a byte is written: a failure leaves the pipe as it was
         connection.send((plan, traj, title, animation, fmt, ranking))
-    except (OSError, ValueError, pickle.PicklingError):
+    except Exception:  # gone, or something in the plan that does not pickle: drawn here
         return lambda: None
     return lambda: _answer(connection, _DRAWER["process"])
 
@@ -89,7 +89,7 @@ def _answer(connection, process) -> tuple[dict[str, bytes], float] | None:
             if not process.is_alive():
                 return None
         kind, *value = connection.recv()
-    except (OSError, EOFError, pickle.UnpicklingError):
+    except Exception:  # gone mid-answer, or an answer that does not unpickle: drawn here
         return None
     return (value[0], value[1]) if kind == "ok" else None
 

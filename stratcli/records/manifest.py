@@ -3,9 +3,12 @@
 `phases` holds the wall and CPU seconds of each phase of the run, in order: `import` (from
 `import stratcli` to the planner imported; its CPU counts from the interpreter's start; on the
 command line it includes reading the scenario), `check`, `compile`, `planning`, then the
-record's parts: `record imports` (matplotlib and mcap, loaded by a process's first record),
-`sample` (the re-integration the log and plots draw), `plots` (every PNG and
-the GIF), `run.mcap` and, comparing, `comparison files`. The MCAP's copy of the manifest is
+record's parts: `record imports` (matplotlib and mcap, loaded by a process's first record;
+on the command line matplotlib loads in the drawing process instead, `records.drawing`),
+`sample` (the re-integration the log and plots draw), `plots` (every PNG, the GIF and a
+comparison's ranking chart; drawn by the drawing process: from asking for them to having
+them, and that process's CPU), `run.mcap` and, comparing, `comparison files` (comparison.json
+and .csv). The MCAP's copy of the manifest is
 taken before its own entry; writing the directory comes after the manifest is frozen, so
 `write` and `total` are in the outcome (`PlanOutcome.phases`), not in manifest.json.
 """
