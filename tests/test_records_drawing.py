@@ -73,7 +73,19 @@ def test_without_a_live_drawing_process_the_figures_are_drawn_here(comparison, m
     assert not drawing.running()
     assert drawing.ask(plan, traj, "x", False, "png")() is None
     # one that dies while it is waited for
-    assert drawing._answer(here, Gone()) is None
+    assert drawing._answer(here, Gone(), 1) is None
+
+
+def test_an_answer_nobody_waited_for_is_not_taken_for_the_next_one():
+    here, there = multiprocessing.Pipe()
+
+    class Alive:
+        def is_alive(self):
+            return True
+
+    there.send((1, "ok", {"controls.png": b"old"}, 0.1))  # a record that failed after asking
+    there.send((2, "ok", {"controls.png": b"new"}, 0.2))
+    assert drawing._answer(here, Alive(), 2) == ({"controls.png": b"new"}, 0.2)
 
 
 def test_a_plan_that_cannot_be_handed_over_is_drawn_here(comparison, monkeypatch):

@@ -74,24 +74,28 @@ def ask(
     if not running():
         return lambda: None
     connection = _DRAWER["connection"]
+    number = _DRAWER["asked"] = _DRAWER.get("asked", 0) + 1
     try:  # pickled whole before a byte is written: a failure leaves the pipe as it was
-        connection.send((plan, traj, title, animation, fmt, ranking))
+        connection.send((number, (plan, traj, title, animation, fmt, ranking)))
     except Exception:  # gone, or something in the plan that does not pickle: drawn here
         return lambda: None
-    return lambda: _answer(connection, _DRAWER["process"])
+    return lambda: _answer(connection, _DRAWER["process"], number)
 
 
-def _answer(connection, process) -> tuple[dict[str, bytes], float] | None:
-    """Wait for the drawing process's answer (as long as it lives: a GIF can take a while)."""
+def _answer(connection, process, number: int) -> tuple[dict[str, bytes], float] | None:
+    """Wait for the drawing process's answer to job `number` (as long as it lives: a GIF
+    can take a while); answers to earlier jobs nobody waited for are dropped."""
     try:
-        while not connection.poll(0.2):
-            checkpoint()
-            if not process.is_alive():
-                return None
-        kind, *value = connection.recv()
+        while True:
+            while not connection.poll(0.2):
+                checkpoint()
+                if not process.is_alive():
+                    return None
+            answered, kind, *value = connection.recv()
+            if answered == number:
+                return (value[0], value[1]) if kind == "ok" else None
     except Exception:  # gone mid-answer, or an answer that does not unpickle: drawn here
         return None
-    return (value[0], value[1]) if kind == "ok" else None
 
 
 def beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]]:
@@ -129,15 +133,15 @@ def _serve(connection, parents_end, parent: int) -> None:
     _warm_up()
     while True:
         try:
-            job = connection.recv()
+            number, job = connection.recv()
         except (EOFError, OSError):
             return
         cpu = time.process_time()
         try:
             files, other = _draw_shared(*job)
-            answer = ("ok", files, time.process_time() - cpu + other)
+            answer = (number, "ok", files, time.process_time() - cpu + other)
         except Exception:  # drawn again in the command, which reports it as it always did
-            answer = ("error", traceback.format_exc())
+            answer = (number, "error", traceback.format_exc())
         try:
             connection.send(answer)
         except (OSError, ValueError):
