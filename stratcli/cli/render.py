@@ -233,6 +233,17 @@ def fmt_error(x: float | None) -> str:
     return "–" if x is None else f"{x:.2e}"
 
 
+JOINT = "*"  # marks the iterations and starts of a search over all legs together
+
+
+def _work(leg: dict) -> tuple[str, str]:
+    """A leg's iterations and starts cells: its own Newton search's, or (marked `JOINT`)
+    those of the constrained search that planned all legs together (the same on each)."""
+    if leg.get("strategy") == "constrained":
+        return f"{leg['iterations']}{JOINT}", f"{leg['attempts']}{JOINT}"
+    return str(leg["iterations"]), str(leg["attempts"])
+
+
 def plan_summary(doc: dict) -> None:
     """Header, one row per leg, total energy beside the paper's: from result.json alone."""
     extras = [x for x in ("soft_start", "full_stop") if doc.get(x)]
@@ -270,7 +281,7 @@ def plan_summary(doc: dict) -> None:
             leg["stratum"],
             leg["method"],
             leg["evaluator"],
-            *((str(leg["iterations"]), str(leg["attempts"])) if per_leg else ()),
+            *(_work(leg) if per_leg else ()),
             fmt_error(leg["error"]),
             fmt(leg["energy"]),
             "[red]failed[/]"
@@ -280,6 +291,11 @@ def plan_summary(doc: dict) -> None:
     for i in range(len(doc["legs"]), doc.get("planned_legs") or 0):  # after a failed leg
         legs.add_row(str(i + 1), *["–"] * (7 if per_leg else 5), "[dim]not planned[/]")
     out_console.print(legs)
+    if per_leg and any(leg.get("strategy") == "constrained" for leg in doc["legs"]):
+        out_console.print(
+            f"{JOINT} the constrained search's iterations and starts, over all legs together",
+            highlight=False,
+        )
     line = f"total energy [bold]{fmt(doc['total_energy'])}[/]"
     if len(doc["legs"]) < (doc.get("planned_legs") or 0):
         k = len(doc["legs"])
