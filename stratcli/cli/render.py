@@ -233,17 +233,6 @@ def fmt_error(x: float | None) -> str:
     return "–" if x is None else f"{x:.2e}"
 
 
-JOINT = "*"  # marks the iterations and starts of a search over all legs together
-
-
-def _work(leg: dict) -> tuple[str, str]:
-    """A leg's iterations and starts cells: its own Newton search's, or (marked `JOINT`)
-    those of the constrained search that planned all legs together (the same on each)."""
-    if leg.get("strategy") == "constrained":
-        return f"{leg['iterations']}{JOINT}", f"{leg['attempts']}{JOINT}"
-    return str(leg["iterations"]), str(leg["attempts"])
-
-
 def plan_summary(doc: dict) -> None:
     """Header, one row per leg, total energy beside the paper's: from result.json alone."""
     extras = [x for x in ("soft_start", "full_stop") if doc.get(x)]
@@ -276,12 +265,13 @@ def plan_summary(doc: dict) -> None:
     margins = (doc.get("constraints") or {}).get("legs") or []
     for i, leg in enumerate(doc["legs"]):
         off = i < len(margins) and broken(margins[i])
+        joint = "*" if leg.get("strategy") == "constrained" else ""  # the search's, all legs
         legs.add_row(
             str(i + 1),
             leg["stratum"],
             leg["method"],
             leg["evaluator"],
-            *(_work(leg) if per_leg else ()),
+            *((f"{leg['iterations']}{joint}", f"{leg['attempts']}{joint}") if per_leg else ()),
             fmt_error(leg["error"]),
             fmt(leg["energy"]),
             "[red]failed[/]"
@@ -292,10 +282,7 @@ def plan_summary(doc: dict) -> None:
         legs.add_row(str(i + 1), *["–"] * (7 if per_leg else 5), "[dim]not planned[/]")
     out_console.print(legs)
     if per_leg and any(leg.get("strategy") == "constrained" for leg in doc["legs"]):
-        out_console.print(
-            f"{JOINT} the constrained search's iterations and starts, over all legs together",
-            highlight=False,
-        )
+        say("* the constrained search's iterations and starts, over all legs together")
     line = f"total energy [bold]{fmt(doc['total_energy'])}[/]"
     if len(doc["legs"]) < (doc.get("planned_legs") or 0):
         k = len(doc["legs"])
