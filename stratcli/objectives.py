@@ -175,8 +175,8 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     ]
     say("constrained search: moving the plan inside the limits")
     tried = []  # every start, for `_folding_start`
-    coefficients, notes, stalled = None, [], ""
-    inside = []  # (energy, coefficients, notes) of each start that got inside
+    coefficients, notes, stalled, iterations, searched = None, [], "", 0, 0
+    inside = []  # (energy, coefficients, notes, iterations) of each start that got inside
     wanted = settings.constrained_starts
     for k in range(CONSTRAINED_SEEDS + wanted):
         if k:  # another start: a Newton plan from a seed, as the energy search's starts
@@ -192,8 +192,9 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
             ]
         tried += seeds
         coefficients = None
+        searched += 1
         try:
-            coefficients, notes, stalled, energy = constrained_search(
+            coefficients, notes, stalled, energy, iterations = constrained_search(
                 system, nominal, legs, settings, targets, seeds, constraints,
                 lower_energy=settings.objective == "energy", first=k == 0,
             )  # fmt: skip
@@ -210,13 +211,13 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         if coefficients is None and not stalled:
             break  # (k = 0) inside the limits already
         if coefficients is not None:
-            inside.append((energy, coefficients, notes))
+            inside.append((energy, coefficients, notes, iterations))
             if len(inside) >= wanted:
                 break
     if inside:  # the lowest of the starts that got inside (`constrained_starts`)
-        _, coefficients, notes = min(inside, key=lambda found: found[0])
+        _, coefficients, notes, iterations = min(inside, key=lambda found: found[0])
         if wanted > 1:
-            energies = ", ".join(f"{e:.6g}" for e, _, _ in inside)
+            energies = ", ".join(f"{e:.6g}" for e, _, _, _ in inside)
             notes = [
                 *notes,
                 f"lowest of {len(inside)} constrained starts inside the limits ({energies})",
@@ -227,7 +228,8 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         found = _folding_start(system, nominal, legs, settings, targets, tried, constraints)
         if found is not None:
             say("constrained search: from a plan within auxiliary joint limits")
-            coefficients, notes, _, _ = constrained_search(
+            searched += 1
+            coefficients, notes, _, _, iterations = constrained_search(
                 system, nominal, legs, settings, targets, found, constraints,
                 lower_energy=settings.objective == "energy", first=False,
             )  # fmt: skip
@@ -237,7 +239,20 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     if not final.ok:
         note = "the constrained plan did not re-chain onto the goals; " + final.message
         return replace(plan, message=note, notes=(*plan.notes, note))
-    return replace(final, optimisation=plan.optimisation, notes=(*final.notes, *notes))
+    # The legs are the search's (re-chaining polishes a leg only if it is off by more than the
+    # tolerance): their work is its iterations and starts, over all legs together.
+    legs_found = tuple(
+        replace(
+            leg,
+            strategy="constrained",
+            iterations=iterations + leg.iterations,
+            attempts=searched,
+        )
+        for leg in final.legs
+    )
+    return replace(
+        final, legs=legs_found, optimisation=plan.optimisation, notes=(*final.notes, *notes)
+    )
 
 
 def _folding_start(system, nominal, legs, settings, targets, seeds, constraints):
@@ -258,7 +273,7 @@ def _folding_start(system, nominal, legs, settings, targets, seeds, constraints)
     lower[joints], upper[joints] = -AUXILIARY_LIMIT, AUXILIARY_LIMIT
     auxiliary = replace(constraints, lower=lower, upper=upper)
     try:
-        coefficients, _, _, _ = constrained_search(
+        coefficients, _, _, _, _ = constrained_search(
             system, nominal, legs, settings, targets, seeds, auxiliary, lower_energy=False,
             first=False,
         )  # fmt: skip

@@ -44,13 +44,18 @@ def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
     SequencePlan
         The same path in 1/s of the time; `time_scale` multiplied by `s`. A plan planned
         under [constraints] has its limits verified again at the new speed (not slowed back:
-        a plan run faster than its rate limits allow is failed, naming the limit).
+        a plan run faster than its rate limits allow is failed, naming the limit); a note of
+        where the legs leave a URDF's joint limits is made again at the new times.
     """
     out = scale_time(plan, s)
     if plan.constraints is not None:  # its margins were measured at the old speed
         from .constraints import verified_again  # (imports this module)
 
         out = verified_again(out)
+    else:  # a note of when the legs leave a URDF's joint limits: at the new times
+        from .urdf_limits import with_legs_noted_again
+
+        out = with_legs_noted_again(out)
     return out
 
 

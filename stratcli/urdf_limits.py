@@ -6,7 +6,8 @@ and its message says that the limit came from the URDF and what can help there
 (`violation_advice`: the constrained search does not run on URDF models). Without one, the
 plan is left as it is (its status unchanged) and gets a note instead (`with_limit_notes`):
 where its start, vias or goal lie outside the URDF's limits (`outside_limits`, which
-`stratplan check` prints as a warning), and which legs leave them, how far and when. The
+`stratplan check` prints as a warning), and which legs leave them, how far and when (made
+again for a re-timed plan: `with_legs_noted_again`). The
 joints of a URDF model are closed-form integrals of the Fourier controls
 (`FourierBasis.integrals`), so the check integrates nothing: it evaluates them at `SAMPLES`
 instants per piece. URDF velocity limits (`<limit velocity>`) are not used (rate limits
@@ -21,7 +22,13 @@ import numpy as np
 
 from .status import Status
 
-__all__ = ["URDF_LIMIT", "outside_limits", "violation_advice", "with_limit_notes"]
+__all__ = [
+    "URDF_LIMIT",
+    "outside_limits",
+    "violation_advice",
+    "with_legs_noted_again",
+    "with_limit_notes",
+]
 
 SAMPLES = 2000  # per piece of a leg (a Newton leg has one)
 URDF_LIMIT = "the URDF's joint limits of"  # how `constraints.verify` names one it breaks
@@ -143,6 +150,12 @@ def _legs(plan, lower, upper, names) -> list[str]:
     return out
 
 
+def _legs_note(plan, lower, upper, names) -> str | None:
+    """The note of the legs that leave the URDF's limits, at the plan's timing (or None)."""
+    left = _legs(plan, lower, upper, names)
+    return f"{'; '.join(left)}; {VERIFIED}" if left else None
+
+
 def with_limit_notes(plan, task):
     """`plan` with a note for each way it or its task leaves the URDF's joint limits (only
     for a URDF model in a scenario without [constraints]; else `plan` itself)."""
@@ -150,6 +163,24 @@ def with_limit_notes(plan, task):
     if limits is None:
         return plan
     notes = outside_limits(task)
-    if left := _legs(plan, *limits):
-        notes.append(f"{'; '.join(left)}; {VERIFIED}")
+    if note := _legs_note(plan, *limits):
+        notes.append(note)
     return replace(plan, notes=(*plan.notes, *notes)) if notes else plan
+
+
+def with_legs_noted_again(plan):
+    """`plan`, re-timed (`time_scaling.time_scaled`), with its note of the legs that leave
+    the URDF's limits (`with_limit_notes`, which timed them at its old speed) made again at
+    its own timing, in the same place; `plan` itself when it has no such note."""
+    old = [k for k, note in enumerate(plan.notes) if note.endswith(f"; {VERIFIED}")]
+    if not old:
+        return plan
+    robot = plan.system.spatial
+    lower, upper = np.asarray(robot.lower, float), np.asarray(robot.upper, float)
+    note = _legs_note(plan, lower, upper, robot.joint_names)  # (the path is the same)
+    notes = list(plan.notes)
+    for k in reversed(old):
+        del notes[k]
+    if note is not None:
+        notes.insert(old[0], note)
+    return replace(plan, notes=tuple(notes))

@@ -139,9 +139,14 @@ def test_newton_auto_mode_counts_a_candidate_done_after_its_limits(monkeypatch):
 
     monkeypatch.setattr(trie, "_plan_within_limits", spy)
     task = _auto("newton")
-    stratcli.compare_sequences(
+    outcome = stratcli.compare_sequences(
         task, jobs=1, progress=lambda done, total: seen.append((done, total))
     )
+    moved = [o.plan for o in outcome.comparison.outcomes if o.plan is not None and o.plan.ok]
+    moved = [p for p in moved if any(n.startswith("constrained search from") for n in p.notes)]
+    assert moved  # legs the second pass re-chained carry its search's iterations, not 0
+    legs = [leg for p in moved for leg in p.legs]
+    assert all(leg.strategy == "constrained" and leg.iterations > 0 for leg in legs)
     total = seen[-1][1]
     assert during and max(during) < total  # not shown finished while it is being moved inside
     assert seen[-1] == (total, total)

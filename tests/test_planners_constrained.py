@@ -4,19 +4,22 @@ cannot plan fails with the limit and the leg named; Lie legs are refused with su
 
 from __future__ import annotations
 
+import io
 import json
+import re
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
 from reintegrate import controls, rhs_for, verify
+from rich.console import Console
 from scipy.integrate import solve_ivp
 from typer.testing import CliRunner
 
 from stratcli import load_scenario
 from stratcli.api import plan_run
-from stratcli.cli import app
+from stratcli.cli import app, render
 from stratcli.errors import InputError
 from stratcli.models.geometry import world_geometry
 
@@ -193,6 +196,29 @@ def test_limits_by_name_hold_the_base_angle_theta_too(objective):
     q = _dense(task, outcome.document)
     assert np.abs(q[:, 3]).max() <= 2.5 + 1e-6
     assert np.abs(q[:, :3]).max() > 2.5  # the joints are not limited: only theta is named
+
+
+def test_legs_the_constrained_search_planned_report_its_iterations_not_zero():
+    """The legs are re-chained from the search's coefficients (Newton polishes nothing): their
+    iterations and starts are the search's, over all legs together, in result.json and the
+    table, not the re-chain's 0."""
+    raw = _raw("sim4_task_d.toml", objective="newton")
+    raw["constraints"] = {"joint_limits": {"theta": [-2.5, 2.5]}}
+    outcome = plan_run(load_scenario(raw), check=False)
+    assert outcome.ok, outcome.result.message
+    note = next(n for n in outcome.result.notes if n.startswith("constrained search from"))
+    searched = int(re.search(r"after (\d+) iterations", note)[1])
+    assert searched > 0
+    for leg in outcome.document["legs"]:
+        assert leg["strategy"] == "constrained"
+        assert leg["iterations"] >= searched and leg["attempts"] >= 1
+    console = Console(width=120, record=True, force_terminal=True, file=io.StringIO())
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(render, "out_console", console)
+        render.plan_summary(outcome.document)
+    text = console.export_text()
+    assert text.count(f" {searched}* ") == 2  # each leg: the search's, not 0
+    assert "* the constrained search's iterations and starts, over all legs together" in text
 
 
 @pytest.mark.slow

@@ -43,17 +43,24 @@ def test_tf_frames_are_the_urdf_links(spatial_run):
     assert np.linalg.norm(so3.log(so3.exp(end[3:]).T @ R)) < 1e-7
 
 
-def test_urdf_is_attached(spatial_run):
-    task, _, _, data = spatial_run
+def test_urdf_is_attached_and_published(spatial_run):
+    task, out, traj, data = spatial_run
     attachments = {a.name: a for a in make_reader(io.BytesIO(data)).iter_attachments()}
     assert attachments["ff_arm3.urdf"].data.decode() == task.system.spatial.text
+    ((ns, message),) = mcap_messages(data, "/robot_description")
+    assert message == {"data": task.system.spatial.text}
+    assert ns == mcap_messages(data, "/tf")[0][0]  # from the first sample on
+    # named as the record's copy when the manifest says which (`model_files`)
+    named = mcap_bytes(out.result, traj, out.document, {"urdf": {"file": "mine.urdf"}}, "", "x")
+    names = {a.name for a in make_reader(io.BytesIO(named)).iter_attachments()}
+    assert "mine.urdf" in names and "ff_arm3.urdf" not in names
 
 
-def test_layout_draws_the_urdf_in_the_3d_panel(spatial_run):
-    task, out, traj, _ = spatial_run
+def test_layout_draws_the_urdf_in_the_3d_panel_from_the_log(spatial_run):
+    _, out, traj, _ = spatial_run
     from stratcli.records.foxglove_layout import THREE_D, run_layout
 
-    layout = run_layout(out.result, traj)
-    layer = layout["configById"][THREE_D]["layers"]["urdf"]
-    assert layer["layerId"] == "foxglove.Urdf" and layer["sourceType"] == "filePath"
-    assert Path(layer["filePath"]).read_text() == task.system.spatial.text
+    panel = run_layout(out.result, traj)["configById"][THREE_D]
+    assert panel["topics"]["/robot_description"] == {"visible": True}
+    assert "urdf" not in panel["layers"]  # no file path, which the record could not keep
+    assert panel["cameraState"]["perspective"]

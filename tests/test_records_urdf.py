@@ -101,6 +101,32 @@ def test_the_record_holds_its_urdf_and_replans_from_its_own_scenario(record):
     assert again.legs[0].coefficients == pytest.approx(plan.legs[0].coefficients, abs=1e-9)
 
 
+def test_the_records_foxglove_files_name_no_path_outside_it(record):
+    """layout.json named the scenario's own URDF path (gone once the scenario's folder is):
+    its 3-D panel now draws the robot from run.mcap's /robot_description, which holds the
+    URDF, and the log's attachments are the record's scenario.toml and its copy of the URDF."""
+    import io
+
+    from conftest import mcap_messages
+    from mcap.reader import make_reader
+
+    from stratcli.records.foxglove_layout import THREE_D
+
+    _, run, _ = record
+    urdf = (run / "mine.urdf").read_text()
+    text = (run / "layout.json").read_text()
+    assert "robots/mine.urdf" not in text and "filePath" not in text
+    three_d = json.loads(text)["configById"][THREE_D]
+    assert three_d["topics"]["/robot_description"] == {"visible": True}
+    data = (run / "run.mcap").read_bytes()
+    ((_, message),) = mcap_messages(data, "/robot_description")
+    assert message == {"data": urdf}
+    attachments = {a.name: a.data for a in make_reader(io.BytesIO(data)).iter_attachments()}
+    assert attachments["mine.urdf"].decode() == urdf
+    assert attachments["scenario.toml"].decode() == (run / "scenario.toml").read_text()
+    assert json.loads(attachments["layout.json"]) == json.loads(text)
+
+
 def test_an_older_record_without_its_urdf_falls_back_on_resolved_json(record, tmp_path):
     import stratcli
 

@@ -218,7 +218,7 @@ def test_workers_fork_only_when_no_thread_runs_and_blas_was_already_single(monke
     """Forked workers start with this process's imports (fast); another thread here, or BLAS
     not limited before this process loaded numpy (`stratcli.blas.limited`), or a platform
     other than Linux, means fresh (spawned) interpreters."""
-    run_module = stratcli.sweep.run
+    run_module = stratcli.sweep.executors
     monkeypatch.setattr(run_module.blas, "limited", lambda: True)
     monkeypatch.setattr(run_module.threading, "active_count", lambda: 1)
     monkeypatch.setattr(run_module.sys, "platform", "linux")
@@ -238,7 +238,7 @@ def test_workers_fork_only_when_no_thread_runs_and_blas_was_already_single(monke
 
 
 def test_forked_and_spawned_workers_give_the_same_rows(monkeypatch, tmp_path):
-    run_module = stratcli.sweep.run
+    run_module = stratcli.sweep.executors
     rows = {}
     for how in (True, False):
         monkeypatch.setattr(run_module, "_fork_is_safe", lambda how=how: how)
@@ -255,8 +255,8 @@ SCRIPT = """
 import sys, threading, time
 threading.Thread(target=time.sleep, args=(60,), daemon=True).start()
 import stratcli
-from stratcli.sweep import run
-assert not run._fork_is_safe()
+from stratcli.sweep import executors
+assert not executors._fork_is_safe()
 print("main", flush=True)
 outcome = stratcli.run_sweep(sys.argv[1], sys.argv[2], jobs=2, records="none")
 print(outcome.complete, outcome.summary["counts"]["ok"], flush=True)

@@ -145,3 +145,22 @@ def test_the_notes_times_are_those_of_the_plan_as_run_with_a_time_scale(tmp_path
     auto = stratcli.plan_auto(ROOT / "scenarios" / "spatial" / "arm3_auto.toml", time_scale=2.0)
     (note,) = auto.notes
     assert "(reaches -4.25 at t = 0.454 s)" in note and auto.best.result.notes == (note,)
+
+
+def test_time_scaled_times_the_legs_note_again(tmp_path):
+    """`time_scaled` kept the note's times of the old speed: it is made again for the new
+    timing (the same path: the same value, at half the time), in its place, once."""
+    import dataclasses
+
+    path = _scenario(tmp_path)
+    planned = stratcli.plan(path)
+    (legs,) = planned.notes
+    plan = dataclasses.replace(planned, notes=("another note", legs, "a last one"))
+    faster = stratcli.time_scaled(plan, 2.0)
+    assert faster.notes[0] == "another note" and faster.notes[2] == "a last one"
+    before, after = NOTE.match(legs), NOTE.match(faster.notes[1])
+    assert after, faster.notes[1]
+    assert float(after["t"]) == pytest.approx(float(before["t"]) / 2, abs=1e-3)
+    assert after["value"] == before["value"]
+    assert faster.notes[1] == stratcli.plan(path, time_scale=2.0).notes[0]  # as if planned so
+    assert stratcli.time_scaled(faster, 0.5).notes == plan.notes

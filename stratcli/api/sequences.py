@@ -142,11 +142,11 @@ def _cluster(
     dask: str | os.PathLike | None, executor: Executor | None
 ) -> Iterator[Executor | None]:
     """`executor`, or the executor of the Dask cluster at `dask` (InputError when it cannot
-    be reached: `sweep.run.dask_executor`)."""
+    be reached: `sweep.executors.dask_executor`)."""
     if dask is None or executor is not None:
         yield executor
         return
-    from ..sweep.run import dask_executor
+    from ..sweep.executors import dask_executor
 
     with dask_executor(os.fspath(dask)) as (cluster, _):
         yield cluster

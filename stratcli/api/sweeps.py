@@ -12,8 +12,9 @@ from typing import Any
 
 from ..arguments import checked, choice, flag, instance, integer, optional, pathlike, source
 from ..records import sweepdir
+from ..sweep.executors import ExecutorInfo, dask_executor
 from ..sweep.outputs import summarise
-from ..sweep.run import RECORDS, ExecutorInfo, Progress, SweepOutcome, dask_executor
+from ..sweep.run import RECORDS, Progress, SweepOutcome
 from ..sweep.run import run_sweep as run_tasks
 from ..sweep.spec import Sweep, load_sweep
 

@@ -10,7 +10,7 @@ import typer
 from typer.core import TyperCommand, TyperGroup
 
 from .. import __version__
-from . import commands
+from . import commands, records
 from . import sweep as sweep_command
 from .usage import one_line
 
@@ -84,8 +84,8 @@ def _main(
 
 
 app.command(cls=_Command)(commands.plan)
-app.command(cls=_Command)(commands.show)
-app.command(cls=_Command)(commands.runs)
+app.command(cls=_Command)(records.show)
+app.command(cls=_Command)(records.runs)
 app.command(cls=_Command)(commands.models)
 app.command(cls=_Command)(commands.regress)
 app.command("decompose", cls=_Command)(commands.decompose)

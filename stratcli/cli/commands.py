@@ -281,63 +281,6 @@ def _warning(message: str) -> None:
     render.error("warning", message)
 
 
-def show(
-    run: Annotated[
-        Path, typer.Argument(help="Run directory (as printed by plan), or a sweep directory.")
-    ],
-    json_output: Json = False,
-) -> None:
-    """Show a run record (read back from its files, not re-planned), or a sweep directory."""
-    from .. import api  # start-up speed
-    from ..records.sweepdir import is_sweep_dir
-
-    if is_sweep_dir(run):
-        from .sweep import show_sweep
-
-        show_sweep(run, json_output)
-        return
-
-    with render.reported():
-        record, log = api.read_run(run)
-    if json_output:
-        render.print_json({"result": record.result, "manifest": record.manifest, "mcap": log})
-    else:
-        render.run_record(record, log)
-
-
-def runs(
-    out: Out = Path("runs"),
-    json_output: Json = False,
-    clean: Annotated[
-        bool,
-        typer.Option(
-            "--clean",
-            metavar="",
-            help="First remove the hidden partial directories of killed runs (those of runs "
-            "still writing are kept).",
-        ),
-    ] = False,
-) -> None:
-    """List run records, newest first: time, scenario, status, energy.
-
-    A damaged record is skipped with a note on stderr naming the file and what is wrong.
-    """
-    from .. import api  # start-up speed
-    from ..api.runs import clean_runs
-
-    if out.exists() and not out.is_dir():
-        render.error("error", f"--out {out}: not a directory (a folder of run records)")
-        raise typer.Exit(2)
-    if clean:
-        for path in clean_runs(out):
-            typer.echo(f"removed {path} (left by a killed run)", err=True)
-    rows = api.list_runs(out, on_damaged=lambda line: typer.echo(f"skipped: {line}", err=True))
-    if json_output:
-        render.print_json(rows)
-    else:
-        render_tables.runs_table(rows, out)
-
-
 def models(
     target: Annotated[
         str | None,

@@ -265,12 +265,13 @@ def plan_summary(doc: dict) -> None:
     margins = (doc.get("constraints") or {}).get("legs") or []
     for i, leg in enumerate(doc["legs"]):
         off = i < len(margins) and broken(margins[i])
+        joint = "*" if leg.get("strategy") == "constrained" else ""  # the search's, all legs
         legs.add_row(
             str(i + 1),
             leg["stratum"],
             leg["method"],
             leg["evaluator"],
-            *((str(leg["iterations"]), str(leg["attempts"])) if per_leg else ()),
+            *((f"{leg['iterations']}{joint}", f"{leg['attempts']}{joint}") if per_leg else ()),
             fmt_error(leg["error"]),
             fmt(leg["energy"]),
             "[red]failed[/]"
@@ -280,6 +281,8 @@ def plan_summary(doc: dict) -> None:
     for i in range(len(doc["legs"]), doc.get("planned_legs") or 0):  # after a failed leg
         legs.add_row(str(i + 1), *["–"] * (7 if per_leg else 5), "[dim]not planned[/]")
     out_console.print(legs)
+    if per_leg and any(leg.get("strategy") == "constrained" for leg in doc["legs"]):
+        say("* the constrained search's iterations and starts, over all legs together")
     line = f"total energy [bold]{fmt(doc['total_energy'])}[/]"
     if len(doc["legs"]) < (doc.get("planned_legs") or 0):
         k = len(doc["legs"])

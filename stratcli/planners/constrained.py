@@ -312,7 +312,8 @@ def constrained_search(
     coefficients reaching the goals) that leads to a feasible plan.
 
     Returns (per-leg coefficients or None, notes, the stall message of the last start tried,
-    the plan's energy or NaN); (None, notes, "", NaN) when the first seed is inside the limits
+    the plan's energy or NaN, the iterations of the search that found it over all legs
+    together, or 0); (None, notes, "", NaN, 0) when the first seed is inside the limits
     already and `first` (the planned plan: then it is the constrained minimum as well).
     With `lower_energy` (the energy objective) the feasible plan's energy is then lowered
     inside the limits (`_Search.lower`).
@@ -325,7 +326,7 @@ def constrained_search(
     z = problem.project(seeds[0][1])
     g = margins(z, jacobian=False)[0]
     if first and (g.size == 0 or g.min() >= 0) and margins.refined(z, DENSE) is None:
-        return None, ["inside the limits already: no constrained search needed"], "", np.nan
+        return None, ["inside the limits already: no constrained search needed"], "", np.nan, 0
     for kind, lam in seeds:
         with np.errstate(all="ignore"):
             search = _Search(problem, margins, problem.project(lam), settings.tolerance)
@@ -356,5 +357,6 @@ def constrained_search(
             f"after {search.iterations} iterations, energy {found:.6g}"
             + (f", lowered to {search.energy:.6g} inside them" if lower_energy else "")
         ]
-        return problem.split(problem.coefficients(search.z)), notes, "", search.energy
-    return None, [], stalled, np.nan
+        coefficients = problem.split(problem.coefficients(search.z))
+        return coefficients, notes, "", search.energy, search.iterations
+    return None, [], stalled, np.nan, 0

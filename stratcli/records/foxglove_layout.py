@@ -12,7 +12,9 @@ them (`{"direction", "first", "second", "splitPercentage"}`; a leaf is a panel i
 | Plot | `Plot!configuration` | `/state.q.<coordinate>` for every coordinate |
 | State Transitions | `StateTransitions!stratum` | `/state.stratum` and `/state.leg` |
 
-A URDF robot's 3-D panel draws the robot with a URDF layer (the file's path) in perspective.
+A URDF robot's 3-D panel draws the robot from `run.mcap`'s `/robot_description` topic (the
+URDF's text, a `std_msgs/String`-shaped `{"data": ...}` message that Foxglove's 3-D panel draws by
+itself), in perspective: no path outside the record, which may be moved or shared.
 The 3-D panel is left out when the log has no `/tf` (a model without a robot drawing). Message
 paths are `topic.field.field` in the field names of `mcap_schemas`; every time axis is the log
 time, so the plots and the 3-D view move together with Foxglove's playback bar. Built as plain
@@ -30,7 +32,14 @@ import numpy as np
 from ..sequence import SequencePlan
 from .trajectory import Trajectory, world_geometry
 
-__all__ = ["LAYOUT_PANELS", "foxglove_layout", "message_paths", "run_layout", "shows_robot"]
+__all__ = [
+    "LAYOUT_PANELS",
+    "ROBOT_DESCRIPTION",
+    "foxglove_layout",
+    "message_paths",
+    "run_layout",
+    "shows_robot",
+]
 
 THREE_D, CONTROLS, CONFIGURATION, STRATUM = (
     "3D!motion",
@@ -76,23 +85,14 @@ def _plot(title: str, series: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def _three_d(
-    follow: Literal["world", "base"], distance: float, urdf: str | None = None
-) -> dict[str, Any]:
+ROBOT_DESCRIPTION = "/robot_description"  # a URDF robot's URDF text, in run.mcap
+
+
+def _three_d(follow: Literal["world", "base"], distance: float, urdf: bool = False) -> dict:
     panel = _three_d_panel(follow, distance)
-    if urdf is not None:  # a URDF robot: Foxglove draws it, moved by /tf (frames = its links)
+    if urdf:  # a URDF robot: Foxglove draws it from the log, moved by /tf (frames = its links)
         panel["cameraState"].update(perspective=True, phi=60, thetaOffset=45)
-        panel["layers"]["urdf"] = {
-            "visible": True,
-            "label": "Robot (URDF)",
-            "instanceId": "urdf",
-            "layerId": "foxglove.Urdf",
-            "sourceType": "filePath",
-            "filePath": urdf,
-            "displayMode": "auto",
-            "fallbackColor": "#b0b8c8",
-            "order": 2,
-        }
+        panel["topics"][ROBOT_DESCRIPTION] = {"visible": True}
     return panel
 
 
@@ -144,7 +144,7 @@ def foxglove_layout(
     robot: bool,
     follow: Literal["world", "base"] = "world",
     distance: float = 5.0,
-    urdf: str | None = None,
+    urdf: bool = False,
 ) -> dict[str, Any]:
     """The Foxglove layout of a run (a JSON-ready dict).
 
@@ -155,7 +155,8 @@ def foxglove_layout(
     robot : whether the log has `/tf` and `/scene` (`shows_robot`); without, no 3-D panel.
     follow : the frame the 3-D view follows: `"world"` (fixed view) or `"base"` (its position).
     distance : the 3-D camera's distance (zoom), in the model's length unit.
-    urdf : a URDF robot's file: the 3-D panel gets a URDF layer drawing it (perspective view).
+    urdf : a URDF robot: the 3-D panel draws it from the log's `/robot_description` topic
+        (perspective view).
 
     Returns
     -------
@@ -212,7 +213,7 @@ def run_layout(
 
         distance = round(4.0 * max(reach(plan, traj.q[0]), 0.25), 3)
         states, inputs = tuple(system.states), tuple(system.inputs)
-        return foxglove_layout(states, inputs, True, follow, distance, system.spatial.path)
+        return foxglove_layout(states, inputs, True, follow, distance, urdf=True)
     distance = 5.0
     if robot:
         geo = world_geometry(system.robot, traj.q[:1])

@@ -10,6 +10,7 @@ Every channel is JSON-encoded with a JSON Schema:
 | `/summary` | `stratplan.Summary` | one, at the end: status, energies, end point, ... |
 | `/tf` | `foxglove.FrameTransforms` | manipulators, URDF robots: per sample, world → base → links |
 | `/scene` | `foxglove.SceneUpdate` | manipulators: once, base, links, end-effector path |
+| `/robot_description` | `std_msgs/String` | URDF robots: once, the URDF's text (`data`) |
 
 Samples are those of a `Trajectory` (both ends of every leg, so a switch instant appears twice).
 Log times are nanoseconds: the run's start (`manifest["started"]`, else 0) plus the time on the
@@ -42,9 +43,14 @@ from mcap.writer import Writer
 
 from .. import __version__
 from ..sequence import SequencePlan
-from .foxglove_layout import run_layout, shows_robot
+from .foxglove_layout import ROBOT_DESCRIPTION, run_layout, shows_robot
 from .mcap_scene import frame_transforms, link_frames, scene_update
-from .mcap_schemas import FRAME_TRANSFORMS_SCHEMA, SCENE_UPDATE_SCHEMA, own_schemas
+from .mcap_schemas import (
+    FRAME_TRANSFORMS_SCHEMA,
+    ROBOT_DESCRIPTION_SCHEMA,
+    SCENE_UPDATE_SCHEMA,
+    own_schemas,
+)
 from .mcap_spatial import is_spatial, spatial_transforms, urdf_attachment
 from .trajectory import Trajectory, world_geometry
 
@@ -205,6 +211,8 @@ def mcap_bytes(
     spatial = is_spatial(plan) and traj.size > 0  # a URDF robot: /tf after its links
     if manipulator or spatial:
         log.channel("/tf", FRAME_TRANSFORMS_SCHEMA)
+    if spatial:
+        log.channel(ROBOT_DESCRIPTION, ROBOT_DESCRIPTION_SCHEMA)
     if manipulator:
         log.channel("/scene", SCENE_UPDATE_SCHEMA)
         geo = world_geometry(system.robot, traj.q)
@@ -233,13 +241,15 @@ def mcap_bytes(
     )
 
     if spatial:
-        name, data = urdf_attachment(plan)
+        name, data = urdf_attachment(plan, manifest)
         writer.add_attachment(
             create_time=epoch, log_time=epoch, name=name, media_type="application/xml", data=data
         )
     t_first = float(traj.t[0]) if traj.size else 0.0
     if manipulator and traj.size:
         log.write("/scene", at(t_first), scene_update(plan, geo, at(t_first)))
+    if spatial:  # the robot the 3-D panel draws (layout.json), from the log itself
+        log.write(ROBOT_DESCRIPTION, at(t_first), {"data": system.spatial.text})
     legs_doc = result_doc.get("legs", [])
     switches = {sw["after_leg"]: sw for sw in result_doc.get("switches", [])}
     for k, leg in enumerate(plan.legs):

@@ -4,7 +4,8 @@ Every channel of the MCAP log is JSON-encoded and registered with a JSON Schema.
 holds them: `SCHEMA_NAMES` (topic → schema name), `own_schemas` for stratplan's own channels
 (`/state`, `/controls`, `/legs`, `/summary`, whose properties are named after the model's
 coordinates and inputs) and the subsets of Foxglove's well-known `FrameTransforms` and
-`SceneUpdate` schemas that `/tf` and `/scene` use. The writer is `mcap_log`.
+`SceneUpdate` schemas that `/tf` and `/scene` use, and the `std_msgs/String` shape of a URDF
+robot's `/robot_description`. The writer is `mcap_log`.
 
 Every field has exactly one JSON type (`"type": "number"`, never `["number", "null"]`, and an
 `enum` always with its `type`): Foxglove's JSON Schema reader turns a channel schema into
@@ -15,7 +16,13 @@ of a failed plan) is therefore left out of its message, never written as `null`.
 
 from __future__ import annotations
 
-__all__ = ["FRAME_TRANSFORMS_SCHEMA", "SCENE_UPDATE_SCHEMA", "SCHEMA_NAMES", "own_schemas"]
+__all__ = [
+    "FRAME_TRANSFORMS_SCHEMA",
+    "ROBOT_DESCRIPTION_SCHEMA",
+    "SCENE_UPDATE_SCHEMA",
+    "SCHEMA_NAMES",
+    "own_schemas",
+]
 
 SCHEMA_NAMES = {
     "/state": "stratplan.State",
@@ -24,6 +31,7 @@ SCHEMA_NAMES = {
     "/summary": "stratplan.Summary",
     "/tf": "foxglove.FrameTransforms",
     "/scene": "foxglove.SceneUpdate",
+    "/robot_description": "std_msgs/String",
 }
 
 # --------------------------------------------------------------------------------------------
@@ -171,6 +179,14 @@ _COLOR = {
 _SIZED = {
     "type": "object",
     "properties": {"pose": _POSE, "size": _VECTOR3, "color": _COLOR},
+}
+# A URDF robot's URDF text, as ROS publishes it (`std_msgs/String`): Foxglove's 3-D panel draws
+# the robot of a `/robot_description` topic from its `data` field.
+ROBOT_DESCRIPTION_SCHEMA = {
+    "title": "std_msgs/String",
+    "description": "A URDF robot's URDF text",
+    "type": "object",
+    "properties": {"data": _STRING},
 }
 FRAME_TRANSFORMS_SCHEMA = {
     "title": "foxglove.FrameTransforms",

@@ -1,7 +1,8 @@
 """`/tf` of a spatial (URDF) plan: world → base → links, frames named after the URDF links.
 
 Foxglove's 3-D panel draws a URDF itself and moves its links from `FrameTransforms` whose
-`child_frame_id`s are the link names (SPATIAL.md); the record attaches the URDF. Each sample's
+`child_frame_id`s are the link names (SPATIAL.md), the URDF's text being the one message of
+`/robot_description`; the URDF is also attached, under the name of the record's copy. Each sample's
 configuration is the re-integrated `(q, log R)`; the base sits at `−R c(q)` (the system CoM
 is the world origin). Link poses come from Pinocchio's forward kinematics.
 """
@@ -60,7 +61,9 @@ def spatial_transforms(plan, q: np.ndarray, ns: int) -> dict[str, Any] | None:
     return {"transforms": out}
 
 
-def urdf_attachment(plan) -> tuple[str, bytes]:
-    """(file name, bytes) of the robot's URDF."""
+def urdf_attachment(plan, manifest: dict | None = None) -> tuple[str, bytes]:
+    """(file name, bytes) of the robot's URDF: named as the record's copy of it
+    (`manifest["urdf"]["file"]`, `model_files`), else after the robot."""
     robot = plan.system.spatial
-    return f"{robot.summary.name}.urdf", robot.text.encode("utf-8")
+    name = ((manifest or {}).get("urdf") or {}).get("file") or f"{robot.summary.name}.urdf"
+    return name, robot.text.encode("utf-8")

@@ -81,7 +81,9 @@ def record_files(
         phases["plots"] = {"wall_s": time.perf_counter() - wall, "cpu_s": cpu}
     files.update(plots)
     with phase(phases, "run.mcap"):
-        files["run.mcap"] = mcap_bytes(plan, traj, doc, manifest, task.text, title, layout)
+        # the record's scenario.toml: a URDF robot's names the record's copy of its URDF
+        scenario = files["scenario.toml"]
+        files["run.mcap"] = mcap_bytes(plan, traj, doc, manifest, scenario, title, layout)
     return files
 
 

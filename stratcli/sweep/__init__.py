@@ -1,8 +1,9 @@
 """Sweeps: many tasks of one base scenario, planned on a process pool or a Dask cluster.
 
 `spec` reads and validates sweep files, `worker` plans one task into a row, `run` runs the
-tasks on an executor into a sweep directory (durable, resumable), `outputs` writes the table,
-summary and plots. The use cases are `stratcli.api.run_sweep` and `stratcli.api.read_sweep`.
+tasks on an executor (`executors`: a local process pool, a Dask cluster's) into a sweep
+directory (durable, resumable), `outputs` writes the table, summary and plots. The use cases
+are `stratcli.api.run_sweep` and `stratcli.api.read_sweep`.
 """
 
 from importlib import import_module
@@ -11,10 +12,10 @@ from typing import Any
 # Names are imported on first use (PEP 562): a worker process imports `sweep.worker` alone,
 # not the sweep files' schema and the executors (start-up speed of every worker).
 _WHERE = {
-    "ExecutorInfo": "run",
+    "ExecutorInfo": "executors",
     "SweepOutcome": "run",
-    "dask_executor": "run",
-    "local_executor": "run",
+    "dask_executor": "executors",
+    "local_executor": "executors",
     "run_sweep": "run",
     "Sweep": "spec",
     "SweepTask": "spec",

@@ -1,7 +1,8 @@
 """Running a sweep's tasks on any `concurrent.futures.Executor`, durably and resumably.
 
 Each task is a call of `worker.run_task` on the executor: a local process pool
-(`local_executor`, the default), a Dask cluster's executor (`dask_executor`), or any other.
+(`executors.local_executor`, the default), a Dask cluster's executor
+(`executors.dask_executor`), or any other.
 Rows come back as tasks complete and are appended to rows.jsonl (fsync'd) at once, so a sweep
 killed at any instant loses only the tasks that were running; `resume=True` plans only the
 tasks without a row. A task that fails or raises is a row (its status and message); a task
@@ -17,45 +18,27 @@ numbers besides `TIMING_COLUMNS`.
 
 from __future__ import annotations
 
-import json
-import multiprocessing
-import os
-import sys
-import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from .. import blas
 from ..errors import InputError, Problem
 from ..records import sweepdir
 from ..records.rundir import write_run
-from .spawning import BareSpawnContext
+from .executors import ExecutorInfo, local_executor
 from .spec import Sweep
 from .worker import run_task
 
 RECORDS = ("best", "failed", "all", "none")
-CONNECT_TIMEOUT = "20s"  # to reach a Dask scheduler
-PROBE_TIMEOUT = 5.0  # s: a host:port that refuses or does not exist fails before Client waits
 # tasks submitted ahead of the rows that came back: enough to keep every worker busy, few
 # enough that a sweep of a million tasks does not build a million scenario dicts up front
 IN_FLIGHT_PER_WORKER = 8
 MIN_IN_FLIGHT = 16
 Progress = Callable[[int, int], None]  # (tasks done, tasks in all)
-
-
-@dataclass(frozen=True)
-class ExecutorInfo:
-    """What ran the tasks (recorded in sweep.json)."""
-
-    kind: str  # "process-pool", "dask" or the executor's class name
-    workers: int
-    address: str | None = None
 
 
 @dataclass(frozen=True)
@@ -73,141 +56,6 @@ class SweepOutcome:
     @property
     def complete(self) -> bool:
         return not self.missing
-
-
-def local_executor(jobs: int) -> ProcessPoolExecutor:
-    """A pool of `jobs` worker processes with single-threaded BLAS.
-
-    On Linux, forked when that is safe: no other thread runs in this process, and its BLAS
-    was limited to one thread before numpy loaded (`blas.limited`: the `stratplan` command
-    does so first thing; a script can set the three variables before it imports numpy). A
-    forked worker starts with what this process has imported, in a few milliseconds instead
-    of the 0.3 s a fresh interpreter needs to import numpy, pydantic and the planner.
-    Otherwise spawned: a worker imports numpy itself, after the BLAS variables are set,
-    whatever threads the calling process runs (a notebook, Dask's client); it does not import
-    the caller's `__main__` (`spawning`): a script read from standard input works too, and no
-    script needs the `if __name__ == "__main__":` guard. Workers die with the process that
-    started them and leave SIGINT to it (`trie.worker_init`).
-    """
-    from ..trie import worker_init
-
-    fork = _fork_is_safe()
-    blas.single_threaded()  # for spawned workers (a forked one has this process's BLAS)
-    if fork:
-        from .worker import preload
-
-        preload()  # once here, instead of once in every worker
-    context = multiprocessing.get_context("fork") if fork else BareSpawnContext()
-    return ProcessPoolExecutor(
-        max_workers=jobs, mp_context=context, initializer=worker_init, initargs=(os.getpid(),)
-    )
-
-
-def _fork_is_safe() -> bool:
-    # not on macOS: system libraries (Accelerate) are not fork-safe, and CPython spawns there
-    return sys.platform.startswith("linux") and threading.active_count() == 1 and blas.limited()
-
-
-@contextmanager
-def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
-    """A Dask cluster's executor: `address` is a scheduler address or a scheduler JSON file.
-
-    Raises
-    ------
-    InputError
-        Naming the argument `dask`: Dask is not installed (the `stratplan[dask]` extra), or
-        the scheduler cannot be reached.
-    """
-    try:
-        from distributed import Client
-    except ImportError:
-        raise _bad_dask(
-            None,
-            "dask.distributed is not installed (pip install 'stratplan[dask]'; in a source "
-            "checkout: pip install -e '.[dask]')",
-        ) from None
-    target = address
-    if address.endswith(".json") or Path(address).is_file():  # a scheduler file: its address
-        try:
-            target = json.loads(Path(address).read_text())["address"]
-            assert isinstance(target, str)
-        except (OSError, ValueError, KeyError, TypeError, AssertionError):
-            raise _bad_dask(
-                address, "not a readable Dask scheduler file (JSON with an address)"
-            ) from None
-    if (problem := _address_problem(target)) is not None:
-        raise _bad_dask(address, problem)
-    if (refused := _unreachable(target)) is not None:
-        raise _bad_dask(address, f"cannot reach the scheduler ({refused})")
-    try:
-        client = Client(target, timeout=CONNECT_TIMEOUT)
-    except Exception as exc:  # whatever distributed raises for an address it cannot use
-        raise _bad_dask(address, f"cannot reach the scheduler ({exc})") from None
-    try:
-        workers = len(client.scheduler_info().get("workers", {}))
-        info = ExecutorInfo("dask", workers, str(client.scheduler.address))
-        yield client.get_executor(pure=False), info
-    finally:
-        client.close()
-
-
-def _bad_dask(address: str | None, message: str) -> InputError:
-    """The error of the `dask` argument (`--dask` on the command line: `cli.render.FLAGS`)."""
-    return InputError([Problem("dask", message, given=address)])
-
-
-def _address_problem(address: str) -> str | None:
-    """Why `address` cannot be a scheduler's, as far as its text tells: a port that is not a
-    number from 0 to 65535, or an in-process (inproc://) address, which only the process that
-    made it can use. None otherwise (other mistakes are left to `Client`'s own words)."""
-    from distributed.comm.addressing import parse_address
-
-    try:
-        scheme, location = parse_address(address)
-    except ValueError:
-        return None
-    if scheme == "inproc":
-        return (
-            "an inproc:// address is usable only inside the process that made it; give the "
-            "scheduler's tcp:// address (host:port) or its scheduler file"
-        )
-    if scheme not in ("tcp", "tls", "ws", "wss", "ucx"):
-        return None
-    if location.startswith("["):  # [IPv6]:port
-        _, _, rest = location.partition("]")
-        colon, port = rest[:1] == ":", rest[1:]
-    else:
-        _, colon, port = location.partition(":")
-        colon = bool(colon) and ":" not in port  # a bare IPv6 address has no port
-    if colon and not (port.isascii() and port.isdigit() and int(port) <= 65535):
-        return f"invalid port {port!r} (a number from 0 to 65535)"
-    return None
-
-
-def _unreachable(address: str) -> str | None:
-    """Why a TCP connection to a scheduler's host:port fails at once (refused, unknown host,
-    no route), or None: it connects, it did not answer within `PROBE_TIMEOUT`, or `address`
-    is not a TCP one (inproc://, ucx://). `Client` itself retries such failures for
-    `CONNECT_TIMEOUT` before giving up; a scheduler that is up sees one connection closed
-    before the handshake (logged at INFO level)."""
-    import socket
-
-    from distributed.comm.addressing import get_address_host_port, unparse_host_port
-
-    try:
-        host, port = get_address_host_port(address)
-    except (ValueError, TypeError):  # not host:port (inproc://, no port): Client's message
-        return None
-    try:
-        with socket.create_connection((host, port), timeout=PROBE_TIMEOUT):
-            return None
-    except TimeoutError:  # slow, not refused: Client waits for it as usual
-        return None
-    except socket.gaierror as exc:
-        return f"unknown host {host!r}: {exc.strerror}"
-    except OSError as exc:  # refused, no route to the host
-        reason = exc.strerror or str(exc)
-        return f"{reason[:1].lower()}{reason[1:]} at {unparse_host_port(host, port)}"
 
 
 def spec_document(sweep: Sweep) -> dict[str, Any]:
