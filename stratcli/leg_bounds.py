@@ -153,7 +153,7 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
         coefficients, search = optimise_energy(
             system, [at], [leg], settings, targets, stacked, constraints=local
         )
-    found = [s.energy for s in search.starts if s.converged and np.isfinite(s.energy)]
+    found = [s.energy for s in search.starts if s.feasible and np.isfinite(s.energy)]
     if coefficients is not None and found and min(found) <= low:
         return float(min(found)), coefficients[0]
     if not seeds:

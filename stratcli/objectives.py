@@ -21,6 +21,7 @@ from .planners import PLANNERS
 from .planners.base import ENERGY_RUNAWAY
 from .planners.constrained import NotSearchable, constrained_search
 from .planners.energy import optimise_energy
+from .planners.sqp import LOOSE_ABOVE
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
@@ -151,7 +152,25 @@ def plan_with_objective(
     say("energy search: re-chaining the legs from the best start")
     final = chain_legs(system, start, legs, settings, initial=coefficients)
     final = replace(final, optimisation=search)
-    return final if final.ok and final.total_energy <= newton.total_energy else newton
+    chosen = final if final.ok and final.total_energy <= newton.total_energy else newton
+    return _short_of_a_minimum(chosen, search)
+
+
+def _short_of_a_minimum(plan, search):
+    """`plan` with a note when the search's best start stopped far from a minimum (its
+    projected gradient above the SQP's `LOOSE_ABOVE`): its energy may be far above the least."""
+    best = search.starts[search.best] if search.best is not None else None
+    if best is None or best.converged or not best.projected_gradient > LOOSE_ABOVE:
+        return plan
+    count = len(search.starts)
+    note = (
+        f"the energy search stopped short of a minimum: its best start ({best.kind}, of "
+        f"{count} start{'s' if count != 1 else ''}) ended at its {best.stopped} after "
+        f"{best.iterations} SQP iterations with projected gradient {best.projected_gradient:.1g}"
+        ", so the energy may be far above the least; more starts (planner.starts), other "
+        "strata or auto mode ([decompose]) may find lower"
+    )
+    return replace(plan, notes=(*plan.notes, note))
 
 
 def within_limits(system, start, legs, settings, plan, constraints, progress=None):

@@ -43,6 +43,7 @@ _START_KEYS = {
     "converged": "converged",
     "stopped": "stopped",
     "seconds": "seconds",
+    "feasible": "feasible",  # absent in records before 0.1's last release: then `converged`
 }
 
 
@@ -223,7 +224,8 @@ def plan_from_document(
     optimisation = None
     if opt is not None:
         starts = tuple(
-            StartOutcome(**{a: s[k] for k, a in _START_KEYS.items()}) for s in opt["starts"]
+            StartOutcome(**{a: s[k] for k, a in _START_KEYS.items()})
+            for s in ({"feasible": s["converged"], **s} for s in opt["starts"])
         )
         optimisation = Optimisation(starts, opt["best"], opt["newton_energy"], opt["method"])
     switches = tuple(

@@ -181,9 +181,10 @@ class StartOutcome:
     goal_error: float
     projected_gradient: float
     iterations: int
-    converged: bool
+    converged: bool  # the search from it reached a minimum (`stopped` converged or noise floor)
     seconds: float
     stopped: str = ""
+    feasible: bool = True  # it ends on the goals (a candidate for the plan)
 
 
 @dataclass(frozen=True)

@@ -21,8 +21,27 @@ def test_energy_objective_beats_newton_and_the_paper(task_d):
     assert len(opt.starts) == task.settings.starts  # every start recorded
     best = opt.starts[opt.best]
     assert best.projected_gradient <= 1e-8  # a true constrained minimum
+    assert best.converged and best.feasible and best.stopped in ("converged", "noise floor")
     assert best.energy == pytest.approx(optimal.total_energy, rel=1e-9)
     assert all(leg.error <= task.settings.tolerance for leg in optimal.legs)
+    assert not any("short of a minimum" in note for note in optimal.notes)
+
+
+def test_a_search_stopped_short_of_a_minimum_says_so(task_d, monkeypatch):
+    """A start stopped at the iteration limit on the goals is feasible, not converged, and
+    the plan says its energy may be far above the least (a trial's two-arm plan ended at
+    321,480.93, 400x the estimate, marked converged)."""
+    from stratcli.planners import sqp
+
+    task = task_d[0]
+    monkeypatch.setattr(sqp, "SQP_ITERATIONS", 1)
+    plan = plan_sequence(task.system, task.start, list(task.legs), task.settings)
+    opt = plan.optimisation
+    best = opt.starts[opt.best]
+    assert plan.ok and best.stopped == "iteration limit"
+    assert best.feasible and not best.converged
+    (note,) = [n for n in plan.notes if "short of a minimum" in n]
+    assert "iteration limit after 1 SQP iterations" in note and "planner.starts" in note
 
 
 def test_energy_optimum_is_a_local_minimum_on_the_constraint_set(task_d):

@@ -27,7 +27,7 @@ from .base import (
     onto_goals,
 )
 from .legwise import legwise_start
-from .sqp import Descent
+from .sqp import MINIMUM, Descent
 
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
@@ -280,9 +280,10 @@ def optimise_energy(
                 err,
                 run.pg if run.pg_at is z else problem.projected_gradient(z),
                 run.iterations,
-                ok,
+                ok and run.reason in MINIMUM,
                 run.seconds,
                 run.reason or "not started",
+                feasible=ok,
             )
         )
         # a start stopped next to a minimum another start reached is not a candidate: its
@@ -319,7 +320,7 @@ def race(problem: StackedProblem, zs: list[np.ndarray], tolerance: float) -> lis
                 run.step()
         if run.done and run.feasible:
             best[0] = min(best[0], run.energy)
-            if run.reason in ("converged", "noise floor"):
+            if run.reason in MINIMUM:
                 found.append(run.z)  # a minimum (not a start dropped on the way down)
 
     for run in runs:

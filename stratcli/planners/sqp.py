@@ -17,7 +17,7 @@ import numpy as np
 if TYPE_CHECKING:
     from .energy import StackedProblem
 
-__all__ = ["CURVATURE_FLOOR", "STEP_LIMIT", "Descent"]
+__all__ = ["CURVATURE_FLOOR", "MINIMUM", "STEP_LIMIT", "Descent"]
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
@@ -29,6 +29,7 @@ RESTORATION_STEPS = 12
 LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
+MINIMUM = ("converged", "noise floor")  # stops at a minimum (the others stop on the way down)
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 
 
