@@ -59,6 +59,10 @@ CASES = {
         "error: --jsno: no such option (did you mean --json?)",
     ),
     "option without its value": (["plan", TASK_D, "--out"], "error: --out: requires an argument"),
+    "empty out": (  # an unset shell variable: not the current directory
+        ["compare-sequences", AUTO, "--out", ""],
+        "error: --out: empty: give a directory (e.g. runs)",
+    ),
     "missing argument": (["plan"], "error: FILE: missing (see stratplan plan --help)"),
     "unknown command, not close": (
         ["frobnicate"],

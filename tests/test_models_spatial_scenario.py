@@ -167,9 +167,8 @@ def test_models_lists_joints_limits_and_strata():
 
 @pytest.mark.slow
 def test_regress_covers_the_spatial_scenarios():
-    result = CliRunner().invoke(
-        app, ["regress", str(SPATIAL), "--baseline", str(SPATIAL / "baseline.json")]
-    )
+    """Against DIR/baseline.json by default (it was scenarios/baseline.json whatever DIR)."""
+    result = CliRunner().invoke(app, ["regress", str(SPATIAL)])
     assert result.exit_code == 0, result.output
     assert "all 3 scenarios match" in result.output
 

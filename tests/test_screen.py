@@ -3,6 +3,8 @@ search's minima, and the same choice."""
 
 from __future__ import annotations
 
+import csv
+import io
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +13,7 @@ import pytest
 from stratcli import api
 from stratcli.compare import SCREEN_TOP, compare
 from stratcli.decomposition import decompose
+from stratcli.records.comparison import comparison_csv
 from stratcli.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,6 +99,13 @@ def test_comparison_json_marks_screened_rows_and_exhaustive_has_none(sim4):
         assert (row["status"] == "bounded") == row["screened"]
         assert (row["energy"] is None) == row["screened"]
     assert doc["screen"]["searched"] + doc["screen"]["bounded"] == len(doc["rows"])
+    # comparison.csv has the bounds too (a bounded row's energy is empty)
+    table = list(csv.DictReader(io.StringIO(comparison_csv(doc))))
+    for line, row in zip(table, doc["rows"], strict=True):
+        assert line["energy_bound"] == (
+            "" if row["energy_bound"] is None else repr(row["energy_bound"])
+        )
+        assert (line["energy"] == "") == row["screened"]
     full = api.compare_sequences(sim4, jobs=2, exhaustive=True).document
     assert not any(row["screened"] for row in full["rows"]) and full["screen"] is None
     assert full["rows"][0]["sequence"] == doc["rows"][0]["sequence"] == ["S1", "S3"]

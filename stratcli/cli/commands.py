@@ -322,9 +322,12 @@ def regress(
     directory: Annotated[Path, typer.Argument(help="Directory of scenario files.")] = Path(
         "scenarios"
     ),
-    baseline: Annotated[Path, typer.Option(help="Baseline JSON file.")] = Path(
-        "scenarios/baseline.json"
-    ),
+    baseline: Annotated[
+        Path | None,
+        typer.Option(
+            help="Baseline JSON file (default: DIRECTORY/baseline.json).", show_default=False
+        ),
+    ] = None,
     update: Annotated[
         bool, typer.Option(metavar="", help="Rewrite the baseline from this run.")
     ] = False,
@@ -337,6 +340,7 @@ def regress(
     """
     from .. import api  # start-up speed
 
+    baseline = directory / "baseline.json" if baseline is None else baseline
     with render.reported():
         report = api.regress(
             directory, baseline, update=update, progress=render_tables.regress_progress(quiet)

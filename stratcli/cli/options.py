@@ -16,7 +16,19 @@ Json = Annotated[
     typer.Option("--json", metavar="", help="Print JSON to stdout instead of tables."),
 ]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", metavar="", help="Print nothing but errors.")]
-Out = Annotated[Path, typer.Option(help="Directory of run records.")]
+
+
+def _directory(value: str) -> Path:
+    """An --out value: an empty one (`--out ""`, an unset shell variable) is refused, not
+    taken for the current directory."""
+    if not str(value).strip():
+        raise typer.BadParameter("empty: give a directory (e.g. runs)")
+    return Path(value)
+
+
+Out = Annotated[
+    Path, typer.Option(help="Directory of run records.", parser=_directory, metavar="<path>")
+]
 Animation = Annotated[
     bool,
     typer.Option(

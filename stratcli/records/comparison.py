@@ -138,9 +138,11 @@ CSV_COLUMNS = (
     "excursion",
     "duration",
     "planning_time_s",
+    "energy_bound",  # a sequence not searched (status "bounded"): its energy is at least this
     "vias",
     "reason",
 )
+NUMBERS = CSV_COLUMNS[4:10]
 
 
 def comparison_csv(doc: dict[str, Any]) -> str:
@@ -158,7 +160,7 @@ def comparison_csv(doc: dict[str, Any]) -> str:
                 " ".join(row["sequence"]),
                 row["strategy"],
                 row["status"],
-                *("" if row[k] is None else repr(row[k]) for k in CSV_COLUMNS[4:9]),
+                *("" if row.get(k) is None else repr(row[k]) for k in NUMBERS),
                 vias,
                 row["reason"],
             ]
