@@ -153,12 +153,14 @@ def plan_with_objective(
     final = chain_legs(system, start, legs, settings, initial=coefficients)
     final = replace(final, optimisation=search)
     chosen = final if final.ok and final.total_energy <= newton.total_energy else newton
-    return _short_of_a_minimum(chosen, search)
+    return _short_of_a_minimum(chosen, search) if exact else chosen
 
 
 def _short_of_a_minimum(plan, search):
     """`plan` with a note when the search's best start stopped far from a minimum (its
-    projected gradient above the SQP's `LOOSE_ABOVE`): its energy may be far above the least."""
+    projected gradient above the SQP's `LOOSE_ABOVE`): its energy may be far above the least.
+    Not for searches without exact second derivatives (ODE-path legs: a few first-order
+    steps by design, `sqp.FIRST_ORDER_ITERATIONS`; result.json still says not converged)."""
     best = search.starts[search.best] if search.best is not None else None
     if best is None or best.converged or not best.projected_gradient > LOOSE_ABOVE:
         return plan

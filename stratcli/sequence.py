@@ -136,7 +136,8 @@ class SequencePlan:
 
     # ---- controls and trajectory ---------------------------------------------------------
     def controls(self, t: np.ndarray | float, derivative: bool = False) -> np.ndarray:
-        """All inputs at plan times `t`, shape (len(t), m); at a switch the later leg.
+        """All inputs at plan times `t`, shape (len(t), m), or (m,) for a single time; at a
+        switch the later leg.
 
         Raises
         ------
@@ -145,12 +146,13 @@ class SequencePlan:
             the Fourier series would be extrapolated, not the plan.
         """
         try:
+            single = np.ndim(t) == 0
             t = np.atleast_1d(np.asarray(t, dtype=float))
         except (TypeError, ValueError):
             raise wrong_type("t", "a time or an array of times (s)", t) from None
         out = np.zeros((t.size, len(self.inputs)))
         if not self.legs:
-            return out
+            return out[0] if single else out
         total, slack = self.duration, TIME_ROUNDING * self.duration
         outside = ~(np.isfinite(t) & (t >= -slack) & (t <= total + slack))
         if outside.any():
@@ -164,7 +166,7 @@ class SequencePlan:
             sel = which == k
             if sel.any():
                 out[sel] = leg.controls(t[sel] - leg.t0, derivative)
-        return out
+        return out[0] if single else out
 
     def sample(self, samples_per_leg: int = 200) -> Trajectory:
         """Re-integrate the plan (independently of the planner) on the real time axis.

@@ -138,6 +138,8 @@ def test_controls_refuse_times_outside_the_plan_but_not_rounding(plan):
     assert inside.shape == (5, len(plan.inputs)) and np.all(np.isfinite(inside))
     end = plan.legs[-1].controls(plan.legs[-1].duration)[0]
     np.testing.assert_allclose(inside[3], end, rtol=0, atol=1e-12)
+    assert plan.controls(T / 2).shape == (len(plan.inputs),)  # one time: one vector
+    np.testing.assert_allclose(plan.controls(np.float64(T / 2)), inside[2], rtol=0, atol=1e-12)
 
 
 def test_leg_slice_of_a_leg_the_trajectory_has_not_is_an_index_error(plan):

@@ -268,6 +268,8 @@ def test_show_refuses_missing_and_incomplete_records(tmp_path):
     missing = runner.invoke(app, ["show", str(tmp_path / "nope")])
     assert missing.exit_code == 2 and "no run record" in missing.output
     run = plan_record(tmp_path)
+    inside = runner.invoke(app, ["show", str(run / "result.json")])  # a file of the record
+    assert inside.exit_code == 2 and f"give its directory, {run}" in inside.output
     (run / "result.json").unlink()
     broken = runner.invoke(app, ["show", str(run)])
     assert broken.exit_code == 2 and "missing result.json" in broken.output

@@ -356,6 +356,7 @@ def constrained_search(
             f"constrained search from the {kind} plan: within the limits at {nodes} nodes "
             f"after {search.iterations} iterations, energy {found:.6g}"
             + (f", lowered to {search.energy:.6g} inside them" if lower_energy else "")
+            + " (at the speed planned, before any time scaling)"
         ]
         coefficients = problem.split(problem.coefficients(search.z))
         return coefficients, notes, "", search.energy, search.iterations

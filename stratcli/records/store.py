@@ -158,6 +158,8 @@ def read_record(path: Path) -> Record:
         One line naming the file and what is wrong, when the record is missing, incomplete,
         unreadable or damaged.
     """
+    if path.is_file() and (path.parent / "result.json").is_file():  # a file of a record
+        raise InputError(f"{path} is a file of a run record: give its directory, {path.parent}")
     if not path.is_dir():
         raise InputError(f"no run record at {path}")
     if is_partial(path):
