@@ -84,7 +84,10 @@ BAD = [
     ("[sweep.random]\ncount = 2\nranges = { \"goal.q1\" = [1, 0] }\n", "low must be below high"),
     ("[sweep.random]\ncount = 0\nranges = { \"goal.q1\" = [0, 1] }\n", "sweep.random.count"),
     ("[sweep.random]\ncount = 2\nranges = { \"planner.seed\" = [0, 1] }\n", "are for coordinates"),
-    ("[[sweep.task]]\n\"goal.q1\" = 1\n[[sweep.task]]\n\"goal.q2\" = 1\n", "sweep.task[0]: misses"),
+    (
+        "[[sweep.task]]\n\"goal.q1\" = 1\n[[sweep.task]]\n\"goal.q2\" = 1\n",
+        "sweep.task[0]: misses goal.q2 (set by sweep.task[1]): every [[sweep.task]] sets the same",
+    ),
     ("[sweep.grid]\n\"legs[5].goal.q1\" = [0]\n", "the scenario has no legs[5]"),
     ("grod = 1\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.grod: unknown key (allowed: name, "),
 ]  # fmt: skip

@@ -342,7 +342,12 @@ def _resolve(spec: SweepFile, folder: Path, source: str, text: str) -> Sweep:
         for i, row in enumerate(s.task):
             missing = [k for k in keys if k not in row]
             if missing:
-                problems.append(Problem(f"sweep.task[{i}]", f"misses {', '.join(missing)}"))
+                setters = ", ".join(  # the first task that sets each: where the key came from
+                    f"{k} (set by sweep.task[{next(j for j, r in enumerate(s.task) if k in r)}])"
+                    for k in missing
+                )
+                why = f"misses {setters}: every [[sweep.task]] sets the same keys"
+                problems.append(Problem(f"sweep.task[{i}]", why))
                 continue
             values = {k: value_of(k, v, f'sweep.task[{i}]."{k}"', problems) for k, v in row.items()}
             rows.append(values)
