@@ -43,3 +43,14 @@ def test_plan_prints_the_total_beside_the_planning_time(tmp_path):
     assert "planned in" in footer and " s in all · record:" in footer
     (run_dir,) = tmp_path.iterdir()
     assert not (run_dir / "motion.gif").exists()  # the GIF is opt-in (--animation)
+
+
+def test_a_comparison_records_its_planning_phase(tmp_path):
+    """compare-sequences' manifest has the comparison as `planning` (it had `import` only)."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_auto.toml")
+    outcome = api.compare_sequences(task, max_length=2, jobs=1)
+    run_dir = api.write_record(tmp_path, outcome, argv=["test"])
+    phases = json.loads((run_dir / "manifest.json").read_text())["phases"]
+    assert list(phases) == ["import", "planning", *RECORDED, "comparison files"]
+    assert all(_is_timing(t) for t in phases.values())
+    assert phases["planning"]["wall_s"] >= outcome.comparison.wall_time * 0.99

@@ -13,6 +13,7 @@ from datetime import UTC, datetime
 from ..arguments import checked, flag
 from ..decomposition import pi_fraction
 from ..records.comparison import comparison_document
+from ..records.manifest import Phases, phase
 from ..results import Timings
 from ..scenario import LegEntry, Task
 from ..trie import default_jobs
@@ -102,13 +103,15 @@ def compare_sequences(
         if progress is not None:
             progress(done, total)
 
+    phases: Phases = {"import": dict(IMPORTED)}
     with _cluster(dask, executor) as chosen:  # connected before any progress is shown
         if progress is not None:
             progress(0, total)
-        comparison, compile_time = compare_decomposition(
-            task, auto, dec, jobs=jobs or default_jobs(), progress=advance,
-            exhaustive=exhaustive, executor=chosen,
-        )  # fmt: skip
+        with phase(phases, "planning"):  # the whole comparison (CPU: this process's only)
+            comparison, compile_time = compare_decomposition(
+                task, auto, dec, jobs=jobs or default_jobs(), progress=advance,
+                exhaustive=exhaustive, executor=chosen,
+            )  # fmt: skip
     doc = comparison_document(
         comparison,
         dec,
@@ -131,9 +134,8 @@ def compare_sequences(
     notes = result.notes[len(best.plan.notes) :]  # what the ranking does not show: both
     result = _named(result, task, timings)
     plan = PlanOutcome(
-        best_task, result, result.to_dict(), started, compile_time, comparison.wall_time
+        best_task, result, result.to_dict(), started, compile_time, comparison.wall_time, phases
     )
-    plan.phases["import"] = dict(IMPORTED)
     return ComparisonOutcome(task, auto, dec, comparison, doc, plan, notes)
 
 

@@ -2,7 +2,8 @@
 
 `phases` holds the wall and CPU seconds of each phase of the run, in order: `import` (from
 `import stratcli` to the planner imported; its CPU counts from the interpreter's start; on the
-command line it includes reading the scenario), `check`, `compile`, `planning`, then the
+command line it includes reading the scenario), `check`, `compile`, `planning` (comparing:
+`planning` alone, the whole comparison with its compiling, CPU of this process only), then the
 record's parts: `record imports` (matplotlib and mcap, loaded by a process's first record;
 on the command line matplotlib loads in the drawing process instead, `records.drawing`),
 `sample` (the re-integration the log and plots draw), `plots` (every PNG, the GIF and a
