@@ -239,7 +239,19 @@ def test_ranking_shows_a_bounded_row_as_its_bound_not_as_a_failure():
     assert not any("failed" in t for t in texts)
     (legend,) = fig.legends
     keys = [t.get_text() for t in legend.get_texts()]
-    assert "failed" not in keys and any(k.startswith("≥ bound: not searched") for k in keys)
+    assert "failed" not in keys and any(k.startswith("not searched: ≥ its lower") for k in keys)
+    # a hollow bar to its bound, on the same scale as the others (70 / 60 < 10: linear)
+    (hollow,) = [p for p in ax.patches if not p.get_fill()]
+    assert hollow.get_width() == pytest.approx(64.5) and ax.get_xscale() == "linear"
+    assert ax.get_xlim()[1] >= 70.0
+
+
+def test_ranking_scale_counts_the_bounds():
+    """Bounds ten times the best make the axis logarithmic, as values would."""
+    doc = _ranking_doc([60.0, None])
+    doc["rows"][1].update(status="bounded", energy_bound=900.0)
+    (ax,) = ranking_figure(doc).axes
+    assert ax.get_xscale() == "log" and ax.get_xlim()[1] > 900.0
 
 
 def test_the_ranking_labels_fit_in_the_figure():

@@ -62,11 +62,13 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     labels = [f"{'→'.join(r['sequence'])} · {r['strategy'][:4]}." for r in rows]
     ok = [i for i, r in enumerate(rows) if r["status"] == "ok" and r[key] is not None]
     values = [rows[i][key] for i in ok]
-    positive = [v for v in values if v > 0]
+    bounds = _bounds(rows, key, ok)  # rows not searched: their lower bounds, as hollow bars
+    plotted = [*values, *bounds.values()]
+    positive = [v for v in plotted if v > 0]
     if not positive:  # nothing, or all zero
         ratio = 1.0
     else:  # a zero among positive values: an infinite range
-        ratio = max(positive) / min(positive) if len(positive) == len(values) else math.inf
+        ratio = max(positive) / min(positive) if len(positive) == len(plotted) else math.inf
     log = ratio > LOG_RATIO
     floor = min(positive) / 2 if log else 0.0
     height = max(3.0, 0.26 * len(rows) + 1.5)
@@ -78,15 +80,16 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     bars = ax.barh(ok, [v - floor for v in shown], left=floor, color=colors, height=0.7)
     for i, v, x in zip(ok, values, shown, strict=True):
         ax.text(x, i, f" {_short(v)}", va="center", fontsize=7.5)
-    failed = screened = False
+    at_least = [max(b, floor) for b in bounds.values()]
+    hollow = ax.barh(
+        list(bounds), [b - floor for b in at_least], left=floor, height=0.7, fill=False,
+        edgecolor=BOUNDED_COLOR, linestyle="--", linewidth=0.8,
+    )  # fmt: skip
+    for i, b, x in zip(bounds, bounds.values(), at_least, strict=True):
+        ax.text(x, i, f" ≥ {_short(b)}", va="center", fontsize=7.5, color=BOUNDED_COLOR)
+    failed = False
     for i, r in enumerate(rows):
-        if i in ok:
-            continue
-        bounded = r["status"] == "bounded"  # energy_bound(_equal_time): no bar, its bound
-        bound = r.get(key.replace("energy", "energy_bound", 1)) if bounded else None
-        if bound is not None:  # not searched: its lower bound, no bar (the legend says so)
-            ax.text(floor, i, f" ≥ {_short(bound)}", va="center", fontsize=7.5, color=BOUNDED_COLOR)
-            screened = True
+        if i in ok or i in bounds:
             continue
         failed = True
         reason = " failed: " + (r["reason"] or r["status"])[:60]
@@ -103,8 +106,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         ranked_by = f"energy at an equal total duration of {doc['reference_duration_s']:g} s"
     ax.set_title(f"{doc['scenario']}: {len(rows)} sequences ranked by {ranked_by}", fontsize=10)
     ax.grid(axis="x", alpha=0.3)
-    if values:
-        ax.set_xlim(floor if log else 0.0, max(shown) * (1.7 if log else 1.18))
+    if plotted:
+        ax.set_xlim(floor if log else 0.0, max([*shown, *at_least]) * (1.7 if log else 1.18))
     handles = []
     if best is not None:
         handles.append(bars[ok.index(best)])
@@ -113,13 +116,12 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         other = next(b for b, i in zip(bars, ok, strict=True) if i != best)
         other.set_label("reached the goal")
         handles.append(other)
-    if failed or screened:
+    if bounds:
+        hollow[0].set_label("not searched: ≥ its lower bound, at least the best's value")
+        handles.append(hollow[0])
+    if failed:
         from matplotlib.lines import Line2D
 
-    if screened:
-        label = "≥ bound: not searched, its lower bound is at least the best's value"
-        handles.append(Line2D([], [], ls="none", label=label))  # no mark (mathtext: 0.1 s)
-    if failed:
         handles.append(Line2D([], [], color=FAILED_COLOR, ls="none", marker="$x$", label="failed"))
     span = "from 0" if math.isinf(ratio) else f"{ratio:,.3g}×"
     relation = ">" if log else "≤"
@@ -149,6 +151,17 @@ def _widest(fig: Figure, texts: list[str], size: float) -> float:
     font = FontProperties(size=size)
     widths = [renderer.get_text_width_height_descent(t, font, ismath=False)[0] for t in texts]
     return max(widths, default=0.0) / fig.dpi
+
+
+def _bounds(rows: list[dict], key: str, ok: list[int]) -> dict[int, float]:
+    """Row -> the lower bound of a sequence that was bounded, not searched (its
+    `energy_bound`, or `energy_bound_equal_time` for the equal-duration energy)."""
+    name = key.replace("energy", "energy_bound", 1)
+    return {
+        i: r[name]
+        for i, r in enumerate(rows)
+        if i not in ok and r["status"] == "bounded" and r.get(name) is not None
+    }
 
 
 def ranking_png(doc: dict[str, Any], fmt: str = "png") -> bytes:
