@@ -127,3 +127,16 @@ def test_an_unwritable_cache_derives_the_closure_across_strata(tmp_path, monkeyp
     expected = symbolic_cross_basis(two_arm(), ("S1", "S2"), 2)
     assert got.labels == expected.labels
     np.testing.assert_allclose(got.evaluate(q), expected.evaluate(q), rtol=0, atol=1e-12)
+
+
+def test_a_damaged_closure_entry_is_derived_again(cache_home):
+    from stratcli.crossbasis import cross_basis
+
+    q = np.random.default_rng(9).uniform(-np.pi, np.pi, (5, 5))
+    expected = cross_basis(two_arm(), ("S1",), 2)
+    (entry,) = cache_home.glob("*.json")
+    entry.write_text(json.dumps({"format": codecache.FORMAT, "labels": ["u2@S1"], "rows": {}}))
+    got = cross_basis(two_arm(), ("S1",), 2)
+    assert got.labels == expected.labels
+    assert np.array_equal(got.evaluate(q), expected.evaluate(q))
+    assert json.loads(entry.read_text())["labels"] == expected.labels  # written again
