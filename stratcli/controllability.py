@@ -10,7 +10,8 @@
   within its own stratum, summed in the full tangent space, span `R^n`. When that sum falls
   short, the closure *across* the strata is computed too: brackets between fields of
   different strata, which switching back and forth between the strata realises (this is how
-  the biped of eq. 3 walks sideways; Goodwine's stratified construction). Strong
+  the biped of eq. 3 walks sideways; Goodwine's stratified construction; `crossbasis`, which
+  keeps a preset's closure in the code cache). Strong
   controllability of the strata implies eq. 2 (paper §2).
 * **A leg of a scenario** needs less than eq. 4: its stratum must span the coordinates the leg
   steers (the others are free, "*"). This is what decides the exit code 3 of `check` and
@@ -34,24 +35,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .liealgebra import (
-    MAX_DEGREE,
-    SYMBOLIC_MAX_COORDINATES,
-    bracket,
-    element_label,
-    hall_basis,
-    lie_basis,
-)
-from .models.generated import ArrayFunction
+from .crossbasis import cross_basis
+from .liealgebra import MAX_DEGREE, SYMBOLIC_MAX_COORDINATES, hall_basis, lie_basis
 from .models.manipulator import ManipulatorSystem
-from .models.system import Stratum, System
-
-if TYPE_CHECKING:
-    import sympy as sp
+from .models.system import System
 
 RANK_RTOL = 1e-9  # singular values below this times the largest count as zero
 MAX_SYMBOLIC_BRACKETS = 250  # custom models: largest degree-3 Hall basis derived by sympy
@@ -250,7 +240,7 @@ def sequence_report(
     (sum_rank,) = _rows(system, ("eq2", tuple(names), degree), Q, summed)
     report = SequenceReport(names, system.n, Q, sum_rank, None)
     if not report.eq2 and _cross_affordable(system, names, max(degree, 2)):
-        cross = _cross_basis(system, tuple(names), max(degree, 2))
+        cross = cross_basis(system, tuple(names), max(degree, 2))
         (report.cross_rank,) = _rows(
             system,
             ("cross", tuple(names), degree),
@@ -259,67 +249,6 @@ def sequence_report(
         )
         report.cross_spanning = _spanning(cross.evaluate(Q[:1])[0], cross.labels)
     return report
-
-
-@dataclass
-class _CrossBasis:
-    labels: list[str]
-    evaluate: ArrayFunction
-
-
-def _cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _CrossBasis:
-    """Hall basis of all distinct fields of `strata` together (symbolic, cached)."""
-    cache = system.__dict__.setdefault("_lie_cache", {})
-    key = ("cross", strata, degree)
-    if key not in cache:
-        if isinstance(system, ManipulatorSystem) or getattr(system, "spatial", None) is not None:
-            cache[key] = _manipulator_cross_basis(system, strata, degree)  # spatial: numeric
-        else:
-            cache[key] = _symbolic_cross_basis(system, strata, degree)
-    return cache[key]
-
-
-def _manipulator_cross_basis(
-    system: ManipulatorSystem, strata: tuple[str, ...], degree: int
-) -> _CrossBasis:
-    """A manipulator's input u_j drives the same field on every stratum where it is active:
-    the closure across strata is the closed-form basis of one stratum with all their inputs."""
-    first: dict[int, str] = {}
-    for name in strata:
-        for j in system.stratum(name).active:
-            first.setdefault(j, name)
-    union = Stratum("+".join(strata), (), tuple(first))  # in the order the strata give them
-    basis = lie_basis(system, union, degree)  # closed form (liealgebra._manipulator_basis)
-    names = [f"{system.inputs[j]}@{first[j]}" for j in union.active]
-    return _CrossBasis([element_label(h, names) for h in basis.elements], basis.evaluate)
-
-
-def _symbolic_cross_basis(system: System, strata: tuple[str, ...], degree: int) -> _CrossBasis:
-    import sympy as sp  # only here: a cached model never needs sympy
-
-    symbols = list(system.symbols)
-    generators: list[sp.Matrix] = []
-    names: list[str] = []
-    for name in strata:
-        s = system.stratum(name)
-        G = system.fields_on(s)
-        for c, j in enumerate(s.active):
-            col = G[:, c]
-            if any((col - g).is_zero_matrix for g in generators):
-                continue
-            generators.append(col)
-            names.append(f"{system.inputs[j]}@{s.name}")
-    elements = hall_basis(len(generators), degree)
-    fields: dict = {}
-    every = tuple(range(system.n))
-    for h in elements:
-        fields[h] = (
-            generators[h]
-            if isinstance(h, int)
-            else bracket(fields[h[0]], fields[h[1]], symbols, every)
-        )
-    matrix = sp.Matrix.hstack(*(fields[h] for h in elements))
-    return _CrossBasis([element_label(h, names) for h in elements], ArrayFunction(matrix, symbols))
 
 
 # --------------------------------------------------------------------------------------------

@@ -202,7 +202,7 @@ class Timings:
     """When planning started (UTC, ISO 8601) and how long it took, s (for manifest.json)."""
 
     started: str = ""
-    compile_s: float = float("nan")  # generating numeric functions (and the check)
+    compile_s: float = float("nan")  # generating numeric functions (not the check)
     planning_s: float = float("nan")
 
 

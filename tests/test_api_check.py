@@ -43,12 +43,12 @@ def test_check_of_a_20_link_chain_is_quick_and_right():
 def test_a_manipulators_closure_across_strata_equals_the_symbolic_one(strata, degree):
     """Closed form (one stratum with every input of the strata) against sympy's brackets of
     the fields of each stratum: same labels, same fields (degree 3: fourth-order differences)."""
-    from stratcli import controllability as c
+    from stratcli import crossbasis as c
 
     system = parse_scenario(weak_stratum_scenario()).system
     Q = np.random.default_rng(0).uniform(-3, 3, (30, system.n))
-    fast = c._cross_basis(system, strata, degree)
-    slow = c._symbolic_cross_basis(system, strata, degree)
+    fast = c.cross_basis(system, strata, degree)
+    slow = c.symbolic_cross_basis(system, strata, degree)
     assert fast.labels == slow.labels
     np.testing.assert_allclose(fast.evaluate(Q), slow.evaluate(Q), rtol=0, atol=1e-11)
 

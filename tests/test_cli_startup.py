@@ -71,11 +71,30 @@ def test_runs_and_show_read_records_without_the_planner(run_dir):
     assert _run(["show", str(run_dir)]) == {"code": 0, "heavy": []}
 
 
-def test_planning_a_preset_from_a_warm_cache_imports_no_sympy_or_scipy(tmp_path):
+TWO_ARM = """
+name = "two"
+[model]
+kind = "preset"
+name = "two-arm"
+[task]
+start = [0, 0, 0, 0, 0]
+goal = [0, 0.3, 0.3, 0.2, 0.1]
+[[legs]]
+stratum = "S1"
+"""
+
+
+@pytest.mark.parametrize("scenario", ["sim4_task_d", "two-arm"])
+def test_planning_a_preset_from_a_warm_cache_imports_no_sympy_or_scipy(tmp_path, scenario):
     """The first run derives and compiles the strata; the next finds them by the preset's
     identity and plans, checks and writes its record without sympy. Neither needs scipy: the
-    energy search uses numpy's linear algebra and re-integration `stratcli.odeint`."""
-    args = ["plan", str(ROOT / "scenarios" / "sim4_task_d.toml"), "--out", str(tmp_path), "-q"]
+    energy search uses numpy's linear algebra and re-integration `stratcli.odeint`. The
+    two-arm leg on S1 alone: its check needs the closure across strata (eq. 2), cached too."""
+    path = ROOT / "scenarios" / "sim4_task_d.toml"
+    if scenario == "two-arm":
+        path = tmp_path / "two.toml"
+        path.write_text(TWO_ARM, encoding="utf-8")
+    args = ["plan", str(path), "--out", str(tmp_path), "-q"]
     cache = str(tmp_path / "cache")
     # matplotlib: in this process on one core; on two the drawing process draws the figures
     plots = [] if TWO_CORES else ["matplotlib"]

@@ -95,3 +95,48 @@ def test_a_cached_bracket_basis_equals_the_derived_one(cache_home):
     assert derived.symbolic is not None and cached.symbolic is None
     assert cached.labels == derived.labels
     assert np.array_equal(cached.evaluate(q), derived.evaluate(q))
+
+
+@pytest.mark.parametrize("strata, degree", [(("S1",), 2), (("S12", "S34"), 3)])
+def test_a_cached_closure_across_strata_equals_the_symbolic_one(cache_home, strata, degree):
+    """A preset's closure across strata (the check of a two-arm plan, eq. 2): derived with
+    sympy once, then read back by a new system with nothing symbolic built."""
+    from stratcli.crossbasis import cross_basis, symbolic_cross_basis
+
+    q = np.random.default_rng(7).uniform(-np.pi, np.pi, (25, 5))
+    derived = cross_basis(two_arm(), strata, degree)
+    assert len(list(cache_home.glob("*.json"))) == 1
+    system = two_arm()
+    cached = cross_basis(system, strata, degree)  # from the cache
+    assert system._fields is None  # no sympy: the fields were never built
+    reference = symbolic_cross_basis(two_arm(), strata, degree)
+    assert cached.labels == derived.labels == reference.labels
+    assert any(label.startswith("[") for label in cached.labels)  # brackets across strata
+    np.testing.assert_allclose(cached.evaluate(q), reference.evaluate(q), rtol=0, atol=1e-12)
+    assert np.array_equal(cached.evaluate(q), derived.evaluate(q))
+
+
+def test_an_unwritable_cache_derives_the_closure_across_strata(tmp_path, monkeypatch):
+    from stratcli.crossbasis import cross_basis, symbolic_cross_basis
+
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocker))
+    q = np.random.default_rng(8).uniform(-np.pi, np.pi, (5, 5))
+    got = cross_basis(two_arm(), ("S1", "S2"), 2)
+    expected = symbolic_cross_basis(two_arm(), ("S1", "S2"), 2)
+    assert got.labels == expected.labels
+    np.testing.assert_allclose(got.evaluate(q), expected.evaluate(q), rtol=0, atol=1e-12)
+
+
+def test_a_damaged_closure_entry_is_derived_again(cache_home):
+    from stratcli.crossbasis import cross_basis
+
+    q = np.random.default_rng(9).uniform(-np.pi, np.pi, (5, 5))
+    expected = cross_basis(two_arm(), ("S1",), 2)
+    (entry,) = cache_home.glob("*.json")
+    entry.write_text(json.dumps({"format": codecache.FORMAT, "labels": ["u2@S1"], "rows": {}}))
+    got = cross_basis(two_arm(), ("S1",), 2)
+    assert got.labels == expected.labels
+    assert np.array_equal(got.evaluate(q), expected.evaluate(q))
+    assert json.loads(entry.read_text())["labels"] == expected.labels  # written again

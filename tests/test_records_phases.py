@@ -54,3 +54,26 @@ def test_a_comparison_records_its_planning_phase(tmp_path):
     assert list(phases) == ["import", "planning", *RECORDED, "comparison files"]
     assert all(_is_timing(t) for t in phases.values())
     assert phases["planning"]["wall_s"] >= outcome.comparison.wall_time * 0.99
+
+
+def test_the_footer_reports_the_compile_and_the_check_each_as_timed(tmp_path):
+    """'model compiled in' is the compile phase of manifest.json (it included the check's
+    time, 0.45 s of a two-arm check beside a 2 ms compile); the check is reported as such,
+    and not at all when it did not run."""
+    import re
+
+    for flags, checked in (([], True), (["--no-check"], False)):
+        out = tmp_path / str(checked)
+        result = CliRunner().invoke(app, ["plan", str(SCENARIO), "--out", str(out), *flags])
+        assert result.exit_code == 0, result.output
+        footer = " ".join(result.output.split())
+        found = re.search(r"model compiled in (\d+) ms(?:, checked in (\d+) ms)?\)", footer)
+        assert found, footer
+        (run_dir,) = out.iterdir()
+        manifest = json.loads((run_dir / "manifest.json").read_text())
+        phases = manifest["phases"]
+        assert manifest["compile_time_s"] == phases["compile"]["wall_s"]
+        assert int(found[1]) == round(phases["compile"]["wall_s"] * 1e3)
+        assert (found[2] is not None) == checked
+        if checked:
+            assert abs(int(found[2]) - phases["check"]["wall_s"] * 1e3) <= 1

@@ -25,11 +25,12 @@ class PlanOutcome:
     result: SequencePlan
     document: dict[str, Any]  # result.json
     started: datetime  # UTC, when planning started
-    compile_time: float  # seconds generating numeric functions (and checking controllability)
+    compile_time: float  # seconds generating numeric functions (not the check: check_time)
     planning_time: float  # seconds planning
     # wall and CPU seconds per phase: import, check, compile, planning; write_record adds the
     # record's parts, "write" and "total" (since `import stratcli`); see records.manifest
     phases: Phases = field(default_factory=dict)
+    check_time: float | None = None  # seconds of the controllability check; None: not run
 
     @property
     def ok(self) -> bool:

@@ -361,9 +361,11 @@ def _close(a: float | None, b: float | None) -> bool:
 
 def plan_footer(outcome, run_dir: Path) -> None:
     total = outcome.phases.get("total", {}).get("wall_s")  # since stratplan started
+    checked = outcome.check_time  # None: planned without the check (--no-check)
     say(
         f"planned in {outcome.planning_time * 1e3:.0f} ms (model compiled in "
-        f"{outcome.compile_time * 1e3:.0f} ms)"
+        f"{outcome.compile_time * 1e3:.0f} ms"
+        f"{'' if checked is None else f', checked in {checked * 1e3:.0f} ms'})"
         f"{'' if total is None else f' · {total:.2f} s in all'} · {record(run_dir)}"
     )
 
