@@ -132,3 +132,30 @@ def test_a_record_drawn_by_the_drawing_process_has_the_figures_drawn_here(tmp_pa
         assert (Path(run_dir) / name).read_bytes() == data, name
     phases = json.loads((Path(run_dir) / "manifest.json").read_text())["phases"]
     assert phases["plots"]["cpu_s"] > 0  # the drawing processes' CPU, not this one's
+
+
+STARTING = """
+import signal, sys
+from stratcli.__main__ import _on_signal
+for sig in (signal.SIGINT, signal.SIGTERM):  # the command line's handlers
+    signal.signal(sig, _on_signal)
+from stratcli.records import drawing
+for _ in range(5):
+    drawing._DRAWER.clear()
+    assert drawing.start()
+    process = drawing._DRAWER["process"]
+    process.terminate()  # as the exit does (multiprocessing's atexit), however soon it comes
+    process.join(timeout=5)
+    print(process.exitcode)
+"""
+
+
+@pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
+def test_a_signal_while_the_drawing_process_starts_ends_it_quietly():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-c", textwrap.dedent(STARTING)]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
+    # not the command line's handler raising in it (a traceback), nor a SIGTERM lost in it
+    # (alive: the exit's join waits for ever)
+    assert done.stdout.split() == ["-15"] * 5, done.stdout
+    assert "Traceback" not in done.stderr, done.stderr

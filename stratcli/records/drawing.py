@@ -13,7 +13,9 @@ matplotlib already loaded in this process (a notebook, the tests), `start()` not
 library), the process gone or failed. `ask()` then returns None and the figures are drawn
 here as before; a failure of drawing itself is then raised here, as it always was.
 
-The process dies with this one and leaves SIGINT to it (`trie.worker_init`).
+The process dies with this one and leaves SIGINT to it (`trie.worker_init`); a signal that
+comes while it starts waits until its own handlers are set, not those of this process it
+was forked with (a traceback, or a SIGTERM lost and the exit's wait for it never ending).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-from ..interrupts import checkpoint
+from ..interrupts import checkpoint, release_signals, signals_held
 
 __all__ = ["ask", "beside", "running", "start"]
 
@@ -52,7 +54,8 @@ def start() -> bool:
     process = context.Process(
         target=_serve, args=(there, here, os.getpid()), name="stratplan-drawing", daemon=True
     )
-    process.start()
+    with signals_held():  # none reaches it before it sets its own handlers (`_serve`)
+        process.start()
     there.close()
     _DRAWER.update(process=process, connection=here)
     return True
@@ -129,6 +132,7 @@ def _serve(connection, parents_end, parent: int) -> None:
     from ..trie import worker_init
 
     worker_init(parent)
+    release_signals()  # held since the fork (`start`): SIGINT ignored, SIGTERM ends it now
     parents_end.close()
     _warm_up()
     while True:
