@@ -69,7 +69,9 @@ def test_without_a_live_drawing_process_the_figures_are_drawn_here(comparison, m
             return False
 
     here, _ = multiprocessing.Pipe()
-    monkeypatch.setattr(drawing, "_DRAWER", {"process": Gone(), "connection": here})
+    monkeypatch.setattr(
+        drawing, "_DRAWER", {"process": Gone(), "connection": here, "owner": os.getpid()}
+    )
     assert not drawing.running()
     assert drawing.ask(plan, traj, "x", False, "png")() is None
     # one that dies while it is waited for
@@ -99,7 +101,9 @@ def test_a_plan_that_cannot_be_handed_over_is_drawn_here(comparison, monkeypatch
         def send(self, job):
             raise TypeError("cannot pickle 'pinocchio.Model' object")
 
-    monkeypatch.setattr(drawing, "_DRAWER", {"process": Alive(), "connection": Unpicklable()})
+    monkeypatch.setattr(
+        drawing, "_DRAWER", {"process": Alive(), "connection": Unpicklable(), "owner": os.getpid()}
+    )
     assert drawing.running()
     assert drawing.ask(plan, traj, "x", False, "png")() is None
 
@@ -159,3 +163,27 @@ def test_a_signal_while_the_drawing_process_starts_ends_it_quietly():
     # (alive: the exit's join waits for ever)
     assert done.stdout.split() == ["-15"] * 5, done.stdout
     assert "Traceback" not in done.stderr, done.stderr
+
+
+FORKED = """
+import os
+from stratcli.records import drawing
+assert drawing.start() and drawing.running()
+child = os.fork()
+if child == 0:  # a worker forked later (a pool's): not the drawing process's owner
+    code = 1
+    try:
+        code = 3 if drawing.running() or drawing.start() else 0
+    finally:
+        os._exit(code)
+print(os.waitstatus_to_exitcode(os.waitpid(child, 0)[1]), drawing.running())
+"""
+
+
+@pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
+def test_a_process_forked_from_the_command_does_not_take_its_drawing_process_for_its_own():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-c", textwrap.dedent(FORKED)]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
+    # multiprocessing's is_alive() asserted in the fork: an AssertionError there (exit 1)
+    assert done.stdout.split() == ["0", "True"], done.stdout + done.stderr

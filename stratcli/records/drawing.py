@@ -36,13 +36,13 @@ __all__ = ["ask", "beside", "running", "start"]
 # expected drawing time relative to a time plot, to share the figures out between two processes
 COST = {"ranking": 2.0, "motion": 30.0, "stroboscope": 1.2}
 
-_DRAWER: dict[str, Any] = {}  # "process", "connection" once started
+_DRAWER: dict[str, Any] = {}  # "process", "connection", "owner" (its pid) once started
 
 
 def start() -> bool:
     """Fork the drawing process (at most once per process); True if it runs."""
     if _DRAWER:
-        return _DRAWER["process"].is_alive()
+        return running()
     if "matplotlib" in sys.modules or "fork" not in multiprocessing.get_all_start_methods():
         return False
     from ..trie import default_jobs
@@ -57,13 +57,14 @@ def start() -> bool:
     with signals_held():  # none reaches it before it sets its own handlers (`_serve`)
         process.start()
     there.close()
-    _DRAWER.update(process=process, connection=here)
+    _DRAWER.update(process=process, connection=here, owner=os.getpid())
     return True
 
 
 def running() -> bool:
-    """Whether this process started a drawing process that still runs."""
-    return bool(_DRAWER) and _DRAWER["process"].is_alive()
+    """Whether this process started a drawing process that still runs (not: a process
+    forked from the one that did, which cannot ask it: False there)."""
+    return bool(_DRAWER) and _DRAWER["owner"] == os.getpid() and _DRAWER["process"].is_alive()
 
 
 def ask(
