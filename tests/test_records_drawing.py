@@ -187,3 +187,29 @@ def test_a_process_forked_from_the_command_does_not_take_its_drawing_process_for
     done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
     # multiprocessing's is_alive() asserted in the fork: an AssertionError there (exit 1)
     assert done.stdout.split() == ["0", "True"], done.stdout + done.stderr
+
+
+UNTAKEN = """
+import sys
+import stratcli
+from stratcli import api
+from stratcli.records import drawing
+from stratcli.records.trajectory import sample
+assert api.draw_ahead()
+outcome = stratcli.compare_sequences(stratcli.load_scenario(sys.argv[1]), max_length=2, jobs=1)
+plan = outcome.best.result
+traj = sample(plan)
+doc = dict(outcome.document, padding="x" * 4_000_000)  # a job larger than the pipe holds
+drawing.ask(plan, traj, "t", False, "png", doc)  # a record that failed after asking
+assert drawing._DRAWER["connection"].poll(120)  # its answer is drawn, being sent
+print(drawing.ask(plan, traj, "t", False, "png", doc)(), drawing.running())
+"""
+
+
+@pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
+def test_a_record_after_one_that_left_its_answer_is_drawn_here_not_deadlocked():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-c", textwrap.dedent(UNTAKEN), str(AUTO)]
+    # both processes sent into a full pipe, neither reading: the next record waited for ever
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=90)
+    assert done.stdout.split() == ["None", "False"], done.stdout + done.stderr

@@ -10,8 +10,10 @@ back their bytes: the same bytes as drawn here (`plots.draw`, `ranking.ranking_p
 
 Nothing changes where it cannot help or is not there: no fork (not Linux/macOS), one core,
 matplotlib already loaded in this process (a notebook, the tests), `start()` not called (the
-library), the process gone or failed. `ask()` then returns None and the figures are drawn
-here as before; a failure of drawing itself is then raised here, as it always was.
+library), the process gone or failed, or ended because a record asked and never took the
+answer (it failed meanwhile; the next job could not be sent while the answer is). `ask()`
+then returns None and the figures are drawn here as before; a failure of drawing itself is
+then raised here, as it always was.
 
 The process dies with this one and leaves SIGINT to it (`trie.worker_init`); a signal that
 comes while it starts waits until its own handlers are set, not those of this process it
@@ -77,13 +79,35 @@ def ask(
     gives None where the figures must be drawn here (no process, or it failed)."""
     if not running():
         return lambda: None
+    if _DRAWER.get("pending"):  # a record asked and failed before taking the answer
+        _stop()  # which it may be sending: both would wait on a full pipe for ever
+        return lambda: None
     connection = _DRAWER["connection"]
     number = _DRAWER["asked"] = _DRAWER.get("asked", 0) + 1
     try:  # pickled whole before a byte is written: a failure leaves the pipe as it was
         connection.send((number, (plan, traj, title, animation, fmt, ranking)))
     except Exception:  # gone, or something in the plan that does not pickle: drawn here
         return lambda: None
-    return lambda: _answer(connection, _DRAWER["process"], number)
+    _DRAWER["pending"] = number
+    return lambda: _taken(connection, _DRAWER["process"], number)
+
+
+def _taken(connection, process, number: int) -> tuple[dict[str, bytes], float] | None:
+    """`_answer`, the job no longer pending once it is read (not if waiting is interrupted)."""
+    answer = _answer(connection, process, number)
+    _DRAWER["pending"] = None
+    return answer
+
+
+def _stop() -> None:
+    """End the drawing process (its fork dies with it): the figures are drawn here."""
+    process = _DRAWER["process"]
+    process.terminate()
+    process.join(timeout=5.0)
+    if process.is_alive():  # pragma: no cover - SIGTERM is not ignored there
+        process.kill()
+        process.join()
+    _DRAWER["connection"].close()
 
 
 def _answer(connection, process, number: int) -> tuple[dict[str, bytes], float] | None:
