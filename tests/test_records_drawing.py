@@ -213,3 +213,37 @@ def test_a_record_after_one_that_left_its_answer_is_drawn_here_not_deadlocked():
     # both processes sent into a full pipe, neither reading: the next record waited for ever
     done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=90)
     assert done.stdout.split() == ["None", "False"], done.stdout + done.stderr
+
+
+UNPICKLING = """
+import os
+from stratcli.records import drawing
+
+HERE = os.getpid()
+
+
+def rebuilt():
+    if os.getpid() != HERE:  # as a C extension's object that does not unpickle elsewhere
+        raise RuntimeError("cannot rebuild this object in another process")
+
+
+class Plan:
+    def __reduce__(self):
+        return rebuilt, ()
+
+
+assert drawing.start()
+answer = drawing.ask(Plan(), None, "t", False, "png")()
+process = drawing._DRAWER["process"]
+process.join(timeout=30)  # it ends: the command draws the figures itself
+print(answer, process.exitcode)
+"""
+
+
+@pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
+def test_a_job_the_drawing_process_cannot_unpickle_is_drawn_here_without_a_traceback():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-c", textwrap.dedent(UNPICKLING)]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
+    assert done.stdout.split() == ["None", "0"], done.stdout + done.stderr
+    assert "Traceback" not in done.stderr, done.stderr

@@ -163,8 +163,8 @@ def _serve(connection, parents_end, parent: int) -> None:
     while True:
         try:
             number, job = connection.recv()
-        except (EOFError, OSError):
-            return
+        except Exception:  # the command gone, or a job that does not unpickle here: ended
+            return  # quietly (no traceback), and the command draws the figures itself
         cpu = time.process_time()
         try:
             files, other = _draw_shared(*job)
