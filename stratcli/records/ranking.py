@@ -79,17 +79,18 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     colors = [BEST_COLOR if i == best else OTHER_COLOR for i in ok]
     shown = [max(v, floor) for v in values]  # a zero on a log axis sits at the floor
     bars = ax.barh(ok, [v - floor for v in shown], left=floor, color=colors, height=0.7)
-    ends = {f" {_short(v)}": x for v, x in zip(values, shown, strict=True)}  # text: bar end
+    ends: dict[str, float] = {}  # each text written after a bar: the farthest bar it ends
     for i, v, x in zip(ok, values, shown, strict=True):
-        ax.text(x, i, f" {_short(v)}", va="center", fontsize=7.5)
+        ax.text(x, i, text := f" {_short(v)}", va="center", fontsize=7.5)
+        ends[text] = max(x, ends.get(text, x))
     at_least = [max(b, floor) for b in bounds.values()]
     hollow = ax.barh(
         list(bounds), [b - floor for b in at_least], left=floor, height=0.7, fill=False,
         edgecolor=BOUNDED_COLOR, linestyle="--", linewidth=0.8,
     )  # fmt: skip
     for i, b, x in zip(bounds, bounds.values(), at_least, strict=True):
-        ax.text(x, i, f" ≥ {_short(b)}", va="center", fontsize=7.5, color=BOUNDED_COLOR)
-        ends[f" ≥ {_short(b)}"] = max(x, ends.get(f" ≥ {_short(b)}", x))
+        ax.text(x, i, text := f" ≥ {_short(b)}", va="center", fontsize=7.5, color=BOUNDED_COLOR)
+        ends[text] = max(x, ends.get(text, x))
     failed = False
     for i, r in enumerate(rows):
         if i in ok or i in bounds:
