@@ -247,3 +247,25 @@ def test_a_job_the_drawing_process_cannot_unpickle_is_drawn_here_without_a_trace
     done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
     assert done.stdout.split() == ["None", "0"], done.stdout + done.stderr
     assert "Traceback" not in done.stderr, done.stderr
+
+
+BESIDE = """
+import signal, time
+from stratcli.__main__ import _on_signal
+for sig in (signal.SIGINT, signal.SIGTERM):  # the command line's handlers
+    signal.signal(sig, _on_signal)
+from stratcli.records import drawing
+for _ in range(5):
+    get, stop = drawing.beside(time.sleep, 30)
+    stop()  # at once: the worker may not have set its own handlers yet
+print("stopped")
+"""
+
+
+@pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
+def test_a_worker_stopped_as_it_starts_ends_quietly():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-c", textwrap.dedent(BESIDE)]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
+    assert done.stdout.split() == ["stopped"], done.stdout + done.stderr
+    assert "Traceback" not in done.stderr, done.stderr  # the parent's handler raised in it

@@ -31,7 +31,7 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-from ..interrupts import checkpoint, release_signals, signals_held
+from ..interrupts import checkpoint, signals_held
 
 __all__ = ["ask", "beside", "running", "start"]
 
@@ -133,7 +133,7 @@ def beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]
     value is asked for."""
     from concurrent.futures import ProcessPoolExecutor
 
-    from ..trie import default_jobs, stop_workers, worker_init
+    from ..trie import default_jobs, stop_workers, submit, worker_init
 
     if default_jobs() < 2 or "fork" not in multiprocessing.get_all_start_methods():
         return (lambda: func(*args)), (lambda: None)
@@ -143,7 +143,7 @@ def beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]
         initializer=worker_init,
         initargs=(os.getpid(),),
     )
-    future = pool.submit(func, *args)
+    future = submit(pool, func, *args)
     return future.result, lambda: stop_workers(pool, [future])
 
 
@@ -156,8 +156,7 @@ def _serve(connection, parents_end, parent: int) -> None:
     """Import the figure modules, then draw what is asked until the command ends."""
     from ..trie import worker_init
 
-    worker_init(parent)
-    release_signals()  # held since the fork (`start`): SIGINT ignored, SIGTERM ends it now
+    worker_init(parent)  # which lets in the signals held since the fork (`start`)
     parents_end.close()
     _warm_up()
     while True:
