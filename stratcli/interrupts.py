@@ -11,7 +11,10 @@ collected, and before anything is written, and the entry point calls it once mor
 Outside the command line nothing is installed and `checkpoint` costs one list test.
 """
 
+import signal
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 _swallowed: list[int] = []
 
@@ -51,3 +54,24 @@ def checkpoint() -> None:
     """Raise `Interrupted` again if a signal handler's exception was swallowed."""
     if _swallowed:
         raise Interrupted(_swallowed[0])
+
+
+@contextmanager
+def signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM wait until the block is done (delivered right after it). A process
+    forked inside the block starts with them held too: it unblocks them (`release_signals`)
+    once its own handlers are set, so that none reaches the handlers it inherited."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not on POSIX
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def release_signals() -> None:
+    """In a process forked inside `signals_held`: let SIGINT and SIGTERM in again."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})

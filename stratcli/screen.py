@@ -59,7 +59,7 @@ from typing import Any
 
 from .interrupts import checkpoint
 from .leg_bounds import leg_items, plan_alone
-from .trie import STATE, plan_whole, run_units, stop_workers, worker_init
+from .trie import STATE, plan_whole, run_units, stop_workers, submit, worker_init
 
 __all__ = ["Screen", "screen_candidates"]
 
@@ -111,7 +111,7 @@ def _round(items, jobs: int, pool, flight: dict, ahead: Callable) -> list[dict]:
         return run_units(_unit, [(unit, 0) for _, unit in items], jobs, lambda k: None)
     for name, unit in items:
         if name not in flight:
-            flight[name] = pool.submit(_unit, unit)
+            flight[name] = submit(pool, _unit, unit)
     wanted = [flight[name] for name, _ in items]
     while not all(f.done() for f in wanted):
         running = [f for f in flight.values() if not f.done()]
@@ -121,7 +121,7 @@ def _round(items, jobs: int, pool, flight: dict, ahead: Callable) -> list[dict]:
             if name is None:
                 break
             if name not in flight:
-                flight[name] = pool.submit(_unit, unit)
+                flight[name] = submit(pool, _unit, unit)
                 running.append(flight[name])
         wait(running, return_when=FIRST_COMPLETED)
         checkpoint()

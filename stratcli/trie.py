@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from .interrupts import checkpoint
+from .interrupts import checkpoint, release_signals, signals_held
 from .models.system import System
 from .node_margins import searchable
 from .objectives import candidate_within_limits, plan_sequence
@@ -190,6 +190,15 @@ def worker_init(parent: int) -> None:
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
     if os.getppid() != parent:  # the parent died before prctl took effect
         os._exit(1)
+    release_signals()  # held while it was forked (`submit`): now they reach these handlers
+
+
+def submit(pool: ProcessPoolExecutor, func: Callable, *args) -> Any:
+    """`pool.submit(func, *args)`, SIGINT and SIGTERM held while it forks the workers: one
+    that came before a worker's `worker_init` reached the parent's handler in the worker
+    (a traceback on the terminal) or was lost (SIGTERM: `stop_workers` waited 2 s for it)."""
+    with signals_held():
+        return pool.submit(func, *args)
 
 
 def stop_workers(pool: ProcessPoolExecutor, futures) -> None:
@@ -269,7 +278,7 @@ def run_units(
     futures: dict = {}
     try:
         for k in order:
-            futures[pool.submit(func, units[k][0])] = k
+            futures[submit(pool, func, units[k][0])] = k
         for future in as_completed(futures):
             k = futures[future]
             results[k] = future.result()

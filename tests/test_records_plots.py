@@ -267,6 +267,37 @@ def test_the_ranking_labels_fit_in_the_figure():
     assert legend.y0 >= 0 and legend.y1 < ax.xaxis.get_tightbbox(renderer).y0
 
 
+def _inside(fig, artists) -> bool:
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    width, height = fig.bbox.width, fig.bbox.height
+    boxes = [a.get_window_extent(renderer) for a in artists]
+    return all(b.x0 >= 0 and b.y0 >= 0 and b.x1 <= width and b.y1 <= height for b in boxes)
+
+
+@pytest.mark.parametrize("log", [False, True])
+def test_the_values_after_the_last_bars_end_in_the_figure(log):
+    """Fixed margins no longer shrink the axes for them: the axis leaves them room."""
+    values = [10.0 * (i + 1) ** (3 if log else 0.3) for i in range(40)]
+    doc = _ranking_doc([*values, None, None])
+    for row, bound in zip(doc["rows"][-2:], (1.01 * values[-1], 1.09 * values[-1]), strict=True):
+        row.update(status="bounded", energy_bound=bound)
+    fig = ranking_figure(doc)
+    (ax,) = fig.axes
+    assert (ax.get_xscale() == "log") is log
+    assert _inside(fig, ax.texts)
+
+
+def test_a_legend_wider_than_the_chart_takes_two_columns():
+    doc = _ranking_doc([60.0, 65.0, None, None])
+    doc["rows"][0]["sequence"] = ["S1", "S2", "S3", "S1", "S2", "S3", "S1"]
+    doc["rows"][2].update(status="bounded", energy_bound=61.0)  # four kinds of rows
+    fig = ranking_figure(doc)
+    (legend,) = fig.legends
+    assert len(legend.get_texts()) == 4 and _inside(fig, [legend])
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    assert legend.get_window_extent(renderer).y1 < fig.axes[0].xaxis.get_tightbbox(renderer).y0
+
+
 @pytest.mark.parametrize(("fmt", "magic"), [("svg", (b"<?xml", b"<svg")), ("pdf", (b"%PDF",))])
 def test_plots_in_svg_and_pdf(one_arm, fmt, magic):
     files = render_plots(one_arm.plan, one_arm.traj, "t", animation=False, fmt=fmt)

@@ -10,10 +10,14 @@ back their bytes: the same bytes as drawn here (`plots.draw`, `ranking.ranking_p
 
 Nothing changes where it cannot help or is not there: no fork (not Linux/macOS), one core,
 matplotlib already loaded in this process (a notebook, the tests), `start()` not called (the
-library), the process gone or failed. `ask()` then returns None and the figures are drawn
-here as before; a failure of drawing itself is then raised here, as it always was.
+library), the process gone or failed, or ended because a record asked and never took the
+answer (it failed meanwhile; the next job could not be sent while the answer is). `ask()`
+then returns None and the figures are drawn here as before; a failure of drawing itself is
+then raised here, as it always was.
 
-The process dies with this one and leaves SIGINT to it (`trie.worker_init`).
+The process dies with this one and leaves SIGINT to it (`trie.worker_init`); a signal that
+comes while it starts waits until its own handlers are set, not those of this process it
+was forked with (a traceback, or a SIGTERM lost and the exit's wait for it never ending).
 """
 
 from __future__ import annotations
@@ -27,20 +31,20 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-from ..interrupts import checkpoint
+from ..interrupts import checkpoint, signals_held
 
 __all__ = ["ask", "beside", "running", "start"]
 
 # expected drawing time relative to a time plot, to share the figures out between two processes
 COST = {"ranking": 2.0, "motion": 30.0, "stroboscope": 1.2}
 
-_DRAWER: dict[str, Any] = {}  # "process", "connection" once started
+_DRAWER: dict[str, Any] = {}  # "process", "connection", "owner" (its pid) once started
 
 
 def start() -> bool:
     """Fork the drawing process (at most once per process); True if it runs."""
     if _DRAWER:
-        return _DRAWER["process"].is_alive()
+        return running()
     if "matplotlib" in sys.modules or "fork" not in multiprocessing.get_all_start_methods():
         return False
     from ..trie import default_jobs
@@ -52,15 +56,17 @@ def start() -> bool:
     process = context.Process(
         target=_serve, args=(there, here, os.getpid()), name="stratplan-drawing", daemon=True
     )
-    process.start()
+    with signals_held():  # none reaches it before it sets its own handlers (`_serve`)
+        process.start()
     there.close()
-    _DRAWER.update(process=process, connection=here)
+    _DRAWER.update(process=process, connection=here, owner=os.getpid())
     return True
 
 
 def running() -> bool:
-    """Whether this process started a drawing process that still runs."""
-    return bool(_DRAWER) and _DRAWER["process"].is_alive()
+    """Whether this process started a drawing process that still runs (not: a process
+    forked from the one that did, which cannot ask it: False there)."""
+    return bool(_DRAWER) and _DRAWER["owner"] == os.getpid() and _DRAWER["process"].is_alive()
 
 
 def ask(
@@ -73,13 +79,35 @@ def ask(
     gives None where the figures must be drawn here (no process, or it failed)."""
     if not running():
         return lambda: None
+    if _DRAWER.get("pending"):  # a record asked and failed before taking the answer
+        _stop()  # which it may be sending: both would wait on a full pipe for ever
+        return lambda: None
     connection = _DRAWER["connection"]
     number = _DRAWER["asked"] = _DRAWER.get("asked", 0) + 1
     try:  # pickled whole before a byte is written: a failure leaves the pipe as it was
         connection.send((number, (plan, traj, title, animation, fmt, ranking)))
     except Exception:  # gone, or something in the plan that does not pickle: drawn here
         return lambda: None
-    return lambda: _answer(connection, _DRAWER["process"], number)
+    _DRAWER["pending"] = number
+    return lambda: _taken(connection, _DRAWER["process"], number)
+
+
+def _taken(connection, process, number: int) -> tuple[dict[str, bytes], float] | None:
+    """`_answer`, the job no longer pending once it is read (not if waiting is interrupted)."""
+    answer = _answer(connection, process, number)
+    _DRAWER["pending"] = None
+    return answer
+
+
+def _stop() -> None:
+    """End the drawing process (its fork dies with it): the figures are drawn here."""
+    process = _DRAWER["process"]
+    process.terminate()
+    process.join(timeout=5.0)
+    if process.is_alive():  # pragma: no cover - SIGTERM is not ignored there
+        process.kill()
+        process.join()
+    _DRAWER["connection"].close()
 
 
 def _answer(connection, process, number: int) -> tuple[dict[str, bytes], float] | None:
@@ -105,7 +133,7 @@ def beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]
     value is asked for."""
     from concurrent.futures import ProcessPoolExecutor
 
-    from ..trie import default_jobs, stop_workers, worker_init
+    from ..trie import default_jobs, stop_workers, submit, worker_init
 
     if default_jobs() < 2 or "fork" not in multiprocessing.get_all_start_methods():
         return (lambda: func(*args)), (lambda: None)
@@ -115,7 +143,7 @@ def beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]
         initializer=worker_init,
         initargs=(os.getpid(),),
     )
-    future = pool.submit(func, *args)
+    future = submit(pool, func, *args)
     return future.result, lambda: stop_workers(pool, [future])
 
 
@@ -128,14 +156,14 @@ def _serve(connection, parents_end, parent: int) -> None:
     """Import the figure modules, then draw what is asked until the command ends."""
     from ..trie import worker_init
 
-    worker_init(parent)
+    worker_init(parent)  # which lets in the signals held since the fork (`start`)
     parents_end.close()
     _warm_up()
     while True:
         try:
             number, job = connection.recv()
-        except (EOFError, OSError):
-            return
+        except Exception:  # the command gone, or a job that does not unpickle here: ended
+            return  # quietly (no traceback), and the command draws the figures itself
         cpu = time.process_time()
         try:
             files, other = _draw_shared(*job)

@@ -25,6 +25,7 @@ BEST_COLOR = "#2e7d32"
 OTHER_COLOR = "#4a6fa5"
 FAILED_COLOR = "#c0392b"
 LABEL_SIZE = 7.5  # pt, of the sequences' labels
+RIGHT = 0.15  # inches right of the axes
 BOUNDED_COLOR = "#777777"
 # units of the ranking quantities for the presets and physical planar models (rad, rad/s)
 _UNITS = {"energy": "rad²/s", "peak-control": "rad/s", "excursion": "rad", "duration": "s"}
@@ -78,15 +79,18 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     colors = [BEST_COLOR if i == best else OTHER_COLOR for i in ok]
     shown = [max(v, floor) for v in values]  # a zero on a log axis sits at the floor
     bars = ax.barh(ok, [v - floor for v in shown], left=floor, color=colors, height=0.7)
+    ends: dict[str, float] = {}  # each text written after a bar: the farthest bar it ends
     for i, v, x in zip(ok, values, shown, strict=True):
-        ax.text(x, i, f" {_short(v)}", va="center", fontsize=7.5)
+        ax.text(x, i, text := f" {_short(v)}", va="center", fontsize=7.5)
+        ends[text] = max(x, ends.get(text, x))
     at_least = [max(b, floor) for b in bounds.values()]
     hollow = ax.barh(
         list(bounds), [b - floor for b in at_least], left=floor, height=0.7, fill=False,
         edgecolor=BOUNDED_COLOR, linestyle="--", linewidth=0.8,
     )  # fmt: skip
     for i, b, x in zip(bounds, bounds.values(), at_least, strict=True):
-        ax.text(x, i, f" ≥ {_short(b)}", va="center", fontsize=7.5, color=BOUNDED_COLOR)
+        ax.text(x, i, text := f" ≥ {_short(b)}", va="center", fontsize=7.5, color=BOUNDED_COLOR)
+        ends[text] = max(x, ends.get(text, x))
     failed = False
     for i, r in enumerate(rows):
         if i in ok or i in bounds:
@@ -106,8 +110,12 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         ranked_by = f"energy at an equal total duration of {doc['reference_duration_s']:g} s"
     ax.set_title(f"{doc['scenario']}: {len(rows)} sequences ranked by {ranked_by}", fontsize=10)
     ax.grid(axis="x", alpha=0.3)
-    if plotted:
-        ax.set_xlim(floor if log else 0.0, max([*shown, *at_least]) * (1.7 if log else 1.18))
+    left = max(_widths(fig, labels, LABEL_SIZE), default=0.0) + 0.25  # labels, ticks, a gap
+    if plotted:  # room on the right for the values written after the bars (fixed margins)
+        room = _room(fig, ends, fig.get_figwidth() - left - RIGHT, log, floor)
+        ax.set_xlim(
+            floor if log else 0.0, max(max([*shown, *at_least]) * (1.7 if log else 1.18), room)
+        )
     handles = []
     if best is not None:
         handles.append(bars[ok.index(best)])
@@ -126,23 +134,21 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     span = "from 0" if math.isinf(ratio) else f"{ratio:,.3g}×"
     relation = ">" if log else "≤"
     scale = f"{'log' if log else 'linear'} scale: values span {span} ({relation} {LOG_RATIO:g}×)"
-    fig.legend(
-        handles=handles,
-        loc="lower center",
-        bbox_to_anchor=(0.5, 0.0),
-        ncols=len(handles),
-        fontsize=8,
-        title=scale,
-        title_fontsize=8,
-        frameon=False,
-    )
-    left = _widest(fig, labels, LABEL_SIZE) + 0.25  # the labels, the ticks and a gap
-    fixed_margins(fig, left=left, right=0.15, top=0.32, bottom=1.05)
+    legend = dict(loc="lower center", bbox_to_anchor=(0.5, 0.0), fontsize=8, title=scale)
+    legend.update(title_fontsize=8, frameon=False)
+    ncols = len(handles)
+    drawn = fig.legend(handles=handles, ncols=ncols, **legend)
+    if drawn.get_window_extent(fig.canvas.get_renderer()).width > fig.bbox.width:
+        drawn.remove()  # one row would be wider than the chart: two columns
+        ncols = 2
+        fig.legend(handles=handles, ncols=ncols, **legend)
+    rows_more = math.ceil(len(handles) / max(ncols, 1)) - 1  # legend rows below the first
+    fixed_margins(fig, left=left, right=RIGHT, top=0.32, bottom=1.05 + 0.17 * rows_more)
     return fig
 
 
-def _widest(fig: Figure, texts: list[str], size: float) -> float:
-    """Inches of the widest of `texts` at `size` pt: the labels' margin, measured once
+def _widths(fig: Figure, texts: list[str], size: float, total=None):
+    """Inches of each of `texts` at `size` pt (or `total` of them), measured once
     (constrained layout measured every text of the figure twice: half the chart's time)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.font_manager import FontProperties
@@ -150,7 +156,19 @@ def _widest(fig: Figure, texts: list[str], size: float) -> float:
     renderer = FigureCanvasAgg(fig).get_renderer()
     font = FontProperties(size=size)
     widths = [renderer.get_text_width_height_descent(t, font, ismath=False)[0] for t in texts]
-    return max(widths, default=0.0) / fig.dpi
+    inches = [w / fig.dpi for w in widths]
+    return inches if total is None else total(inches)
+
+
+def _room(fig: Figure, ends: dict[str, float], axes: float, log: bool, floor: float) -> float:
+    """The least right end of the value axis at which every text of `ends` (text: the value
+    it is written after) ends inside the axes, `axes` inches wide."""
+    widths = _widths(fig, list(ends), 7.5)
+    need = 0.0
+    for x, width in zip(ends.values(), widths, strict=True):
+        stretch = axes / max(axes - width, 0.25 * axes)  # of the axis up to the text's start
+        need = max(need, floor * (x / floor) ** stretch if log else x * stretch)
+    return need
 
 
 def _bounds(rows: list[dict], key: str, ok: list[int]) -> dict[int, float]:

@@ -27,19 +27,16 @@ import math
 import os
 import re
 import shutil
-import signal
 import socket
 import tempfile
 import time
 from collections import deque
-from collections.abc import Iterator
-from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 from ..errors import RecordError
-from ..interrupts import checkpoint
+from ..interrupts import checkpoint, signals_held
 
 MAX_NAME_BYTES = 100
 STALE_AFTER_S = 3600.0  # a partial directory older than this is a killed run's, whoever wrote it
@@ -103,20 +100,6 @@ def clean_partials(out: Path, max_age: float = STALE_AFTER_S) -> list[Path]:
             if not path.exists():
                 removed.append(path)
     return removed
-
-
-@contextmanager
-def _signals_held() -> Iterator[None]:
-    """SIGINT and SIGTERM wait until the block is done (delivered right after it)."""
-    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not on POSIX
-        yield
-        return
-    held = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def mark_interrupted(exit_code: int, signal_name: str) -> list[Path]:
@@ -244,7 +227,7 @@ def _write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
         for k in range(1, 1000):
             final = out / (name if k == 1 else f"{name}-{k}")
             try:
-                with _signals_held():  # a completed record is always known to mark_interrupted
+                with signals_held():  # a completed record is always known to mark_interrupted
                     os.rename(tmp, final)  # fails if `final` exists and is not empty
                     WRITTEN.append(final)
                 return final
