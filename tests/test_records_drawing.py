@@ -117,6 +117,11 @@ assert api.draw_ahead()
 outcome = stratcli.compare_sequences(task, max_length=2, jobs=1)
 run = api.write_record(sys.argv[2], outcome, argv=["test"])
 assert "matplotlib" not in sys.modules  # every figure was drawn by the drawing process
+import os
+from stratcli.records import drawing
+mine = os.getpriority(os.PRIO_PROCESS, 0)  # it yields to the planner's processes
+theirs = os.getpriority(os.PRIO_PROCESS, drawing._DRAWER["process"].pid)
+assert theirs == min(mine + drawing.NICE, 19)
 with open(sys.argv[3], "wb") as f:
     pickle.dump((str(run), outcome.best.result, outcome.document), f)
 """

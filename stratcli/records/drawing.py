@@ -38,6 +38,11 @@ __all__ = ["ask", "beside", "running", "start"]
 # expected drawing time relative to a time plot, to share the figures out between two processes
 COST = {"ranking": 2.0, "motion": 30.0, "stroboscope": 1.2}
 
+# The drawing process's niceness: loading matplotlib beside a comparison's two workers took
+# their CPU (the search 1.34 -> 1.22 s median wall with it, compare-sequences on Sim 4, 10
+# alternating runs); drawing happens when the planner is done, and the figures are the same
+NICE = 10
+
 _DRAWER: dict[str, Any] = {}  # "process", "connection", "owner" (its pid) once started
 
 
@@ -158,6 +163,10 @@ def _serve(connection, parents_end, parent: int) -> None:
 
     worker_init(parent)  # which lets in the signals held since the fork (`start`)
     parents_end.close()
+    try:  # it yields to the planner's processes (a comparison's workers); alone, it runs
+        os.nice(NICE)
+    except (AttributeError, OSError):  # pragma: no cover - no nice here
+        pass
     _warm_up()
     while True:
         try:
