@@ -302,3 +302,16 @@ def test_margins_met_exactly_print_as_zero_and_violations_as_they_are():
     line = limit_margins(report)
     assert "leg 1: joints 0.2 rad, rate 0 rad/s;" in line  # met exactly: rounding, not -5.55e-16
     assert "leg 2: joints -0.01 rad, rate 0.3 rad/s" in line  # a violation keeps its sign
+
+
+def test_a_record_that_cannot_be_written_is_one_line_exit_4(capsys):
+    """The line said 'cannot write the run record' twice (the error's own words and a prefix)."""
+    import typer
+
+    from stratcli.errors import RecordError
+
+    with pytest.raises(typer.Exit) as exit_, render.reported():
+        raise RecordError("cannot write the run record in /tmp/x: File exists")
+    assert exit_.value.exit_code == 4
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == ["error: cannot write the run record in /tmp/x: File exists"]

@@ -130,7 +130,7 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
             )
         raise typer.Exit(3) from None
     except RecordError as exc:
-        error("cannot write the run record", str(exc))
+        error("error", str(exc))  # it says what could not be written, and where
         raise typer.Exit(4) from None
 
 
