@@ -15,9 +15,7 @@ strata realises (Goodwine's stratified construction; `controllability.sequence_r
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -95,14 +93,10 @@ def cache_key(system: System, strata: tuple[str, ...], degree: int) -> str | Non
     return codecache.key(system.name, system.states, f"{'+'.join(strata)} across {degree}", what)
 
 
-@cache
 def _source_hash() -> str:
     """Hash of the code that derives the basis (this module and `liealgebra.py`)."""
     here = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for name in ("crossbasis.py", "liealgebra.py"):
-        digest.update((here / name).read_bytes())
-    return digest.hexdigest()
+    return codecache.sources_hash(here / "crossbasis.py", here / "liealgebra.py")
 
 
 def symbolic_cross_basis(system: System, strata: tuple[str, ...], degree: int) -> CrossBasis:

@@ -19,10 +19,8 @@ system. The iterated integrals `h(λ)` that give `α` are in `stratcli.iterated`
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -219,9 +217,8 @@ def _cache_key(system: System, stratum: Stratum, degree: int) -> str | None:
     return codecache.key(system.name, system.states, f"{stratum.name} brackets {degree}", what)
 
 
-@cache
 def _source_hash() -> str:
-    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+    return codecache.sources_hash(Path(__file__).resolve())
 
 
 def _is_manipulator(system: System) -> bool:

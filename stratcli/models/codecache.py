@@ -44,13 +44,19 @@ def directory() -> Path:
 
 
 @cache
+def sources_hash(*paths: str | Path) -> str:
+    """sha256 of the files' bytes, in order: the code that derives what a key caches (a
+    change to it makes new keys)."""
+    digest = hashlib.sha256()
+    for path in paths:
+        digest.update(Path(path).read_bytes())
+    return digest.hexdigest()
+
+
 def _generator() -> str:
     """Hash of the code that generates the functions (this module and `system.py`)."""
     here = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for name in ("system.py", "codecache.py"):
-        digest.update((here / name).read_bytes())
-    return digest.hexdigest()
+    return sources_hash(here / "system.py", here / "codecache.py")
 
 
 def key(model: str, states: tuple[str, ...], stratum: str, fields: Any) -> str:
