@@ -371,3 +371,16 @@ def test_figures_show_an_obstacle_far_from_the_robot_whole():
     traj = plan.sample(50)
     ax = stroboscope_figure(plan, traj).axes[0]
     assert ax.get_xlim()[1] >= 5.5 and ax.get_ylim()[0] <= -4.5
+
+
+def test_a_long_scenario_name_wraps_the_ranking_title_inside_the_figure():
+    """A 150-character scenario name was cut at both edges of the chart."""
+    doc = _ranking_doc([60.0, 65.0])
+    doc["scenario"] = "a_very_long_scenario_name_" * 6
+    fig = ranking_figure(doc)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    (ax,) = fig.axes
+    box = ax.title.get_window_extent(renderer)
+    width, height = fig.get_size_inches() * fig.dpi
+    assert box.x0 >= 0 and box.x1 <= width and box.y1 <= height
+    assert ax.title.get_text().count("\n") >= 1

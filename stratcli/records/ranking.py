@@ -7,6 +7,7 @@ are drawn from `comparison.json` alone.
 from __future__ import annotations
 
 import math
+import textwrap
 from typing import Any
 
 from matplotlib.figure import Figure
@@ -25,6 +26,7 @@ BEST_COLOR = "#2e7d32"
 OTHER_COLOR = "#4a6fa5"
 FAILED_COLOR = "#c0392b"
 LABEL_SIZE = 7.5  # pt, of the sequences' labels
+TITLE_SIZE = 10  # pt
 RIGHT = 0.15  # inches right of the axes
 BOUNDED_COLOR = "#777777"
 # units of the ranking quantities for the presets and physical planar models (rad, rad/s)
@@ -108,9 +110,11 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     ranked_by = CRITERION_LABELS[doc["criterion"]]
     if doc["criterion"] == "energy" and doc.get("reference_duration_s") is not None:
         ranked_by = f"energy at an equal total duration of {doc['reference_duration_s']:g} s"
-    ax.set_title(f"{doc['scenario']}: {len(rows)} sequences ranked by {ranked_by}", fontsize=10)
     ax.grid(axis="x", alpha=0.3)
     left = max(_widths(fig, labels, LABEL_SIZE), default=0.0) + 0.25  # labels, ticks, a gap
+    title = f"{doc['scenario']}: {len(rows)} sequences ranked by {ranked_by}"
+    title_lines = _wrapped(fig, title, left)
+    ax.set_title("\n".join(title_lines), fontsize=TITLE_SIZE)
     if plotted:  # room on the right for the values written after the bars (fixed margins)
         room = _room(fig, ends, fig.get_figwidth() - left - RIGHT, log, floor)
         ax.set_xlim(
@@ -143,7 +147,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         ncols = 2
         fig.legend(handles=handles, ncols=ncols, **legend)
     rows_more = math.ceil(len(handles) / max(ncols, 1)) - 1  # legend rows below the first
-    fixed_margins(fig, left=left, right=RIGHT, top=0.32, bottom=1.05 + 0.17 * rows_more)
+    top = 0.32 + 0.17 * (len(title_lines) - 1)
+    fixed_margins(fig, left=left, right=RIGHT, top=top, bottom=1.05 + 0.17 * rows_more)
     return fig
 
 
@@ -169,6 +174,19 @@ def _room(fig: Figure, ends: dict[str, float], axes: float, log: bool, floor: fl
         stretch = axes / max(axes - width, 0.25 * axes)  # of the axis up to the text's start
         need = max(need, floor * (x / floor) ** stretch if log else x * stretch)
     return need
+
+
+def _wrapped(fig: Figure, title: str, left: float) -> list[str]:
+    """`title` in lines that fit the figure when centred over the axes (a long scenario name
+    ran past both edges): the fewest lines whose widest fits."""
+    width = fig.get_figwidth()
+    centre = (left + width - RIGHT) / 2
+    room = 2 * min(centre, width - centre) - 0.1  # inches a centred line may take
+    for chars in range(len(title), 19, -5):
+        lines = textwrap.wrap(title, chars, break_long_words=True) or [""]
+        if max(_widths(fig, lines, TITLE_SIZE)) <= room:
+            return lines
+    return textwrap.wrap(title, 20, break_long_words=True)
 
 
 def _bounds(rows: list[dict], key: str, ok: list[int]) -> dict[int, float]:
