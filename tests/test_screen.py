@@ -124,3 +124,40 @@ def test_the_screen_does_not_depend_on_the_processes_or_the_executor(sim4):
         threads = api.compare_sequences(sim4, executor=pool).document
     assert one["screen"]["searched"] >= 1 and one["screen"]["bounded"] >= 1
     assert without_timings(one) == without_timings(two) == without_timings(threads)
+
+
+HOPELESS_LEG = """
+name = "two_arm_hopeless_leg"
+[model]
+kind = "preset"
+name = "two-arm"
+[task]
+start = [0, 0, 0, 0, 0]
+goal = [0, 0, 0.3, 0.2, 2]
+[decompose]
+max_length = 2
+"""
+
+
+@pytest.mark.slow  # a two-arm comparison and one hopeless sequence planned in full: ~20 s
+def test_a_sequence_with_a_leg_that_has_no_plan_alone_fails_unsearched():
+    """A new user's two-arm task took 79 s: an S13 leg with no plan even free at both ends was
+    bounded again under its own conditions and three of its sequences searched, each failing
+    after seconds. Such sequences now fail unsearched, naming the leg; planned in full (as
+    --exhaustive does) one of them fails too, and the choice is the same."""
+    from stratcli.objectives import plan_sequence
+
+    task = load_scenario(HOPELESS_LEG)
+    outcome = api.compare_sequences(task, jobs=2)
+    doc = outcome.document
+    sunk = [r for r in doc["rows"] if "has no plan even alone" in (r["reason"] or "")]
+    assert sunk and doc["screen"]["failed_unsearched"] == len(sunk)
+    assert all(r["status"] == "failed" and r["energy"] is None for r in sunk)
+    assert doc["rows"][0]["sequence"] == ["S2"] and doc["rows"][0]["status"] == "ok"
+    row = sunk[0]
+    (candidate,) = [
+        c
+        for c in outcome.decomposition.candidates
+        if [leg.stratum for leg in c.legs] == row["sequence"] and c.strategy == row["strategy"]
+    ]
+    assert not plan_sequence(task.system, task.start, list(candidate.legs), task.settings).ok

@@ -78,6 +78,8 @@ def _screen(comparison: Comparison) -> dict[str, Any] | None:
         "legs_bounded": screen.legs,
         "searched": len(screen.searched),
         "bounded": sum(o is not None and o.status == "bounded" for o in comparison.outcomes),
+        # failed unsearched: a leg of theirs has no plan even alone, free at both ends
+        "failed_unsearched": len(getattr(screen, "sunk", ())),
         "bound_corrections": screen.corrections,
         "bound_cpu_s": screen.seconds,  # summed over the processes
     }
