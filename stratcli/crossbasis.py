@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 from .liealgebra import bracket, element_label, hall_basis, lie_basis
 from .models import codecache
-from .models.generated import ArrayFunction
+from .models.generated import ArrayFunction, cached_function, keep_function
 from .models.manipulator import ManipulatorSystem
 from .models.system import Stratum, System
 
@@ -69,19 +69,13 @@ def _manipulator_cross_basis(
 def _cached_cross_basis(system: System, strata: tuple[str, ...], degree: int) -> CrossBasis:
     """`symbolic_cross_basis`, read from the code cache when the system has an identity."""
     key = cache_key(system, strata, degree)
-    entry = codecache.load(key) if key else None
-    if entry:
-        try:  # as derived and compiled before: no sympy at all
-            labels = entry["labels"]
-            evaluate = ArrayFunction.restored(entry["rows"], system.n)
-            if isinstance(labels, list) and len(labels) == evaluate.shape[1]:
-                return CrossBasis([str(label) for label in labels], evaluate)
-        except Exception:  # a damaged entry: derive it again
-            pass
-    basis = symbolic_cross_basis(system, strata, degree)
-    saved = basis.evaluate.saved() if key else None
-    if saved is not None:
-        codecache.store(key, {"labels": basis.labels, "rows": saved})
+    if found := cached_function(key, system.n):  # as derived and compiled before: no sympy
+        evaluate, entry = found
+        labels = entry.get("labels")
+        if isinstance(labels, list) and evaluate.shape[1:] == (len(labels),):
+            return CrossBasis([str(label) for label in labels], evaluate)
+    basis = symbolic_cross_basis(system, strata, degree)  # (also for a damaged entry)
+    keep_function(key, basis.evaluate, labels=basis.labels)
     return basis
 
 

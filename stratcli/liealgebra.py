@@ -28,7 +28,7 @@ import numpy as np
 
 from .models import codecache
 from .models.connection import connection, connection_A
-from .models.generated import ArrayFunction
+from .models.generated import ArrayFunction, cached_function, keep_function
 from .models.manipulator import ManipulatorSystem
 from .models.system import Stratum, System
 
@@ -177,18 +177,11 @@ def _build(system: System, stratum: Stratum, degree: int) -> LieBasis:
     names = [system.inputs[k] for k in stratum.active]
     labels = [element_label(h, names) for h in elements]
     key = _cache_key(system, stratum, degree)
-    entry = codecache.load(key) if key else None
-    if entry:
-        try:  # a preset's brackets as compiled before: no sympy at all
-            evaluate = ArrayFunction.restored(entry["rows"], system.n)
-            return LieBasis(system, stratum, degree, elements, labels, free, None, evaluate)
-        except Exception:  # a damaged entry: derive them again
-            pass
+    if found := cached_function(key, system.n):  # a preset's brackets: no sympy at all
+        return LieBasis(system, stratum, degree, elements, labels, free, None, found[0])
     rows = _symbolic_rows(system, stratum, elements, free)
     evaluate = ArrayFunction(rows, list(system.symbols))
-    saved = evaluate.saved() if key else None
-    if saved is not None:
-        codecache.store(key, {"rows": saved})
+    keep_function(key, evaluate)
     return LieBasis(system, stratum, degree, elements, labels, free, rows, evaluate)
 
 

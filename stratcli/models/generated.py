@@ -17,7 +17,7 @@ from . import codecache
 if TYPE_CHECKING:
     import sympy as sp
 
-__all__ = ["ArrayFunction", "FusedRows"]
+__all__ = ["ArrayFunction", "FusedRows", "cached_function", "keep_function"]
 
 
 class ArrayFunction:
@@ -82,6 +82,26 @@ def _derivatives(exprs: list[sp.Expr], symbols: list[sp.Symbol]) -> list[sp.Expr
     import sympy as sp
 
     return [sp.diff(e, s) for e in exprs for s in symbols]
+
+
+def cached_function(key: str | None, n: int) -> tuple[ArrayFunction, dict] | None:
+    """The `ArrayFunction` of `n` coordinates kept under `key` in the disk cache (no sympy),
+    with its whole entry (what `keep_function` stored beside it); None when there is none or
+    it is damaged (then it is derived again)."""
+    entry = codecache.load(key) if key else None
+    if not entry:
+        return None
+    try:
+        return ArrayFunction.restored(entry["rows"], n), entry
+    except Exception:  # a damaged entry
+        return None
+
+
+def keep_function(key: str | None, function: ArrayFunction, **beside: Any) -> None:
+    """Keep `function` (and `beside`) under `key` in the disk cache, where it can be kept."""
+    saved = function.saved() if key else None
+    if saved is not None:
+        codecache.store(key, {**beside, "rows": saved})
 
 
 class FusedRows:
