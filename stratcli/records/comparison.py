@@ -79,7 +79,7 @@ def _screen(comparison: Comparison) -> dict[str, Any] | None:
         "searched": len(screen.searched),
         "bounded": sum(o is not None and o.status == "bounded" for o in comparison.outcomes),
         # failed unsearched: a leg of theirs has no plan even alone, free at both ends
-        "failed_unsearched": len(getattr(screen, "sunk", ())),
+        "failed_unsearched": len(screen.sunk),
         "bound_corrections": screen.corrections,
         "bound_cpu_s": screen.seconds,  # summed over the processes
     }
@@ -162,7 +162,7 @@ def comparison_csv(doc: dict[str, Any]) -> str:
                 " ".join(row["sequence"]),
                 row["strategy"],
                 row["status"],
-                *("" if row.get(k) is None else repr(row[k]) for k in NUMBERS),
+                *("" if row[k] is None else repr(row[k]) for k in NUMBERS),
                 vias,
                 row["reason"],
             ]

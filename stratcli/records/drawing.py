@@ -50,11 +50,7 @@ def start() -> bool:
     """Fork the drawing process (at most once per process); True if it runs."""
     if _DRAWER:
         return running()
-    if "matplotlib" in sys.modules or "fork" not in multiprocessing.get_all_start_methods():
-        return False
-    from ..trie import default_jobs
-
-    if default_jobs() < 2:  # it would take the planner's only core
+    if "matplotlib" in sys.modules or not _beside_possible():
         return False
     context = multiprocessing.get_context("fork")
     here, there = context.Pipe()
@@ -131,6 +127,14 @@ def _answer(connection, process, number: int) -> tuple[dict[str, bytes], float] 
         return None
 
 
+def _beside_possible() -> bool:
+    """Whether a process can work beside this one: fork, and a second core (else it would
+    take the planner's only one)."""
+    from ..trie import default_jobs
+
+    return "fork" in multiprocessing.get_all_start_methods() and default_jobs() >= 2
+
+
 def beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]]:
     """Start `func(*args)` in a forked process (one that dies with this one and leaves
     SIGINT to it, `trie.worker_init`); returns (a function that waits for its value, one
@@ -138,9 +142,9 @@ def beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]
     value is asked for."""
     from concurrent.futures import ProcessPoolExecutor
 
-    from ..trie import default_jobs, stop_workers, submit, worker_init
+    from ..trie import stop_workers, submit, worker_init
 
-    if default_jobs() < 2 or "fork" not in multiprocessing.get_all_start_methods():
+    if not _beside_possible():
         return (lambda: func(*args)), (lambda: None)
     pool = ProcessPoolExecutor(
         max_workers=1,

@@ -26,6 +26,7 @@ BEST_COLOR = "#2e7d32"
 OTHER_COLOR = "#4a6fa5"
 FAILED_COLOR = "#c0392b"
 LABEL_SIZE = 7.5  # pt, of the sequences' labels
+VALUE_SIZE = 7.5  # pt, of the texts in the axes (`_room` measures those after the bars)
 TITLE_SIZE = 10  # pt
 RIGHT = 0.15  # inches right of the axes
 BOUNDED_COLOR = "#777777"
@@ -83,7 +84,7 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     bars = ax.barh(ok, [v - floor for v in shown], left=floor, color=colors, height=0.7)
     ends: dict[str, float] = {}  # each text written after a bar: the farthest bar it ends
     for i, v, x in zip(ok, values, shown, strict=True):
-        ax.text(x, i, text := f" {_short(v)}", va="center", fontsize=7.5)
+        ax.text(x, i, text := f" {_short(v)}", va="center", fontsize=VALUE_SIZE)
         ends[text] = max(x, ends.get(text, x))
     at_least = [max(b, floor) for b in bounds.values()]
     hollow = ax.barh(
@@ -91,7 +92,9 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         edgecolor=BOUNDED_COLOR, linestyle="--", linewidth=0.8,
     )  # fmt: skip
     for i, b, x in zip(bounds, bounds.values(), at_least, strict=True):
-        ax.text(x, i, text := f" ≥ {_short(b)}", va="center", fontsize=7.5, color=BOUNDED_COLOR)
+        ax.text(
+            x, i, text := f" ≥ {_short(b)}", va="center", fontsize=VALUE_SIZE, color=BOUNDED_COLOR
+        )
         ends[text] = max(x, ends.get(text, x))
     failed = False
     for i, r in enumerate(rows):
@@ -99,7 +102,7 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
             continue
         failed = True
         reason = " failed: " + (r["reason"] or r["status"])[:60]
-        ax.text(floor, i, reason, va="center", fontsize=7.5, color=FAILED_COLOR)
+        ax.text(floor, i, reason, va="center", fontsize=VALUE_SIZE, color=FAILED_COLOR)
     if log:
         ax.set_xscale("log")
         plain_log_labels(ax.xaxis, minor=ratio < 1000)  # 2 and 5 too, up to three decades
@@ -168,7 +171,7 @@ def _widths(fig: Figure, texts: list[str], size: float, total=None):
 def _room(fig: Figure, ends: dict[str, float], axes: float, log: bool, floor: float) -> float:
     """The least right end of the value axis at which every text of `ends` (text: the value
     it is written after) ends inside the axes, `axes` inches wide."""
-    widths = _widths(fig, list(ends), 7.5)
+    widths = _widths(fig, list(ends), VALUE_SIZE)
     need = 0.0
     for x, width in zip(ends.values(), widths, strict=True):
         stretch = axes / max(axes - width, 0.25 * axes)  # of the axis up to the text's start
