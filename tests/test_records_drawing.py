@@ -23,6 +23,14 @@ AUTO = ROOT / "scenarios" / "sim4_auto.toml"
 TWO_CORES = len(os.sched_getaffinity(0)) >= 2 if hasattr(os, "sched_getaffinity") else False
 
 
+def _python(script: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    """`script` (dedented) run by a fresh interpreter with this checkout on its path: a
+    process where matplotlib is not loaded yet, as the command's."""
+    command = [sys.executable, "-c", textwrap.dedent(script), *args]
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run(command, env=env, capture_output=True, text=True, timeout=timeout)
+
+
 @pytest.fixture(scope="module")
 def comparison():
     import stratcli
@@ -130,10 +138,7 @@ with open(sys.argv[3], "wb") as f:
 @pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
 def test_a_record_drawn_by_the_drawing_process_has_the_figures_drawn_here(tmp_path):
     dumped = tmp_path / "plan.pkl"
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    script = textwrap.dedent(SCRIPT)
-    command = [sys.executable, "-c", script, str(AUTO), str(tmp_path / "runs"), str(dumped)]
-    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=300)
+    done = _python(SCRIPT, str(AUTO), str(tmp_path / "runs"), str(dumped), timeout=300)
     assert done.returncode == 0, done.stderr
     run_dir, plan, doc = pickle.loads(dumped.read_bytes())
     expected = _here(plan, sample(plan), doc)
@@ -161,9 +166,7 @@ for _ in range(5):
 
 @pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
 def test_a_signal_while_the_drawing_process_starts_ends_it_quietly():
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-c", textwrap.dedent(STARTING)]
-    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
+    done = _python(STARTING)
     # not the command line's handler raising in it (a traceback), nor a SIGTERM lost in it
     # (alive: the exit's join waits for ever)
     assert done.stdout.split() == ["-15"] * 5, done.stdout
@@ -187,9 +190,7 @@ print(os.waitstatus_to_exitcode(os.waitpid(child, 0)[1]), drawing.running())
 
 @pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
 def test_a_process_forked_from_the_command_does_not_take_its_drawing_process_for_its_own():
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-c", textwrap.dedent(FORKED)]
-    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
+    done = _python(FORKED)
     # multiprocessing's is_alive() asserted in the fork: an AssertionError there (exit 1)
     assert done.stdout.split() == ["0", "True"], done.stdout + done.stderr
 
@@ -213,10 +214,8 @@ print(drawing.ask(plan, traj, "t", False, "png", doc)(), drawing.running())
 
 @pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
 def test_a_record_after_one_that_left_its_answer_is_drawn_here_not_deadlocked():
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-c", textwrap.dedent(UNTAKEN), str(AUTO)]
     # both processes sent into a full pipe, neither reading: the next record waited for ever
-    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=90)
+    done = _python(UNTAKEN, str(AUTO), timeout=90)
     assert done.stdout.split() == ["None", "False"], done.stdout + done.stderr
 
 
@@ -247,9 +246,7 @@ print(answer, process.exitcode)
 
 @pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
 def test_a_job_the_drawing_process_cannot_unpickle_is_drawn_here_without_a_traceback():
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-c", textwrap.dedent(UNPICKLING)]
-    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
+    done = _python(UNPICKLING)
     assert done.stdout.split() == ["None", "0"], done.stdout + done.stderr
     assert "Traceback" not in done.stderr, done.stderr
 
@@ -269,8 +266,6 @@ print("stopped")
 
 @pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
 def test_a_worker_stopped_as_it_starts_ends_quietly():
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-c", textwrap.dedent(BESIDE)]
-    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=120)
+    done = _python(BESIDE)
     assert done.stdout.split() == ["stopped"], done.stdout + done.stderr
     assert "Traceback" not in done.stderr, done.stderr  # the parent's handler raised in it
