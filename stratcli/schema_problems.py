@@ -14,7 +14,7 @@ from .errors import Problem
 from .models.specs import KINDS, CustomModel, PlanarModel, PresetModel, UrdfModel
 from .settings import UNKNOWN_KEY_ERRORS
 
-__all__ = ["validation_problems"]
+__all__ = ["file_location", "validation_problems"]
 
 
 def _path(loc: tuple) -> str:
@@ -82,7 +82,7 @@ def validation_problems(
     out, alternatives, models = [], {}, _model_names()
     for err in exc.errors():
         raw = prefix + tuple(err["loc"])
-        loc = tuple(item for item in raw if not _form(item, models))
+        loc = file_location(raw, models)
         kind = err["type"]
         if kind in UNKNOWN_KEY_ERRORS:
             allowed = _allowed_keys(root, loc) if root is not None else []
@@ -117,6 +117,13 @@ def validation_problems(
         fitting = [p for kind, p in found if kind not in _WRONG_TYPE]
         out.extend(dict.fromkeys(fitting or [p for _, p in found]))
     return out
+
+
+def file_location(loc: tuple, models: set[str] | None = None) -> tuple:
+    """A pydantic error's location as written in the file: keys and indices, without the
+    forms of a value that may take several (`_form`; `models`: `_model_names()`)."""
+    models = _model_names() if models is None else models
+    return tuple(item for item in loc if not _form(item, models))
 
 
 _WRONG_TYPE = {
