@@ -163,3 +163,22 @@ def test_a_directory_of_other_files_is_refused_as_out(tmp_path):
         (line,) = result.stderr.splitlines()
         assert line.startswith(f"error: --out {tmp_path / 'runs'}: not a sweep directory and not")
         assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == before
+
+
+def test_a_bad_sweep_file_reports_its_schema_and_value_problems_in_one_run(tmp_path):
+    """A user fixing the file sees every problem at once: an unknown key of [sweep] beside a
+    grid key naming no coordinate and a bound that is no number, one `error:` line each."""
+    body = '[sweep.grid]\n"goal.q9" = [1]\n"goal.q1" = { linspace = ["-pi/zz", 0, 3] }\n'
+    path = write(tmp_path, f'colour = "red"\n{body}', scenario=AUTO, mode="auto")
+    result = runner.invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert result.stderr.splitlines() == [
+        f"error: {path}: sweep.colour: unknown key (allowed: name, description, scenario, mode, "
+        "check, exhaustive, set, grid, random, task)",
+        f"error: {path}: sweep.grid.\"goal.q9\": unknown coordinate 'q9' (this model has: q1, "
+        "q2, q3, theta)",
+        f"error: {path}: sweep.grid.\"goal.q1\".linspace[0]: in '-pi/zz': unknown name 'zz' "
+        "(only numbers, pi (π), E, + - * / ** and the functions abs, acos, asin, atan, atan2, "
+        "cos, cosh, exp, log, sin, sinh, sqrt, tan, tanh) (got '-pi/zz')",
+    ]
+    assert not (tmp_path / "o").exists()

@@ -104,19 +104,96 @@ def test_a_bad_sweep_file_names_the_field(tmp_path, body, expected):
 
 
 def test_the_command_exits_2_with_one_line_per_problem(tmp_path):
+    """The schema's problem and those of the values in one run, not one stage per run."""
     path = write(tmp_path, '[sweep.grid]\n"goal.q9" = [1]\n"goal.q1" = ["x", 0]\n')
     text = path.read_text().replace('mode = "legs"', 'mode = "legs"\ncheck = "maybe"')
     path.write_text(text)
     result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and "Traceback" not in result.output
     lines = [x for x in result.output.splitlines() if x.startswith("error:")]
-    assert len(lines) == 1 and "sweep.check" in lines[0]  # the schema first
-    path.write_text(text.replace('check = "maybe"', "check = true"))
-    result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o")])
-    lines = [x for x in result.output.splitlines() if x.startswith("error:")]
-    assert result.exit_code == 2 and len(lines) == 2, result.output
-    assert 'sweep.grid."goal.q9"' in lines[0] and 'sweep.grid."goal.q1"[0]' in lines[1]
+    assert len(lines) == 3, result.output
+    assert lines[0].startswith(f"error: {path}: sweep.check: Input should be a valid boolean")
+    assert 'sweep.grid."goal.q9": unknown coordinate' in lines[1]
+    assert 'sweep.grid."goal.q1"[0]' in lines[2]
     assert not (tmp_path / "o").exists()
+
+
+INLINE = """[scenario]
+name = "inline"
+model = { kind = "preset", name = "one-arm" }
+task = { start = [0, 0, 0, 0], goal = [0, 0, 0] }
+decompose = {}
+"""
+
+# A file with problems the schema finds and problems of its values (which the schema's do
+# not cause): every one is reported, once (`expected`: the start of each line, in order)
+STAGES = [
+    (  # an unknown key of [sweep], and a grid key naming no coordinate
+        'colour = "red"\n[sweep.grid]\n"goal.q9" = [1, 2]\n"goal.theta" = [0.1]\n',
+        "auto", AUTO,
+        ["sweep.colour: unknown key", 'sweep.grid."goal.q9": unknown coordinate \'q9\''],
+    ),
+    (  # a mode and a count out of range, and two bounds that are not numbers
+        '[sweep.random]\ncount = 0\n'
+        'ranges = { "goal.q1" = ["-pi/zz", 0], "goal.theta" = [0, "x"] }\n',
+        "automatic", AUTO,
+        ["sweep.mode: Input should be 'legs', 'auto' or 'compare' (got 'automatic')",
+         "sweep.random.count: Input should be greater than or equal to 1",
+         'sweep.random.ranges."goal.q1"[0]: in \'-pi/zz\'',
+         'sweep.random.ranges."goal.theta"[1]: in \'x\''],
+    ),
+    (  # a description that is not text, a task that misses a key and a value not a number
+        'description = 5\n[[sweep.task]]\n"goal.q1" = -0.5\n"planner.seed" = 3\n'
+        '[[sweep.task]]\n"goal.q1" = "abc"\n',
+        "auto", AUTO,
+        ["sweep.description: Input should be a valid string (got 5)",
+         'sweep.task[1]."goal.q1": in \'abc\'',
+         "sweep.task[1]: misses planner.seed (set by sweep.task[0])"],
+    ),
+    (  # a setting the schema refuses, the base scenario's own problem, a key naming nothing
+        'check = "maybe"\n[sweep.grid]\n"goal.q1" = [0.1]\n"goal.q9" = [1]\n' + INLINE,
+        "auto", None,
+        ["sweep.check: Input should be a valid boolean",
+         "scenario.task.goal: needs 4 values (q1, q2, q3, theta), got 3",
+         'sweep.grid."goal.q9": unknown coordinate \'q9\''],
+    ),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("body", "mode", "scenario", "expected"), STAGES)
+def test_problems_of_the_schema_and_of_the_values_are_reported_in_one_run(
+    tmp_path, body, mode, scenario, expected
+):
+    path = write(tmp_path, body, scenario=scenario or AUTO, mode=mode)
+    if scenario is None:  # the base is the inline [scenario]
+        path.write_text(path.read_text().replace(f'scenario = "{AUTO}"\n', ""))
+    with pytest.raises(InputError) as exc:
+        load_sweep(path)
+    lines = [line.removeprefix(f"{path}: ") for line in str(exc.value).splitlines()]
+    assert len(lines) == len(expected), lines
+    for line, start in zip(lines, expected, strict=True):
+        assert line.startswith(start), (line, start)
+
+
+# A value the schema refuses is left out of the checks of the values: nothing it causes is
+# reported beside it (no missing table of tasks, base scenario or [[legs]] of legs mode)
+REFUSED = [
+    ('[sweep.grid]\n"goal.q1" = 5\n', "auto", "sweep.grid.goal.q1: "),
+    ('[sweep.random]\ncount = 2\nranges = { "goal.q1" = 3 }\n', "auto", "sweep.random.ranges"),
+    ('[[sweep.task]]\n"goal.q1" = 1\n', "automatic", "sweep.mode: "),
+    ('[sweep.grid]\n"goal.q1" = [0]\n', "auto", "sweep.scenario: Input should be a valid string"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("body", "mode", "expected"), REFUSED)
+def test_a_refused_value_causes_no_second_problem(tmp_path, body, mode, expected):
+    path = write(tmp_path, body, scenario=AUTO, mode=mode)
+    if expected.startswith("sweep.scenario"):
+        path.write_text(path.read_text().replace(f'"{AUTO}"', "5"))
+    with pytest.raises(InputError) as exc:
+        load_sweep(path)
+    lines = [line.removeprefix(f"{path}: ") for line in str(exc.value).splitlines()]
+    assert lines and all(line.startswith(expected) for line in lines), lines
 
 
 def test_the_shipped_goal_map_is_a_21_by_21_auto_grid_around_the_papers_goal():

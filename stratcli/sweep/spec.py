@@ -20,7 +20,8 @@ A key names a scenario value: ``start.NAME``, ``goal.NAME`` and ``legs[i].goal.N
 coordinates (NAME a coordinate of the model, e.g. ``q1`` or ``theta``; ``task.`` may be
 written in front), anything else a dotted path into the scenario (``planner.tolerance``,
 ``decompose.max_length``). Problems are reported as the scenario's are: one line each,
-naming the field (`stratcli.errors.InputError`, exit 2).
+naming the field (`stratcli.errors.InputError`, exit 2); all of them at once, the schema's
+beside those of the values (`tables`), which leave out what the schema refused (`_usable`).
 """
 
 from __future__ import annotations
@@ -42,24 +43,12 @@ from .. import tomlwrite
 from ..errors import InputError, Problem
 from ..models.specs import STRICT
 from ..scenario import load_scenario
-from ..schema_problems import validation_problems
+from ..schema_problems import file_location, validation_problems
 from ..tomlread import parse_toml, read_scenario_text, read_source, reject_non_finite
-from .keys import (
-    MAX_TASKS,
-    assign,
-    axis_values,
-    check_scenario,
-    check_value,
-    check_values,
-    is_coordinate,
-    key_problem,
-    number,
-    valid_key,
-    value_of,
-)
+from .keys import MAX_TASKS, assign, check_scenario, check_value, value_of
+from .tables import Base, base_states, grid_axes, random_ranges, task_rows
 
 MODES = ("legs", "auto", "compare")
-MAX_CHECKED = 200  # values of one axis checked by loading the scenario with them
 Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)]
 
 
@@ -219,27 +208,76 @@ def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) 
             text = tomlwrite.dumps(raw)
         except (TypeError, ValueError) as exc:
             raise InputError(f"cannot be written as TOML: {exc}", where) from None
-    folder = folder or Path()
     if non_finite := reject_non_finite(raw):
         raise InputError(non_finite, where)
+    problems: list[Problem] = []
     try:
-        spec = SweepFile.model_validate(raw)
-    except ValidationError as exc:
-        raise InputError(validation_problems(exc, root=SweepFile), where) from None
-    try:
-        return _resolve(spec, folder, where, text)
-    except InputError as exc:
-        raise exc.with_source(where) from None
+        spec, pruned = SweepFile.model_validate(raw), set()
+    except ValidationError as exc:  # reported; the values it did not refuse are checked too
+        problems = validation_problems(exc, root=SweepFile)
+        spec, pruned = _usable(raw, exc)
+    sweep = None
+    if spec is not None:
+        given = [k for k in ("grid", "random", "task") if k in raw["sweep"]]
+        sweep = _resolve(spec, given, pruned, folder or Path(), where, text, problems)
+    if problems or sweep is None:
+        raise InputError(problems, where)
+    return sweep
 
 
-def _base(spec: SweepFile, folder: Path) -> tuple[dict[str, Any], str]:
+# A required value the schema refused is replaced by one that nothing else depends on
+_PLACEHOLDERS = {("sweep", "name"): "sweep", ("sweep", "random", "count"): 1}
+
+
+def _usable(raw: dict[str, Any], exc: ValidationError) -> tuple[SweepFile | None, set[tuple]]:
+    """The file without the values the schema refused (one axis, range or task; else the
+    whole key of [sweep]), validated; and where those values were (None: [sweep] is not a
+    table, nothing else can be checked)."""
+    usable, pruned = copy.deepcopy(raw), set()
+    for _ in range(5):  # leaving a value out may empty a table that must not be
+        for err in exc.errors():
+            loc = file_location(tuple(err["loc"]))
+            cut = loc[: _depth(loc)]
+            if err["type"] == "missing" and cut == loc and cut not in _PLACEHOLDERS:
+                cut = cut[:-1]  # the table that misses a key
+            if cut in ((), ("sweep",)):
+                return None, pruned
+            pruned.add(cut)
+            node = usable
+            for part in cut[:-1]:
+                node = node.get(part) if isinstance(node, dict) else None
+            if cut in _PLACEHOLDERS and isinstance(node, dict):
+                node[cut[-1]] = _PLACEHOLDERS[cut]
+            elif isinstance(node, list) and isinstance(cut[-1], int) and cut[-1] < len(node):
+                node[cut[-1]] = {}  # a task: the others keep their index
+            elif isinstance(node, dict):
+                node.pop(cut[-1], None)
+        try:
+            return SweepFile.model_validate(usable), pruned
+        except ValidationError as again:
+            exc = again
+    return None, pruned
+
+
+def _depth(loc: tuple) -> int:
+    """How much of a refused value's location is left out: a whole key of [sweep], but one
+    axis of [sweep.grid], one range of [sweep.random] or one [[sweep.task]]."""
+    if loc[:1] != ("sweep",):
+        return 1
+    if loc[1:3] == ("random", "ranges"):
+        return 4
+    return 3 if loc[1:2] in (("grid",), ("random",), ("task",)) else 2
+
+
+def _base(spec: SweepFile, folder: Path, problems: list[Problem]) -> tuple[dict | None, str]:
     given = [spec.sweep.scenario is not None, spec.scenario is not None]
     if sum(given) != 1:
-        raise InputError(
-            [Problem("sweep.scenario", "give a base scenario: a path here or a [scenario] table")]
+        problems.append(
+            Problem("sweep.scenario", "give a base scenario: a path here or a [scenario] table")
             if not any(given)
-            else [Problem("sweep.scenario", "give a path or a [scenario] table, not both")]
+            else Problem("sweep.scenario", "give a path or a [scenario] table, not both")
         )
+        return None, ""
     if spec.scenario is not None:
         return copy.deepcopy(spec.scenario), "scenario"
     path = folder / spec.sweep.scenario
@@ -249,8 +287,8 @@ def _base(spec: SweepFile, folder: Path) -> tuple[dict[str, Any], str]:
     except InputError as exc:  # say which file: the path is relative to the sweep file
         given, read = spec.sweep.scenario, os.path.normpath(path)
         where = given if read == os.path.normpath(given) else f"{given} ({read})"
-        problems = [Problem("sweep.scenario", f"{where}: {p.message}") for p in exc.problems]
-        raise InputError(problems) from None
+        problems.extend(Problem("sweep.scenario", f"{where}: {p.message}") for p in exc.problems)
+        return None, ""
 
 
 def _urdf_from(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
@@ -266,99 +304,80 @@ def _urdf_from(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
     return raw
 
 
-def _resolve(spec: SweepFile, folder: Path, source: str, text: str) -> Sweep:
+def _checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) -> Base:
+    """The base scenario with `set` applied, loaded: its problems, and what values can be
+    checked against (nothing of a base the schema refused: its problem is reported)."""
     s = spec.sweep
-    base, where = _base(spec, folder)
-    if s.mode in ("auto", "compare"):
+    if pruned & {("sweep", "scenario"), ("scenario",)}:
+        return Base(None, None, False, pruned, problems)
+    base, where = _base(spec, folder, problems)
+    if base is None:
+        return Base(None, None, False, pruned, problems)
+    mode = s.mode
+    if ("sweep", "mode") in pruned:  # the mode the base is written for: not a second problem
+        mode = "legs" if "legs" in base and "decompose" not in base else "auto"
+    if mode in ("auto", "compare"):
         base.pop("legs", None)
         base.setdefault("decompose", {})
     try:
-        task = load_scenario(copy.deepcopy(base), name=where)
+        states = tuple(load_scenario(copy.deepcopy(base), name=where).system.states)
     except InputError as exc:
-        problems = [_under(where, p) for p in exc.problems if p.path != "legs"]
-        if s.mode == "legs" and "legs" not in base:
+        found = [_under(where, p) for p in exc.problems if p.path != "legs"]
+        if mode == "legs" and "legs" not in base and ("sweep", "mode") not in pruned:
             needs = "legs mode needs a base scenario with [[legs]] (or mode = auto)"
-            problems.append(Problem("sweep.mode", needs))
-        raise InputError(problems or [_under(where, p) for p in exc.problems]) from None
-    states = tuple(task.system.states)
-    problems: list[Problem] = []
+            found.append(Problem("sweep.mode", needs))
+        problems.extend(found or [_under(where, p) for p in exc.problems])
+        hidden = tuple(p.path for p in exc.problems)
+        return Base(base, base_states(base), False, pruned, problems, hidden)
+    applied = 0  # entries of `set` without a problem of their own: the values see them
     for key, value in s.set.items():
-        field = f'sweep.set."{key}"'
+        field, before = f'sweep.set."{key}"', len(problems)
         value = value_of(key, value, field, problems)
         check_value(base, key, value, states, field, problems)
-        if not problems:
+        if len(problems) == before:
             try:
                 assign(base, key, value, states)
+                applied += 1
             except ValueError as exc:
                 problems.append(Problem(field, str(exc)))
-    if problems:
-        raise InputError(problems)
-    if s.set:
+    before = len(problems)
+    if applied:
         check_scenario(base, field="sweep.set", problems=problems)
-    kinds = [k for k in ("grid", "random", "task") if getattr(s, k) is not None]
-    if len(kinds) != 1:
-        what = "one of" if not kinds else "only one of"
+    loads = len(problems) == before and ("sweep", "set") not in pruned
+    return Base(base, states, loads, pruned, problems)
+
+
+def _resolve(
+    spec: SweepFile, given: list[str], pruned: set[tuple], folder: Path, source: str, text: str,
+    problems: list[Problem],
+) -> Sweep | None:  # fmt: skip
+    """The sweep `spec` describes, or None with its problems added to `problems`; `given`
+    names the tables of tasks the file has (any the schema refused too), `pruned` where the
+    schema refused a value (`_usable`)."""
+    s = spec.sweep
+    base = _checked_base(spec, pruned, folder, problems)
+    if len(given) != 1:
+        what = "one of" if not given else "only one of"
         tables = "[sweep.grid], [sweep.random], [[sweep.task]]"
         problems.append(Problem("sweep", f"give {what} {tables}"))
-    if problems:
-        raise InputError(problems)
     axes: list[tuple[Any, ...]] = []
     rows: list[dict[str, Any]] = []
     keys: tuple[str, ...] = ()
     random = s.random
     if s.grid is not None:
-        keys = tuple(s.grid)
-        for key, axis in s.grid.items():
-            field = f'sweep.grid."{key}"'
-            values = axis_values(key, axis, field, problems)
-            axes.append(values)
-            if key_problem(base, key, states, field, problems):
-                continue
-            for i, value in enumerate(values[:MAX_CHECKED]):
-                check_value(base, key, value, states, f"{field}[{i}]", problems)
-        total = int(np.prod([max(1, len(a)) for a in axes]))
-        if total > MAX_TASKS:
-            problems.append(Problem("sweep.grid", f"{total} tasks (at most {MAX_TASKS})"))
-    elif random is not None:
-        keys = tuple(random.ranges)
-        ranges = {}
-        for key, pair in random.ranges.items():
-            field = f'sweep.random.ranges."{key}"'
-            if valid_key(key) and not is_coordinate(key):
-                problems.append(Problem(field, "random ranges are for coordinates (goal.q1, ...)"))
-            bounds = [number(v, f"{field}[{i}]", problems) for i, v in enumerate(pair)]
-            if len(pair) != 2:
-                problems.append(Problem(field, f"needs [low, high] (got {len(pair)} values)"))
-            elif None not in bounds and not bounds[0] < bounds[1]:
-                problems.append(Problem(field, f"low must be below high (got {pair})"))
-            elif None not in bounds and not key_problem(base, key, states, field, problems):
-                for i, b in enumerate(bounds):
-                    check_value(base, key, b, states, f"{field}[{i}]", problems)
-            ranges[key] = bounds
-        if not problems:
-            random = RandomSpec(count=random.count, seed=random.seed, ranges=ranges)
-    else:
-        keys = tuple(dict.fromkeys(k for row in s.task for k in row))
-        for i, row in enumerate(s.task):
-            missing = [k for k in keys if k not in row]
-            if missing:
-                setters = ", ".join(  # the first task that sets each: where the key came from
-                    f"{k} (set by sweep.task[{next(j for j, r in enumerate(s.task) if k in r)}])"
-                    for k in missing
-                )
-                why = f"misses {setters}: every [[sweep.task]] sets the same keys"
-                problems.append(Problem(f"sweep.task[{i}]", why))
-                continue
-            values = {k: value_of(k, v, f'sweep.task[{i}]."{k}"', problems) for k, v in row.items()}
-            rows.append(values)
-            if i < MAX_CHECKED and not problems:
-                check_values(base, values, states, f"sweep.task[{i}]", problems)
+        keys, axes = tuple(s.grid), grid_axes(s.grid, base)
+    if random is not None:
+        keys, ranges = tuple(random.ranges), random_ranges(random.ranges, base)
+    if s.task is not None:
+        keys, rows = task_rows(s.task, base)
     if problems:
-        raise InputError(problems)
-    reference = (base.get("reference") or {}).get("energy")
+        return None
+    if random is not None:
+        random = RandomSpec(count=random.count, seed=random.seed, ranges=ranges)
+    reference = (base.scenario.get("reference") or {}).get("energy")
     return Sweep(
-        s.name, s.description, s.mode, s.check, s.exhaustive, kinds[0].replace("task", "tasks"),
-        keys, tuple(axes), base, random, tuple(rows), source, text, states,
+        s.name, s.description, s.mode, s.check, s.exhaustive, given[0].replace("task", "tasks"),
+        keys, tuple(axes), base.scenario, random, tuple(rows), source, text, base.states,
         float(reference) if isinstance(reference, int | float) else None,
     )  # fmt: skip
 

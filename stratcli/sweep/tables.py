@@ -1,0 +1,136 @@
+"""The values of a sweep file's [sweep.grid], [sweep.random] and [[sweep.task]], checked.
+
+Each function adds the problems of its table to `Base.problems` and checks what it can: a
+value's form always (a number, a count), its key if the base scenario's coordinates are
+known, the scenario it makes only if the base (with `set`) loads. A value the schema refused
+is not looked at (`Base.pruned`): its problem is reported already.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from pydantic import TypeAdapter, ValidationError
+
+from ..errors import Problem
+from ..models.specs import ModelSpec, build_system
+from .keys import (
+    MAX_TASKS,
+    axis_values,
+    check_value,
+    check_values,
+    is_coordinate,
+    key_problem,
+    number,
+    valid_key,
+    value_of,
+)
+
+MAX_CHECKED = 200  # values of one axis checked by loading the scenario with them
+
+
+@dataclass
+class Base:
+    """What the values are checked against, and the problems found so far."""
+
+    scenario: dict[str, Any] | None  # the base scenario with `set` applied (None: unknown)
+    states: tuple[str, ...] | None  # its model's coordinates (None: unknown)
+    loads: bool  # whether it loads: a value's scenario can be checked by loading it
+    pruned: set[tuple] = field(default_factory=set)  # file locations the schema refused
+    problems: list[Problem] = field(default_factory=list)
+    hidden: tuple[str, ...] = ()  # scenario paths with problems: keys there are not checked
+
+    def key_problem(self, key: str, where: str) -> bool:
+        """Whether `key` names no place in the base scenario (reported); False if unknown."""
+        if self.states is None or self.scenario is None or not valid_key(key):
+            return False
+        path = key.removeprefix("task.")
+        path = f"task.{path}" if path.split(".")[0] in ("start", "goal") else path
+        if any(path.startswith(h) or h.startswith(path.rsplit(".", 1)[0]) for h in self.hidden):
+            name = key.rsplit(".", 1)[-1]  # the base is wrong there: its problem says so
+            if is_coordinate(key) and name not in self.states:
+                known = ", ".join(self.states)
+                self.problems.append(
+                    Problem(where, f"unknown coordinate {name!r} (this model has: {known})")
+                )
+            return True
+        return key_problem(self.scenario, key, self.states, where, self.problems)
+
+    def check(self, values: dict[str, Any], where: str) -> None:
+        """The base scenario loaded with `values` (only when it loads without them)."""
+        if self.loads:
+            check_values(self.scenario, values, self.states, where, self.problems)
+
+
+def base_states(base: dict[str, Any]) -> tuple[str, ...] | None:
+    """The coordinates of a base scenario that does not load, if its model can be built."""
+    try:
+        return tuple(build_system(TypeAdapter(ModelSpec).validate_python(base.get("model"))).states)
+    except (ValidationError, ValueError, TypeError, OSError):  # InputError too
+        return None
+
+
+def grid_axes(grid: dict[str, Any], base: Base) -> list[tuple[Any, ...]]:
+    """The values of each axis of [sweep.grid], checked."""
+    axes = []
+    for key, axis in grid.items():
+        where = f'sweep.grid."{key}"'
+        if ("sweep", "grid", key) in base.pruned:
+            continue
+        values = axis_values(key, axis, where, base.problems)
+        axes.append(values)
+        if base.key_problem(key, where):
+            continue
+        for i, value in enumerate(values[:MAX_CHECKED]):
+            if base.loads:
+                check_value(base.scenario, key, value, base.states, f"{where}[{i}]", base.problems)
+    total = int(np.prod([max(1, len(a)) for a in axes]))
+    if total > MAX_TASKS and len(axes) == len(grid):
+        base.problems.append(Problem("sweep.grid", f"{total} tasks (at most {MAX_TASKS})"))
+    return axes
+
+
+def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[float | None]]:
+    """The [low, high] of each coordinate of [sweep.random], checked."""
+    out = {}
+    for key, pair in ranges.items():
+        where = f'sweep.random.ranges."{key}"'
+        if ("sweep", "random", "ranges", key) in base.pruned:
+            continue
+        if valid_key(key) and not is_coordinate(key):
+            base.problems.append(Problem(where, "random ranges are for coordinates (goal.q1, ...)"))
+        bounds = [number(v, f"{where}[{i}]", base.problems) for i, v in enumerate(pair)]
+        if len(pair) != 2:
+            base.problems.append(Problem(where, f"needs [low, high] (got {len(pair)} values)"))
+        elif None not in bounds and not bounds[0] < bounds[1]:
+            base.problems.append(Problem(where, f"low must be below high (got {pair})"))
+        elif None not in bounds and not base.key_problem(key, where):
+            for i, b in enumerate(bounds):
+                base.check({key: b}, f"{where}[{i}]")
+        out[key] = bounds
+    return out
+
+
+def task_rows(rows: list[dict[str, Any]], base: Base) -> tuple[tuple[str, ...], list[dict]]:
+    """The keys of [[sweep.task]] (in order of appearance) and its rows, checked."""
+    kept = [i for i in range(len(rows)) if ("sweep", "task", i) not in base.pruned]
+    keys = tuple(dict.fromkeys(k for i in kept for k in rows[i]))
+    first = {k: next(i for i in kept if k in rows[i]) for k in keys}  # where a key came from
+    bad = {k for k in keys if base.key_problem(k, f'sweep.task[{first[k]}]."{k}"')}
+    out = []
+    for i in kept:
+        row = rows[i]
+        values = {
+            k: value_of(k, v, f'sweep.task[{i}]."{k}"', base.problems) for k, v in row.items()
+        }
+        if missing := [k for k in keys if k not in row]:
+            setters = ", ".join(f"{k} (set by sweep.task[{first[k]}])" for k in missing)
+            why = f"misses {setters}: every [[sweep.task]] sets the same keys"
+            base.problems.append(Problem(f"sweep.task[{i}]", why))
+            continue
+        out.append(values)
+        if i < MAX_CHECKED and not bad & set(row):
+            base.check(values, f"sweep.task[{i}]")
+    return keys, out
