@@ -218,6 +218,17 @@ def test_problems_of_the_base_scenario_name_its_file(tmp_path):
     assert load_sweep(write(tmp_path, GRID, scenario=base, mode="auto")).count == 6
 
 
+def test_legs_mode_refuses_an_auto_mode_base_at_once(tmp_path):
+    """An auto-mode base ([decompose], no [[legs]]) loads, but in legs mode every task would
+    end `invalid`: the file is refused instead, saying which modes plan it."""
+    with pytest.raises(InputError) as exc:
+        load_sweep(write(tmp_path, GRID, scenario=AUTO))
+    assert str(exc.value).count("\n") == 0
+    assert "sweep.mode: legs mode plans the base scenario's [[legs]], and " in str(exc.value)
+    assert str(exc.value).endswith('has none: set mode = "auto" or "compare"')
+    assert load_sweep(write(tmp_path, GRID, scenario=AUTO, mode="auto", name="a")).count == 6
+
+
 def test_a_missing_base_scenario_names_the_path_as_given_and_as_read(tmp_path):
     """A relative `sweep.scenario` is read beside the sweep file: the error says where."""
     (tmp_path / "sub").mkdir()

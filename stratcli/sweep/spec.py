@@ -329,6 +329,17 @@ def _checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) -
         problems.extend(found or [_under(where, p) for p in exc.problems])
         hidden = tuple(p.path for p in exc.problems)
         return Base(base, base_states(base), False, pruned, problems, hidden)
+    if mode == "legs" and "legs" not in base and ("sweep", "mode") not in pruned:
+        # an auto-mode base ([decompose], no legs): every task would be invalid
+        where = "the [scenario] table" if where == "scenario" else where
+        problems.append(
+            Problem(
+                "sweep.mode",
+                f"legs mode plans the base scenario's [[legs]], "
+                f'and {where} has none: set mode = "auto" or "compare"',
+            )
+        )
+        return Base(base, states, False, pruned, problems)
     applied = 0  # entries of `set` without a problem of their own: the values see them
     for key, value in s.set.items():
         field, before = f'sweep.set."{key}"', len(problems)
