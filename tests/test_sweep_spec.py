@@ -90,6 +90,8 @@ BAD = [
     ),
     ("[sweep.grid]\n\"legs[5].goal.q1\" = [0]\n", "the scenario has no legs[5]"),
     ("grod = 1\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.grod: unknown key (allowed: name, "),
+    ("check = \"yes\"\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.check: Input should"),
+    ("[sweep.random]\ncount = \"3\"\nranges = { \"goal.q1\" = [0, 1] }\n", "count: Input should"),
 ]  # fmt: skip
 
 

@@ -44,6 +44,7 @@ from ..errors import InputError, Problem
 from ..models.specs import STRICT
 from ..scenario import load_scenario
 from ..schema_problems import file_location, validation_problems
+from ..settings import Bool, Int
 from ..tomlread import parse_toml, read_scenario_text, read_source, reject_non_finite
 from .keys import MAX_TASKS, assign, check_scenario, check_value, value_of
 from .tables import Base, base_states, grid_axes, random_ranges, task_rows
@@ -59,8 +60,8 @@ class Linspace(BaseModel):
 
 class RandomSpec(BaseModel):
     model_config = STRICT
-    count: Annotated[int, Field(ge=1, le=MAX_TASKS)]
-    seed: Annotated[int, Field(ge=0, lt=2**63)] = 0
+    count: Annotated[Int, Field(ge=1, le=MAX_TASKS)]
+    seed: Annotated[Int, Field(ge=0, lt=2**63)] = 0
     ranges: dict[str, list[Any]] = Field(min_length=1)
 
 
@@ -70,8 +71,8 @@ class SweepSpec(BaseModel):
     description: str = Field("", max_length=10_000)
     scenario: str | None = Field(None, max_length=4096)
     mode: Literal["legs", "auto", "compare"] = "legs"
-    check: bool = True  # controllability check of each task (as `stratplan plan`)
-    exhaustive: bool = False  # compare mode: every candidate searched to its minimum
+    check: Bool = True  # controllability check of each task (as `stratplan plan`)
+    exhaustive: Bool = False  # compare mode: every candidate searched to its minimum
     set: dict[str, Any] = {}
     grid: dict[str, list[Any] | Linspace] | None = Field(None, min_length=1)
     random: RandomSpec | None = None
