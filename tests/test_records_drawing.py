@@ -269,3 +269,23 @@ def test_a_worker_stopped_as_it_starts_ends_quietly():
     done = _python(BESIDE)
     assert done.stdout.split() == ["stopped"], done.stdout + done.stderr
     assert "Traceback" not in done.stderr, done.stderr  # the parent's handler raised in it
+
+
+def _beside_in_this_process(queue) -> None:
+    value, stop = drawing.beside(abs, -3)
+    try:
+        queue.put(value())
+    finally:
+        stop()
+
+
+def test_a_daemonic_process_such_as_a_dask_worker_computes_beside_work_itself():
+    # A daemonic process may not start children: a Dask worker writing a sweep task's
+    # comparison record (ranking.png is drawn beside the other figures) lost the record.
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    process = context.Process(target=_beside_in_this_process, args=(queue,), daemon=True)
+    process.start()
+    process.join(60)
+    assert process.exitcode == 0
+    assert queue.get(timeout=5) == 3

@@ -128,10 +128,13 @@ def _answer(connection, process, number: int) -> tuple[dict[str, bytes], float] 
 
 
 def _beside_possible() -> bool:
-    """Whether a process can work beside this one: fork, and a second core (else it would
-    take the planner's only one)."""
+    """Whether a process can work beside this one: fork, a second core (else it would take
+    the planner's only one), and a process allowed children (a Dask worker is daemonic:
+    starting one there raised, and a sweep's task lost its record)."""
     from ..trie import default_jobs
 
+    if multiprocessing.current_process().daemon:
+        return False
     return "fork" in multiprocessing.get_all_start_methods() and default_jobs() >= 2
 
 
