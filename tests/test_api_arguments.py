@@ -73,6 +73,10 @@ BAD_CALLS = {
                   lambda: stratcli.run_sweep(42)),
     "sweep records": (InputError, r"^records: must be best, failed, all or none \(got 'some'\)$",
                       lambda: stratcli.run_sweep({}, records="some")),
+    "load_run int": (TypeError, r"^path: must be a path .*\(got 3 of type int\)$",
+                     lambda: stratcli.load_run(3)),
+    "read_sweep None": (TypeError, r"^path: must be a path .*\(got None of type NoneType\)$",
+                        lambda: stratcli.read_sweep(None)),
 }  # fmt: skip
 
 
@@ -221,3 +225,14 @@ def test_a_dask_scheduler_file_may_be_a_path_object(tmp_path):
     ):  # fmt: skip
         with pytest.raises(InputError, match="dask"):
             call()
+
+
+def test_load_run_of_a_file_outside_a_record_names_that_file(tmp_path, monkeypatch):
+    # it named the file's folder ("." for a file in the working directory)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("x")
+    _raises(
+        InputError,
+        r"^notes\.txt: a file, not a run record \(give a run directory\)$",
+        lambda: stratcli.load_run("notes.txt"),
+    )

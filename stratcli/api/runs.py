@@ -212,6 +212,7 @@ def _outcome_of(plan: SequencePlan) -> PlanOutcome:
     return PlanOutcome(task, plan, plan.to_dict(), started, t.compile_s, t.planning_s)
 
 
+@checked(path=pathlike)
 def load_run(path: str | Path) -> SequencePlan:
     """A plan read back from its run record (nothing is re-planned).
 
@@ -231,12 +232,16 @@ def load_run(path: str | Path) -> SequencePlan:
     ------
     InputError
         When the record is missing, incomplete or damaged.
+    TypeError
+        `path` is not a str or Path.
     """
     from ..results import ModelRef, Timings  # start-up speed (module comment)
     from ..sequence import SequencePlan
 
     path = Path(path)
     if path.is_file():
+        if not (path.parent / "result.json").is_file():  # not a file of a record
+            raise InputError(f"{path}: a file, not a run record (give a run directory)")
         path = path.parent
     record = read_record(path)
     text = (path / "scenario.toml").read_text(encoding="utf-8")

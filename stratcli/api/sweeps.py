@@ -103,6 +103,7 @@ def run_sweep(
         )
 
 
+@checked(path=pathlike)
 def read_sweep(path: str | Path) -> SweepReport:
     """Read a sweep directory back (also one whose run was killed: its rows so far).
 
@@ -119,6 +120,8 @@ def read_sweep(path: str | Path) -> SweepReport:
     ------
     InputError
         Not a sweep directory, or its spec.json is damaged.
+    TypeError
+        `path` is not a str or Path.
     """
     path = Path(path)
     if not sweepdir.is_sweep_dir(path):
