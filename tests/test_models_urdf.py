@@ -64,3 +64,77 @@ def test_a_joint_naming_a_missing_link_is_named(tmp_path, role):
     text = str(err.value)
     assert f"the {role} of joint 'j2', 'x', is not a link in the file (links: a, b, c)" in text
     assert "exactly one root" not in text and "\n" not in text
+
+
+def _robot(tmp_path, inertial: str = "", joint_extra: str | None = None):
+    """A one-joint robot whose link b carries `inertial`; `joint_extra` replaces the joint's
+    axis and limit."""
+    joint = _joint("j", "revolute")
+    if joint_extra is not None:
+        joint = (
+            f'<joint name="j" type="revolute"><parent link="a"/><child link="b"/>{joint_extra}'
+            "</joint>"
+        )
+    path = tmp_path / "r.urdf"
+    links = f'<link name="a"/><link name="b">{inertial}</link>'
+    path.write_text(f'<robot name="r">{links}{joint}</robot>')
+    return path
+
+
+def _one_line(tmp_path, **kwargs) -> str:
+    with pytest.raises(InputError) as err:
+        read_urdf(_robot(tmp_path, **kwargs))
+    text = str(err.value)
+    assert "model.path" in text and "\n" not in text
+    return text
+
+
+INERTIA = '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>'
+
+
+@pytest.mark.parametrize(
+    ("inertial", "expected"),
+    [
+        (f'<inertial><mass value="-3"/>{INERTIA}</inertial>', "link 'b': mass must be"),
+        (f'<inertial><mass value="heavy"/>{INERTIA}</inertial>', "link 'b': mass must be"),
+        (f"<inertial>{INERTIA}</inertial>", "link 'b': its <inertial> has no <mass"),
+        ('<inertial><mass value="2"/></inertial>', "link 'b': its <inertial> has no <inertia"),
+        (
+            '<inertial><mass value="2"/><inertia ixx="1" iyy="1" izz="1"/></inertial>',
+            "link 'b': <inertia> needs six numbers",
+        ),
+        (
+            '<inertial><mass value="2"/>'
+            '<inertia ixx="0.1" ixy="5" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial>',
+            "link 'b': its inertia matrix is not positive semi-definite",
+        ),
+    ],
+)
+def test_an_inertial_without_physical_meaning_is_named(tmp_path, inertial, expected):
+    """Pinocchio loads these (a missing <inertia> with urdfdom's C++ lines on stderr) into a
+    model that plans nonsense or fails far from the mistake."""
+    assert expected in _one_line(tmp_path, inertial=inertial)
+
+
+def test_a_massless_link_and_a_valid_inertial_are_read(tmp_path):
+    inertial = f'<inertial><origin xyz="0 0 1"/><mass value="2"/>{INERTIA}</inertial>'
+    assert read_urdf(_robot(tmp_path, inertial=inertial))[1].revolute[0].name == "j"
+    assert read_urdf(_robot(tmp_path))[1].revolute[0].name == "j"
+
+
+@pytest.mark.parametrize(
+    ("extra", "expected"),
+    [
+        ('<axis xyz="0 0 1"/>', "revolute joint 'j' has no <limit"),
+        ('<axis xyz="0 0 0"/><limit lower="-1" upper="1"/>', "joint 'j': axis must be 3 numbers"),
+        ('<axis xyz="0 1"/><limit lower="-1" upper="1"/>', "joint 'j': axis must be 3 numbers"),
+        ('<limit lower="-1" upper="one"/>', "joint 'j': limit upper is not a number"),
+    ],
+)
+def test_a_revolute_joint_without_limit_or_axis_is_named(tmp_path, extra, expected):
+    assert expected in _one_line(tmp_path, joint_extra=extra)
+
+
+def test_a_revolute_joint_without_an_axis_turns_about_x_as_urdf_says(tmp_path):
+    _, summary = read_urdf(_robot(tmp_path, joint_extra='<limit lower="-1" upper="1"/>'))
+    assert (summary.revolute[0].lower, summary.revolute[0].upper) == (-1.0, 1.0)

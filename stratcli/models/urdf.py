@@ -3,15 +3,22 @@
 `read_urdf` returns the robot's name, its links, its root link and its joints in file order,
 and rejects, one line naming the joint, what the spatial models do not support yet:
 prismatic, continuous, planar and floating joints and mimic joints. Fixed joints are
-supported (Pinocchio merges the child's inertia into its parent). Every problem is an
-`InputError` whose field is `model.path`.
+supported (Pinocchio merges the child's inertia into its parent). It also rejects, naming the
+link or joint, what Pinocchio would load without a word (or with urdfdom's C++ messages on
+stderr) into a model with no physical meaning: an `<inertial>` without its `<mass>` or
+`<inertia>`, a negative mass, an inertia matrix that is not positive semi-definite, a
+revolute joint without `<limit>` or with a zero axis. Every problem is an `InputError` whose
+field is `model.path`.
 """
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from ..errors import InputError, Problem
 
@@ -71,6 +78,8 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
     if root.tag != "robot":
         raise _fail(f"{path}: the root element is <{root.tag}>, not <robot>")
     links = tuple(link.get("name", "") for link in root.findall("link"))
+    for link in root.findall("link"):
+        _check_inertial(path, link.get("name", "?"), link.find("inertial"))
     joints = []
     for element in root.findall("joint"):
         name, kind = element.get("name", "?"), element.get("type", "?")
@@ -85,6 +94,8 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
                 "supported yet)"
             )
         limit = element.find("limit")
+        if kind == "revolute":
+            _check_revolute(path, name, element, limit)
         lower = _float(limit.get("lower")) if limit is not None else None
         upper = _float(limit.get("upper")) if limit is not None else None
         joints.append(
@@ -105,3 +116,61 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
     if not summary.revolute:
         raise _fail(f"{path}: has no revolute joint")
     return text, summary
+
+
+INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+
+
+def _numbers(text: str | None) -> list[float] | None:
+    """The finite numbers of a URDF attribute ("0 0 1"), or None when it is not that."""
+    try:
+        values = [float(x) for x in (text or "").split()]
+    except ValueError:
+        return None
+    return values if values and all(math.isfinite(v) for v in values) else None
+
+
+def _check_inertial(path: Path, link: str, inertial: ET.Element | None) -> None:
+    """A link's `<inertial>`: none (a massless link) or a mass >= 0 and a positive
+    semi-definite inertia matrix."""
+    if inertial is None:
+        return
+    mass, inertia = inertial.find("mass"), inertial.find("inertia")
+    if mass is None or inertia is None:
+        missing = "<mass value=...>" if mass is None else "<inertia ixx=... izz=...>"
+        raise _fail(f"{path}: link {link!r}: its <inertial> has no {missing}")
+    value = _numbers(mass.get("value"))
+    if value is None or len(value) != 1 or value[0] < 0:
+        raise _fail(
+            f"{path}: link {link!r}: mass must be a number >= 0 (got {mass.get('value')!r})"
+        )
+    entries = [_numbers(inertia.get(key)) for key in INERTIA]
+    if any(e is None or len(e) != 1 for e in entries):
+        given = ", ".join(f"{k}={inertia.get(k)!r}" for k in INERTIA)
+        raise _fail(f"{path}: link {link!r}: <inertia> needs six numbers ({given})")
+    xx, xy, xz, yy, yz, zz = (e[0] for e in entries)
+    matrix = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    smallest = float(np.linalg.eigvalsh(matrix)[0])
+    if smallest < -1e-9 * max(1.0, float(np.abs(matrix).max())):
+        raise _fail(
+            f"{path}: link {link!r}: its inertia matrix is not positive semi-definite "
+            f"(smallest eigenvalue {smallest:.3g}); check ixy, ixz, iyz and their signs"
+        )
+
+
+def _check_revolute(path: Path, joint: str, element: ET.Element, limit) -> None:
+    """A revolute joint has `<limit lower upper>` (URDF requires it) and a nonzero axis."""
+    if limit is None:
+        raise _fail(
+            f"{path}: revolute joint {joint!r} has no <limit lower=... upper=... effort=... "
+            "velocity=...> (URDF requires one)"
+        )
+    for key in ("lower", "upper"):
+        value = limit.get(key)
+        if value is not None and _numbers(value) is None:
+            raise _fail(f"{path}: joint {joint!r}: limit {key} is not a number (got {value!r})")
+    axis = element.find("axis")
+    xyz = _numbers(axis.get("xyz")) if axis is not None else [1.0, 0.0, 0.0]
+    if xyz is None or len(xyz) != 3 or not any(xyz):
+        given = axis.get("xyz") if axis is not None else None
+        raise _fail(f"{path}: joint {joint!r}: axis must be 3 numbers, not all 0 (got {given!r})")
