@@ -136,3 +136,21 @@ def test_base_box_is_the_box_of_the_base_inertia(tmp_path):
     np.testing.assert_allclose(edges[order], a, rtol=1e-9)
     np.testing.assert_allclose(centre, [0.1, -0.2, 0.05], atol=1e-12)
     np.testing.assert_allclose(np.abs(axes[:, order].T @ Rz), np.eye(3), atol=1e-9)
+
+
+def test_a_lock_set_naming_a_fixed_joint_or_given_twice_is_named(tmp_path):
+    text = (ROBOTS / "arm3.urdf").read_text()
+    extra = (
+        '<link name="tool"/><joint name="tool_mount" type="fixed"><parent link="l3"/>'
+        '<child link="tool"/><origin xyz="0.5 0 0"/></joint></robot>'
+    )
+    path = tmp_path / "arm3_tool.urdf"
+    path.write_text(text.replace("</robot>", extra))
+    with pytest.raises(InputError) as err:
+        load_spatial(path, strata=[["j3"], ["tool_mount", "jx"], ["j3"]])
+    lines = str(err.value).splitlines()
+    assert len(lines) == 2
+    assert lines[0].endswith("(unknown: jx; fixed joints, which never move: tool_mount)")
+    assert "model.strata[1]" in lines[0]
+    assert "model.strata[2]: lock set ['j3'] repeats model.strata[0]" in lines[1]
+    assert list(load_spatial(path, strata=[["j3"], ["j1", "j2"]]).strata) == ["S3", "S12"]

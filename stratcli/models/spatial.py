@@ -27,7 +27,7 @@ import numpy as np
 from .. import so3
 from ..errors import InputError, ModelError, Problem
 from .system import Stratum, System
-from .urdf import UrdfSummary, read_urdf
+from .urdf import UrdfSummary, lock_indices, read_urdf
 
 __all__ = ["INSTALL", "SpatialRobot", "SpatialStratum", "SpatialSystem", "load_pinocchio"]
 
@@ -372,23 +372,5 @@ def load_spatial(path: str | Path, base: str | None = None, strata=None) -> Spat
     """A `SpatialSystem` from a URDF file; `strata` are lock sets of joint names."""
     text, summary = read_urdf(Path(path))
     robot = SpatialRobot(text, summary, str(path), base)
-    lock_sets = None
-    if strata is not None:
-        lock_sets, problems = [], []
-        names = robot.joint_names
-        for i, locks in enumerate(strata):
-            unknown = [x for x in locks if x not in names]
-            if unknown or not locks or len(set(locks)) >= len(names):
-                problems.append(
-                    Problem(
-                        f"model.strata[{i}]",
-                        f"lock set {list(locks)} must name 1..{len(names) - 1} distinct joints "
-                        f"of {', '.join(names)}"
-                        + (f" (unknown: {', '.join(unknown)})" if unknown else ""),
-                    )
-                )
-                continue
-            lock_sets.append(tuple(sorted({names.index(x) for x in locks})))
-        if problems:
-            raise InputError(problems)
+    lock_sets = None if strata is None else lock_indices(strata, robot.joint_names, summary)
     return SpatialSystem(robot, lock_sets)

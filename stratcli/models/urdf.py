@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError, Problem
 
-__all__ = ["UrdfJoint", "UrdfSummary", "read_urdf"]
+__all__ = ["UrdfJoint", "UrdfSummary", "lock_indices", "read_urdf"]
 
 MAX_BYTES = 5_000_000
 SUPPORTED = ("revolute", "fixed")
@@ -174,3 +174,36 @@ def _check_revolute(path: Path, joint: str, element: ET.Element, limit) -> None:
     if xyz is None or len(xyz) != 3 or not any(xyz):
         given = axis.get("xyz") if axis is not None else None
         raise _fail(f"{path}: joint {joint!r}: axis must be 3 numbers, not all 0 (got {given!r})")
+
+
+def lock_indices(strata, names: tuple[str, ...], summary: UrdfSummary) -> list[tuple[int, ...]]:
+    """`[model] strata` (lock sets by joint name) as sorted indices into `names` (the revolute
+    joints in model order); one problem per bad lock set, naming `model.strata[i]`."""
+    fixed = {j.name for j in summary.joints if j.type == "fixed"}
+    lock_sets: list[tuple[int, ...]] = []
+    problems = []
+    for i, locks in enumerate(strata):
+        unknown = [x for x in locks if x not in names]
+        if unknown or not locks or len(set(locks)) >= len(names):
+            kinds = (
+                ("unknown", [x for x in unknown if x not in fixed]),
+                ("fixed joints, which never move", [x for x in unknown if x in fixed]),
+            )
+            why = "; ".join(f"{label}: {', '.join(group)}" for label, group in kinds if group)
+            problems.append(
+                Problem(
+                    f"model.strata[{i}]",
+                    f"lock set {list(locks)} must name 1..{len(names) - 1} distinct joints "
+                    f"of {', '.join(names)}" + (f" ({why})" if why else ""),
+                )
+            )
+            continue
+        locked = tuple(sorted({names.index(x) for x in locks}))
+        if locked in lock_sets:  # else one stratum fewer than given, without a word
+            first = f"model.strata[{lock_sets.index(locked)}]"
+            why = f"lock set {list(locks)} repeats {first}"
+            problems.append(Problem(f"model.strata[{i}]", why))
+        lock_sets.append(locked)
+    if problems:
+        raise InputError(problems)
+    return lock_sets
