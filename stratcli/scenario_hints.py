@@ -1,6 +1,7 @@
 """Hints added to the validation problems of a scenario for the mistakes that are easy to make
 and that pydantic's own words do not explain: a single `[legs]` table, and a configuration
-written as a table of names on a model that is not a URDF robot."""
+written as a table of names on a model that is not a URDF robot (on a URDF robot whose
+`[model]` table is invalid, that table cannot be read yet: only the model's problems stand)."""
 
 from __future__ import annotations
 
@@ -20,11 +21,16 @@ _CONFIGURATION = re.compile(r"^(task\.(start|goal)|legs\[\d+\]\.goal)$")
 def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
     """`problems` with a hint where a table was given for a list (`raw` is the file, after
     `prepare_urdf` has turned a URDF model's named configurations into lists)."""
+    model = raw.get("model")
+    urdf = isinstance(model, dict) and model.get("kind") == "urdf"
+    model_broken = any(p.path == "model" or p.path.startswith("model.") for p in problems)
     out = []
     for p in problems:
         hint = None
         if p.message.startswith(_LIST) and p.path == "legs" and isinstance(raw.get("legs"), dict):
             hint = "write [[legs]] (an array of tables), one per leg"
+        elif urdf and model_broken and _CONFIGURATION.match(p.path):
+            continue  # by name is right here: read once the model loads (its problem is listed)
         elif p.message.startswith(_LIST) and _CONFIGURATION.match(p.path):
             hint = (
                 "a configuration by name (a table) is for URDF models only; write a list of "

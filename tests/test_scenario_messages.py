@@ -182,3 +182,19 @@ def test_a_name_table_on_a_model_without_states_names_the_model_problem(tmp_path
     assert (
         "coordinates in order (fix the model first: model.states: Input should be a " in (start[0])
     )
+
+
+def test_names_on_a_urdf_model_with_a_bad_table_leave_only_the_model_problem(tmp_path):
+    # the configurations by name could not be read: three more lines said a table "is for
+    # URDF models only", on a URDF model
+    urdf = (ROOT / "robots" / "arm3.urdf").as_posix()
+    path = tmp_path / "s.toml"
+    path.write_text(
+        f'name = "s"\n[model]\nkind = "urdf"\npath = "{urdf}"\nstrata = ["j3"]\n'
+        "[task]\nstart = { j1 = 0, j2 = 0, j3 = 0, attitude = [0, 0, 0] }\n"
+        "goal = { j1 = 0.1, j2 = 0, j3 = 0, attitude = [0, 0, 0] }\n"
+        '[[legs]]\nstratum = "S3"\ngoal = { j1 = 0.1, j2 = 0, j3 = 0, attitude = "*" }\n'
+    )
+    with pytest.raises(InputError) as info:
+        load_scenario(path)
+    assert [p.path for p in info.value.problems] == ["model.strata[0]"]
