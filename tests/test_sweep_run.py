@@ -13,7 +13,7 @@ import time
 from concurrent.futures import Future, ThreadPoolExecutor
 
 import pytest
-from sweep_files import GRID, strip, write
+from sweep_files import AUTO, GRID, strip, write
 
 import stratcli
 from stratcli.errors import InputError
@@ -78,6 +78,24 @@ def test_a_dask_cluster_gives_the_same_rows(reference, tmp_path):
     assert outcome.summary["executor"]["kind"] == "dask"
     assert outcome.summary["executor"]["workers"] == 2
     assert strip(outcome.rows) == strip(reference.rows)
+
+
+@pytest.mark.slow
+def test_a_dask_worker_writes_an_auto_mode_tasks_record(tmp_path):
+    """A Dask worker is daemonic: drawing ranking.png beside the other figures started a
+    process there, which raised, and the task's record was lost without a word."""
+    distributed = pytest.importorskip("distributed")
+    body = '[[sweep.task]]\n"goal.theta" = -0.2\n'
+    path = write(tmp_path, body, scenario=AUTO, mode="auto", name="auto1")
+    with distributed.LocalCluster(
+        n_workers=1, processes=True, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        outcome = stratcli.run_sweep(
+            path, tmp_path / "d", dask=cluster.scheduler_address, records="all"
+        )
+    assert outcome.rows[0]["status"] == "ok"
+    record = tmp_path / "d" / "records" / "task-000000"
+    assert {"result.json", "comparison.json", "ranking.png"} <= {p.name for p in record.iterdir()}
 
 
 class _DyingWorker(ThreadPoolExecutor):
