@@ -154,3 +154,18 @@ def test_a_lock_set_naming_a_fixed_joint_or_given_twice_is_named(tmp_path):
     assert "model.strata[1]" in lines[0]
     assert "model.strata[2]: lock set ['j3'] repeats model.strata[0]" in lines[1]
     assert list(load_spatial(path, strata=[["j3"], ["j1", "j2"]]).strata) == ["S3", "S12"]
+
+
+def test_urdfdom_s_reason_is_the_message_not_lines_on_stderr(tmp_path, capfd):
+    # a URDF that passes our reading but not urdfdom's: its C++ lines ("Error: ... at line
+    # 231 in /project/urdfdom/...") went to stderr, the message said only "The XML stream
+    # does not contain a valid URDF model"
+    text = (ROBOTS / "arm3.urdf").read_text()
+    path = tmp_path / "bad_origin.urdf"
+    path.write_text(text.replace('<origin xyz="0 0 0.5"/><axis', '<origin xyz="0 zero 0.5"/><axis'))
+    with pytest.raises(InputError) as err:
+        load_spatial(path)
+    text = str(err.value)
+    assert "Unable to parse component [zero]" in text and "joint [j2]" in text
+    assert "\n" not in text and ".cpp" not in text
+    assert capfd.readouterr().err == ""

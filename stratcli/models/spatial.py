@@ -17,6 +17,7 @@ Pinocchio (`pip install 'stratplan[spatial]'`) is imported only here, on first u
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from functools import cached_property
 from itertools import combinations
@@ -27,7 +28,7 @@ import numpy as np
 from .. import so3
 from ..errors import InputError, ModelError, Problem
 from .system import Stratum, System
-from .urdf import UrdfSummary, lock_indices, read_urdf
+from .urdf import UrdfSummary, lock_indices, native_stderr, read_urdf, urdfdom_errors
 
 __all__ = ["INSTALL", "SpatialRobot", "SpatialStratum", "SpatialSystem", "load_pinocchio"]
 
@@ -76,10 +77,14 @@ class SpatialRobot:
     def _build(self) -> None:
         pin = load_pinocchio()
         self._pin = pin
-        try:
-            self.model = pin.buildModelFromXML(self.text, pin.JointModelFreeFlyer())
+        try:  # urdfdom's reasons, printed on stderr with C++ source lines, go in the message
+            with native_stderr() as said:
+                self.model = pin.buildModelFromXML(self.text, pin.JointModelFreeFlyer())
         except (RuntimeError, ValueError) as exc:
-            raise InputError([Problem("model.path", f"Pinocchio cannot load it: {exc}")]) from None
+            why = urdfdom_errors(said) or str(exc)
+            raise InputError([Problem("model.path", f"Pinocchio cannot load it: {why}")]) from None
+        if said:  # what it said of a model it loaded: passed on
+            print("\n".join(said), file=sys.stderr)
         self.data = self.model.createData()
         model = self.model
         names = list(model.names)[2:]

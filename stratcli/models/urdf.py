@@ -14,7 +14,12 @@ field is `model.path`.
 from __future__ import annotations
 
 import math
+import os
+import sys
+import tempfile
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +27,14 @@ import numpy as np
 
 from ..errors import InputError, Problem
 
-__all__ = ["UrdfJoint", "UrdfSummary", "lock_indices", "read_urdf"]
+__all__ = [
+    "UrdfJoint",
+    "UrdfSummary",
+    "lock_indices",
+    "native_stderr",
+    "read_urdf",
+    "urdfdom_errors",
+]
 
 MAX_BYTES = 5_000_000
 SUPPORTED = ("revolute", "fixed")
@@ -169,6 +181,11 @@ def _check_revolute(path: Path, joint: str, element: ET.Element, limit) -> None:
         value = limit.get(key)
         if value is not None and _numbers(value) is None:
             raise _fail(f"{path}: joint {joint!r}: limit {key} is not a number (got {value!r})")
+    bounds = [_numbers(limit.get(key)) for key in ("lower", "upper")]
+    if all(bounds) and bounds[0][0] > bounds[1][0]:
+        raise _fail(
+            f"{path}: joint {joint!r}: limit lower {bounds[0][0]:g} is above upper {bounds[1][0]:g}"
+        )
     axis = element.find("axis")
     xyz = _numbers(axis.get("xyz")) if axis is not None else [1.0, 0.0, 0.0]
     if xyz is None or len(xyz) != 3 or not any(xyz):
@@ -207,3 +224,27 @@ def lock_indices(strata, names: tuple[str, ...], summary: UrdfSummary) -> list[t
     if problems:
         raise InputError(problems)
     return lock_sets
+
+
+@contextmanager
+def native_stderr() -> Iterator[list[str]]:
+    """Capture what native code (urdfdom, inside Pinocchio) writes to file descriptor 2: its
+    lines are in the yielded list once the block ends."""
+    lines: list[str] = []
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield lines
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            lines.extend(tmp.read().decode("utf-8", "replace").splitlines())
+
+
+def urdfdom_errors(lines: list[str]) -> str:
+    """urdfdom's "Error:" messages in one line, without the C++ source locations."""
+    found = [x.split(":", 1)[1].strip() for x in lines if x.startswith("Error:")]
+    return "; ".join(x for x in found if x)
