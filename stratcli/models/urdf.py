@@ -229,10 +229,17 @@ def lock_indices(strata, names: tuple[str, ...], summary: UrdfSummary) -> list[t
 @contextmanager
 def native_stderr() -> Iterator[list[str]]:
     """Capture what native code (urdfdom, inside Pinocchio) writes to file descriptor 2: its
-    lines are in the yielded list once the block ends."""
+    lines are in the yielded list once the block ends. The descriptor is the process's: for
+    the milliseconds a model takes to build, other threads' native stderr lands there too
+    (and is passed on by the caller when the model loads)."""
     lines: list[str] = []
-    sys.stderr.flush()
-    saved = os.dup(2)
+    try:
+        if sys.stderr is not None:
+            sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no descriptor 2 (closed) or no stderr: nothing to capture
+        yield lines
+        return
     with tempfile.TemporaryFile() as tmp:
         os.dup2(tmp.fileno(), 2)
         try:
