@@ -305,3 +305,29 @@ def test_spawned_workers_do_not_need_the_callers_main_module(tmp_path, how):
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines() == ["main", "True 2"]
     assert "Traceback" not in done.stderr and "Error" not in done.stderr
+
+
+def test_records_that_cannot_be_made_are_counted_and_shown(tmp_path, monkeypatch):
+    """A record asked for that cannot be made loses no row, and is not lost without a word
+    (a Dask worker's records were): sweep.json lists it with the reason, `show` says so."""
+    from typer.testing import CliRunner
+
+    import stratcli.api
+    from stratcli.cli.app import app
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(stratcli.api, "write_record", broken)
+    with ThreadPoolExecutor(1) as pool:  # in this process: the patch applies
+        outcome = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "o", executor=pool,
+                            records="all")  # fmt: skip
+    assert outcome.complete and all(r["status"] == "ok" for r in outcome.rows.values())
+    lost = outcome.summary["records_lost"]
+    assert [x["task"] for x in lost] == list(range(len(outcome.rows)))
+    assert all(x["reason"] == "RuntimeError: disk on fire" for x in lost)
+    assert json.loads((tmp_path / "o" / "sweep.json").read_text())["records_lost"] == lost
+    shown = CliRunner().invoke(app, ["show", str(tmp_path / "o")])
+    assert f"records  {len(lost)} asked for could not be made (task 0: RuntimeError" in (
+        shown.output
+    )

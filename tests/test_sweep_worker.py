@@ -102,3 +102,37 @@ def test_auto_mode_rows_measure_the_chosen_plan_after_time_scaling(tmp_path):
     assert row["status"] == "ok" and direct.best.result.time_scale == 2.0
     assert row["peak_control"] == pytest.approx(2.0 * as_planned, rel=1e-9)
     assert row["peak_control"] == pytest.approx(peaks(direct.best.result)[0].max(), rel=1e-3)
+
+
+def test_a_tasks_record_names_the_command_that_plans_it_again(tmp_path):
+    """The record's manifest gives a command that runs (there is none that plans one task of
+    a sweep): planning the record's own scenario.toml with it gives the row's energy."""
+    import subprocess
+    import sys
+
+    task = list(load_sweep(write(tmp_path, GRID)).tasks())[3]
+    result = run_task(_payload(task, records="all"))
+    _, files = result["record"]
+    command = json.loads(files["manifest.json"])["command"]
+    assert command == ["stratplan", "plan", "scenario.toml"] and result["record_lost"] is None
+    (tmp_path / "scenario.toml").write_bytes(files["scenario.toml"])
+    again = subprocess.run(
+        [sys.executable, "-m", "stratcli", *command[1:], "--out", "runs", "--json", "-q"],
+        cwd=tmp_path, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert again.returncode == 0, again.stderr
+    energy = json.loads(next((tmp_path / "runs").glob("*/result.json")).read_text())
+    assert energy["total_energy"] == result["row"]["energy"]
+
+
+def test_a_record_that_cannot_be_made_says_why_and_keeps_the_row(tmp_path, monkeypatch):
+    import stratcli.api
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(stratcli.api, "write_record", broken)
+    task = list(load_sweep(write(tmp_path, GRID)).tasks())[3]
+    result = run_task(_payload(task, records="all"))
+    assert result["row"]["status"] == "ok" and result["record"] is None
+    assert result["record_lost"] == "RuntimeError: disk on fire"

@@ -169,6 +169,11 @@ def summary(doc: dict[str, Any], path: Path) -> None:
     if (Path(path) / "records").is_dir():
         n = sum(1 for p in (Path(path) / "records").iterdir() if not p.name.startswith("."))
         say(f"  records  {n} under {escape(str(Path(path) / 'records'))}")
+    if doc.get("records_lost"):
+        lost, first = len(doc["records_lost"]), doc["records_lost"][0]
+        why = escape(first["reason"])
+        say(f"  records  {lost} asked for could not be made (task {first['task']}: {why}; "
+            "all in sweep.json records_lost)")  # fmt: skip
 
 
 def show_sweep(path: Path, json_output: bool) -> None:

@@ -69,8 +69,10 @@ def finish(
     resumed: int,
     missing: list[int],
     started: str,
+    lost: dict[int, str] | None = None,
 ) -> tuple[dict[str, Any], list[Path]]:
-    """Write results.csv, the plots and sweep.json; (sweep.json, the files written)."""
+    """Write results.csv, the plots and sweep.json; (sweep.json, the files written). `lost`:
+    the tasks of this run whose run record was asked for and could not be made, and why."""
     from .run import spec_document
 
     spec = spec_document(sweep)
@@ -83,6 +85,7 @@ def finish(
         tasks_per_s=planned / wall if wall > 0 else None,
         started=started,
         finished=datetime.now(UTC).isoformat(),
+        records_lost=[{"task": k, "reason": why} for k, why in sorted((lost or {}).items())],
     )
     files = []
     for name, data in sweep_figures(spec, rows).items():

@@ -151,6 +151,7 @@ def run_sweep(
     per_task = "all" if records == "all" else "failed" if records == "failed" else "none"
     futures: dict[Future, int] = {}
     written: list[Path] = []
+    lost: dict[int, str] = {}  # task -> why its record could not be made
     try:
         advance(len(rows), sweep.count)
         with sweepdir.RowLog(out / sweepdir.ROWS) as log:
@@ -171,6 +172,8 @@ def run_sweep(
                         continue
                     if result["record"] is not None:  # before the row: a row means it is there
                         written.append(_write_record(out, *result["record"]))
+                    if result.get("record_lost"):
+                        lost[index] = result["record_lost"]
                     log.append(result["row"])
                     rows[index] = result["row"]
                     advance(len(rows), sweep.count)
@@ -183,6 +186,8 @@ def run_sweep(
                 result = executor.submit(run_task, _payload(sweep, task, "all")).result()
                 if result["record"] is not None:
                     written.append(_write_record(out, *result["record"]))
+                if result.get("record_lost"):
+                    lost[best] = result["record_lost"]
     except BaseException:  # an interrupt: the rows written so far stay; stop the workers
         _stop(executor, futures)
         raise
@@ -193,7 +198,7 @@ def run_sweep(
     planned = len(rows) - resumed
     missing = [k for k in range(sweep.count) if k not in rows]  # their workers died
     summary, files = finish(
-        sweep, out, rows, info, wall, planned, resumed, missing, started.isoformat()
+        sweep, out, rows, info, wall, planned, resumed, missing, started.isoformat(), lost
     )
     rows = dict(sorted(rows.items()))  # in task order, as results.csv (they came as finished)
     return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)

@@ -111,14 +111,14 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
         row.update(status="not-controllable", message="; ".join(exc.problems))
     except Exception as exc:  # a task's failure is a row, never a lost task
         row.update(status="error", message=f"{type(exc).__name__}: {exc}")
-    record = None
+    record, lost = None, None
     wanted = payload["records"]
     if outcome is not None and (wanted == "all" or (wanted == "failed" and not outcome.ok)):
-        record = _record_files(outcome, write_record, payload)
+        record, lost = _record_files(outcome, write_record, payload)
     row.setdefault("planning_time_s", None)
     row["task_time_s"] = time.perf_counter() - clock
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
-    return {"row": row, "record": record}
+    return {"row": row, "record": record, "record_lost": lost}
 
 
 def _margins(report) -> dict[str, float]:
@@ -132,13 +132,24 @@ def _margins(report) -> dict[str, float]:
     return {key: _finite(value) for key, value in out.items()}
 
 
-def _record_files(outcome, write_record, payload) -> tuple[str, dict[str, bytes]] | None:
-    """The task's run record as file contents (the sweep's process writes them), or None."""
-    argv = ["stratplan", "sweep", payload.get("name", ""), "--task", str(payload["index"])]
+def replan_command(mode: str, check: bool, exhaustive: bool) -> list[str]:
+    """A task record's manifest command: the one that plans the task again from the record's
+    own scenario.toml (there is no command that plans one task of a sweep)."""
+    if mode == "compare":
+        return ["stratplan", "compare-sequences", "scenario.toml"] + (
+            ["--exhaustive"] if exhaustive else []
+        )
+    return ["stratplan", "plan", "scenario.toml"] + ([] if check else ["--no-check"])
+
+
+def _record_files(outcome, write_record, payload) -> tuple[tuple | None, str | None]:
+    """The task's run record as file contents (the sweep's process writes them), or None and
+    why it could not be made (the sweep reports it; the row is kept either way)."""
+    argv = replan_command(payload["mode"], payload["check"], payload.get("exhaustive", False))
     try:
         with tempfile.TemporaryDirectory(prefix="stratplan-sweep-") as tmp:
             run_dir = write_record(tmp, outcome, argv=argv)
             files = {p.name: p.read_bytes() for p in Path(run_dir).iterdir() if p.is_file()}
-        return f"task-{payload['index']:06d}", files
-    except Exception:  # a record that cannot be drawn or written loses no row
-        return None
+        return (f"task-{payload['index']:06d}", files), None
+    except Exception as exc:  # a record that cannot be drawn or written loses no row
+        return None, f"{type(exc).__name__}: {exc}".replace("\n", "; ")
