@@ -8,6 +8,7 @@ import pytest
 from sweep_files import AUTO, GRID, RANDOM, ROOT, TASK_A, write
 from typer.testing import CliRunner
 
+from stratcli import tomlwrite
 from stratcli.cli import app
 from stratcli.errors import InputError
 from stratcli.models.numbers import parse_number
@@ -249,6 +250,28 @@ def test_a_base_scenarios_relative_urdf_path_is_relative_to_that_scenario(tmp_pa
     sweep.write_text(
         '[sweep]\nname = "u"\nscenario = "%s"\n[sweep.grid]\n"planner.tolerance" = [1e-5]\n'
         % (ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
+    )
+    (task,) = load_sweep(sweep).tasks()
+    assert load_scenario(task.scenario).system.n == 6
+
+
+def test_an_inline_base_scenarios_relative_urdf_path_is_relative_to_the_sweep_file(tmp_path):
+    """A top-level [scenario] table is the sweep file's own: its relative URDF path is read
+    beside that file (it was read from the working directory)."""
+    pytest.importorskip("pinocchio")
+    import shutil
+    import tomllib
+
+    source = ROOT / "scenarios" / "spatial" / "arm3_reorient.toml"
+    base = tomllib.loads(source.read_text())
+    urdf = source.parent / base["model"]["path"]
+    (tmp_path / "my_robots").mkdir()
+    shutil.copy(urdf, tmp_path / "my_robots" / "arm3_copy.urdf")
+    base["model"]["path"] = "my_robots/arm3_copy.urdf"
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(
+        '[sweep]\nname = "u"\n[sweep.grid]\n"planner.tolerance" = [1e-5]\n\n'
+        + tomlwrite.dumps({"scenario": base})
     )
     (task,) = load_sweep(sweep).tasks()
     assert load_scenario(task.scenario).system.n == 6

@@ -280,7 +280,7 @@ def _base(spec: SweepFile, folder: Path, problems: list[Problem]) -> tuple[dict 
         )
         return None, ""
     if spec.scenario is not None:
-        return copy.deepcopy(spec.scenario), "scenario"
+        return _urdf_from(copy.deepcopy(spec.scenario), folder), "scenario"
     path = folder / spec.sweep.scenario
     try:
         text = read_scenario_text(path)
@@ -293,8 +293,9 @@ def _base(spec: SweepFile, folder: Path, problems: list[Problem]) -> tuple[dict 
 
 
 def _urdf_from(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
-    """A base scenario's relative URDF path made relative to its file's `folder`, as when the
-    file is planned alone (its tasks are dicts: read from the working directory otherwise)."""
+    """A base scenario's relative URDF path made relative to its file's `folder` (an inline
+    [scenario]: the sweep file's), as when the file is planned alone (its tasks are dicts:
+    read from the working directory otherwise)."""
     model = raw.get("model")
     if (
         isinstance(model, dict)
