@@ -267,13 +267,17 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
         margins.append(LegMargins(**{k: v[0] for k, v in found.items()}))
         for key, (value, when, what) in found.items():
             if not violated and value < -VIOLATION_TOL:
+                unit = UNITS.get(key, "")  # clearances: in the model's own length unit
                 violated = (
                     f"leg {leg.index + 1} ({leg.stratum}) violates {what} by "
-                    f"{-value:.3g} at t = {when:.3f} s"
+                    f"{-value:.3g}{unit} at t = {when:.3f} s"
                 )
                 violation = {"leg": leg.index + 1, "limit": key, "what": what}
                 violation.update(by=-value, t=when)
     return ConstraintReport(c.spec, tuple(margins), samples, violated, violation=violation)
+
+
+UNITS = {"joint_limit": " rad", "rate": " rad/s", "acceleration": " rad/s²"}  # of a violation
 
 
 def verified_again(plan):
@@ -296,9 +300,10 @@ def _too_fast(plan, c: Constraints) -> str:
     (joint limits and clearances do not depend on the speed): how much slower meets them."""
     s, which = rate_limited(plan, c)
     k = 10.0 ** (2 - math.floor(math.log10(s)))  # 3 significant digits, rounded down
+    slower = math.floor(s * k) / k
     return (
-        f"re-timed too fast for {which}: time_scaled by {math.floor(s * k) / k:g} or less "
-        "meets every rate and acceleration limit"
+        f"re-timed too fast for {which}: this plan time_scaled by {slower:g} or less meets "
+        "every rate and acceleration limit"
     )
 
 
