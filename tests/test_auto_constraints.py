@@ -101,6 +101,8 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     assert not faster.ok
     assert faster.status is stratcli.Status.CONSTRAINT_VIOLATED
     assert "violates the rate limit of" in faster.message
+    assert re.search(r"rad/s\) by [0-9.e+-]+ rad/s at t = ", faster.message)  # with its unit
+    assert "this plan time_scaled by" in faster.message  # the factor for this plan
     # the advice is to run it slower, by how much (not the vias or harmonics of a plan that
     # was planned off its limits: joint limits and clearances do not change with the speed)
     assert "via configurations" not in faster.message
