@@ -266,7 +266,8 @@ def test_show_reads_the_record_back(tmp_path):
 
 def test_show_refuses_missing_and_incomplete_records(tmp_path):
     missing = runner.invoke(app, ["show", str(tmp_path / "nope")])
-    assert missing.exit_code == 2 and "no run record" in missing.output
+    assert missing.exit_code == 2  # show reads sweeps too: the message says so
+    assert f"no run record or sweep directory at {tmp_path / 'nope'}" in missing.output
     run = plan_record(tmp_path)
     inside = runner.invoke(app, ["show", str(run / "result.json")])  # a file of the record
     assert inside.exit_code == 2 and f"give its directory, {run}" in inside.output

@@ -10,6 +10,7 @@ from typing import Annotated
 
 import typer
 
+from ..errors import InputError
 from . import render, render_tables
 from .options import Json, Out
 
@@ -31,6 +32,8 @@ def show(
         return
 
     with render.reported():
+        if not run.exists():  # `show` reads sweeps too: the message names both
+            raise InputError(f"no run record or sweep directory at {run}")
         record, log = api.read_run(run)
     if json_output:
         render.print_json({"result": record.result, "manifest": record.manifest, "mcap": log})
