@@ -13,7 +13,8 @@ from stratcli.errors import InputError
 from stratcli.models import spatial
 from stratcli.models.spatial import INSTALL, load_spatial
 
-ROBOTS = Path(__file__).resolve().parents[1] / "robots"
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = ROOT / "robots"
 
 
 def test_without_pinocchio_the_install_command_is_given(monkeypatch):
@@ -169,3 +170,23 @@ def test_urdfdom_s_reason_is_the_message_not_lines_on_stderr(tmp_path, capfd):
     assert "Unable to parse component [zero]" in text and "joint [j2]" in text
     assert "\n" not in text and ".cpp" not in text
     assert capfd.readouterr().err == ""
+
+
+def test_a_stratum_of_a_joint_that_moves_no_mass_says_why_it_cannot_steer(tmp_path):
+    """A link without <inertial> is valid URDF (a frame), but a joint that moves only such
+    links turns nothing: the check's refusal names it instead of leaving the user to guess."""
+    import stratcli
+    from stratcli.errors import NotControllableError
+
+    urdf = (ROBOTS / "arm3.urdf").read_text()
+    massless = re.sub(r'<link name="l3">.*?</link>', '<link name="l3"/>', urdf)
+    assert massless != urdf
+    (tmp_path / "arm3.urdf").write_text(massless)
+    assert load_spatial(tmp_path / "arm3.urdf").spatial.inert_joints == ("j3",)
+    assert load_spatial(ROBOTS / "arm3.urdf").spatial.inert_joints == ()
+    scenario = (ROOT / "scenarios" / "spatial" / "arm3_reorient.toml").read_text()
+    scenario = scenario.replace('path = "../../robots/arm3.urdf"', 'path = "arm3.urdf"')
+    (tmp_path / "t.toml").write_text(scenario)
+    with pytest.raises(NotControllableError) as exc:
+        stratcli.plan(tmp_path / "t.toml")
+    assert "j3 moves no mass: the links it moves have no <inertial>" in str(exc.value)

@@ -155,6 +155,7 @@ def check_document(
                     f"degree {MAX_DEGREE}) span only {leg.failure_rank} of the {len(names)} "
                     f"coordinates it steers ({', '.join(names)}) at {where}; steer fewer "
                     'coordinates on this leg (goal "*") or use another stratum'
+                    + _inert(system, leg.stratum)
                 )
     elif not seq.controllable and not model_problems:
         worst = int(np.argmin(seq.cross_rank if seq.cross_rank is not None else seq.sum_rank))
@@ -170,6 +171,20 @@ def check_document(
     doc["warnings"] = warnings
     doc["controllable"] = not problems and not model_problems
     return doc
+
+
+def _inert(system: System, stratum: str) -> str:
+    """Why a URDF robot's stratum may not turn its base: joints of it that move no mass
+    (links without <inertial>), as a clause of the problem; '' if none."""
+    robot = getattr(system, "spatial", None)
+    inert = set(getattr(robot, "inert_joints", ()))
+    names = [system.states[j] for j in system.stratum(stratum).active if system.states[j] in inert]
+    if not names:
+        return ""
+    return (
+        f" ({', '.join(names)} {'moves' if len(names) == 1 else 'move'} no mass: the links "
+        "it moves have no <inertial> in the URDF, so it cannot turn the base)"
+    )
 
 
 def _reach_doc(system: System, r: Reach) -> dict:

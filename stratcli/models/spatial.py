@@ -101,6 +101,16 @@ class SpatialRobot:
         self.mass = float(sum(inertia.mass for inertia in model.inertias))
         if not self.mass > 0:
             raise InputError([Problem("model.path", "the robot has no mass")])
+        # joints whose moved links carry no mass or inertia: they turn nothing (a hint when
+        # a stratum of them is not controllable, `api.check`)
+        self.inert_joints = tuple(
+            model.names[j]
+            for j in range(2, model.njoints)
+            if all(
+                model.inertias[i].mass == 0.0 and not np.any(model.inertias[i].inertia)
+                for i in model.subtrees[j]
+            )
+        )
         self._neutral = np.asarray(pin.neutral(model), dtype=float)
         self.link_names = tuple(f.name for f in model.frames if f.type == pin.FrameType.BODY)
 
