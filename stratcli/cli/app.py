@@ -42,13 +42,23 @@ class _OneLineUsageErrors:
             return super().make_context(*args, **kwargs)
 
 
-class _Group(_OneLineUsageErrors, _NoTypeOnHelp, TyperGroup):
+class _ReadableHelp:
+    """`--help` laid out for 80 columns up (`helpfmt`), through click's public `format_help`
+    hook instead of typer's rich layout, which left an option's help 20 columns at 80."""
+
+    def format_help(self, ctx, formatter):
+        from . import helpfmt  # start-up speed: rich loads only for the help
+
+        helpfmt.print_help(self, ctx)
+
+
+class _Group(_ReadableHelp, _OneLineUsageErrors, _NoTypeOnHelp, TyperGroup):
     def resolve_command(self, ctx, args):
         with one_line():  # an unknown command
             return super().resolve_command(ctx, args)
 
 
-class _Command(_OneLineUsageErrors, _NoTypeOnHelp, TyperCommand):
+class _Command(_ReadableHelp, _OneLineUsageErrors, _NoTypeOnHelp, TyperCommand):
     pass
 
 

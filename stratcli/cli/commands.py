@@ -48,6 +48,7 @@ def plan(
         typer.Option(
             min=1e-3,
             max=1e3,
+            metavar="S",
             help="Run the planned path S times faster after planning (duration ÷ S, energy × S); "
             "overrides planner.time_scale.",
         ),
