@@ -34,12 +34,14 @@ __all__ = ["SequencePlan"]
 TIME_ROUNDING = 1e-9  # relative: how far outside [0, duration] `controls` still takes a time
 
 
-@dataclass(frozen=True, eq=False, repr=False)  # eq=False: == is identity (arrays inside)
+@dataclass(frozen=True, eq=False, repr=False)  # == below: by value (the fields hold arrays)
 class SequencePlan:
     """A planned sequence of legs (or how far it got).
 
     Build one with `stratcli.plan`; read one back with `stratcli.load_run`. `ok` is True when
-    every leg reached its goal; `message` says which leg failed and what to try.
+    every leg reached its goal; `message` says which leg failed and what to try. Two plans
+    are equal when their result.json documents and scenarios are (a plan and its pickle, or
+    its record read back, are equal; the same scenario planned twice differs in its times).
     """
 
     scenario: str
@@ -189,6 +191,16 @@ class SequencePlan:
     def to_dict(self) -> dict[str, Any]:
         """The `result.json` document (schema "stratplan.result/1")."""
         return plan_document(self)
+
+    def __eq__(self, other: object) -> bool:
+        if self is other:
+            return True
+        if not isinstance(other, SequencePlan):
+            return NotImplemented
+        return self.scenario_text == other.scenario_text and self.to_dict() == other.to_dict()
+
+    def __hash__(self) -> int:  # of what equal plans share, cheaply
+        return hash((self.scenario, self.scenario_text, self.planned_legs, len(self.legs)))
 
     @classmethod
     def from_dict(cls, doc: dict[str, Any], settings: PlannerSettings | None = None, model=None):

@@ -20,3 +20,18 @@ def test_plan_returns_the_result_document_and_write_record_writes_it(tmp_path):
     assert api.list_runs(tmp_path)[0]["run"] == run_dir.name
     record, _ = api.read_run(run_dir)
     assert record.result == outcome.document
+
+
+def test_plans_are_equal_by_value_as_values_should_be(tmp_path):
+    """A plan equals its pickle and its record read back (== was identity: a plan compared
+    with its own round trip was unequal); the same scenario planned again differs in its
+    times, and equal plans hash alike."""
+    import pickle
+
+    plan = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
+    again = pickle.loads(pickle.dumps(plan))
+    assert again == plan and hash(again) == hash(plan) and not (again != plan)
+    assert api.load_run(api.write_record(tmp_path, plan, animation=False)) == plan
+    replanned = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
+    assert replanned != plan and replanned.total_energy == plan.total_energy
+    assert plan != plan.to_dict() and {plan: 1}[again] == 1
