@@ -192,7 +192,8 @@ def test_reprs_are_short_and_say_name_status_energy_and_legs(plan):
         fake, None, SimpleNamespace(candidates=[1, 2, 3]), None, {}, outcome
     )
     assert repr(comparison) == f"ComparisonOutcome('auto': 3 candidate sequences, best {text})"
-    assert plan == plan and plan != stratcli.time_scaled(plan, 1.0)  # eq=False: identity
+    assert plan == stratcli.time_scaled(plan, 1.0)  # by value: the same plan, a new object
+    assert plan != stratcli.time_scaled(plan, 2.0)
 
 
 def test_numpy_scalars_are_passed_on_as_python_numbers_the_records_can_write(tmp_path):
