@@ -241,8 +241,11 @@ def test_ranking_shows_a_bounded_row_as_its_bound_not_as_a_failure():
     keys = [t.get_text() for t in legend.get_texts()]
     assert "failed" not in keys and any(k.startswith("not searched: ≥ its lower") for k in keys)
     # a hollow bar to its bound, on the same scale as the others (70 / 60 < 10: linear)
-    (hollow,) = [p for p in ax.patches if not p.get_fill()]
-    assert hollow.get_width() == pytest.approx(64.5) and ax.get_xscale() == "linear"
+    (hollow,) = [c for c in ax.collections if not c.get_facecolor().any()]
+    (bar,) = hollow.get_paths()
+    assert bar.get_extents().x0 == 0.0 and bar.get_extents().x1 == pytest.approx(64.5)
+    assert bar.get_extents().y0 == pytest.approx(0.65)  # on row 1, 0.7 high
+    assert ax.get_xscale() == "linear"
     assert ax.get_xlim()[1] >= 70.0
 
 
@@ -261,8 +264,10 @@ def test_the_ranking_labels_fit_in_the_figure():
     fig = ranking_figure(doc)
     renderer = FigureCanvasAgg(fig).get_renderer()
     (ax,) = fig.axes
-    boxes = [t.get_window_extent(renderer) for t in ax.get_yticklabels()]
-    assert min(b.x0 for b in boxes) >= 0
+    labels = [t for t in ax.texts if t.get_text().endswith(" · cons.")]
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    assert len(boxes) == 2 and min(b.x0 for b in boxes) >= 0
+    assert max(b.x1 for b in boxes) < ax.get_window_extent(renderer).x0  # left of the axes
     legend = fig.legends[0].get_window_extent(renderer)
     assert legend.y0 >= 0 and legend.y1 < ax.xaxis.get_tightbbox(renderer).y0
 

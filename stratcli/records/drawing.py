@@ -36,7 +36,7 @@ from ..interrupts import checkpoint, signals_held
 __all__ = ["ask", "beside", "running", "start"]
 
 # expected drawing time relative to a time plot, to share the figures out between two processes
-COST = {"ranking": 2.0, "motion": 30.0, "stroboscope": 1.2}
+COST = {"ranking": 1.4, "motion": 30.0, "stroboscope": 1.2}
 
 # The drawing process's niceness: loading matplotlib beside a comparison's two workers took
 # their CPU (the search 1.34 -> 1.22 s median wall with it, compare-sequences on Sim 4, 10

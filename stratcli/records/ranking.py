@@ -10,7 +10,10 @@ import math
 import textwrap
 from typing import Any
 
+from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+from matplotlib.transforms import offset_copy
 
 from ..compare import CRITERION_LABELS
 from .figure_common import LOG_RATIO, fixed_margins, plain_log_labels, save_figure
@@ -30,6 +33,9 @@ VALUE_SIZE = 7.5  # pt, of the texts in the axes (`_room` measures those after t
 TITLE_SIZE = 10  # pt
 RIGHT = 0.15  # inches right of the axes
 BOUNDED_COLOR = "#777777"
+HOLLOW = dict(facecolor="none", edgecolor=BOUNDED_COLOR, linestyle="--", linewidth=0.8)
+BAR_HEIGHT = 0.7  # of a row's 1
+LABEL_GAP = 7.0  # pt between a label and the axes (where a tick's length and pad put it)
 # units of the ranking quantities for the presets and physical planar models (rad, rad/s)
 _UNITS = {"energy": "rad²/s", "peak-control": "rad/s", "excursion": "rad", "duration": "s"}
 _KEYS = {
@@ -81,16 +87,15 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     best = 0 if doc.get("best") == 0 and 0 in ok else None
     colors = [BEST_COLOR if i == best else OTHER_COLOR for i in ok]
     shown = [max(v, floor) for v in values]  # a zero on a log axis sits at the floor
-    bars = ax.barh(ok, [v - floor for v in shown], left=floor, color=colors, height=0.7)
+    # bars as one collection each (36 `barh` rectangles, each added and its limits updated,
+    # were a third of the chart's time); the axis limits are set below
+    ax.add_collection(_bars(ok, shown, floor, facecolors=colors), autolim=False)
     ends: dict[str, float] = {}  # each text written after a bar: the farthest bar it ends
     for i, v, x in zip(ok, values, shown, strict=True):
         ax.text(x, i, text := f" {_short(v)}", va="center", fontsize=VALUE_SIZE)
         ends[text] = max(x, ends.get(text, x))
     at_least = [max(b, floor) for b in bounds.values()]
-    hollow = ax.barh(
-        list(bounds), [b - floor for b in at_least], left=floor, height=0.7, fill=False,
-        edgecolor=BOUNDED_COLOR, linestyle="--", linewidth=0.8,
-    )  # fmt: skip
+    ax.add_collection(_bars(list(bounds), at_least, floor, **HOLLOW), autolim=False)
     for i, b, x in zip(bounds, bounds.values(), at_least, strict=True):
         ax.text(
             x, i, text := f" ≥ {_short(b)}", va="center", fontsize=VALUE_SIZE, color=BOUNDED_COLOR
@@ -107,7 +112,12 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         ax.set_xscale("log")
         plain_log_labels(ax.xaxis, minor=ratio < 1000)  # 2 and 5 too, up to three decades
         ax.tick_params(axis="x", which="minor", labelsize=8)
-    ax.set_yticks(range(len(rows)), labels, fontsize=LABEL_SIZE)
+    # the sequences' labels as texts left of the axes where tick labels stand (a tick per row
+    # was as costly as the bars)
+    ax.set_yticks([])
+    beside = offset_copy(ax.get_yaxis_transform(), fig=fig, x=-LABEL_GAP / 72, units="inches")
+    for i, label in enumerate(labels):
+        ax.text(0.0, i, label, transform=beside, ha="right", va="center", fontsize=LABEL_SIZE)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_xlabel(_axis_label(doc) + (" — log scale" if log else ""), fontsize=9)
     ranked_by = CRITERION_LABELS[doc["criterion"]]
@@ -125,15 +135,12 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         )
     handles = []
     if best is not None:
-        handles.append(bars[ok.index(best)])
-        bars[ok.index(best)].set_label(f"best: {labels[best]}")
+        handles.append(Patch(color=BEST_COLOR, label=f"best: {labels[best]}"))
     if len(ok) > (best is not None):
-        other = next(b for b, i in zip(bars, ok, strict=True) if i != best)
-        other.set_label("reached the goal")
-        handles.append(other)
+        handles.append(Patch(color=OTHER_COLOR, label="reached the goal"))
     if bounds:
-        hollow[0].set_label("not searched: ≥ its lower bound, at least the best's value")
-        handles.append(hollow[0])
+        why = "not searched: ≥ its lower bound, at least the best's value"
+        handles.append(Patch(**HOLLOW, label=why))
     if failed:
         from matplotlib.lines import Line2D
 
@@ -153,6 +160,14 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     top = 0.32 + 0.17 * (len(title_lines) - 1)
     fixed_margins(fig, left=left, right=RIGHT, top=top, bottom=1.05 + 0.17 * rows_more)
     return fig
+
+
+def _bars(rows: list[int], ends: list[float], start: float, **style) -> PolyCollection:
+    """Horizontal bars from `start` to `ends` at `rows`, 0.7 high, as one artist."""
+    h = BAR_HEIGHT / 2
+    corners = zip(rows, ends, strict=True)
+    boxes = [[(start, i - h), (x, i - h), (x, i + h), (start, i + h)] for i, x in corners]
+    return PolyCollection(boxes, closed=True, **style)
 
 
 def _widths(fig: Figure, texts: list[str], size: float, total=None):
