@@ -108,6 +108,11 @@ INERTIA = '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>'
             '<inertia ixx="0.1" ixy="5" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial>',
             "link 'b': its inertia matrix is not positive semi-definite",
         ),
+        (  # a small part's (grams and millimetres): as wrong as a large one's
+            '<inertial><mass value="0.001"/>'
+            '<inertia ixx="1e-10" ixy="5e-10" ixz="0" iyy="1e-10" iyz="0" izz="1e-10"/></inertial>',
+            "link 'b': its inertia matrix is not positive semi-definite",
+        ),
     ],
 )
 def test_an_inertial_without_physical_meaning_is_named(tmp_path, inertial, expected):
@@ -120,6 +125,21 @@ def test_a_massless_link_and_a_valid_inertial_are_read(tmp_path):
     inertial = f'<inertial><origin xyz="0 0 1"/><mass value="2"/>{INERTIA}</inertial>'
     assert read_urdf(_robot(tmp_path, inertial=inertial))[1].revolute[0].name == "j"
     assert read_urdf(_robot(tmp_path))[1].revolute[0].name == "j"
+
+
+@pytest.mark.parametrize(
+    "inertia",
+    [
+        'ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"',  # a point mass
+        'ixx="1E-1" ixy="-0.0" ixz="0" iyy="1e-1" iyz="0" izz="0"',  # a thin rod along z
+        'ixx="1e-9" ixy="0" ixz="0" iyy="2e-9" iyz="0" izz="2.5e-9"',  # a small part
+        # a rod along (1, 1, 0) / sqrt 2, written rounded: its zero eigenvalue is -1e-17
+        'ixx="0.05" ixy="-0.05" ixz="0" iyy="0.05" iyz="0" izz="0.1"',
+    ],
+)
+def test_an_odd_but_valid_inertia_is_read(tmp_path, inertia):
+    inertial = f'<inertial><mass value="1.5e0"/><inertia {inertia}/></inertial>'
+    assert read_urdf(_robot(tmp_path, inertial=inertial))[1].revolute[0].name == "j"
 
 
 @pytest.mark.parametrize(

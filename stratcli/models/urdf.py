@@ -164,7 +164,7 @@ def _check_inertial(path: Path, link: str, inertial: ET.Element | None) -> None:
     xx, xy, xz, yy, yz, zz = (e[0] for e in entries)
     matrix = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
     smallest = float(np.linalg.eigvalsh(matrix)[0])
-    if smallest < -1e-9 * max(1.0, float(np.abs(matrix).max())):
+    if smallest < -1e-9 * float(np.abs(matrix).max()):  # relative: small links are small
         raise _fail(
             f"{path}: link {link!r}: its inertia matrix is not positive semi-definite "
             f"(smallest eigenvalue {smallest:.3g}); check ixy, ixz, iyz and their signs"
