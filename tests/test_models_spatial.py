@@ -169,3 +169,21 @@ def test_urdfdom_s_reason_is_the_message_not_lines_on_stderr(tmp_path, capfd):
     assert "Unable to parse component [zero]" in text and "joint [j2]" in text
     assert "\n" not in text and ".cpp" not in text
     assert capfd.readouterr().err == ""
+
+
+def test_what_urdfdom_says_of_a_model_it_loads_never_goes_to_stdout(monkeypatch, capsys):
+    """Passed on to stderr; without one (pythonw, sys.stderr None) print(file=None) wrote it
+    on stdout, in the middle of `--json` output."""
+    import contextlib
+    import sys
+
+    @contextlib.contextmanager
+    def saying():
+        yield ["Warning: something urdfdom says"]
+
+    monkeypatch.setattr(spatial, "native_stderr", saying)
+    load_spatial(ROBOTS / "arm3.urdf")
+    assert capsys.readouterr() == ("", "Warning: something urdfdom says\n")
+    monkeypatch.setattr(sys, "stderr", None)
+    load_spatial(ROBOTS / "arm3.urdf")
+    assert capsys.readouterr().out == ""
