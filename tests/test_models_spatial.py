@@ -156,21 +156,6 @@ def test_a_lock_set_naming_a_fixed_joint_or_given_twice_is_named(tmp_path):
     assert list(load_spatial(path, strata=[["j3"], ["j1", "j2"]]).strata) == ["S3", "S12"]
 
 
-def test_urdfdom_s_reason_is_the_message_not_lines_on_stderr(tmp_path, capfd):
-    # a URDF that passes our reading but not urdfdom's: its C++ lines ("Error: ... at line
-    # 231 in /project/urdfdom/...") went to stderr, the message said only "The XML stream
-    # does not contain a valid URDF model"
-    text = (ROBOTS / "arm3.urdf").read_text()
-    path = tmp_path / "bad_origin.urdf"
-    path.write_text(text.replace('<origin xyz="0 0 0.5"/><axis', '<origin xyz="0 zero 0.5"/><axis'))
-    with pytest.raises(InputError) as err:
-        load_spatial(path)
-    text = str(err.value)
-    assert "Unable to parse component [zero]" in text and "joint [j2]" in text
-    assert "\n" not in text and ".cpp" not in text
-    assert capfd.readouterr().err == ""
-
-
 def test_what_urdfdom_says_of_a_model_it_loads_never_goes_to_stdout(monkeypatch, capsys):
     """Passed on to stderr; without one (pythonw, sys.stderr None) print(file=None) wrote it
     on stdout, in the middle of `--json` output."""
@@ -187,3 +172,18 @@ def test_what_urdfdom_says_of_a_model_it_loads_never_goes_to_stdout(monkeypatch,
     monkeypatch.setattr(sys, "stderr", None)
     load_spatial(ROBOTS / "arm3.urdf")
     assert capsys.readouterr().out == ""
+
+
+def test_urdfdom_s_reason_is_the_message_not_lines_on_stderr(tmp_path, capfd):
+    # a URDF that passes our reading but not urdfdom's: its C++ lines ("Error: ... at line
+    # 231 in /project/urdfdom/...") went to stderr, the message said only "The XML stream
+    # does not contain a valid URDF model"
+    text = (ROBOTS / "arm3.urdf").read_text()
+    path = tmp_path / "bad_origin.urdf"
+    path.write_text(text.replace('<origin xyz="0 0 0.5"/><axis', '<origin xyz="0 zero 0.5"/><axis'))
+    with pytest.raises(InputError) as err:
+        load_spatial(path)
+    text = str(err.value)
+    assert "Unable to parse component [zero]" in text and "joint [j2]" in text
+    assert "\n" not in text and ".cpp" not in text
+    assert capfd.readouterr().err == ""
