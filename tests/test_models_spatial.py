@@ -157,6 +157,24 @@ def test_a_lock_set_naming_a_fixed_joint_or_given_twice_is_named(tmp_path):
     assert list(load_spatial(path, strata=[["j3"], ["j1", "j2"]]).strata) == ["S3", "S12"]
 
 
+def test_what_urdfdom_says_of_a_model_it_loads_never_goes_to_stdout(monkeypatch, capsys):
+    """Passed on to stderr; without one (pythonw, sys.stderr None) print(file=None) wrote it
+    on stdout, in the middle of `--json` output."""
+    import contextlib
+    import sys
+
+    @contextlib.contextmanager
+    def saying():
+        yield ["Warning: something urdfdom says"]
+
+    monkeypatch.setattr(spatial, "native_stderr", saying)
+    load_spatial(ROBOTS / "arm3.urdf")
+    assert capsys.readouterr() == ("", "Warning: something urdfdom says\n")
+    monkeypatch.setattr(sys, "stderr", None)
+    load_spatial(ROBOTS / "arm3.urdf")
+    assert capsys.readouterr().out == ""
+
+
 def test_urdfdom_s_reason_is_the_message_not_lines_on_stderr(tmp_path, capfd):
     # a URDF that passes our reading but not urdfdom's: its C++ lines ("Error: ... at line
     # 231 in /project/urdfdom/...") went to stderr, the message said only "The XML stream

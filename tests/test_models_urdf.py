@@ -108,6 +108,11 @@ INERTIA = '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>'
             '<inertia ixx="0.1" ixy="5" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial>',
             "link 'b': its inertia matrix is not positive semi-definite",
         ),
+        (  # a small part's (grams and millimetres): as wrong as a large one's
+            '<inertial><mass value="0.001"/>'
+            '<inertia ixx="1e-10" ixy="5e-10" ixz="0" iyy="1e-10" iyz="0" izz="1e-10"/></inertial>',
+            "link 'b': its inertia matrix is not positive semi-definite",
+        ),
     ],
 )
 def test_an_inertial_without_physical_meaning_is_named(tmp_path, inertial, expected):
@@ -120,6 +125,21 @@ def test_a_massless_link_and_a_valid_inertial_are_read(tmp_path):
     inertial = f'<inertial><origin xyz="0 0 1"/><mass value="2"/>{INERTIA}</inertial>'
     assert read_urdf(_robot(tmp_path, inertial=inertial))[1].revolute[0].name == "j"
     assert read_urdf(_robot(tmp_path))[1].revolute[0].name == "j"
+
+
+@pytest.mark.parametrize(
+    "inertia",
+    [
+        'ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"',  # a point mass
+        'ixx="1E-1" ixy="-0.0" ixz="0" iyy="1e-1" iyz="0" izz="0"',  # a thin rod along z
+        'ixx="1e-9" ixy="0" ixz="0" iyy="2e-9" iyz="0" izz="2.5e-9"',  # a small part
+        # a rod along (1, 1, 0) / sqrt 2, written rounded: its zero eigenvalue is -1e-17
+        'ixx="0.05" ixy="-0.05" ixz="0" iyy="0.05" iyz="0" izz="0.1"',
+    ],
+)
+def test_an_odd_but_valid_inertia_is_read(tmp_path, inertia):
+    inertial = f'<inertial><mass value="1.5e0"/><inertia {inertia}/></inertial>'
+    assert read_urdf(_robot(tmp_path, inertial=inertial))[1].revolute[0].name == "j"
 
 
 @pytest.mark.parametrize(
@@ -143,3 +163,64 @@ def test_a_revolute_joint_without_an_axis_turns_about_x_as_urdf_says(tmp_path):
 def test_limits_in_the_wrong_order_are_named(tmp_path):
     text = _one_line(tmp_path, joint_extra='<axis xyz="0 0 1"/><limit lower="1" upper="-1"/>')
     assert "joint 'j': limit lower 1 is above upper -1" in text
+
+
+def test_native_stderr_in_two_threads_gives_each_its_lines_and_stderr_back():
+    """Overlapping captures: the later one saved the earlier one's temporary file as
+    "stderr" and put it back, so the process's stderr went to a deleted file for good (a
+    Dask worker's threads building URDF models)."""
+    import os
+    import threading
+
+    from stratcli.models.urdf import native_stderr
+
+    before = os.fstat(2)
+    first_in, second_in, first_out = (threading.Event() for _ in range(3))
+    said = {}
+
+    def first():
+        with native_stderr() as lines:
+            first_in.set()
+            second_in.wait(0.5)  # the second thread starts its capture here, if it may
+            os.write(2, b"from first\n")
+        first_out.set()  # ends first: not in the reverse order of starting
+        said["first"] = lines
+
+    def second():
+        first_in.wait(5)
+        with native_stderr() as lines:
+            second_in.set()
+            first_out.wait(0.5)
+            os.write(2, b"from second\n")
+        said["second"] = lines
+
+    threads = [threading.Thread(target=first), threading.Thread(target=second)]
+    kept = os.dup(2)  # put back whatever happens: the rest of the tests write there
+    try:
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(10)
+        after = os.fstat(2)
+    finally:
+        os.dup2(kept, 2)
+        os.close(kept)
+    assert (after.st_dev, after.st_ino) == (before.st_dev, before.st_ino)
+    assert said == {"first": ["from first"], "second": ["from second"]}
+
+
+def test_native_stderr_without_descriptor_2_captures_nothing():
+    import subprocess
+    import sys
+
+    code = (
+        "from stratcli.models.urdf import native_stderr\n"
+        "with native_stderr() as lines: pass\n"
+        "print(lines)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], stderr=subprocess.DEVNULL, capture_output=False,
+        stdout=subprocess.PIPE, text=True, check=False, pass_fds=(),
+        preexec_fn=lambda: __import__("os").close(2),
+    )  # fmt: skip
+    assert (done.returncode, done.stdout.strip()) == (0, "[]")

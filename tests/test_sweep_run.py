@@ -331,3 +331,46 @@ def test_records_that_cannot_be_made_are_counted_and_shown(tmp_path, monkeypatch
     assert f"records  {len(lost)} asked for could not be made (task 0: RuntimeError" in (
         shown.output
     )
+
+
+def test_records_an_earlier_run_could_not_make_stay_reported_after_resume(tmp_path, monkeypatch):
+    """A resumed sweep rewrites sweep.json: the lost records of the tasks it keeps (not
+    planned again) stay listed; those it plans now and makes are not."""
+    import stratcli.api
+
+    path, working = write(tmp_path, GRID), stratcli.api.write_record
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(stratcli.api, "write_record", broken)
+    with _BreakingPool(1) as pool:  # tasks 0-2 planned, their records lost; 3-5 missing
+        first = run_sweep(load_sweep(path), tmp_path / "o", executor=pool, records="all")
+    assert [x["task"] for x in first.summary["records_lost"]] == [0, 1, 2]
+    monkeypatch.setattr(stratcli.api, "write_record", working)
+    with ThreadPoolExecutor(1) as pool:
+        again = run_sweep(load_sweep(path), tmp_path / "o", executor=pool, records="all",
+                          resume=True)  # fmt: skip
+    assert again.complete and again.planned == 3
+    assert again.summary["records_lost"] == first.summary["records_lost"]
+    made = sorted(p.name for p in (tmp_path / "o" / "records").iterdir())
+    assert made == ["task-000003", "task-000004", "task-000005"]
+
+
+def test_the_best_tasks_record_made_on_resume_is_no_longer_reported_lost(tmp_path, monkeypatch):
+    import stratcli.api
+
+    path, working = write(tmp_path, GRID), stratcli.api.write_record
+    monkeypatch.setattr(stratcli.api, "write_record", lambda *a, **k: 1 / 0)
+    with ThreadPoolExecutor(1) as pool:
+        first = run_sweep(load_sweep(path), tmp_path / "o", executor=pool, records="best")
+    (lost,) = first.summary["records_lost"]
+    rows = tmp_path / "o" / ROWS  # another task's row lost (a killed run): resume plans it
+    kept = [x for x in rows.read_text().splitlines() if json.loads(x)["index"] != 5 - lost["task"]]
+    rows.write_text("\n".join(kept) + "\n")
+    monkeypatch.setattr(stratcli.api, "write_record", working)
+    with ThreadPoolExecutor(1) as pool:
+        again = run_sweep(load_sweep(path), tmp_path / "o", executor=pool, records="best",
+                          resume=True)  # fmt: skip
+    assert again.planned == 1 and again.summary["records_lost"] == []
+    assert (tmp_path / "o" / "records" / f"task-{lost['task']:06d}").is_dir()

@@ -160,6 +160,17 @@ STAGES = [
          "scenario.task.goal: needs 4 values (q1, q2, q3, theta), got 3",
          'sweep.grid."goal.q9": unknown coordinate \'q9\''],
     ),
+    (  # a range whose key names no coordinate and whose bound is not a number: both
+        '[sweep.random]\ncount = 2\nranges = { "goal.q9" = ["-pi/zz", 1] }\n',
+        "auto", AUTO,
+        ['sweep.random.ranges."goal.q9": unknown coordinate \'q9\'',
+         'sweep.random.ranges."goal.q9"[0]: in \'-pi/zz\''],
+    ),
+    (  # a range of a setting: its values are not checked as the setting's (0.0 no integer)
+        '[sweep.random]\ncount = 2\nranges = { "planner.seed" = [0, 1] }\n',
+        "auto", AUTO,
+        ['sweep.random.ranges."planner.seed": random ranges are for coordinates'],
+    ),
 ]  # fmt: skip
 
 

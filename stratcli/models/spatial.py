@@ -83,8 +83,8 @@ class SpatialRobot:
         except (RuntimeError, ValueError) as exc:
             why = urdfdom_errors(said) or str(exc)
             raise InputError([Problem("model.path", f"Pinocchio cannot load it: {why}")]) from None
-        if said:  # what it said of a model it loaded: passed on
-            print("\n".join(said), file=sys.stderr)
+        if said and sys.stderr is not None:  # what it said of a model it loaded: passed on
+            print("\n".join(said), file=sys.stderr)  # (file=None would print on stdout)
         self.data = self.model.createData()
         model = self.model
         names = list(model.names)[2:]

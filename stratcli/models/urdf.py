@@ -17,6 +17,7 @@ import math
 import os
 import sys
 import tempfile
+import threading
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -163,7 +164,7 @@ def _check_inertial(path: Path, link: str, inertial: ET.Element | None) -> None:
     xx, xy, xz, yy, yz, zz = (e[0] for e in entries)
     matrix = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
     smallest = float(np.linalg.eigvalsh(matrix)[0])
-    if smallest < -1e-9 * max(1.0, float(np.abs(matrix).max())):
+    if smallest < -1e-9 * float(np.abs(matrix).max()):  # relative: small links are small
         raise _fail(
             f"{path}: link {link!r}: its inertia matrix is not positive semi-definite "
             f"(smallest eigenvalue {smallest:.3g}); check ixy, ixz, iyz and their signs"
@@ -231,24 +232,30 @@ def native_stderr() -> Iterator[list[str]]:
     """Capture what native code (urdfdom, inside Pinocchio) writes to file descriptor 2: its
     lines are in the yielded list once the block ends. The descriptor is the process's: for
     the milliseconds a model takes to build, other threads' native stderr lands there too
-    (and is passed on by the caller when the model loads)."""
+    (and is passed on by the caller when the model loads). Captures in several threads take
+    turns (`_CAPTURE`): overlapping, the later one saved the earlier one's file as "stderr"
+    and put it back, and the process's stderr went to a deleted file for good."""
     lines: list[str] = []
-    try:
-        if sys.stderr is not None:
-            sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError):  # no descriptor 2 (closed) or no stderr: nothing to capture
-        yield lines
-        return
-    with tempfile.TemporaryFile() as tmp:
-        os.dup2(tmp.fileno(), 2)
+    with _CAPTURE:
         try:
+            if sys.stderr is not None:
+                sys.stderr.flush()
+            saved = os.dup(2)
+        except (OSError, ValueError):  # no descriptor 2 (closed) or no stderr: nothing to capture
             yield lines
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            tmp.seek(0)
-            lines.extend(tmp.read().decode("utf-8", "replace").splitlines())
+            return
+        with tempfile.TemporaryFile() as tmp:
+            os.dup2(tmp.fileno(), 2)
+            try:
+                yield lines
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                tmp.seek(0)
+                lines.extend(tmp.read().decode("utf-8", "replace").splitlines())
+
+
+_CAPTURE = threading.RLock()  # one redirection of descriptor 2 at a time (nested: same thread)
 
 
 def urdfdom_errors(lines: list[str]) -> str:

@@ -18,6 +18,7 @@ numbers besides `TIMING_COLUMNS`.
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
@@ -151,7 +152,7 @@ def run_sweep(
     per_task = "all" if records == "all" else "failed" if records == "failed" else "none"
     futures: dict[Future, int] = {}
     written: list[Path] = []
-    lost: dict[int, str] = {}  # task -> why its record could not be made
+    lost = _lost_before(out, rows) if resume else {}  # task -> why its record was not made
     try:
         advance(len(rows), sweep.count)
         with sweepdir.RowLog(out / sweepdir.ROWS) as log:
@@ -186,6 +187,7 @@ def run_sweep(
                 result = executor.submit(run_task, _payload(sweep, task, "all")).result()
                 if result["record"] is not None:
                     written.append(_write_record(out, *result["record"]))
+                    lost.pop(best, None)  # an earlier run's attempt: made now
                 if result.get("record_lost"):
                     lost[best] = result["record_lost"]
     except BaseException:  # an interrupt: the rows written so far stay; stop the workers
@@ -202,6 +204,21 @@ def run_sweep(
     )
     rows = dict(sorted(rows.items()))  # in task order, as results.csv (they came as finished)
     return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)
+
+
+def _lost_before(out: Path, rows: dict[int, dict[str, Any]]) -> dict[int, str]:
+    """The records an earlier run of a resumed sweep could not make, of the tasks it keeps
+    (sweep.json's records_lost; none if it never wrote one): not planned again, they stay
+    reported."""
+    try:
+        entries = json.loads((out / sweepdir.SUMMARY).read_text()).get("records_lost") or []
+    except (OSError, ValueError, AttributeError):
+        return {}
+    return {
+        x["task"]: str(x.get("reason", ""))
+        for x in entries
+        if isinstance(x, dict) and isinstance(x.get("task"), int) and x["task"] in rows
+    }
 
 
 def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOutcome | None:

@@ -99,14 +99,17 @@ def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[fl
         where = f'sweep.random.ranges."{key}"'
         if ("sweep", "random", "ranges", key) in base.pruned:
             continue
-        if valid_key(key) and not is_coordinate(key):
+        if valid_key(key) and not is_coordinate(key):  # its values are for no coordinate
             base.problems.append(Problem(where, "random ranges are for coordinates (goal.q1, ...)"))
+            known = False
+        else:  # whatever the bounds are: every problem in one run
+            known = not base.key_problem(key, where)
         bounds = [number(v, f"{where}[{i}]", base.problems) for i, v in enumerate(pair)]
         if len(pair) != 2:
             base.problems.append(Problem(where, f"needs [low, high] (got {len(pair)} values)"))
         elif None not in bounds and not bounds[0] < bounds[1]:
             base.problems.append(Problem(where, f"low must be below high (got {pair})"))
-        elif None not in bounds and not base.key_problem(key, where):
+        elif None not in bounds and known:
             for i, b in enumerate(bounds):
                 base.check({key: b}, f"{where}[{i}]")
         out[key] = bounds
