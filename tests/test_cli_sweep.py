@@ -182,3 +182,15 @@ def test_a_bad_sweep_file_reports_its_schema_and_value_problems_in_one_run(tmp_p
         "cos, cosh, exp, log, sin, sinh, sqrt, tan, tanh) (got '-pi/zz')",
     ]
     assert not (tmp_path / "o").exists()
+
+
+def test_a_file_with_hundreds_of_problems_prints_the_first_fifty(tmp_path):
+    """Every task row is checked: a bad 120-row table printed 120 lines (20,000 for 20,000
+    rows); the command prints the first 50 and how many more there are."""
+    rows = "".join(f'[[sweep.task]]\n"goal.q1" = "bad{i}"\n' for i in range(120))
+    path = write(tmp_path, rows)
+    result = runner.invoke(app, ["sweep", str(path), "--out", str(tmp_path / "o")])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 51
+    assert lines[49].startswith(f"error: {path}: sweep.task[49].")
+    assert lines[50] == f"error: {path}: and 70 more problems (the first 50 shown)"

@@ -112,6 +112,9 @@ def flagged(problem: Problem) -> Problem:
     return Problem(path, problem.flag_message or problem.message)
 
 
+SHOWN_PROBLEMS = 50  # lines of bad input printed, at most (the library's error keeps them all)
+
+
 @contextmanager
 def reported(scenario: Path | None = None) -> Iterator[None]:
     """Map errors to exit codes: bad input 2, not controllable 3 (naming `scenario`), a
@@ -119,8 +122,11 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
     try:
         yield
     except InputError as exc:
-        for problem in exc.problems:
+        for problem in exc.problems[:SHOWN_PROBLEMS]:
             error("error", flagged(problem).render(exc.source))
+        if (more := len(exc.problems) - SHOWN_PROBLEMS) > 0:  # a 20,000-row table's
+            where = f"{exc.source}: " if exc.source else ""
+            error("error", f"{where}and {more:,} more problems (the first {SHOWN_PROBLEMS} shown)")
         raise typer.Exit(2) from None
     except NotControllableError as exc:
         for problem in exc.problems:
