@@ -286,3 +286,17 @@ def test_an_inline_base_scenarios_relative_urdf_path_is_relative_to_the_sweep_fi
     )
     (task,) = load_sweep(sweep).tasks()
     assert load_scenario(task.scenario).system.n == 6
+
+
+def test_a_problem_every_value_of_an_axis_has_is_one_line():
+    """An unknown setting is the axis's problem, not each value's (it printed once a value)."""
+    body = '[sweep.grid]\n"planner.harmonics" = [2, 3, 4]\n"goal.q1" = [0, "x"]\n'
+    with pytest.raises(InputError) as exc:
+        load_sweep(
+            '[sweep]\nname = "h"\nscenario = "%s"\n' % (ROOT / "scenarios" / "sim4_task_a.toml")
+            + body
+        )
+    lines = str(exc.value).splitlines()
+    assert len(lines) == 2, lines
+    assert 'sweep.grid."planner.harmonics": planner.harmonics: unknown key' in lines[0]
+    assert lines[0].endswith("(every value)") and "sweep.grid.\"goal.q1\"[1]: in 'x'" in lines[1]

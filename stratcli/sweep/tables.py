@@ -83,13 +83,30 @@ def grid_axes(grid: dict[str, Any], base: Base) -> list[tuple[Any, ...]]:
         axes.append(values)
         if base.key_problem(key, where):
             continue
+        found: list[list[Problem]] = []  # each value's problems
         for i, value in enumerate(values[:MAX_CHECKED]):
             if base.loads:
-                check_value(base.scenario, key, value, base.states, f"{where}[{i}]", base.problems)
+                found.append([])
+                check_value(base.scenario, key, value, base.states, f"{where}[{i}]", found[-1])
+        base.problems += _once(found, where)
     total = int(np.prod([max(1, len(a)) for a in axes]))
     if total > MAX_TASKS and len(axes) == len(grid):
         base.problems.append(Problem("sweep.grid", f"{total} tasks (at most {MAX_TASKS})"))
     return axes
+
+
+def _once(found: list[list[Problem]], where: str) -> list[Problem]:
+    """The problems of an axis's values, one line at the axis for a problem every value has
+    (an unknown setting such as "planner.harmonics" is not a problem of each value)."""
+    if len(found) > 1 and found[0]:
+        shared = {p.message for p in found[0]}
+        for problems in found[1:]:
+            shared &= {p.message for p in problems}
+        if shared:
+            kept = [p for problems in found for p in problems if p.message not in shared]
+            common = [Problem(where, f"{m} (every value)") for m in sorted(shared)]
+            return common + kept
+    return [p for problems in found for p in problems]
 
 
 def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[float | None]]:
