@@ -234,6 +234,7 @@ def test_a_task_the_search_cannot_plan_fails_naming_the_limit_and_the_leg(tmp_pa
     assert result.exit_code == 1, result.output
     assert "stalled on leg 2" in result.output and "joint limits of q1" in result.output
     assert result.output.count("stalled on leg 2") == 1  # in the failure line, not a note too
+    assert re.search(r"still violated by [0-9.e+-]+ rad at its nodes", result.output)  # a unit
     (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
     doc = json.loads((run / "result.json").read_text())
     assert doc["status"] == "failed" and doc["constraints"]["violated"]

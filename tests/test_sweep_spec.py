@@ -227,7 +227,9 @@ def test_problems_of_the_base_scenario_name_its_file(tmp_path):
     assert str(base) in str(exc.value)
     base.write_text('name = "nolegs"\n[model]\nkind = "preset"\nname = "one-arm"\n'
                     "[task]\nstart = [0, 0, 0, 0]\ngoal = [1, 0, 0, 0]\n")  # fmt: skip
-    with pytest.raises(InputError, match=r"sweep\.mode: legs mode needs"):
+    with pytest.raises(
+        InputError, match=r"sweep\.mode: legs mode plans the base scenario.s \[\[legs\]\]"
+    ):
         load_sweep(write(tmp_path, GRID, scenario=base))
     assert load_sweep(write(tmp_path, GRID, scenario=base, mode="auto")).count == 6
 

@@ -124,9 +124,10 @@ class _Search(Descent):
                 break
         worst = int(np.argmin(g))
         leg, what = self.margins.labels[worst]
+        unit = " rad" if what.startswith("the joint limits") else ""  # else the model's length
         self.stalled = (
             f"the constrained search stalled on leg {leg + 1}: {what} still violated by "
-            f"{max(PUSH - g[worst], 0.0):.3g} at its nodes"
+            f"{max(PUSH - g[worst], 0.0):.3g}{unit} at its nodes"
         )
         return False
 

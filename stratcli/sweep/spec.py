@@ -326,21 +326,13 @@ def _checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) -
     except InputError as exc:
         found = [_under(where, p) for p in exc.problems if p.path != "legs"]
         if mode == "legs" and "legs" not in base and ("sweep", "mode") not in pruned:
-            needs = "legs mode needs a base scenario with [[legs]] (or mode = auto)"
-            found.append(Problem("sweep.mode", needs))
+            found.append(_no_legs(where))
         problems.extend(found or [_under(where, p) for p in exc.problems])
         hidden = tuple(p.path for p in exc.problems)
         return Base(base, base_states(base), False, pruned, problems, hidden)
     if mode == "legs" and "legs" not in base and ("sweep", "mode") not in pruned:
         # an auto-mode base ([decompose], no legs): every task would be invalid
-        where = "the [scenario] table" if where == "scenario" else where
-        problems.append(
-            Problem(
-                "sweep.mode",
-                f"legs mode plans the base scenario's [[legs]], "
-                f'and {where} has none: set mode = "auto" or "compare"',
-            )
-        )
+        problems.append(_no_legs(where))
         return Base(base, states, False, pruned, problems)
     applied = 0  # entries of `set` without a problem of their own: the values see them
     for key, value in s.set.items():
@@ -358,6 +350,13 @@ def _checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) -
         check_scenario(base, field="sweep.set", problems=problems)
     loads = len(problems) == before and ("sweep", "set") not in pruned
     return Base(base, states, loads, pruned, problems)
+
+
+def _no_legs(where: str) -> Problem:
+    """Legs mode (the default) over a base without [[legs]]."""
+    named = "the [scenario] table" if where == "scenario" else where
+    why = f"legs mode plans the base scenario's [[legs]], and {named} has none"
+    return Problem("sweep.mode", f'{why}: set mode = "auto" or "compare"')
 
 
 def _resolve(
