@@ -302,3 +302,18 @@ def test_a_problem_every_value_of_an_axis_has_is_one_line():
     assert len(lines) == 2, lines
     assert 'sweep.grid."planner.harmonics": planner.harmonics: unknown key' in lines[0]
     assert lines[0].endswith("(every value)") and "sweep.grid.\"goal.q1\"[1]: in 'x'" in lines[1]
+
+
+def test_linspace_over_an_integer_setting_gives_integers(tmp_path):
+    """`planner.seed = { linspace = [0, 4, 5] }` gave 0.0 ... 4.0, which the (strict) seed
+    refuses; integer ends and integral points of a setting are integers, coordinates stay
+    floats."""
+    body = (
+        '[sweep.grid]\n"planner.seed" = { linspace = [0, 4, 5] }\n'
+        '"goal.theta" = { linspace = [-1, 0, 2] }\n'
+    )
+    tasks = list(load_sweep(write(tmp_path, body)).tasks())
+    seeds = [t.inputs["planner.seed"] for t in tasks[::2]]
+    assert seeds == [0, 1, 2, 3, 4] and all(type(s) is int for s in seeds)
+    assert [t.inputs["goal.theta"] for t in tasks[:2]] == [-1.0, 0.0]
+    assert type(tasks[0].inputs["goal.theta"]) is float

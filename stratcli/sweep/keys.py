@@ -120,7 +120,11 @@ def axis_values(key: str, axis: Any, field: str, problems: list[Problem]) -> tup
             return ()
         if lo is None or hi is None:
             return ()
-        return tuple(float(x) for x in np.linspace(lo, hi, n))
+        points = np.linspace(lo, hi, n)
+        ints = all(isinstance(v, int) and not isinstance(v, bool) for v in (a, b))
+        if ints and not is_coordinate(key) and np.all(points == np.round(points)):
+            return tuple(int(x) for x in np.round(points))  # an integer setting: seed, restarts
+        return tuple(float(x) for x in points)
     if not axis:
         problems.append(Problem(field, "needs at least one value"))
     return tuple(value_of(key, v, f"{field}[{i}]", problems) for i, v in enumerate(axis))
