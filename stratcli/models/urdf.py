@@ -258,6 +258,15 @@ def native_stderr() -> Iterator[list[str]]:
 _CAPTURE = threading.RLock()  # one redirection of descriptor 2 at a time (nested: same thread)
 
 
+def _new_lock_after_fork() -> None:  # a fork while another thread captured: not held there
+    global _CAPTURE
+    _CAPTURE = threading.RLock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_new_lock_after_fork)
+
+
 def urdfdom_errors(lines: list[str]) -> str:
     """urdfdom's "Error:" messages in one line, without the C++ source locations."""
     found = [x.split(":", 1)[1].strip() for x in lines if x.startswith("Error:")]
