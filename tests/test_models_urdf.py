@@ -224,3 +224,43 @@ def test_native_stderr_without_descriptor_2_captures_nothing():
         preexec_fn=lambda: __import__("os").close(2),
     )  # fmt: skip
     assert (done.returncode, done.stdout.strip()) == (0, "[]")
+
+
+def test_a_fork_while_another_thread_captures_does_not_hang_the_child():
+    """The child of a fork made while a thread held the capture's lock got it held by nobody:
+    its first capture waited for ever."""
+    import os
+    import threading
+    import time
+
+    from stratcli.models import urdf
+
+    holding, release = threading.Event(), threading.Event()
+
+    def hold():
+        with urdf.native_stderr():
+            holding.set()
+            release.wait(10)
+
+    thread = threading.Thread(target=hold)
+    thread.start()
+    holding.wait(10)
+    try:
+        child = os.fork()
+        if child == 0:  # pragma: no cover - the child's exit code is the result
+            code = 1
+            try:
+                with urdf.native_stderr():
+                    code = 0
+            finally:
+                os._exit(code)
+        deadline = time.monotonic() + 10
+        while (done := os.waitpid(child, os.WNOHANG)) == (0, 0) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        if done == (0, 0):
+            os.kill(child, 9)
+            os.waitpid(child, 0)
+        assert done != (0, 0) and os.waitstatus_to_exitcode(done[1]) == 0
+    finally:
+        release.set()
+        thread.join()
