@@ -156,7 +156,8 @@ def test_a_revolute_joint_without_limit_or_axis_is_named(tmp_path, extra, expect
 
 
 def test_a_revolute_joint_without_an_axis_turns_about_x_as_urdf_says(tmp_path):
-    text, summary = read_urdf(_robot(tmp_path, joint_extra='<limit lower="-1" upper="1"/>'))
+    limit = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
+    text, summary = read_urdf(_robot(tmp_path, joint_extra=limit))
     assert (summary.revolute[0].lower, summary.revolute[0].upper) == (-1.0, 1.0)
     pin = pytest.importorskip("pinocchio")  # and Pinocchio reads it so: about x
     assert pin.buildModelFromXML(text).joints[1].shortname() == "JointModelRX"
