@@ -183,9 +183,13 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
         lower[i], upper[i] = lo, hi
     rate = _per(spec.max_rate, m, "input", "constraints.max_rate", problems)
     acc = _per(spec.max_acceleration, m, "input", "constraints.max_acceleration", problems)
-    if spec.clearance > 0 and not (spec.self_collision or spec.obstacles):
+    if not (spec.self_collision or spec.obstacles):  # the sizes of bodies nothing measures
         message = "applies to self_collision = true and to obstacles, and neither is set"
-        problems.append(Problem("constraints.clearance", message))
+        if spec.clearance > 0:
+            problems.append(Problem("constraints.clearance", message))
+        # a radius other than the default (resolved.json writes the default out)
+        if spec.link_radius != ConstraintsSpec.model_fields["link_radius"].default:
+            problems.append(Problem("constraints.link_radius", message))
     if (spec.self_collision or spec.obstacles) and robot is None:
         problems.append(
             Problem(

@@ -49,13 +49,25 @@ SPATIAL_ADVICE = (
 )
 
 
+DURATIONS_ADVICE = (
+    'reached its goals but violates a limit of [constraints]; durations = "optimise" does not '
+    'search within the limits: set durations = "fixed" (the default) to have the search keep '
+    "them, or try via configurations that keep the robot away from the limit or another "
+    "stratum sequence"
+)
+
+
 def violation_advice(plan, violated: str) -> str:
     """What to try after `violated` (a `constraints.verify` violation): for a URDF model's
-    limits what can help there, else the status' own advice."""
+    limits what can help there, for optimised durations the fixed ones that the search keeps
+    within the limits (the other objective is refused with them), else the status' own
+    advice."""
     if URDF_LIMIT in violated:
         return URDF_ADVICE
     if getattr(plan.model.spec, "kind", plan.model.name) == "urdf":  # (no model built)
         return SPATIAL_ADVICE
+    if plan.settings.durations == "optimise":
+        return DURATIONS_ADVICE
     return Status.CONSTRAINT_VIOLATED.value
 
 

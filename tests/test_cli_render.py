@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import io
 import json
+import tomllib
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -150,6 +151,42 @@ def test_every_number_and_id_appears_whole_at_80_columns(monkeypatch, planned):
             assert render.fmt(451.2345 * 10**k) in text  # 451,234.50 or 4.512e+07
     text = _render(monkeypatch, _tables(planned)["regress"], 80)
     assert "3.02346e+07" in text and "9.87654e-11" in text
+
+
+def _limited_ranking_doc() -> dict:
+    """A comparison under a rate limit: the searched sequence slowed to 13 s, the other one
+    bounded at the 2 s it was planned in before any slowing."""
+    doc = _ranking_doc()
+    doc["strategies"] = ["conservative"]
+    doc["reference_duration_s"] = 2.0
+    common = {"strategy": "conservative", "reason": None, "planning_time_s": 0.5}
+    doc["rows"] = [
+        {"rank": 1, "sequence": ["S1", "S3"], "status": "ok", "energy": 36.63,
+         "energy_equal_time": 239.41, "peak_control": 3.0, "excursion": 3.4, "duration": 13.07,
+         **common},
+        {"rank": 2, "sequence": ["S3", "S1"], "status": "bounded", "energy": None,
+         "energy_equal_time": None, "peak_control": None, "excursion": None, "duration": 2.0,
+         "energy_bound": 239.91, "energy_bound_equal_time": 239.91, **common},
+    ]  # fmt: skip
+    return doc
+
+
+@pytest.mark.parametrize("limited", [True, False])
+def test_a_bounded_row_under_rate_limits_shows_only_its_bound_at_equal_duration(
+    monkeypatch, limited
+):
+    # slowed by a factor of its own, a sequence not searched would not run in 2 s nor at
+    # 239.91 (the searched one runs at 36.63 in 13 s): only the equal-duration bound holds
+    raw = tomllib.loads(AUTO.read_text())
+    if limited:
+        raw["constraints"] = {"max_rate": 3.0}
+    task = _task(raw)
+    text = _render(monkeypatch, lambda: render_tables.ranking(task, _limited_ranking_doc()), 160)
+    (line,) = [x for x in text.splitlines() if "S3 → S1" in x]
+    cells = [c.strip() for c in line.split("│")]
+    energy, equal, _, _, duration = cells[3:8]
+    assert equal == "≥ 239.91"
+    assert (energy, duration) == (("–", "–") if limited else ("≥ 239.91", "2"))
 
 
 def test_a_console_that_is_no_terminal_does_not_wrap():

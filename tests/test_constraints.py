@@ -49,11 +49,19 @@ def _problems(raw: dict) -> list[str]:
         ({"obstacles": [{"shape": "circle", "centre": [0, 1]}]}, "constraints.obstacles"),
         ({"speed": 1.0}, "constraints.speed"),
         ({"clearance": 0.05}, "constraints.clearance: applies to self_collision = true and"),
+        ({"link_radius": 0.1}, "constraints.link_radius: applies to self_collision = true and"),
     ],
 )
 def test_bad_constraints_name_their_field(constraints, field):
     problems = _problems(_task_d(**constraints))
     assert any(p.startswith(field) for p in problems), problems
+
+
+def test_the_default_sizes_as_resolved_json_writes_them_load():
+    # resolved.json fills every default in: a rate-limited plan's table holds link_radius 0.05
+    # and clearance 0 beside self_collision = false, and must plan again as it is
+    spec = {"max_rate": 1.0, "self_collision": False, "clearance": 0.0, "link_radius": 0.05}
+    assert load_scenario(_task_d(**spec)).constraints.link_radius == 0.05
 
 
 @pytest.mark.parametrize(

@@ -56,6 +56,18 @@ def test_optimised_durations_say_their_limits_are_verified_not_searched():
     assert not any("not searched for" in n for n in plan.notes)
 
 
+def test_optimised_durations_off_their_limits_advise_fixed_durations():
+    # the usual advice ("more harmonics, or the other objective") does not help here, and
+    # the other objective is refused with optimised durations: fixed ones are searched
+    raw = _task_d(durations="optimise", total_duration=2.0)
+    raw["constraints"] = {"joint_limits": [-2.5, 2.5]}  # the free plan takes q2 past 3 rad
+    plan = plan_run(load_scenario(raw), check=False).result
+    assert not plan.ok
+    assert plan.message.startswith("leg 1 (S3) violates the joint limits of q2")
+    assert 'set durations = "fixed"' in plan.message
+    assert "the other objective" not in plan.message
+
+
 @pytest.mark.parametrize(
     ("planner", "field"),
     [

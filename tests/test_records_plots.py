@@ -249,6 +249,21 @@ def test_ranking_shows_a_bounded_row_as_its_bound_not_as_a_failure():
     assert ax.get_xlim()[1] >= 70.0
 
 
+def test_ranking_clips_a_long_failure_reason_at_a_word_with_an_ellipsis():
+    reason = (
+        "the constrained search stalled on leg 1: self-collision still violated by 0.194 at "
+        "its nodes"
+    )
+    doc = _ranking_doc([60.0, None])
+    doc["rows"][1]["reason"] = reason
+    (ax,) = ranking_figure(doc).axes
+    (text,) = [t.get_text() for t in ax.texts if t.get_text().startswith(" failed: ")]
+    shown = text.removeprefix(" failed: ")
+    assert shown.endswith(" …") and len(shown) <= 60
+    kept = shown.removesuffix(" …")
+    assert reason.startswith(kept) and reason[len(kept)] == " "  # whole words only
+
+
 def test_ranking_scale_counts_the_bounds():
     """Bounds ten times the best make the axis logarithmic, as values would."""
     doc = _ranking_doc([60.0, None])

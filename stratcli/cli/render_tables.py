@@ -46,6 +46,11 @@ def ranking(task, doc: dict) -> None:
     headers = ["energy"] + ([f"energy\nin {reference:g} s"] if scaled else [])
     for header in (*headers, "peak\n|u|", "max\nexcursion", "duration", "planning\nms"):
         number_column(rows, header)
+    # rate and acceleration limits slow each plan by its own factor, which a sequence not
+    # searched does not have: only its bound at equal duration holds (time scaling keeps it)
+    c = task.constraints
+    limits = c is not None and (c.max_rate is not None or c.max_acceleration is not None)
+    slowed = scaled and limits
     failures = []
     bounded = 0
     for row in doc["rows"]:
@@ -59,8 +64,8 @@ def ranking(task, doc: dict) -> None:
         energies = [fmt(row["energy"]) if ok else "–"]
         if scaled:
             energies.append(fmt(row["energy_equal_time"]) if ok else "–")
-        if bound:
-            energies = ["≥ " + fmt(row["energy_bound"])]
+        if bound:  # under rate limits its energy and duration as run are unknown (slowed)
+            energies = ["–" if slowed else "≥ " + fmt(row["energy_bound"])]
             if scaled:
                 energies.append("≥ " + fmt(row["energy_bound_equal_time"]))
         rows.add_row(
@@ -70,7 +75,7 @@ def ranking(task, doc: dict) -> None:
             *energies,
             fmt(row["peak_control"]) if ok else "–",
             _number(row["excursion"], "{:.3f}") if ok else "–",
-            _number(row["duration"], "{:g}"),
+            "–" if bound and slowed else _number(row["duration"], "{:g}"),
             "–" if bound else f"{1e3 * row['planning_time_s']:.0f}",
             style=style,
         )

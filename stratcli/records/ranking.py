@@ -20,6 +20,8 @@ from .figure_common import LOG_RATIO, fixed_margins, plain_log_labels, save_figu
 
 __all__ = ["ranking_figure", "ranking_png"]
 
+REASON_CHARS = 60  # of a failed sequence's reason beside its row
+
 
 def _short(x: float) -> str:
     return f"{x:,.0f}" if abs(x) >= 1000 else f"{x:.4g}"
@@ -44,6 +46,14 @@ _KEYS = {
     "excursion": "excursion",
     "duration": "duration",
 }
+
+
+def _clipped(text: str, width: int) -> str:
+    """`text`, or its words that fit in `width` characters and an ellipsis (a word cut in
+    the middle read as another: "self-collision stil", "an obstacle still v")."""
+    if len(text) <= width:
+        return text
+    return textwrap.shorten(text, width, placeholder=" …")
 
 
 def _axis_label(doc: dict[str, Any]) -> str:
@@ -106,7 +116,7 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         if i in ok or i in bounds:
             continue
         failed = True
-        reason = " failed: " + (r["reason"] or r["status"])[:60]
+        reason = " failed: " + _clipped(r["reason"] or r["status"], REASON_CHARS)
         ax.text(floor, i, reason, va="center", fontsize=VALUE_SIZE, color=FAILED_COLOR)
     if log:
         ax.set_xscale("log")
