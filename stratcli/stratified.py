@@ -200,6 +200,9 @@ def _count(n: int, noun: str) -> str:
     return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
+DRIFTED = "free coordinates drifted"  # a failed Lie leg's message says so (`lie._drifted`)
+
+
 def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
     """What a user reads when a leg fails: which leg, how far off, what to try (first the
     Newton budget, where the scenario set it below its default)."""
@@ -213,6 +216,9 @@ def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
     if leg.status is Status.LIE_NOT_CONVERGED:
         where += " (Lie-algebraic)"
         work = f"after {_count(leg.iterations, 'step')}"
+        _, drift, how = leg.message.partition(DRIFTED)  # `lie._drifted`: the first thing to try
+        if drift:
+            advice = f"{drift}{how}, or {advice}"
     else:
         work = f"after {_count(leg.iterations, 'iteration')} in {_count(leg.attempts, 'attempt')}"
         if leg.message:  # e.g. the continuation that followed them

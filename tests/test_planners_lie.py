@@ -104,3 +104,43 @@ def test_sim3_lie_leg_is_local_and_cheap(scenarios_dir):
     du0 = leg.controls(np.array([0.0]), True)[0]
     np.testing.assert_allclose(u0, previous[0], atol=1e-9)
     np.testing.assert_allclose(du0, previous[1], atol=1e-9)
+
+
+CRAB = """
+name = "crab"
+[model]
+kind = "planar-manipulator"
+base = { mass = 20.0, a = 1.2, b = 0.8 }
+[[model.arms]]
+mount = [0.6, 0.2]
+links = [{ mass = 3.0, length = 0.9 }, { mass = 1.5, length = 0.7 }]
+[[model.arms]]
+mount = [-0.6, -0.2]
+zero_angle = "pi"
+sense = -1
+links = [{ mass = 2.0, length = 0.8 }, { mass = 1.0, length = 0.6, com = 0.25, inertia = 0.04 }]
+[planner]
+objective = "newton"
+[task]
+start = [0, "pi/4", 0, "pi/4", 0]
+goal = ["-pi/4", "pi/3", "pi/6", "pi/6", 0]
+[[legs]]
+stratum = "S12"
+method = "lie"
+goal = [0, "pi/4", "pi/6", "*", "-pi/24"]
+[[legs]]
+stratum = "S34"
+"""
+
+
+def test_a_failed_lie_leg_names_the_free_coordinate_that_drifted():
+    """A trial's two-arm Lie leg with q4 free ("*") drifted it to 3.95 rad and failed (given a
+    value, it planned in 11 steps): the message says so first."""
+    import stratcli
+
+    plan = stratcli.plan(CRAB, check=False)
+    assert not plan.ok
+    assert "free coordinates drifted (q4 0.785 -> " in plan.message
+    assert "give them values in the leg's goal, or try a smaller lie.gamma" in plan.message
+    given = stratcli.plan(CRAB.replace('"pi/6", "*", "-pi/24"', '"pi/6", "pi/6", "-pi/24"'))
+    assert given.ok and "drifted" not in given.message
