@@ -126,4 +126,6 @@ def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> li
 
 
 def _apart(d: float) -> str:
-    return f"{d:.3g} apart" if d > 0 else f"{-d:.3g} into each other"
+    """A surface distance in words; an overlap by at least its depth (the distance of the
+    bodies' cores stops at 0 where they cross, so a deep overlap reads as the radii)."""
+    return f"{d:.3g} apart" if d > 0 else f"overlapping by at least {-d:.3g}"
