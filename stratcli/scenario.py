@@ -36,7 +36,7 @@ from .models.system import System
 from .node_margins import searchable
 from .planners import PLANNERS
 from .results import none_to_nan
-from .scenario_hints import hinted
+from .scenario_hints import beside_constraints, hinted
 from .schema_problems import validation_problems
 from .settings import (
     MAX_DURATION,
@@ -151,7 +151,13 @@ def from_raw(
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(hinted(validation_problems(exc, root=Scenario), raw), source) from None
+        problems = hinted(validation_problems(exc, root=Scenario), raw)
+
+        def recheck(kept: dict[str, Any]) -> None:
+            _resolve(Scenario.model_validate(kept), "", "", system, base_dir)
+
+        problems += beside_constraints(raw, exc, problems, recheck)
+        raise InputError(problems, source) from None
     if text is None:  # a dict: record it as the TOML file it stands for
         try:
             text = tomlwrite.dumps(raw)

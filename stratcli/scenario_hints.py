@@ -1,7 +1,8 @@
 """Hints added to the validation problems of a scenario for the mistakes that are easy to make
 and that pydantic's own words do not explain: a single `[legs]` table, and a configuration
 written as a table of names on a model that is not a URDF robot (on a URDF robot whose
-`[model]` table is invalid, that table cannot be read yet: only the model's problems stand)."""
+`[model]` table is invalid, that table cannot be read yet: only the model's problems stand);
+and the problems of [constraints] that only its model shows, beside its schema's."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ from typing import Any
 from pydantic import ValidationError
 
 from .errors import InputError, Problem
+from .schema_problems import file_location
 
-__all__ = ["hinted"]
+__all__ = ["beside_constraints", "hinted"]
 
 _LIST = "Input should be a valid list"
 _CONFIGURATION = re.compile(r"^(task\.(start|goal)|legs\[\d+\]\.goal)$")
@@ -62,3 +64,31 @@ def _coordinates(model: Any) -> str:
     if isinstance(states, list) and states and all(isinstance(s, str) for s in states):
         return f"({', '.join(states)})"
     return f"(fix the model first: {first.render()})"
+
+
+def beside_constraints(raw, exc: ValidationError, reported, recheck) -> list[Problem]:
+    """What else a scenario whose only schema problems are in [constraints] has: its other
+    values checked against the model (a coordinate a limit names, a count of rates), as one
+    run reports (they came only once the schema's were fixed). The refused keys are left out,
+    and nothing that names one of them is added (their absence is not a second problem).
+    `recheck(raw)` validates and resolves a scenario, raising `InputError`."""
+    locs = [file_location(tuple(e["loc"])) for e in exc.errors()]
+    table = raw.get("constraints")
+    inside = all(len(loc) > 1 and loc[0] == "constraints" for loc in locs)
+    if not isinstance(table, dict) or not inside:
+        return []
+    refused = {str(loc[1]) for loc in locs}
+    kept = {**raw, "constraints": {k: v for k, v in table.items() if k not in refused}}
+    try:
+        recheck(kept)  # the scenario loaded as far as its model and values
+    except InputError as more:
+        seen = {(p.path, p.message) for p in reported}
+
+        def new(p: Problem) -> bool:
+            said = f"{p.path} {p.message}"
+            return (p.path, p.message) not in seen and not any(k in said for k in refused)
+
+        return [p for p in more.problems if new(p)]
+    except (ValidationError, ValueError, TypeError):  # not checkable without the refused keys
+        return []
+    return []

@@ -282,3 +282,17 @@ def test_urdf_models_take_their_joint_limits_from_the_urdf_unless_overridden():
     assert c.upper[0] == robot.upper[0]
     raw["constraints"] = {"self_collision": True}
     assert any("need a planar robot" in p for p in _problems(raw))
+
+
+def test_the_schemas_and_the_models_problems_of_constraints_come_in_one_run():
+    """A [constraints] table with a value the schema refuses (max_acceleration = 0) showed
+    its other problems (a coordinate the model does not have, a count of rates) only on the
+    next run; the refused key causes no second line (self_collision's clearance)."""
+    bad = {"max_acceleration": 0, "joint_limits": {"q9": [0, 1]}, "max_rate": [1, 2, 3, 4, 5]}
+    problems = _problems(_task_d(**bad))
+    assert len(problems) == 3, problems
+    assert problems[0].startswith("constraints.max_acceleration: Input should be greater")
+    assert problems[1].startswith("constraints.joint_limits.q9: not a coordinate")
+    assert problems[2].startswith("constraints.max_rate: give one number or 3")
+    (only,) = _problems(_task_d(self_collision="yes", clearance=0.05))
+    assert only.startswith("constraints.self_collision: Input should be a valid boolean")
