@@ -138,11 +138,16 @@ def finished_summary(out: Path, rows: dict[int, Any], count: Any) -> dict[str, A
     row, before its summary, is not finished: --resume writes the summary)."""
     if not isinstance(count, int) or sum(0 <= k < count for k in rows) < count:
         return None
+    summary = read_summary(out)
+    return summary if isinstance(summary, dict) and summary.get("done") == count else None
+
+
+def read_summary(out: Path) -> Any:
+    """sweep.json in `out` as parsed, or None when there is none or it does not parse."""
     try:
-        summary = json.loads((out / SUMMARY).read_text())
+        return json.loads((Path(out) / SUMMARY).read_text())
     except (OSError, ValueError):
         return None
-    return summary if isinstance(summary, dict) and summary.get("done") == count else None
 
 
 def _already(out: Path, spec: dict[str, Any]) -> Problem:
@@ -292,9 +297,4 @@ def read_sweep_dir(out: Path) -> tuple[dict[str, Any], dict[int, dict], dict[str
         raise InputError(f"{out / SPEC}: not a sweep directory's spec ({exc})") from None
     if not isinstance(spec, dict) or spec.get("format") != FORMAT:
         raise InputError(f"{out / SPEC}: not a {FORMAT} file")
-    summary = None
-    try:
-        summary = json.loads((out / SUMMARY).read_text())
-    except (OSError, ValueError):
-        summary = None
-    return spec, read_rows(out / ROWS), summary
+    return spec, read_rows(out / ROWS), read_summary(out)

@@ -18,7 +18,6 @@ numbers besides `TIMING_COLUMNS`.
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
@@ -171,11 +170,8 @@ def run_sweep(
                         result = future.result()
                     except Exception:  # the worker died (not the task: run_task gives rows)
                         continue
-                    if result["record"] is not None:  # before the row: a row means it is there
-                        written.append(_write_record(out, *result["record"]))
-                    if result.get("record_lost"):
-                        lost[index] = result["record_lost"]
-                    log.append(result["row"])
+                    _take_record(out, result, index, written, lost)  # before the row: a
+                    log.append(result["row"])  # row means its record is there
                     rows[index] = result["row"]
                     advance(len(rows), sweep.count)
                 if accepting:
@@ -185,11 +181,7 @@ def run_sweep(
             if best is not None and not (out / "records" / f"task-{best:06d}").exists():
                 task = next(t for t in sweep.tasks() if t.index == best)
                 result = executor.submit(run_task, _payload(sweep, task, "all")).result()
-                if result["record"] is not None:
-                    written.append(_write_record(out, *result["record"]))
-                    lost.pop(best, None)  # an earlier run's attempt: made now
-                if result.get("record_lost"):
-                    lost[best] = result["record_lost"]
+                _take_record(out, result, best, written, lost)
     except BaseException:  # an interrupt: the rows written so far stay; stop the workers
         _stop(executor, futures)
         raise
@@ -206,13 +198,23 @@ def run_sweep(
     return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)
 
 
+def _take_record(out: Path, result: dict, index: int, written: list, lost: dict) -> None:
+    """Write a task's run record, if its worker made one (an earlier run's failure to make
+    it is then over), else keep why it could not (`lost`)."""
+    if result["record"] is not None:
+        written.append(_write_record(out, *result["record"]))
+        lost.pop(index, None)
+    if result.get("record_lost"):
+        lost[index] = result["record_lost"]
+
+
 def _lost_before(out: Path, rows: dict[int, dict[str, Any]]) -> dict[int, str]:
     """The records an earlier run of a resumed sweep could not make, of the tasks it keeps
     (sweep.json's records_lost; none if it never wrote one): not planned again, they stay
     reported."""
-    try:
-        entries = json.loads((out / sweepdir.SUMMARY).read_text()).get("records_lost") or []
-    except (OSError, ValueError, AttributeError):
+    summary = sweepdir.read_summary(out)
+    entries = (summary.get("records_lost") if isinstance(summary, dict) else None) or []
+    if not isinstance(entries, list):
         return {}
     return {
         x["task"]: str(x.get("reason", ""))
