@@ -114,6 +114,11 @@ class Constraints:
     def geometric(self) -> bool:
         return self.self_collision or bool(self.circles or self.boxes)
 
+    @property
+    def timed(self) -> bool:
+        """Rate or acceleration limits: they slow a plan by a factor of its own."""
+        return self.max_rate is not None or self.max_acceleration is not None
+
 
 def _per(value, count: int, what: str, path: str, problems: list[Problem]) -> np.ndarray | None:
     if value is None:

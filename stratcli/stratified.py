@@ -19,6 +19,7 @@ from .interrupts import checkpoint
 from .models.system import System
 from .planners import PLANNERS, LegPlanner, LegProblem
 from .planners.base import SearchDiverged
+from .planners.lie import DRIFTED
 from .results import LegPlan, ModelRef, Switch, make_leg
 from .sequence import SequencePlan
 from .settings import LieSettings, PlannerSettings
@@ -198,9 +199,6 @@ def _evaluator_kind(problem: LegProblem) -> str:
 
 def _count(n: int, noun: str) -> str:
     return f"{n} {noun}" + ("" if n == 1 else "s")
-
-
-DRIFTED = "free coordinates drifted"  # a failed Lie leg's message says so (`lie._drifted`)
 
 
 def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:

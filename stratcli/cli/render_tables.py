@@ -48,9 +48,7 @@ def ranking(task, doc: dict) -> None:
         number_column(rows, header)
     # rate and acceleration limits slow each plan by its own factor, which a sequence not
     # searched does not have: only its bound at equal duration holds (time scaling keeps it)
-    c = task.constraints
-    limits = c is not None and (c.max_rate is not None or c.max_acceleration is not None)
-    slowed = scaled and limits
+    slowed = scaled and task.constraints is not None and task.constraints.timed
     failures = []
     bounded = 0
     for row in doc["rows"]:

@@ -264,15 +264,17 @@ class LiePlanner(LegPlanner):
 
 
 DRIFT = 0.5  # rad: a free coordinate that moved this far is named in a failed leg's message
+DRIFTED = "free coordinates drifted"  # `stratified.failure_message` puts it first
 
 
 def _drifted(system, start, end, goal, targets) -> str:
     """Free coordinates ("*") of a failed Lie leg that drifted far: its steps steer only the
     targeted ones, and the least-norm step may move a free one through a weak field instead
     (a trial's S12 leg: q4 free drifted to 3.95 rad and failed; given, it planned in 11)."""
-    free = [i for i in range(len(goal)) if i not in set(np.ravel(targets)) and np.isnan(goal[i])]
+    steered = set(np.ravel(targets).tolist())
+    free = [i for i in range(len(goal)) if i not in steered and np.isnan(goal[i])]
     moved = [i for i in free if abs(float(end[i]) - float(start[i])) > DRIFT]
     if not moved:
         return ""
     what = ", ".join(f"{system.states[i]} {start[i]:.3g} -> {end[i]:.3g}" for i in moved)
-    return f"; free coordinates drifted ({what}): give them values in the leg's goal"  # DRIFTED
+    return f"; {DRIFTED} ({what}): give them values in the leg's goal"
