@@ -178,11 +178,12 @@ def _check_revolute(path: Path, joint: str, element: ET.Element, limit) -> None:
             f"{path}: revolute joint {joint!r} has no <limit lower=... upper=... effort=... "
             "velocity=...> (URDF requires one)"
         )
+    bounds = []
     for key in ("lower", "upper"):
         value = limit.get(key)
-        if value is not None and _numbers(value) is None:
+        bounds.append(None if value is None else _numbers(value))
+        if value is not None and bounds[-1] is None:
             raise _fail(f"{path}: joint {joint!r}: limit {key} is not a number (got {value!r})")
-    bounds = [_numbers(limit.get(key)) for key in ("lower", "upper")]
     if all(bounds) and bounds[0][0] > bounds[1][0]:
         raise _fail(
             f"{path}: joint {joint!r}: limit lower {bounds[0][0]:g} is above upper {bounds[1][0]:g}"
