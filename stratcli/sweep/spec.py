@@ -321,17 +321,17 @@ def _checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) -
     if mode in ("auto", "compare"):
         base.pop("legs", None)
         base.setdefault("decompose", {})
+    no_legs = mode == "legs" and "legs" not in base and ("sweep", "mode") not in pruned
     try:
         states = tuple(load_scenario(copy.deepcopy(base), name=where).system.states)
     except InputError as exc:
         found = [_under(where, p) for p in exc.problems if p.path != "legs"]
-        if mode == "legs" and "legs" not in base and ("sweep", "mode") not in pruned:
+        if no_legs:
             found.append(_no_legs(where))
         problems.extend(found or [_under(where, p) for p in exc.problems])
         hidden = tuple(p.path for p in exc.problems)
         return Base(base, base_states(base), False, pruned, problems, hidden)
-    if mode == "legs" and "legs" not in base and ("sweep", "mode") not in pruned:
-        # an auto-mode base ([decompose], no legs): every task would be invalid
+    if no_legs:  # an auto-mode base ([decompose], no legs): every task would be invalid
         problems.append(_no_legs(where))
         return Base(base, states, False, pruned, problems)
     applied = 0  # entries of `set` without a problem of their own: the values see them
