@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from mcap.reader import make_reader
 from typer.testing import CliRunner
 
 from stratcli import api
@@ -14,7 +15,7 @@ from stratcli.scenario import load_scenario
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "sim1_l_c1.toml"
 PLANNED = ("import", "check", "compile", "planning")
-RECORDED = ("record imports", "sample", "plots", "run.mcap")
+RECORDED = ("record imports", "sample", "run.mcap", "plots")  # the log while drawn
 
 
 def _is_timing(entry) -> bool:
@@ -32,6 +33,11 @@ def test_the_manifest_and_the_outcome_time_every_phase(tmp_path):
     old = {"schema", "stratplan", "command", "compile_time_s", "planning_time_s", "exit_code"}
     assert old <= set(manifest)
     assert list(outcome.phases) == [*PLANNED, *RECORDED, "write", "total"]
+    # run.mcap is built while the figures are drawn; its copy of the manifest, added after
+    # them, has every phase manifest.json has
+    with (run_dir / "run.mcap").open("rb") as f:
+        (copy,) = [m.metadata for m in make_reader(f).iter_metadata() if m.name == "manifest"]
+    assert json.loads(copy["phases"]) == manifest["phases"]
     total = outcome.phases["total"]
     assert total["wall_s"] >= sum(t["wall_s"] for k, t in outcome.phases.items() if k != "total")
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 import io
 import json
 import math
+from collections.abc import Callable
 from datetime import UTC, datetime
 from typing import Any
 
@@ -54,7 +55,7 @@ from .mcap_schemas import (
 from .mcap_spatial import is_spatial, spatial_transforms, urdf_attachment
 from .trajectory import Trajectory, world_geometry
 
-__all__ = ["epoch_ns", "layout_bytes", "mcap_bytes"]
+__all__ = ["epoch_ns", "layout_bytes", "mcap_bytes", "mcap_log"]
 
 # --------------------------------------------------------------------------------------------
 # Helpers
@@ -194,6 +195,25 @@ def mcap_bytes(
     scenario_text, scenario_name : the scenario file, attached as `scenario.toml`.
     layout : the Foxglove layout attached as `layout.json` (default: `run_layout(plan, traj)`).
     """
+    return mcap_log(plan, traj, result_doc, manifest, scenario_text, scenario_name, layout)(
+        manifest
+    )
+
+
+def mcap_log(
+    plan: SequencePlan,
+    traj: Trajectory,
+    result_doc: dict[str, Any],
+    manifest: dict[str, Any] | None,
+    scenario_text: str,
+    scenario_name: str,
+    layout: dict[str, Any] | None = None,
+) -> Callable[[dict[str, Any] | None], bytes]:
+    """`mcap_bytes` in two parts: the log but its manifest now, and a function that adds the
+    manifest as it is then and gives the file's bytes. A record builds the log while its
+    figures are drawn and adds the manifest once they are, with their time in it (`run`).
+    `manifest` here gives the log's epoch (`started`) and a URDF robot's copy (`urdf`).
+    """
     system = plan.system
     states, inputs = tuple(system.states), tuple(system.inputs)
     epoch = epoch_ns(manifest)
@@ -218,13 +238,6 @@ def mcap_bytes(
         geo = world_geometry(system.robot, traj.q)
         frames = link_frames(plan)
 
-    writer.add_metadata(
-        "manifest",
-        {
-            str(k): v if isinstance(v, str) else _json(v).decode("utf-8")
-            for k, v in (manifest or {}).items()
-        },
-    )
     writer.add_attachment(
         create_time=epoch,
         log_time=epoch,
@@ -322,8 +335,19 @@ def mcap_bytes(
             }
         ),
     )
-    writer.finish()
-    return buf.getvalue()
+
+    def finish(manifest: dict[str, Any] | None) -> bytes:
+        writer.add_metadata(
+            "manifest",
+            {
+                str(k): v if isinstance(v, str) else _json(v).decode("utf-8")
+                for k, v in (manifest or {}).items()
+            },
+        )
+        writer.finish()
+        return buf.getvalue()
+
+    return finish
 
 
 _LEG_KEYS = (

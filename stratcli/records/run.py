@@ -12,7 +12,7 @@ from ..sequence import SequencePlan
 from . import drawing
 from .foxglove_layout import run_layout
 from .manifest import phase
-from .mcap_log import mcap_bytes
+from .mcap_log import mcap_log
 from .model_files import model_files
 from .rundir import run_name, write_run
 from .trajectory import sample
@@ -49,8 +49,8 @@ def record_files(
     The trajectory is re-integrated densely (≥ 200 samples per leg) for the MCAP log and the
     plots; both are built in memory so the run directory can be written atomically. The
     figures are drawn by the drawing process where the command started one (`drawing`),
-    else here. Each part is timed into `manifest["phases"]` (the log last, so that its copy
-    has the plots' time).
+    else here; the MCAP log is built meanwhile, and its copy of the manifest added once they
+    are, so that it has every phase's time. Each part is timed into `manifest["phases"]`.
     """
     phases = manifest.setdefault("phases", {})
     with phase(phases, "sample"):
@@ -72,6 +72,10 @@ def record_files(
     if urdf := model_files(task, {*files, *later, "motion.gif"}):
         files["scenario.toml"], copy, manifest["urdf"] = urdf
         files.update(copy)
+    with phase(phases, "run.mcap"):  # while the figures are drawn; its manifest after them
+        # the record's scenario.toml: a URDF robot's names the record's copy of its URDF
+        scenario = files["scenario.toml"]
+        finish_log = mcap_log(plan, traj, doc, manifest, scenario, title, layout)
     with phase(phases, "plots"):
         if (answer := drawn()) is not None:  # wall from asking; CPU of the drawing processes
             plots, cpu = answer
@@ -80,10 +84,7 @@ def record_files(
     if answer is not None:
         phases["plots"] = {"wall_s": time.perf_counter() - wall, "cpu_s": cpu}
     files.update(plots)
-    with phase(phases, "run.mcap"):
-        # the record's scenario.toml: a URDF robot's names the record's copy of its URDF
-        scenario = files["scenario.toml"]
-        files["run.mcap"] = mcap_bytes(plan, traj, doc, manifest, scenario, title, layout)
+    files["run.mcap"] = finish_log(manifest)
     return files
 
 
