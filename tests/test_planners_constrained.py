@@ -22,6 +22,7 @@ from stratcli.api import plan_run
 from stratcli.cli import app, render
 from stratcli.errors import InputError
 from stratcli.models.geometry import world_geometry
+from stratcli.planners.constrained import search_note
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ROOT / "scenarios"
@@ -322,3 +323,14 @@ def test_limits_on_a_custom_models_integrated_coordinate_are_searched_for():
     verify(task, outcome.document)
     q = _dense(task, outcome.document)
     assert np.abs(q[:, 0]).max() <= 0.2 + 1e-6
+
+
+def test_the_search_note_says_lowered_only_when_the_energy_fell():
+    """A search whose final plan cost more than its first plan inside the limits (nodes
+    added between dips) said "energy 816.052, lowered to 1016.03" (a random obstacle task)."""
+    down = search_note("minimum-energy", 288, 261, 816.052, 797.5, True)
+    assert "energy 816.052, lowered to 797.5 inside them" in down
+    up = search_note("minimum-energy", 288, 261, 816.052, 1016.03, True)
+    assert "lowered" not in up and "816.052 when first within them, raised to 1016.03" in up
+    newton = search_note("planned", 288, 261, 816.052, 1016.03, False)
+    assert "energy 816.052 (at the speed planned" in newton
