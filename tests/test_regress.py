@@ -74,6 +74,13 @@ def test_regress_detects_a_regression(tmp_path):
     base.write_text(json.dumps(doc))
     worse = runner.invoke(app, ["regress", str(scen), "--baseline", str(base)])
     assert worse.exit_code == 1 and "regression" in worse.output
+    # --quiet drops the progress and the table, but a failing CI job still says why
+    quiet = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--quiet"])
+    assert quiet.exit_code == 1 and quiet.stdout == "" and "planned" not in quiet.stderr
+    assert quiet.stderr.splitlines() == [
+        f"regression: d: total energy: baseline {doc['scenarios']['d']['total_energy']:.6g}, "
+        f"now {doc['scenarios']['d']['total_energy'] * 2:.6g}"
+    ]
     doc["scenarios"]["d"]["total_energy"] *= 4.0  # the baseline was dearer: changed, not failed
     doc["scenarios"]["gone"] = doc["scenarios"]["d"]
     base.write_text(json.dumps(doc))

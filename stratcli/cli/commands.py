@@ -348,5 +348,7 @@ def regress(
         )
     if not quiet:
         render_tables.regress_report(report)
+    elif report.regressions:  # exit 1 must say why, in a CI log too
+        render_tables.regress_failures(report)
     if not report.updated:
         raise typer.Exit(1 if report.regressions else 0)
