@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+from csv import DictReader
 
 import pytest
 from conftest import ROOT, UNICYCLE, plan_record
@@ -380,6 +381,12 @@ def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, ne
         doc = json.loads((run_dir / "comparison.json").read_text())
         csv = (run_dir / "comparison.csv").read_text().splitlines()
         assert len(csv) == 1 + len(doc["rows"]) == 13 and csv[0].startswith("rank,sequence")
+        # the table has what the ranking is by (the energy in the shortest duration)
+        table = list(DictReader(csv))
+        ranked = [float(r["energy_equal_time"]) for r in table if r["status"] == "ok"]
+        assert ranked == sorted(ranked) and len(ranked) > 1
+        for line, row in zip(table, doc["rows"], strict=True):
+            assert line["energy_equal_time"] == repr(row["energy_equal_time"])
         best = json.loads((run_dir / "result.json").read_text())
         assert [leg["stratum"] for leg in best["legs"]] == doc["rows"][0]["sequence"]
         assert best["total_energy"] == doc["rows"][0]["energy"]
