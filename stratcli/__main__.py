@@ -105,10 +105,7 @@ def _finish_interrupted(signum: int) -> None:
     mark = getattr(rundir, "mark_interrupted", None)
     if mark is not None:
         mark(128 + signum, signal.Signals(signum).name)
-    try:
-        sys.stdout.flush()
-    except (OSError, ValueError):
-        pass
+    _flush(sys.stdout)
     _leave(signum)
 
 
@@ -155,19 +152,26 @@ def _leave_quickly(code) -> None:
         raise SystemExit(code)  # a message to print, or threads to join: the usual way
     atexit._run_exitfuncs()  # weakref finalisers, temporary directories, ...
     code = code or 0
-    try:
-        sys.stdout.flush()
-    except (OSError, ValueError):
-        pass
+    _flush(sys.stdout)
     failed = getattr(sys.stdout, "failed", None)  # a full disk, say (ClosedPipeSafe)
     if failed is not None:
-        os.write(2, f"error: cannot write the output: {failed.strerror or failed}\n".encode())
+        try:
+            os.write(2, f"error: cannot write the output: {failed.strerror or failed}\n".encode())
+        except OSError:  # no stderr either
+            pass
         code = code or 120  # what Python itself exits with when its last flush fails
+    _flush(sys.stderr)
+    os._exit(code)
+
+
+def _flush(stream) -> None:
+    """Flush `stream`; None where the command was started with it closed (`>&-`)."""
+    if stream is None:
+        return
     try:
-        sys.stderr.flush()
+        stream.flush()
     except (OSError, ValueError):
         pass
-    os._exit(code)
 
 
 if __name__ == "__main__":

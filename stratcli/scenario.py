@@ -134,9 +134,28 @@ def parse_scenario(text: str, source: str = "<scenario>", base_dir: Path | None 
     return from_raw(parse_toml(text, source), text, source, base_dir)
 
 
+def _nulls_as_free(raw: dict[str, Any]) -> dict[str, Any]:
+    """`raw` with a null goal entry (how resolved.json and result.json write "*") as "*", so
+    that a record's resolved.json loads, and is recorded as TOML, as its scenario did."""
+
+    def free(goal: Any) -> Any:
+        return ["*" if v is None else v for v in goal] if isinstance(goal, list) else goal
+
+    raw = dict(raw)
+    if isinstance(task := raw.get("task"), dict) and "goal" in task:
+        raw["task"] = {**task, "goal": free(task["goal"])}
+    if isinstance(legs := raw.get("legs"), list):
+        raw["legs"] = [
+            {**leg, "goal": free(leg["goal"])} if isinstance(leg, dict) and "goal" in leg else leg
+            for leg in legs
+        ]
+    return raw
+
+
 def from_raw(
     raw: dict[str, Any], text: str | None, source: str, base_dir: Path | None = None
 ) -> Task:
+    raw = _nulls_as_free(raw)
     if non_finite := reject_non_finite(raw):
         raise InputError(non_finite, source)
     base_dir = (base_dir or Path.cwd()).absolute()  # as now: `with_changes` may run elsewhere

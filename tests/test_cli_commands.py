@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+from csv import DictReader
 
 import pytest
 from conftest import ROOT, UNICYCLE, plan_record
@@ -361,12 +362,18 @@ def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, ne
     for jobs in ("1", "2"):
         out = tmp_path / jobs
         args = ["compare-sequences", str(newton), "--max-length", "2", "--strategy", "both"]
+        as_json = ["--json"] if jobs == "2" else []  # the table once, --json once
         result = runner.invoke(
-            cli.app, [*args, "--jobs", jobs, "--out", str(out), "--no-animation"]
+            cli.app, [*args, "--jobs", jobs, "--out", str(out), "--no-animation", *as_json]
         )
         assert result.exit_code == 0, result.output
-        assert "best: (" in result.output and "legs planned" in result.output
         (run_dir,) = out.iterdir()
+        if as_json:  # comparison.json and where the record is, as `plan --json` prints
+            printed = json.loads(result.stdout)
+            assert printed.pop("record") == str(run_dir)
+            assert printed == json.loads((run_dir / "comparison.json").read_text())
+        else:
+            assert "best: (" in result.output and "legs planned" in result.output
         names = {p.name for p in run_dir.iterdir()}
         assert {"comparison.json", "comparison.csv", "ranking.png", "result.json"} <= names
         assert {"manifest.json", "scenario.toml", "resolved.json"} <= names
@@ -374,6 +381,12 @@ def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, ne
         doc = json.loads((run_dir / "comparison.json").read_text())
         csv = (run_dir / "comparison.csv").read_text().splitlines()
         assert len(csv) == 1 + len(doc["rows"]) == 13 and csv[0].startswith("rank,sequence")
+        # the table has what the ranking is by (the energy in the shortest duration)
+        table = list(DictReader(csv))
+        ranked = [float(r["energy_equal_time"]) for r in table if r["status"] == "ok"]
+        assert ranked == sorted(ranked) and len(ranked) > 1
+        for line, row in zip(table, doc["rows"], strict=True):
+            assert line["energy_equal_time"] == repr(row["energy_equal_time"])
         best = json.loads((run_dir / "result.json").read_text())
         assert [leg["stratum"] for leg in best["legs"]] == doc["rows"][0]["sequence"]
         assert best["total_energy"] == doc["rows"][0]["energy"]
@@ -389,6 +402,21 @@ def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, ne
     assert docs[0]["jobs"] == 1 and docs[1]["jobs"] == 2
     assert without_timings(docs[0]) == without_timings(docs[1])
     assert results[0] == results[1]
+
+
+def test_compare_sequences_none_reaching_the_goal_is_one_plain_line(tmp_path, newton):
+    """Exit 1 and one `planning failed:` line as `plan` in auto mode prints (it read "no
+    sequence reached the goal: no sequence reached the goal; ..."); the record is kept."""
+    strict = "tolerance = 1e-12\nmax_iterations = 1\nrestarts = 0"
+    newton.write_text(newton.read_text().replace("tolerance = 1e-3", strict, 1))
+    args = ["compare-sequences", str(newton), "--max-length", "2", "--jobs", "1"]
+    result = runner.invoke(cli.app, [*args, "--out", str(tmp_path / "r"), "--quiet"])
+    assert result.exit_code == 1 and result.stdout == ""
+    (line,) = result.stderr.splitlines()
+    assert line.startswith("planning failed: no sequence reached the goal; the one that got")
+    assert line.count("no sequence reached the goal") == 1
+    (run_dir,) = (tmp_path / "r").iterdir()
+    assert json.loads((run_dir / "result.json").read_text())["status"] == "failed"
 
 
 def test_plan_in_auto_mode_chooses_and_says_why(tmp_path, newton):

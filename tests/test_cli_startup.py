@@ -167,3 +167,24 @@ def test_output_that_cannot_be_written_is_one_line_and_exit_120(unbuffered):
         )
     assert proc.returncode == 120, proc.stderr
     assert proc.stderr == "error: cannot write the output: No space left on device\n"
+
+
+@pytest.mark.parametrize("closed", [1, 2], ids=["stdout", "stderr"])
+def test_a_command_started_with_stdout_or_stderr_closed_ends_without_a_traceback(closed):
+    """`stratplan models >&-` (Python's sys.stdout is then None): the command did its work
+    and then failed on flushing None, a traceback and exit 1."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    code = (
+        "import sys; sys.argv = ['stratplan', 'models']\n"
+        "from stratcli.__main__ import entry; entry()"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=env,
+        preexec_fn=lambda: os.close(closed),
+    )
+    assert proc.returncode == 0
+    assert "Traceback" not in proc.stderr and "Error" not in proc.stderr
+    assert ("two-arm" in proc.stdout) == (closed == 2)

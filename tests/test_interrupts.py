@@ -25,7 +25,7 @@ from typer.testing import CliRunner
 
 from stratcli.cli import app
 from stratcli.records import rundir
-from stratcli.records.manifest import _git
+from stratcli.records.manifest import _git, source_commit
 from stratcli.records.store import read_record
 
 runner = CliRunner()
@@ -410,6 +410,24 @@ def test_git_query_never_writes_the_index(tmp_path):
     assert index.read_bytes() == before
     subprocess.run(["git", "status", "--porcelain"], cwd=tmp_path, check=True, capture_output=True)
     assert index.read_bytes() != before  # the control: plain status would have written it
+
+
+@pytest.mark.skipif(shutil.which("git") is None, reason="needs git")
+def test_manifest_commit_is_of_stratplans_sources_only(tmp_path):
+    """Installed into a `.venv` inside another repository (ignored there), the sources are not
+    git's: the manifest had that repository's commit and dirty flag as stratplan's."""
+    env = dict(os.environ, GIT_AUTHOR_NAME="a", GIT_AUTHOR_EMAIL="a@b", GIT_COMMITTER_NAME="a")
+    env["GIT_COMMITTER_EMAIL"] = "a@b"
+    (tmp_path / ".gitignore").write_text(".venv/\n")
+    for args in (["init", "-q"], ["add", ".gitignore"], ["commit", "-qm", "x"]):
+        subprocess.run(["git", *args], cwd=tmp_path, env=env, check=True)
+    installed = tmp_path / ".venv" / "lib" / "stratcli" / "records"
+    installed.mkdir(parents=True)
+    (installed / "manifest.py").write_text("# a copy\n")
+    assert _git("rev-parse", "HEAD", cwd=installed)  # git answers for the project...
+    assert source_commit(installed) == (None, None)  # ...which is not stratplan's
+    commit, dirty = source_commit(tmp_path)  # a checkout's own files: its commit
+    assert commit == _git("rev-parse", "HEAD", cwd=tmp_path) and dirty is False
 
 
 @pytest.mark.parametrize("command", [["models"], ["plan", str(TASK_C), "--no-animation"]])

@@ -74,8 +74,33 @@ def test_regress_detects_a_regression(tmp_path):
     base.write_text(json.dumps(doc))
     worse = runner.invoke(app, ["regress", str(scen), "--baseline", str(base)])
     assert worse.exit_code == 1 and "regression" in worse.output
+    # --quiet drops the progress and the table, but a failing CI job still says why
+    quiet = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--quiet"])
+    assert quiet.exit_code == 1 and quiet.stdout == "" and "planned" not in quiet.stderr
+    assert quiet.stderr.splitlines() == [
+        f"regression: d: total energy: baseline {doc['scenarios']['d']['total_energy']:.6g}, "
+        f"now {doc['scenarios']['d']['total_energy'] * 2:.6g}"
+    ]
     doc["scenarios"]["d"]["total_energy"] *= 4.0  # the baseline was dearer: changed, not failed
     doc["scenarios"]["gone"] = doc["scenarios"]["d"]
     base.write_text(json.dumps(doc))
     out = runner.invoke(app, ["regress", str(scen), "--baseline", str(base)])
     assert out.exit_code == 1 and "missing" in out.output  # a scenario vanished
+
+
+def test_regress_checks_every_scenario_file_before_planning_any(tmp_path):
+    """A bad scenario file is exit 2 naming it (and every other bad one) before anything is
+    planned: it was found only after planning the files sorted before it."""
+    shutil.copy(ROOT / "scenarios" / "unicycle.toml", tmp_path / "a.toml")
+    text = (ROOT / "scenarios" / "unicycle.toml").read_text()
+    (tmp_path / "b.toml").write_text(text.replace("[planner]", "[planner]\ntolerence = 1", 1))
+    (tmp_path / "c.toml").write_text(text.replace("[model]", "colour = 1\n[model]", 1))
+    result = runner.invoke(app, ["regress", str(tmp_path), "--update"])
+    assert result.exit_code == 2 and "planned" not in result.stderr
+    first, second = result.stderr.splitlines()
+    assert first.startswith(f"error: {tmp_path / 'b.toml'}: planner.tolerence: unknown key")
+    assert second == (
+        f"error: {tmp_path / 'c.toml'}: colour: unknown key (allowed: name, description, model, "
+        "task, planner, legs, decompose, reference, constraints)"
+    )
+    assert not (tmp_path / "baseline.json").exists()

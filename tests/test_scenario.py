@@ -279,6 +279,28 @@ def test_a_task_is_a_value_changed_only_through_its_scenario(tmp_path):
     assert auto.legs == [] and auto.scenario.decompose is not None
 
 
+def test_resolved_json_of_free_goal_entries_loads_back_as_the_same_task():
+    """resolved.json writes a goal entry "*" as null; loading it must give the same task
+    (it was refused: `task.goal[3]: expected a number ... (got None)`), so that
+    `stratcli.plan(json.load(open("resolved.json")))` re-plans such a record."""
+    import json
+
+    import numpy as np
+
+    from stratcli.records.run import resolved_scenario
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml").with_changes(
+        {
+            "task": {"goal": ["-pi/3", "pi/3", "pi/4", "*"]},
+            "legs": [{"stratum": "S3", "goal": ["-pi/3", "pi/3", 0, "*"]}, {"stratum": "S1"}],
+        }
+    )
+    resolved = json.loads(json.dumps(resolved_scenario(task)))
+    assert resolved["task"]["goal"][3] is None
+    again = load_scenario(resolved)
+    assert again == task and np.isnan(again.goal[3]) and np.isnan(again.legs[0].goal[3])
+
+
 def test_a_tasks_configurations_cannot_be_changed_in_place():
     """`t.goal[0] = ...` would plan a goal that resolved.json does not record."""
     import copy

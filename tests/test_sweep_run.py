@@ -374,3 +374,25 @@ def test_the_best_tasks_record_made_on_resume_is_no_longer_reported_lost(tmp_pat
                           resume=True)  # fmt: skip
     assert again.planned == 1 and again.summary["records_lost"] == []
     assert (tmp_path / "o" / "records" / f"task-{lost['task']:06d}").is_dir()
+
+
+def test_a_sweep_directory_has_one_writer_at_a_time(tmp_path):
+    """A second sweep (or --resume) into a directory a running sweep writes is refused: two
+    at once (a CI retry beside the first) both planned every task, each row twice. A killed
+    sweep's claim is taken over; a finished sweep leaves none."""
+    from stratcli.records.rundir import _host_tag
+    from stratcli.records.sweeplock import CLAIM
+
+    path, out = write(tmp_path, TWO_TASKS), tmp_path / "out"
+    out.mkdir()
+    (out / CLAIM).write_text(f"{os.getpid()}@{_host_tag()}\n")  # a live writer's claim
+    with ThreadPoolExecutor(1) as pool:
+        with pytest.raises(InputError, match=r"out='.*': another sweep is writing into it \("):
+            stratcli.run_sweep(path, out, executor=pool)
+        assert sorted(p.name for p in out.iterdir()) == [CLAIM]  # nothing planned
+        dead = subprocess.Popen([sys.executable, "-c", "pass"])
+        dead.wait()
+        (out / CLAIM).write_text(f"{dead.pid}@{_host_tag()}\n")  # a killed sweep's claim
+        done = stratcli.run_sweep(path, out, executor=pool)
+    assert done.complete and len(read_rows(out / ROWS)) == 2
+    assert not (out / CLAIM).exists() and not list(out.glob(".writer*"))

@@ -7,11 +7,14 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..errors import InputError
+from ..errors import InputError, Problem
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
+
+if TYPE_CHECKING:
+    from ..task import Task
 
 __all__ = ["RegressReport", "regress", "summarise"]
 
@@ -67,10 +70,11 @@ def regress(
         except InputError:
             if not update:
                 raise
+    tasks = _load_all(paths)  # a bad file is found before minutes of planning, not after
     now = {}
     for path in paths:
         clock = time.perf_counter()
-        now[path.stem] = summarise(path)
+        now[path.stem] = summarise(tasks[path])
         if progress is not None:
             progress(path.stem, now[path.stem], time.perf_counter() - clock)
     diffs = compare_baseline(now, old, tolerances)
@@ -79,14 +83,29 @@ def regress(
     return RegressReport(len(now), baseline, tolerances, diffs, update)
 
 
-def summarise(path: Path) -> dict[str, Any]:
+def _load_all(paths: list[Path]) -> dict[Path, Task]:
+    """Every scenario file loaded, or an `InputError` naming the problems of all of them."""
+    from ..scenario import load_scenario  # start-up speed (module comment)
+
+    tasks, problems = {}, []
+    for path in paths:
+        try:
+            tasks[path] = load_scenario(path)
+        except InputError as exc:
+            problems += [Problem("", p.render(exc.source)) for p in exc.problems]
+    if problems:
+        raise InputError(problems)
+    return tasks
+
+
+def summarise(path: Path | Task) -> dict[str, Any]:
     """Plan one scenario (as `plan` does, unchecked and not time-scaled) and keep what the
     baseline compares.
 
     Parameters
     ----------
-    path : Path
-        A scenario file; in auto mode the best candidate sequence is kept.
+    path : Path or Task
+        A scenario file, or a loaded one; in auto mode the best candidate sequence is kept.
 
     Returns
     -------
@@ -96,7 +115,7 @@ def summarise(path: Path) -> dict[str, Any]:
     from ..scenario import load_scenario  # start-up speed (module comment)
     from .planning import plan_auto, plan_run
 
-    task = load_scenario(path)
+    task = load_scenario(path) if isinstance(path, str | Path) else path
     if task.legs:
         result = plan_run(task, check=False, time_scale=1.0).result
     else:  # auto mode ([decompose], no [[legs]]): the best candidate sequence

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from ..arguments import checked, choice, flag, instance, integer, optional, pathlike, source
-from ..records import sweepdir
+from ..records import sweepdir, sweeplock
 from ..sweep.executors import ExecutorInfo, dask_executor
 from ..sweep.outputs import summarise
 from ..sweep.run import RECORDS, Progress, SweepOutcome
@@ -80,8 +80,8 @@ def run_sweep(
     Raises
     ------
     InputError
-        A bad sweep file (every problem, one line each), a bad `out`, or `resume` on a
-        directory of another sweep.
+        A bad sweep file (every problem, one line each), a bad `out` (one another sweep is
+        writing into, too), or `resume` on a directory of another sweep.
     """
     loaded = file if isinstance(file, Sweep) else load_sweep(file)
     target = Path(out) if out is not None else Path("sweeps") / loaded.name
@@ -90,7 +90,7 @@ def run_sweep(
         if dask and executor is None
         else nullcontext((executor, None))
     )
-    with context as (chosen, info):
+    with sweeplock.claimed(target), context as (chosen, info):  # one writer per directory
         return run_tasks(
             loaded,
             target,

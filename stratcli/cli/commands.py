@@ -194,15 +194,15 @@ def compare_sequences(
     render.notes(outcome.settings.notes)
     with render.phases(interactive) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
-    if json_output:
-        render.print_json(outcome.document)
+    if json_output:  # comparison.json, and where the record is (as `plan --json` says it)
+        render.print_json({**outcome.document, "record": str(run_dir)})
     elif not quiet:
         render_tables.ranking(task, outcome.document)
         render.say(f"best: {outcome.comparison.choice()}")
         render_tables.comparison_footer(outcome, run_dir)
     render.notes(outcome.notes)  # the best plan's (its URDF's joint limits)
     if not outcome.ok:
-        render.error("no sequence reached the goal", outcome.comparison.choice())
+        render.error("planning failed", outcome.comparison.choice())  # says none reached it
     raise typer.Exit(0 if outcome.ok else 1)
 
 
@@ -348,5 +348,7 @@ def regress(
         )
     if not quiet:
         render_tables.regress_report(report)
+    elif report.regressions:  # exit 1 must say why, in a CI log too
+        render_tables.regress_failures(report)
     if not report.updated:
         raise typer.Exit(1 if report.regressions else 0)

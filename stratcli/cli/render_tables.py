@@ -246,6 +246,18 @@ def regress_report(report) -> None:
         )
 
 
+def regress_failures(report) -> None:
+    """`regress --quiet`: one line on stderr per regression, so a failing CI job says why."""
+    for d in report.differences:
+        if d.regression:
+            render.err_console.print(
+                f"regression: {escape(d.scenario)}: {d.quantity}: baseline {_show(d.baseline)}, "
+                f"now {_show(d.now)}",
+                highlight=False,
+                soft_wrap=True,
+            )
+
+
 def regress_progress(quiet: bool):
     """A `progress(name, summary, seconds)` callback printing one line on stderr per scenario
     planned by `regress` (None under --quiet). Plain lines, so a CI log shows them too: a

@@ -136,15 +136,17 @@ CSV_COLUMNS = (
     "strategy",
     "status",
     "energy",
+    "energy_equal_time",  # what the energy criterion ranks by: run in the shortest duration
     "peak_control",
     "excursion",
     "duration",
     "planning_time_s",
     "energy_bound",  # a sequence not searched (status "bounded"): its energy is at least this
+    "energy_bound_equal_time",
     "vias",
     "reason",
 )
-NUMBERS = CSV_COLUMNS[4:10]
+NUMBERS = CSV_COLUMNS[4:12]
 
 
 def comparison_csv(doc: dict[str, Any]) -> str:

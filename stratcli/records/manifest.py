@@ -83,6 +83,25 @@ def _git(*args: str, cwd: Path | None = None) -> str | None:
     return out.stdout.strip() if out.returncode == 0 else None
 
 
+def source_commit(cwd: Path | None = None) -> tuple[str | None, bool | None]:
+    """The git commit of stratplan's sources and whether their checkout is dirty, or
+    (None, None) where they are not files git tracks: installed into a virtual environment
+    inside another repository (a project's `.venv`), git would answer for that repository.
+
+    Parameters
+    ----------
+    cwd : Path, optional
+        The source directory asked about (default: this package's).
+    """
+    here = cwd or Path(__file__).resolve().parent
+    if _git("ls-files", "--error-unmatch", "--", ".", cwd=here) is None:
+        return None, None
+    commit = _git("rev-parse", "HEAD", cwd=here)
+    if commit is None:
+        return None, None
+    return commit, bool(_git("status", "--porcelain", "--untracked-files=no", cwd=here))
+
+
 def manifest(
     text: str,
     argv: list[str],
@@ -91,14 +110,12 @@ def manifest(
     exit_code: int,
     phases: Phases | None = None,
 ):
-    commit = _git("rev-parse", "HEAD")
+    commit, dirty = source_commit()
     return {
         "schema": "stratplan.manifest/1",
         "stratplan": __version__,
         "git_commit": commit,
-        "git_dirty": bool(_git("status", "--porcelain", "--untracked-files=no"))
-        if commit
-        else None,
+        "git_dirty": dirty,
         "python": sys.version.split()[0],
         "numpy": np.__version__,
         "scipy": _version("scipy"),

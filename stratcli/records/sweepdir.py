@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, Problem
+from .sweeplock import CLAIM
 
 ROWS = "rows.jsonl"
 SPEC = "spec.json"
@@ -190,7 +191,8 @@ def _refuse_foreign_files(out: Path) -> None:
     foreign = sorted(
         p.name
         for p in out.iterdir()
-        if p.name != FILE_TEXT and not (p.name.startswith(".") and p.name.endswith(".tmp"))
+        if p.name not in (FILE_TEXT, CLAIM)
+        and not (p.name.startswith(".") and p.name.endswith(".tmp"))
     )
     if foreign:
         more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
