@@ -21,7 +21,7 @@ from pydantic import (
 )
 
 from . import tomlwrite
-from .constraints import Constraints, ConstraintsSpec, check_configuration, resolve
+from .constraints import ConstraintsSpec, check_configuration, resolve
 from .controls import MAX_PERIODS_PER_LEG
 from .endpoint import evaluator_problems
 from .errors import InputError, Problem
@@ -33,9 +33,9 @@ from .models.specs import (
     build_system,
 )
 from .models.system import System
-from .node_margins import searchable
 from .planners import PLANNERS
 from .results import none_to_nan
+from .scenario_checks import acceleration_problems, duration_problems, lie_problems
 from .scenario_hints import beside_constraints, hinted
 from .schema_problems import validation_problems
 from .settings import (
@@ -205,68 +205,6 @@ def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[P
     return None
 
 
-def _lie_problems(constraints: Constraints, legs: list[LegSpec]) -> list[Problem]:
-    """Lie legs are refused when [constraints] asks the search for joint limits,
-    self-collision or obstacles (rate limits are met by time scaling, which applies to them)."""
-    if not searchable(constraints):
-        return []
-    return [
-        Problem(
-            f"legs[{i}].method",
-            "a Lie leg cannot keep [constraints] joint limits, self-collision or obstacles "
-            '(its steps are planned where the system is); use method = "newton"',
-        )
-        for i, leg in enumerate(legs)
-        if leg.method == "lie"
-    ]
-
-
-def _acceleration_problems(scenario: Scenario) -> list[Problem]:
-    """An acceleration limit holds only if the controls never jump: from rest at the start
-    (`soft_start`), to rest at the end (`full_stop`) and at the switches (lr-continuity)."""
-    c, planner = scenario.constraints, scenario.planner
-    if c is None or c.max_acceleration is None:
-        return []
-    missing = [
-        f"planner.{key} = {value}"
-        for key, value, ok in (
-            ("soft_start", "true", planner.soft_start),
-            ("full_stop", "true", planner.full_stop),
-            ("continuity", '"lr-C1" (or "lr-C0")', planner.continuity.startswith("lr-")),
-        )
-        if not ok
-    ]
-    if not missing:
-        return []
-    message = (
-        f"holds only if the controls never jump (a jump is an unbounded acceleration): set "
-        f"{' and '.join(missing)}; otherwise they jump from rest at the start, to rest at the "
-        "end or at a switch"
-    )
-    return [Problem("constraints.max_acceleration", message)]
-
-
-def _duration_problems(scenario: Scenario, legs: list[LegSpec]) -> list[Problem]:
-    """`durations = "optimise"` needs the energy objective, Newton legs and [[legs]]."""
-    p = scenario.planner
-    if p.durations == "fixed":
-        if p.total_duration is not None:
-            return [Problem("planner.total_duration", 'only with durations = "optimise"')]
-        return []
-    problems = []
-    if p.objective != "energy":
-        problems.append(
-            Problem("planner.durations", '"optimise" needs objective = "energy" (the default)')
-        )
-    if scenario.legs is None:
-        problems.append(Problem("planner.durations", '"optimise" needs [[legs]] (not auto mode)'))
-    if any(leg.method != "newton" for leg in legs):
-        problems.append(
-            Problem("planner.durations", '"optimise" needs Newton legs (a Lie leg sets its own)')
-        )
-    return problems
-
-
 def _resolve(
     scenario: Scenario, source: str, text: str, system: System | None = None, base_dir=None
 ) -> Task:
@@ -388,10 +326,10 @@ def _resolve(
             )
         if entry.method != "lie" and entry.lie is not None:
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
-    problems.extend(_duration_problems(scenario, legs))
-    problems.extend(_acceleration_problems(scenario))
+    problems.extend(duration_problems(scenario, legs))
+    problems.extend(acceleration_problems(scenario))
     if constraints is not None:
-        problems.extend(_lie_problems(constraints, legs))
+        problems.extend(lie_problems(constraints, legs))
         if start is not None:
             problems.extend(check_configuration(system, start, constraints, "task.start"))
         for i, leg in enumerate(legs[:-1]):
