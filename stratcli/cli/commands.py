@@ -69,7 +69,9 @@ def plan(
     Writes a run record under OUT and exits 0 (planned), 1 (a leg failed; the record is
     still written, marked failed), 2 (bad input, including an OUT that is not a writable
     directory), 3 (the controllability check failed: a leg's stratum cannot steer what the
-    leg asks for; nothing is planned or written) or 4 (the record could not be written).
+    leg asks for; nothing is planned or written), 4 (the record could not be written), 130
+    or 143 (interrupted by Ctrl-C or SIGTERM; no record is left half-written) or 120 (the
+    output could not be written, e.g. to a full disk).
 
     Auto mode: a scenario with a decompose table and no legs plans every candidate sequence
     (as compare-sequences does), records the best by the table's criterion and says why.
