@@ -30,6 +30,22 @@ def test_unsupported_joint_types_are_named(tmp_path, kind):
     assert "'bad'" in text and kind in text and "model.path" in text and "\n" not in text
 
 
+def test_a_floating_joint_from_a_world_link_says_to_remove_it(tmp_path):
+    """A simulator's URDF (world -> floating -> base): the root is the free-flying base here."""
+    path = _write(tmp_path, _joint("float", "floating") + _joint("j1", "revolute", "b", "c"))
+    with pytest.raises(InputError) as err:
+        read_urdf(path)
+    assert str(err.value).endswith(
+        "joint 'float' is floating (only revolute and fixed joints are supported yet); the "
+        "URDF's root link is the free-flying base: remove joint 'float' and its parent link "
+        "'a' to make 'b' the root"
+    )
+    inner = _write(tmp_path, _joint("j1", "revolute") + _joint("float", "floating", "b", "c"))
+    with pytest.raises(InputError) as err:  # not above the root: no such advice
+        read_urdf(inner)
+    assert str(err.value).endswith("supported yet)")
+
+
 def test_mimic_joint_is_rejected(tmp_path):
     mimic = _joint("m", "revolute", "b", "c", '<mimic joint="ok"/>')
     with pytest.raises(InputError, match="'m' is a mimic joint"):

@@ -102,9 +102,19 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
         if element.find("mimic") is not None:
             raise _fail(f"{path}: joint {name!r} is a mimic joint (not supported yet)")
         if kind not in SUPPORTED:
+            hint = ""
+            top = parent.get("link", "") not in {
+                c.get("link") for c in root.iter("child")
+            }  # a simulator's world link: the root is free-flying here
+            if kind == "floating" and top:
+                hint = (
+                    f"; the URDF's root link is the free-flying base: remove joint {name!r} "
+                    f"and its parent link {parent.get('link', '')!r} to make "
+                    f"{child.get('link', '')!r} the root"
+                )
             raise _fail(
                 f"{path}: joint {name!r} is {kind} (only revolute and fixed joints are "
-                "supported yet)"
+                f"supported yet){hint}"
             )
         limit = element.find("limit")
         if kind == "revolute":
