@@ -47,6 +47,17 @@ SPATIAL_ADVICE = (
     "not run on URDF models: try via configurations that keep the robot away from the limit, "
     "another stratum sequence, or wider limits"
 )
+# objective = "newton": plain Newton's plans can sweep the joints through turns that the
+# least-energy plan of the same legs does not (a 2-leg task on an 8-joint arm: its elbow at
+# 13 rad, at least energy 1.25 rad, inside ±2.6); that plan is not searched within the limits
+# either, so it may help, not must
+NEWTON_ADVICE = (
+    "reached its goals but violates a {what}; the constrained search does not run on URDF "
+    'models (more harmonics do not help): try objective = "energy" (the default: its '
+    "least-energy plan is not kept within the limits either, but usually moves the joints "
+    "less than plain Newton), via configurations that keep the joint away from the limit, another "
+    "stratum sequence, or wider limits in [constraints].joint_limits"
+)
 
 
 DURATIONS_ADVICE = (
@@ -59,12 +70,16 @@ DURATIONS_ADVICE = (
 
 def violation_advice(plan, violated: str) -> str:
     """What to try after `violated` (a `constraints.verify` violation): for a URDF model's
-    limits what can help there, for optimised durations the fixed ones that the search keeps
-    within the limits (the other objective is refused with them), else the status' own
-    advice."""
+    limits what can help there (after plain Newton, the energy objective too), for optimised
+    durations the fixed ones that the search keeps within the limits (the other objective is
+    refused with them), else the status' own advice."""
+    urdf = getattr(plan.model.spec, "kind", plan.model.name) == "urdf"  # (no model built)
+    if urdf and plan.settings.objective == "newton":
+        what = "joint limit of the URDF" if URDF_LIMIT in violated else "limit of [constraints]"
+        return NEWTON_ADVICE.format(what=what)
     if URDF_LIMIT in violated:
         return URDF_ADVICE
-    if getattr(plan.model.spec, "kind", plan.model.name) == "urdf":  # (no model built)
+    if urdf:
         return SPATIAL_ADVICE
     if plan.settings.durations == "optimise":
         return DURATIONS_ADVICE
