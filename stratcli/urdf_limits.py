@@ -90,6 +90,14 @@ def _fmt(x: float) -> str:
     return f"{x:.3g}"
 
 
+def _fmt_beyond(x: float, bound: float) -> str:
+    """`x`, a value beyond `bound`, with the digits that show it is (2.002, not 2, past 2)."""
+    for digits in range(3, 13):
+        if f"{x:.{digits}g}" != f"{bound:.{digits}g}":
+            return f"{x:.{digits}g}"
+    return f"{x:.12g}"
+
+
 def outside_limits(task) -> list[str]:
     """One sentence per start, via or goal coordinate of a URDF scenario without
     [constraints] that lies outside the URDF's limits (what `stratplan check` warns of)."""
@@ -120,8 +128,9 @@ def _configurations(task, lower, upper, names) -> list[str]:
             continue
         q = np.asarray(q, dtype=float)[:k]
         for j in np.flatnonzero(np.isfinite(q) & ((q < lower) | (q > upper))):
+            bound = lower[j] if q[j] < lower[j] else upper[j]
             out.append(
-                f"{where} has {names[j]} = {_fmt(q[j])}, outside the URDF's limits "
+                f"{where} has {names[j]} = {_fmt_beyond(q[j], bound)}, outside the URDF's limits "
                 f"[{_fmt(lower[j])}, {_fmt(upper[j])}]"
             )
     return out
@@ -170,9 +179,11 @@ def _legs(plan, lower, upper, names) -> list[str]:
             else f"legs {', '.join(map(str, numbers[:-1]))} and {numbers[-1]} leave"
         )
         _, value, when = worst[j]
+        bound = lower[j] if value < lower[j] else upper[j]
         out.append(
             f"{which} the URDF's limits of {names[j]} [{_fmt(lower[j])}, {_fmt(upper[j])}] "
-            f"(reach{'es' if len(numbers) == 1 else ''} {_fmt(value)} at t = {when:.3f} s)"
+            f"(reach{'es' if len(numbers) == 1 else ''} {_fmt_beyond(value, bound)} at "
+            f"t = {when:.3f} s)"
         )
     return out
 

@@ -87,6 +87,21 @@ def test_a_start_outside_the_urdf_limits_is_noted_not_refused(tmp_path):
     )
 
 
+def test_a_value_just_past_a_limit_is_shown_with_the_digits_that_show_it(tmp_path):
+    """Not "reaches 2" beside limits [-2, 2]: as many digits as it takes to differ."""
+    plan = stratcli.plan(_scenario(tmp_path, j2=1.0004), check=False)
+    assert plan.notes[0].startswith("task.start has j2 = 1.0004, outside the URDF's limits [-1, 1]")
+    free = stratcli.plan(_scenario(tmp_path, upper_j2=2.0))
+    farthest = joint_paths(free.legs[0], 3)[1][:, 1].max()  # 1.3...
+    upper = np.floor(farthest * 1000) / 1000  # the leg leaves it by less than 1e-3
+    plan = stratcli.plan(_scenario(tmp_path, upper_j2=upper))
+    reached = NOTE.pattern.replace(r"\[-1, 1\]", rf"\[{-upper:.3g}, {upper:.3g}\]")
+    found = re.match(reached, plan.notes[-1])
+    assert found, plan.notes[-1]
+    assert float(found["value"]) > upper and found["value"] != f"{upper:.3g}"
+    assert float(found["value"]) == pytest.approx(farthest, abs=5e-4)
+
+
 def test_the_cli_prints_the_note_and_exits_0(tmp_path):
     result = CliRunner().invoke(
         app, ["plan", str(_scenario(tmp_path)), "--out", str(tmp_path / "runs")]
