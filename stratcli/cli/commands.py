@@ -82,7 +82,8 @@ def plan(
     task = _load(file)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
-    api.draw_ahead()  # matplotlib loads while the plan is made
+    # matplotlib loads while the plan is made; niced only beside a comparison's workers
+    api.draw_ahead(yielding=not task.legs)
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale)
     with render.phases(render.interactive(quiet, json_output)) as progress:
