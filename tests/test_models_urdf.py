@@ -165,6 +165,11 @@ def test_an_odd_but_valid_inertia_is_read(tmp_path, inertia):
         ('<axis xyz="0 0 0"/><limit lower="-1" upper="1"/>', "joint 'j': axis must be 3 numbers"),
         ('<axis xyz="0 1"/><limit lower="-1" upper="1"/>', "joint 'j': axis must be 3 numbers"),
         ('<limit lower="-1" upper="one"/>', "joint 'j': limit upper is not a number"),
+        (  # URDF's defaults 0 and 0: it was read as a joint limited to [0, 0]
+            '<axis xyz="0 0 1"/><limit effort="10" velocity="1"/>',
+            "revolute joint 'j': its <limit> has no lower and no upper (URDF's default for both "
+            "is 0, a joint that cannot move); give its range",
+        ),
     ],
 )
 def test_a_revolute_joint_without_limit_or_axis_is_named(tmp_path, extra, expected):

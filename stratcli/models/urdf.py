@@ -7,8 +7,8 @@ supported (Pinocchio merges the child's inertia into its parent). It also reject
 link or joint, what Pinocchio would load without a word (or with urdfdom's C++ messages on
 stderr) into a model with no physical meaning: an `<inertial>` without its `<mass>` or
 `<inertia>`, a negative mass, an inertia matrix that is not positive semi-definite, a
-revolute joint without `<limit>` or with a zero axis. Every problem is an `InputError` whose
-field is `model.path`.
+revolute joint without `<limit>` (or without its lower and upper) or with a zero axis. Every
+problem is an `InputError` whose field is `model.path`.
 """
 
 from __future__ import annotations
@@ -182,7 +182,8 @@ def _check_inertial(path: Path, link: str, inertial: ET.Element | None) -> None:
 
 
 def _check_revolute(path: Path, joint: str, element: ET.Element, limit) -> None:
-    """A revolute joint has `<limit lower upper>` (URDF requires it) and a nonzero axis."""
+    """A revolute joint has `<limit lower upper>` (URDF requires it; lower and upper default
+    to 0, so one without either could not move) and a nonzero axis."""
     if limit is None:
         raise _fail(
             f"{path}: revolute joint {joint!r} has no <limit lower=... upper=... effort=... "
@@ -194,6 +195,11 @@ def _check_revolute(path: Path, joint: str, element: ET.Element, limit) -> None:
         bounds.append(None if value is None else _numbers(value))
         if value is not None and bounds[-1] is None:
             raise _fail(f"{path}: joint {joint!r}: limit {key} is not a number (got {value!r})")
+    if bounds == [None, None]:  # what a continuous joint's <limit> has; here a joint stuck at 0
+        raise _fail(
+            f"{path}: revolute joint {joint!r}: its <limit> has no lower and no upper (URDF's "
+            "default for both is 0, a joint that cannot move); give its range"
+        )
     if all(bounds) and bounds[0][0] > bounds[1][0]:
         raise _fail(
             f"{path}: joint {joint!r}: limit lower {bounds[0][0]:g} is above upper {bounds[1][0]:g}"
