@@ -46,6 +46,23 @@ def test_a_floating_joint_from_a_world_link_says_to_remove_it(tmp_path):
     assert str(err.value).endswith("supported yet)")
 
 
+def test_a_xacro_file_is_named_with_how_to_expand_it(tmp_path):
+    """Robot descriptions often come as xacro: its macros named no link ("the parent of joint
+    'j', 'a', is not a link in the file (links: )")."""
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text(
+        '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:macro name="l" params="n"><link name="${n}"/></xacro:macro>'
+        '<xacro:l n="a"/><xacro:l n="b"/>' + _joint("j", "revolute") + "</robot>"
+    )
+    with pytest.raises(InputError) as err:
+        read_urdf(path)
+    assert str(err.value).endswith(
+        "arm.urdf.xacro: a xacro file (its macros and properties are not URDF): expand it "
+        "first, e.g. `xacro arm.urdf.xacro > arm.urdf`"
+    )
+
+
 def test_mimic_joint_is_rejected(tmp_path):
     mimic = _joint("m", "revolute", "b", "c", '<mimic joint="ok"/>')
     with pytest.raises(InputError, match="'m' is a mimic joint"):

@@ -39,6 +39,7 @@ __all__ = [
 
 MAX_BYTES = 5_000_000
 SUPPORTED = ("revolute", "fixed")
+XACRO = "{http://www.ros.org/wiki/xacro}"  # the namespace of xacro's elements
 
 
 @dataclass(frozen=True)
@@ -90,6 +91,12 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
         raise _fail(f"{path}: not valid XML ({exc})") from None
     if root.tag != "robot":
         raise _fail(f"{path}: the root element is <{root.tag}>, not <robot>")
+    if any(str(e.tag).startswith(XACRO) for e in root.iter()):  # else "not a link" of ${...}
+        raise _fail(
+            f"{path}: a xacro file (its macros and properties are not URDF): expand it first, "
+            f"e.g. `xacro {path.name} > {path.name.removesuffix('.xacro').removesuffix('.urdf')}"
+            ".urdf`"
+        )
     links = tuple(link.get("name", "") for link in root.findall("link"))
     for link in root.findall("link"):
         _check_inertial(path, link.get("name", "?"), link.find("inertial"))
