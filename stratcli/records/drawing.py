@@ -43,9 +43,9 @@ COST = {"ranking": 1.4, "motion": 30.0, "stroboscope": 1.2}
 # Sim 4, 10 alternating runs); drawing happens when the planner is done, and the figures are
 # the same. Beside one planning process (`plan` with legs) it does not yield: nothing of the
 # command's competes with it on a second core, and on a busy machine a niced drawer got a
-# tenth of a core while the command waited for its figures (a URDF plan of 0.1 s: the plots
-# 31-46 s against 4-7.5 s un-niced beside two busy processes, the command 40-56 s against
-# 14-22 s)
+# tenth of a core while the command waited for its figures (a URDF plan of 0.1-0.25 s beside
+# two busy processes on 2 cores: the plots 17-19 s against 2.3-3.6 s un-niced, the command
+# 21-23 s against 6.4-7.9 s)
 NICE = 10
 
 _DRAWER: dict[str, Any] = {}  # "process", "connection", "owner" (its pid) once started
