@@ -21,7 +21,7 @@ from .planners import PLANNERS
 from .planners.base import ENERGY_RUNAWAY
 from .planners.constrained import NotSearchable, constrained_search
 from .planners.energy import optimise_energy
-from .planners.sqp import LOOSE_ABOVE
+from .planners.sqp import FIRST_ORDER_ITERATIONS, LOOSE_ABOVE
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
@@ -153,7 +153,23 @@ def plan_with_objective(
     final = chain_legs(system, start, legs, settings, initial=coefficients)
     final = replace(final, optimisation=search)
     chosen = final if final.ok and final.total_energy <= newton.total_energy else newton
-    return _short_of_a_minimum(chosen, search) if exact else chosen
+    return _short_of_a_minimum(chosen, search) if exact else _one_start(chosen, settings)
+
+
+def _one_start(plan, settings: PlannerSettings):
+    """`plan` with a note when the scenario asks for more starts or the legwise search, which
+    a search without exact second derivatives does not make (`optimise_energy`): said, not
+    silently ignored."""
+    asked = [f"starts = {settings.starts}"] if settings.starts > 2 else []
+    asked += ['search = "legwise"'] if settings.search == "legwise" else []
+    if not asked:
+        return plan
+    return _noted(
+        plan,
+        f"planner.{' and '.join(asked)} made no difference here: these legs' end-point maps "
+        "have no second derivatives (URDF models, ODE-path legs), so the energy search takes "
+        f"at most {FIRST_ORDER_ITERATIONS} first-order steps from one start",
+    )
 
 
 def _short_of_a_minimum(plan, search):

@@ -30,6 +30,7 @@ __all__ = [
     "MAX_BYTES",
     "MAX_DEPTH",
     "is_toml_text",
+    "is_xml_text",
     "parse_toml",
     "plain",
     "read_scenario_text",
@@ -212,7 +213,19 @@ def read_source(
         text = read_scenario_text(path, kind=kind)
     except InputError as exc:
         raise exc.with_source(where) from None
+    if is_xml_text(text):  # else "not valid TOML: Invalid statement (at line 1, column 1)"
+        raise InputError(
+            f"XML, not a {kind} file (TOML); a URDF robot is named in a scenario's [model] "
+            f'table (kind = "urdf", path = "{path.name}"), and `stratplan models {path}` '
+            "describes it",
+            where,
+        )
     return parse_toml(text, where), text, where, path.parent
+
+
+def is_xml_text(text: str) -> bool:
+    """Whether a file's text is XML (a URDF, most likely): TOML never starts with "<"."""
+    return text.lstrip("\ufeff \t\r\n").startswith("<")
 
 
 def reject_non_finite(raw: Any, prefix: str = "") -> list[Problem]:

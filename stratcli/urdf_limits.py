@@ -47,6 +47,17 @@ SPATIAL_ADVICE = (
     "not run on URDF models: try via configurations that keep the robot away from the limit, "
     "another stratum sequence, or wider limits"
 )
+# objective = "newton": plain Newton's plans can sweep the joints through turns that the
+# least-energy plan of the same legs does not (a 2-leg task on an 8-joint arm: its elbow at
+# 13 rad, at least energy 1.25 rad, inside ±2.6); that plan is not searched within the limits
+# either, so it may help, not must
+NEWTON_ADVICE = (
+    "reached its goals but violates a {what}; the constrained search does not run on URDF "
+    'models (more harmonics do not help): try objective = "energy" (the default: its '
+    "least-energy plan is not kept within the limits either, but usually moves the joints "
+    "less than plain Newton), via configurations that keep the joint away from the limit, another "
+    "stratum sequence, or wider limits in [constraints].joint_limits"
+)
 
 
 DURATIONS_ADVICE = (
@@ -59,12 +70,16 @@ DURATIONS_ADVICE = (
 
 def violation_advice(plan, violated: str) -> str:
     """What to try after `violated` (a `constraints.verify` violation): for a URDF model's
-    limits what can help there, for optimised durations the fixed ones that the search keeps
-    within the limits (the other objective is refused with them), else the status' own
-    advice."""
+    limits what can help there (after plain Newton, the energy objective too), for optimised
+    durations the fixed ones that the search keeps within the limits (the other objective is
+    refused with them), else the status' own advice."""
+    urdf = getattr(plan.model.spec, "kind", plan.model.name) == "urdf"  # (no model built)
+    if urdf and plan.settings.objective == "newton":
+        what = "joint limit of the URDF" if URDF_LIMIT in violated else "limit of [constraints]"
+        return NEWTON_ADVICE.format(what=what)
     if URDF_LIMIT in violated:
         return URDF_ADVICE
-    if getattr(plan.model.spec, "kind", plan.model.name) == "urdf":  # (no model built)
+    if urdf:
         return SPATIAL_ADVICE
     if plan.settings.durations == "optimise":
         return DURATIONS_ADVICE
@@ -73,6 +88,14 @@ def violation_advice(plan, violated: str) -> str:
 
 def _fmt(x: float) -> str:
     return f"{x:.3g}"
+
+
+def _fmt_beyond(x: float, bound: float) -> str:
+    """`x`, a value beyond `bound`, with the digits that show it is (2.002, not 2, past 2)."""
+    for digits in range(3, 13):
+        if f"{x:.{digits}g}" != f"{bound:.{digits}g}":
+            return f"{x:.{digits}g}"
+    return f"{x:.12g}"
 
 
 def outside_limits(task) -> list[str]:
@@ -105,8 +128,9 @@ def _configurations(task, lower, upper, names) -> list[str]:
             continue
         q = np.asarray(q, dtype=float)[:k]
         for j in np.flatnonzero(np.isfinite(q) & ((q < lower) | (q > upper))):
+            bound = lower[j] if q[j] < lower[j] else upper[j]
             out.append(
-                f"{where} has {names[j]} = {_fmt(q[j])}, outside the URDF's limits "
+                f"{where} has {names[j]} = {_fmt_beyond(q[j], bound)}, outside the URDF's limits "
                 f"[{_fmt(lower[j])}, {_fmt(upper[j])}]"
             )
     return out
@@ -155,9 +179,11 @@ def _legs(plan, lower, upper, names) -> list[str]:
             else f"legs {', '.join(map(str, numbers[:-1]))} and {numbers[-1]} leave"
         )
         _, value, when = worst[j]
+        bound = lower[j] if value < lower[j] else upper[j]
         out.append(
             f"{which} the URDF's limits of {names[j]} [{_fmt(lower[j])}, {_fmt(upper[j])}] "
-            f"(reach{'es' if len(numbers) == 1 else ''} {_fmt(value)} at t = {when:.3f} s)"
+            f"(reach{'es' if len(numbers) == 1 else ''} {_fmt_beyond(value, bound)} at "
+            f"t = {when:.3f} s)"
         )
     return out
 

@@ -30,6 +30,39 @@ def test_unsupported_joint_types_are_named(tmp_path, kind):
     assert "'bad'" in text and kind in text and "model.path" in text and "\n" not in text
 
 
+def test_a_floating_joint_from_a_world_link_says_to_remove_it(tmp_path):
+    """A simulator's URDF (world -> floating -> base): the root is the free-flying base here."""
+    path = _write(tmp_path, _joint("float", "floating") + _joint("j1", "revolute", "b", "c"))
+    with pytest.raises(InputError) as err:
+        read_urdf(path)
+    assert str(err.value).endswith(
+        "joint 'float' is floating (only revolute and fixed joints are supported yet); the "
+        "URDF's root link is the free-flying base: remove joint 'float' and its parent link "
+        "'a' to make 'b' the root"
+    )
+    inner = _write(tmp_path, _joint("j1", "revolute") + _joint("float", "floating", "b", "c"))
+    with pytest.raises(InputError) as err:  # not above the root: no such advice
+        read_urdf(inner)
+    assert str(err.value).endswith("supported yet)")
+
+
+def test_a_xacro_file_is_named_with_how_to_expand_it(tmp_path):
+    """Robot descriptions often come as xacro: its macros named no link ("the parent of joint
+    'j', 'a', is not a link in the file (links: )")."""
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text(
+        '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:macro name="l" params="n"><link name="${n}"/></xacro:macro>'
+        '<xacro:l n="a"/><xacro:l n="b"/>' + _joint("j", "revolute") + "</robot>"
+    )
+    with pytest.raises(InputError) as err:
+        read_urdf(path)
+    assert str(err.value).endswith(
+        "arm.urdf.xacro: a xacro file (its macros and properties are not URDF): expand it "
+        "first, e.g. `xacro arm.urdf.xacro > arm.urdf`"
+    )
+
+
 def test_mimic_joint_is_rejected(tmp_path):
     mimic = _joint("m", "revolute", "b", "c", '<mimic joint="ok"/>')
     with pytest.raises(InputError, match="'m' is a mimic joint"):
@@ -149,6 +182,11 @@ def test_an_odd_but_valid_inertia_is_read(tmp_path, inertia):
         ('<axis xyz="0 0 0"/><limit lower="-1" upper="1"/>', "joint 'j': axis must be 3 numbers"),
         ('<axis xyz="0 1"/><limit lower="-1" upper="1"/>', "joint 'j': axis must be 3 numbers"),
         ('<limit lower="-1" upper="one"/>', "joint 'j': limit upper is not a number"),
+        (  # URDF's defaults 0 and 0: it was read as a joint limited to [0, 0]
+            '<axis xyz="0 0 1"/><limit effort="10" velocity="1"/>',
+            "revolute joint 'j': its <limit> has no lower and no upper (URDF's default for both "
+            "is 0, a joint that cannot move); give its range",
+        ),
     ],
 )
 def test_a_revolute_joint_without_limit_or_axis_is_named(tmp_path, extra, expected):

@@ -122,3 +122,33 @@ def test_a_single_start_is_the_pulled_one_and_extra_starts_are_seeded_newton_pla
     kinds = [s.kind for s in four.optimisation.starts]
     assert kinds == ["pulled", "newton", "newton", "newton"]
     assert four.total_energy <= optimal.total_energy * (1 + 1e-9)
+
+
+def test_more_starts_asked_of_a_first_order_search_are_noted_not_ignored(tmp_path):
+    """URDF legs have no second derivatives: the search keeps one start, and a scenario's
+    `starts = 4` or `search = "legwise"` says it made no difference (it was silent)."""
+    pytest.importorskip("pinocchio")
+    from pathlib import Path
+
+    import stratcli
+
+    arm3 = Path(__file__).resolve().parents[1] / "robots" / "arm3.urdf"
+    scenario = {
+        "name": "arm3_starts",
+        "model": {"kind": "urdf", "path": str(arm3)},
+        "task": {"start": [0] * 6, "goal": [0, 0, 0, 0.1, 0, 0]},
+        "legs": [{"stratum": "S3"}],
+    }
+    plain = stratcli.plan(scenario)
+    assert plain.ok and len(plain.optimisation.starts) == 1 and plain.notes == ()
+    asked = stratcli.load_scenario(scenario).with_changes(
+        {"planner": {"starts": 4, "search": "legwise"}}
+    )
+    plan = stratcli.plan(asked)
+    assert len(plan.optimisation.starts) == 1
+    assert plan.total_energy == pytest.approx(plain.total_energy, rel=1e-12)  # the same
+    assert plan.notes == (
+        'planner.starts = 4 and search = "legwise" made no difference here: these legs\' '
+        "end-point maps have no second derivatives (URDF models, ODE-path legs), so the energy "
+        "search takes at most 15 first-order steps from one start",
+    )

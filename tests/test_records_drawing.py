@@ -148,6 +148,51 @@ def test_a_record_drawn_by_the_drawing_process_has_the_figures_drawn_here(tmp_pa
     assert phases["plots"]["cpu_s"] > 0  # the drawing processes' CPU, not this one's
 
 
+BESIDE_ONE = """
+import os, time
+from stratcli import api
+from stratcli.records import drawing
+assert api.draw_ahead(yielding=False)
+mine, pid = os.getpriority(os.PRIO_PROCESS, 0), drawing._DRAWER["process"].pid
+for _ in range(200):  # 2 s: a niced one sets its niceness first thing, before its imports
+    theirs = os.getpriority(os.PRIO_PROCESS, pid)
+    if theirs != mine:
+        break
+    time.sleep(0.01)
+print(mine, theirs)
+"""
+
+
+@pytest.mark.skipif(not TWO_CORES or sys.platform != "linux", reason="forks on two cores")
+def test_beside_one_planning_process_the_drawing_process_is_not_niced():
+    """On a busy machine a niced drawer got a tenth of a core while `plan` waited for it."""
+    done = _python(BESIDE_ONE)
+    assert done.returncode == 0, done.stderr
+    mine, theirs = map(int, done.stdout.split())
+    assert theirs == mine
+
+
+@pytest.mark.parametrize("legs", [True, False])
+def test_plan_nices_the_drawing_process_only_beside_a_comparisons_workers(
+    tmp_path, monkeypatch, legs
+):
+    from typer.testing import CliRunner
+
+    from stratcli import api
+    from stratcli.cli import app
+
+    asked = []
+    monkeypatch.setattr(api, "draw_ahead", lambda yielding=True: asked.append(yielding))
+    scenario = ROOT / "scenarios" / ("sim4_task_d.toml" if legs else "sim4_auto.toml")
+    if not legs:  # auto mode, kept short
+        text = AUTO.read_text().replace("max_length = 3", "max_length = 2")
+        scenario = tmp_path / "auto.toml"
+        scenario.write_text(text)
+    result = CliRunner().invoke(app, ["plan", str(scenario), "--out", str(tmp_path / "runs")])
+    assert result.exit_code in (0, 1), result.output
+    assert asked == [not legs]
+
+
 STARTING = """
 import signal, sys
 from stratcli.__main__ import _on_signal

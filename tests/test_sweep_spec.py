@@ -317,3 +317,34 @@ def test_linspace_over_an_integer_setting_gives_integers(tmp_path):
     assert seeds == [0, 1, 2, 3, 4] and all(type(s) is int for s in seeds)
     assert [t.inputs["goal.theta"] for t in tasks[:2]] == [-1.0, 0.0]
     assert type(tasks[0].inputs["goal.theta"]) is float
+
+
+def test_a_urdf_configuration_by_name_takes_its_attitude_components_as_keys(tmp_path):
+    """README: a key is goal.NAME, NAME a coordinate of the model; a URDF model's rx, ry, rz
+    were refused in a configuration given by name ("unknown names rz")."""
+    pytest.importorskip("pinocchio")
+    reorient = ROOT / "scenarios" / "spatial" / "arm3_reorient.toml"
+    rpy = tmp_path / "rpy.toml"
+    rpy.write_text(
+        reorient.read_text()
+        .replace('path = "../../robots/arm3.urdf"', f'path = "{ROOT / "robots" / "arm3.urdf"}"')
+        .replace(
+            "attitude = [0.18888013627784192, 0.1584892526874515, 0.18888013627784192] }",
+            'rpy = ["10deg", 0, 0] }',
+        )
+    )
+    cases = [
+        (reorient, '"goal.rz" = [0.05]', [0.18888013627784192, 0.1584892526874515, 0.05]),
+        (rpy, '"goal.rz" = [0.05]', [np.radians(10), 0.0, 0.05]),
+        (reorient, '"legs[1].goal.rz" = [0.05]', None),  # ["*", 0.174..., "*"]: rz prescribed
+    ]
+    for scenario, axis, expected in cases:
+        sweep = write(tmp_path, f"[sweep.grid]\n{axis}\n", scenario=scenario)
+        (task,) = load_sweep(sweep).tasks()
+        loaded = load_scenario(task.scenario)
+        if expected is not None:
+            np.testing.assert_allclose(loaded.goal[3:], expected, atol=1e-15)
+        else:
+            via = loaded.legs[1].goal
+            assert np.isnan(via[3]) and via[4] == pytest.approx(0.17408920232346858)
+            assert via[5] == 0.05

@@ -87,6 +87,21 @@ def test_a_start_outside_the_urdf_limits_is_noted_not_refused(tmp_path):
     )
 
 
+def test_a_value_just_past_a_limit_is_shown_with_the_digits_that_show_it(tmp_path):
+    """Not "reaches 2" beside limits [-2, 2]: as many digits as it takes to differ."""
+    plan = stratcli.plan(_scenario(tmp_path, j2=1.0004), check=False)
+    assert plan.notes[0].startswith("task.start has j2 = 1.0004, outside the URDF's limits [-1, 1]")
+    free = stratcli.plan(_scenario(tmp_path, upper_j2=2.0))
+    farthest = joint_paths(free.legs[0], 3)[1][:, 1].max()  # 1.3...
+    upper = np.floor(farthest * 1000) / 1000  # the leg leaves it by less than 1e-3
+    plan = stratcli.plan(_scenario(tmp_path, upper_j2=upper))
+    reached = NOTE.pattern.replace(r"\[-1, 1\]", rf"\[{-upper:.3g}, {upper:.3g}\]")
+    found = re.match(reached, plan.notes[-1])
+    assert found, plan.notes[-1]
+    assert float(found["value"]) > upper and found["value"] != f"{upper:.3g}"
+    assert float(found["value"]) == pytest.approx(farthest, abs=5e-4)
+
+
 def test_the_cli_prints_the_note_and_exits_0(tmp_path):
     result = CliRunner().invoke(
         app, ["plan", str(_scenario(tmp_path)), "--out", str(tmp_path / "runs")]
@@ -101,16 +116,41 @@ def test_a_violated_urdf_limit_is_named_as_the_urdfs_with_advice_that_can_help(t
     assert plan.message.startswith("leg 1 (S3) violates the URDF's joint limits of j2 [-1, 1] by")
     assert "wider limits in [constraints].joint_limits" in plan.message
     assert "another stratum sequence" in plan.message
-    assert "more harmonics" not in plan.message.replace("more harmonics or the other", "")
+    assert "more harmonics" not in plan.message.replace("more harmonics do not help", "")
     assert "a limit of [constraints]" not in plan.message
     assert plan.notes[-1].startswith("the limits were verified, not searched for")
+
+
+def test_after_plain_newton_the_advice_names_the_energy_objective(tmp_path):
+    """The scenario's objective is "newton": the energy objective may help there, so the
+    advice names it (after an energy plan it does not)."""
+    table = "[constraints]\njoint_limits = { j2 = [-1, 1] }\n"
+    for plan in (
+        stratcli.plan(_scenario(tmp_path, constraints="[constraints]\n")),  # the URDF's
+        stratcli.plan(_scenario(tmp_path, upper_j2=2.0, constraints=table)),  # the table's
+    ):
+        assert plan.status is stratcli.Status.CONSTRAINT_VIOLATED
+        assert 'try objective = "energy" (the default' in plan.message
+        assert "more harmonics do not help" in plan.message
+        assert "the other objective" not in plan.message
+    energy = _scenario(tmp_path).with_name("energy.toml")  # j2 within ±1: 1.04 at least energy
+    energy.write_text(
+        SCENARIO.replace('objective = "newton"', 'objective = "energy"').format(
+            j2=0, constraints="[constraints]\n"
+        )
+    )
+    plan = stratcli.plan(energy)
+    assert plan.status is stratcli.Status.CONSTRAINT_VIOLATED
+    assert 'objective = "energy"' not in plan.message
+    assert "more harmonics or the other objective do not help" in plan.message
 
 
 def test_a_violated_limit_of_the_table_on_a_urdf_model_does_not_advise_harmonics(tmp_path):
     table = "[constraints]\njoint_limits = { j2 = [-1, 1] }\n"
     plan = stratcli.plan(_scenario(tmp_path, upper_j2=2.0, constraints=table))
     assert plan.message.startswith("leg 1 (S3) violates the joint limits of j2 by")
-    assert "URDF's" not in plan.message and "more harmonics" not in plan.message
+    assert "URDF's" not in plan.message
+    assert "more harmonics" not in plan.message.replace("more harmonics do not help", "")
     assert "the constrained search does not run on URDF models" in plan.message
 
 

@@ -15,7 +15,7 @@ from ..models.numbers import parse_number
 from ..models.presets import PRESETS, preset
 from ..models.system import System
 from ..scenario import Task, load_scenario
-from ..tomlread import is_toml_text
+from ..tomlread import is_toml_text, is_xml_text
 from .check import check_document
 
 
@@ -24,7 +24,7 @@ class CheckReport:
     """A controllability check (paper eqs. 2 and 4) of a preset model or a scenario."""
 
     document: dict[str, Any]  # what `stratplan check --json` prints
-    title: str  # "preset <name>" or "<scenario> (<model> model)"
+    title: str  # "preset <name>", "URDF <file>" or "<scenario> (<model> model)"
     seconds: float
 
     @property
@@ -126,6 +126,9 @@ def check_controllability(
     if isinstance(task, str):
         system, legs, title, task = preset(task), None, f"preset {task}", None
         strata, q = list(system.strata), [0.0] * system.n
+    elif isinstance(task, System):  # a URDF file alone: its model at zero joints
+        system, legs, title, task = task, None, f"URDF {Path(target).name}", None
+        strata, q = list(system.strata), [0.0] * system.n
     else:
         system, legs, strata, q = task.system, task.legs or None, check_strata(task), task.start
         title = f"{task.scenario.name} ({task.model_name} model)"
@@ -142,19 +145,20 @@ def check_controllability(
     return CheckReport(doc, title, seconds)
 
 
-def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | Task:
-    """A preset model's name, or a loaded scenario (what `check` and `models` take).
+def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | Task | System:
+    """A preset model's name, a loaded scenario, or a URDF file's model (what `check` and
+    `models` take).
 
     Parameters
     ----------
     target : str, Path, Mapping or Task
-        A preset name (a file of that name wins), or a scenario: a loaded one, or what
-        `load_scenario` takes.
+        A preset name (a file of that name wins), a URDF file (XML), or a scenario: a loaded
+        one, or what `load_scenario` takes.
 
     Returns
     -------
-    str or Task
-        The preset's name, or the scenario.
+    str, Task or System
+        The preset's name, the scenario, or the URDF's model (its default strata).
 
     Raises
     ------
@@ -169,7 +173,30 @@ def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | T
         if str(target) in PRESETS:
             return str(target)
         raise InputError(f"not a preset ({', '.join(PRESETS)}) or a scenario file", str(target))
+    if isinstance(target, str | Path) and not text and _is_xml_file(Path(target)):
+        return urdf_system(target)
     return load_scenario(target)
+
+
+def _is_xml_file(path: Path) -> bool:
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(1024)
+    except OSError:
+        return False  # (load_scenario names what is wrong with it)
+    return is_xml_text(head.decode("utf-8", "replace"))
+
+
+def urdf_system(path: str | Path) -> System:
+    """The model of a URDF file alone, with the default strata (`models FILE.urdf`); an
+    `InputError` naming the file for anything `[model] kind = "urdf"` would refuse."""
+    from ..models.specs import UrdfModel, build_system  # Pinocchio only for URDF models
+
+    spec = UrdfModel(kind="urdf", path=str(Path(path).expanduser().resolve()))
+    try:
+        return build_system(spec)
+    except InputError as exc:  # its field is the scenario's model.path: none here
+        raise InputError([Problem("", p.message) for p in exc.problems], str(path)) from None
 
 
 def configuration(system: System, at: str | Sequence[float], option: str = "at") -> list:

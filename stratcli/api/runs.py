@@ -129,7 +129,7 @@ def write_record(
     return run_dir
 
 
-def draw_ahead() -> bool:
+def draw_ahead(yielding: bool = True) -> bool:
     """Start a process that loads matplotlib now and draws the figures of the records this
     process writes (`records.drawing`).
 
@@ -138,6 +138,12 @@ def draw_ahead() -> bool:
     same bytes. It does nothing where it cannot help: matplotlib already loaded (a notebook),
     one core, no fork.
 
+    Parameters
+    ----------
+    yielding : bool
+        Whether the process runs niced (`drawing.NICE`), yielding to worker processes that
+        plan meanwhile (a comparison's); beside one planning process it need not.
+
     Returns
     -------
     bool
@@ -145,7 +151,7 @@ def draw_ahead() -> bool:
     """
     from ..records import drawing
 
-    return drawing.start()
+    return drawing.start(yielding)
 
 
 def prepare_out(out: str | Path) -> Path:

@@ -84,7 +84,8 @@ def plan(
     task = _load(file)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
-    api.draw_ahead()  # matplotlib loads while the plan is made
+    # matplotlib loads while the plan is made; niced only beside a comparison's workers
+    api.draw_ahead(yielding=not task.legs)
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale)
     with render.phases(render.interactive(quiet, json_output)) as progress:
@@ -236,13 +237,15 @@ def decompose(
 def check(
     target: Annotated[
         str,
-        typer.Argument(metavar="NAME|FILE", help="A preset model's name, or a scenario file."),
+        typer.Argument(
+            metavar="NAME|FILE", help="A preset model's name, a scenario file or a URDF file."
+        ),
     ],
     at: Annotated[
         str | None,
         typer.Option(
             help='Configuration, e.g. "0, pi/3, 0, 0" (default: the scenario start, or zeros '
-            "for a preset)."
+            "for a preset or a URDF)."
         ),
     ] = None,
     samples: Annotated[int, typer.Option(min=0, help="Sampled configurations.")] = 100,
@@ -288,15 +291,17 @@ def models(
     target: Annotated[
         str | None,
         typer.Argument(
-            metavar="NAME|FILE", help="A preset model's name, or a scenario file: describe it."
+            metavar="NAME|FILE",
+            help="A preset model's name, a scenario file or a URDF file: describe it.",
         ),
     ] = None,
 ) -> None:
     """List the preset models, or describe one: a preset by NAME, or a scenario FILE's model.
 
     Described: coordinates, inputs and every stratum with its locked coordinates, active
-    inputs, dimension and the end-point evaluator `auto` will use on it. Exits 0, or 2 when
-    the argument is neither a preset nor a scenario file.
+    inputs, dimension and the end-point evaluator `auto` will use on it. A URDF file is
+    described as `[model] kind = "urdf"` would read it (joints, limits, default strata).
+    Exits 0, or 2 when the argument is neither a preset nor a scenario or URDF file.
     """
     if target is None:  # the static table: listing presets builds no sympy model
         from ..models.presets import PRESET_TABLE  # start-up speed
@@ -313,6 +318,9 @@ def models(
 
             system = preset(found)
             render_tables.model(found, system, api.strata_table(system))
+            return
+        if not hasattr(found, "scenario"):  # a URDF file's model (a System)
+            render_tables.model("urdf", found, api.strata_table(found), of=Path(target).name)
             return
         render_tables.model(
             found.model_name, found.system, api.strata_table(found.system), of=found.scenario.name

@@ -7,8 +7,8 @@ supported (Pinocchio merges the child's inertia into its parent). It also reject
 link or joint, what Pinocchio would load without a word (or with urdfdom's C++ messages on
 stderr) into a model with no physical meaning: an `<inertial>` without its `<mass>` or
 `<inertia>`, a negative mass, an inertia matrix that is not positive semi-definite, a
-revolute joint without `<limit>` or with a zero axis. Every problem is an `InputError` whose
-field is `model.path`.
+revolute joint without `<limit>` (or without its lower and upper) or with a zero axis. Every
+problem is an `InputError` whose field is `model.path`.
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ __all__ = [
 
 MAX_BYTES = 5_000_000
 SUPPORTED = ("revolute", "fixed")
+XACRO = "{http://www.ros.org/wiki/xacro}"  # the namespace of xacro's elements
 
 
 @dataclass(frozen=True)
@@ -90,6 +91,12 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
         raise _fail(f"{path}: not valid XML ({exc})") from None
     if root.tag != "robot":
         raise _fail(f"{path}: the root element is <{root.tag}>, not <robot>")
+    if any(str(e.tag).startswith(XACRO) for e in root.iter()):  # else "not a link" of ${...}
+        raise _fail(
+            f"{path}: a xacro file (its macros and properties are not URDF): expand it first, "
+            f"e.g. `xacro {path.name} > {path.name.removesuffix('.xacro').removesuffix('.urdf')}"
+            ".urdf`"
+        )
     links = tuple(link.get("name", "") for link in root.findall("link"))
     for link in root.findall("link"):
         _check_inertial(path, link.get("name", "?"), link.find("inertial"))
@@ -102,9 +109,19 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
         if element.find("mimic") is not None:
             raise _fail(f"{path}: joint {name!r} is a mimic joint (not supported yet)")
         if kind not in SUPPORTED:
+            hint = ""
+            top = parent.get("link", "") not in {
+                c.get("link") for c in root.iter("child")
+            }  # a simulator's world link: the root is free-flying here
+            if kind == "floating" and top:
+                hint = (
+                    f"; the URDF's root link is the free-flying base: remove joint {name!r} "
+                    f"and its parent link {parent.get('link', '')!r} to make "
+                    f"{child.get('link', '')!r} the root"
+                )
             raise _fail(
                 f"{path}: joint {name!r} is {kind} (only revolute and fixed joints are "
-                "supported yet)"
+                f"supported yet){hint}"
             )
         limit = element.find("limit")
         if kind == "revolute":
@@ -172,7 +189,8 @@ def _check_inertial(path: Path, link: str, inertial: ET.Element | None) -> None:
 
 
 def _check_revolute(path: Path, joint: str, element: ET.Element, limit) -> None:
-    """A revolute joint has `<limit lower upper>` (URDF requires it) and a nonzero axis."""
+    """A revolute joint has `<limit lower upper>` (URDF requires it; lower and upper default
+    to 0, so one without either could not move) and a nonzero axis."""
     if limit is None:
         raise _fail(
             f"{path}: revolute joint {joint!r} has no <limit lower=... upper=... effort=... "
@@ -184,6 +202,11 @@ def _check_revolute(path: Path, joint: str, element: ET.Element, limit) -> None:
         bounds.append(None if value is None else _numbers(value))
         if value is not None and bounds[-1] is None:
             raise _fail(f"{path}: joint {joint!r}: limit {key} is not a number (got {value!r})")
+    if bounds == [None, None]:  # what a continuous joint's <limit> has; here a joint stuck at 0
+        raise _fail(
+            f"{path}: revolute joint {joint!r}: its <limit> has no lower and no upper (URDF's "
+            "default for both is 0, a joint that cannot move); give its range"
+        )
     if all(bounds) and bounds[0][0] > bounds[1][0]:
         raise _fail(
             f"{path}: joint {joint!r}: limit lower {bounds[0][0]:g} is above upper {bounds[1][0]:g}"

@@ -38,16 +38,22 @@ __all__ = ["ask", "beside", "running", "start"]
 # expected drawing time relative to a time plot, to share the figures out between two processes
 COST = {"ranking": 1.4, "motion": 30.0, "stroboscope": 1.2}
 
-# The drawing process's niceness: loading matplotlib beside a comparison's two workers took
-# their CPU (the search 1.34 -> 1.22 s median wall with it, compare-sequences on Sim 4, 10
-# alternating runs); drawing happens when the planner is done, and the figures are the same
+# The drawing process's niceness where it yields: loading matplotlib beside a comparison's two
+# workers took their CPU (the search 1.34 -> 1.22 s median wall with it, compare-sequences on
+# Sim 4, 10 alternating runs); drawing happens when the planner is done, and the figures are
+# the same. Beside one planning process (`plan` with legs) it does not yield: nothing of the
+# command's competes with it on a second core, and on a busy machine a niced drawer got a
+# tenth of a core while the command waited for its figures (a URDF plan of 0.1-0.25 s beside
+# two busy processes on 2 cores: the plots 17-19 s against 2.3-3.6 s un-niced, the command
+# 21-23 s against 6.4-7.9 s)
 NICE = 10
 
 _DRAWER: dict[str, Any] = {}  # "process", "connection", "owner" (its pid) once started
 
 
-def start() -> bool:
-    """Fork the drawing process (at most once per process); True if it runs."""
+def start(yielding: bool = True) -> bool:
+    """Fork the drawing process (at most once per process), at `NICE` if `yielding`; True if
+    it runs."""
     if _DRAWER:
         return running()
     if "matplotlib" in sys.modules or not _beside_possible():
@@ -55,7 +61,10 @@ def start() -> bool:
     context = multiprocessing.get_context("fork")
     here, there = context.Pipe()
     process = context.Process(
-        target=_serve, args=(there, here, os.getpid()), name="stratplan-drawing", daemon=True
+        target=_serve,
+        args=(there, here, os.getpid(), NICE if yielding else 0),
+        name="stratplan-drawing",
+        daemon=True,
     )
     with signals_held():  # none reaches it before it sets its own handlers (`_serve`)
         process.start()
@@ -164,14 +173,15 @@ def beside(func: Callable, *args) -> tuple[Callable[[], Any], Callable[[], None]
 # --------------------------------------------------------------------------------------------
 
 
-def _serve(connection, parents_end, parent: int) -> None:
+def _serve(connection, parents_end, parent: int, nice: int) -> None:
     """Import the figure modules, then draw what is asked until the command ends."""
     from ..trie import worker_init
 
     worker_init(parent)  # which lets in the signals held since the fork (`start`)
     parents_end.close()
     try:  # it yields to the planner's processes (a comparison's workers); alone, it runs
-        os.nice(NICE)
+        if nice:
+            os.nice(nice)
     except (AttributeError, OSError):  # pragma: no cover - no nice here
         pass
     _warm_up()

@@ -2,7 +2,9 @@
 
 A key names a scenario value: ``start.NAME``, ``goal.NAME`` and ``legs[i].goal.NAME`` are
 coordinates (NAME a coordinate of the model; ``task.`` may be written in front), anything else
-a dotted path into the scenario (``planner.tolerance``). A value is checked by loading the base
+a dotted path into the scenario (``planner.tolerance``). A URDF configuration given by name
+(joints, then ``attitude`` or ``rpy``) takes ``rx``, ``ry``, ``rz`` as components of its
+attitude, a rotation vector (``rpy`` converted to one). A value is checked by loading the base
 scenario with it (`stratcli.load_scenario`); its problems are named by the sweep file's field.
 """
 
@@ -20,6 +22,7 @@ from ..scenario import load_scenario
 
 MAX_TASKS = 1_000_000
 VECTORS = ("start", "goal")
+ATTITUDE = ("rx", "ry", "rz")  # a URDF model's attitude: components of `attitude` by name
 _PART = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?$")
 
 
@@ -64,6 +67,11 @@ def assign(scenario: dict[str, Any], key: str, value: Any, states: tuple[str, ..
             node[part] = {}
         node = node[part]
     last = parts[-1]
+    if isinstance(node, dict) and last in ATTITUDE and is_coordinate(key):
+        node["attitude"] = _attitude(node, key)  # a URDF configuration given by name
+        node.pop("rpy", None)
+        node["attitude"][ATTITUDE.index(last)] = value
+        return
     if isinstance(node, list):
         if last not in states:
             raise ValueError(f"unknown coordinate {last!r} (this model has: {', '.join(states)})")
@@ -72,6 +80,28 @@ def assign(scenario: dict[str, Any], key: str, value: Any, states: tuple[str, ..
         node[last] = value
     else:
         raise ValueError(f"cannot set {key} in the scenario")
+
+
+def _attitude(table: dict[str, Any], key: str) -> list:
+    """A URDF configuration table's attitude as a rotation vector (a list, copied): its
+    `attitude`, or its `rpy` converted (one component of it set by `key`, the others kept)."""
+    if "rpy" not in table:
+        value = table.get("attitude", [0.0, 0.0, 0.0])  # (the default of a URDF table)
+        if value == "*":
+            return ["*"] * 3
+        if not isinstance(value, list) or len(value) != 3:
+            raise ValueError(f"cannot set {key}: the scenario's attitude is not three angles")
+        return list(value)
+    rpy = table["rpy"]
+    if rpy == "*" or (isinstance(rpy, list) and "*" in rpy):
+        return ["*"] * 3
+    try:
+        angles = np.array([parse_number(a) for a in rpy], dtype=float)
+    except (TypeError, ValueError, InputError):
+        raise ValueError(f"cannot set {key}: the scenario's rpy is not three angles") from None
+    from .. import so3
+
+    return [float(x) for x in so3.log(so3.rpy_to_matrix(angles))]
 
 
 def key_problem(base, key: str, states, field: str, problems: list[Problem]) -> bool:

@@ -1,0 +1,60 @@
+"""A URDF file where a scenario is expected: `models` and `check` describe it, the commands
+that plan say in one line that a scenario names it (not "not valid TOML ... line 1")."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+ROOT = Path(__file__).resolve().parents[1]
+ARM3 = ROOT / "robots" / "arm3.urdf"
+
+pin = pytest.importorskip("pinocchio")
+
+import stratcli  # noqa: E402
+from stratcli.cli import app  # noqa: E402
+from stratcli.errors import InputError  # noqa: E402
+
+
+def test_models_describes_a_urdf_file_as_its_scenario_would():
+    result = CliRunner().invoke(app, ["models", str(ARM3)])
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("urdf model of arm3.urdf: URDF robot 'ff_arm3', 15 kg")
+    assert "coordinates: j1, j2, j3, rx, ry, rz" in result.output
+    scenario = ROOT / "scenarios" / "spatial" / "arm3_reorient.toml"
+    same = CliRunner().invoke(app, ["models", str(scenario)])
+    assert result.output.splitlines()[1:] == same.output.splitlines()[1:]  # the same model
+
+
+def test_check_takes_a_urdf_file_at_zero_joints_or_at():
+    report = stratcli.check_controllability(ARM3, samples=3)
+    assert report.title == "URDF arm3.urdf"
+    assert report.document["at"] == [0.0] * 6 and report.document["model"] == "urdf"
+    # as README says of the golden arm at j1 = 0: S1 turns the base about y only
+    assert not report.document["strongly_controllable"] and report.controllable
+    result = CliRunner().invoke(app, ["check", str(ARM3), "--samples", "3", "--at", "0, 0.3"])
+    assert result.exit_code == 2
+    assert "error: --at: needs 6 values (j1, j2, j3, rx, ry, rz), got 2" in result.output
+
+
+@pytest.mark.parametrize("command", ["plan", "decompose", "compare-sequences", "check"])
+def test_a_command_given_a_urdf_says_a_scenario_names_it(tmp_path, command):
+    robot = tmp_path / "robot.xml"  # by its content, not its name
+    robot.write_text("\n  " + ARM3.read_text())
+    if command == "check":  # a bad URDF: one line naming it, as in a scenario
+        robot.write_text(ARM3.read_text().replace('type="revolute"', 'type="continuous"', 1))
+    result = CliRunner().invoke(app, [command, str(robot)])
+    assert result.exit_code == 2, result.output
+    (line,) = result.output.strip().splitlines()
+    if command == "check":
+        assert line.startswith(f"error: {robot}: {robot}: joint 'j1' is continuous")
+        return
+    assert line == (
+        f"error: {robot}: XML, not a scenario file (TOML); a URDF robot is named in a "
+        f'scenario\'s [model] table (kind = "urdf", path = "robot.xml"), and `stratplan '
+        f"models {robot}` describes it"
+    )
+    with pytest.raises(InputError, match="XML, not a scenario file"):
+        stratcli.load_scenario(robot)
