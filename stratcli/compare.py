@@ -208,7 +208,7 @@ def compare(
     there instead of in forked processes; its workers rebuild the model from its `[model]`
     table (a model made in Python has none: use `jobs`). `constraints` (a resolved
     [constraints] table): every candidate planned within its joint limits, self-collision and
-    obstacles, and failed where it still breaks one (`objectives.candidate_within_limits`).
+    obstacles, and failed where it still breaks one (`within_limits.candidate_within_limits`).
     """
     if criterion not in CRITERIA:
         raise ValueError(f"unknown criterion {criterion!r} (known: {', '.join(CRITERIA)})")

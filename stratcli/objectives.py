@@ -19,21 +19,18 @@ from .models.system import System
 from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.base import ENERGY_RUNAWAY
-from .planners.constrained import NotSearchable, constrained_search
 from .planners.energy import optimise_energy
 from .planners.sqp import FIRST_ORDER_ITERATIONS, LOOSE_ABOVE
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
 
-__all__ = ["candidate_within_limits", "plan_sequence", "plan_with_objective", "within_limits"]
+__all__ = ["plan_sequence", "plan_with_objective"]
 
 SEED_RESTARTS = 2  # Newton restarts allowed for the extra starts of the energy objective
 # ... and Newton iterations per leg over all its attempts: a seed that needs more is dropped
 # (on the paper's scenarios the seeds that win need at most 34; failing ones ran 39-48)
 SEED_BUDGET = 36
-CONSTRAINED_SEEDS = 3  # further starts of the constrained search when the plan's own stalls
-AUXILIARY_LIMIT = 2.5  # rad: joint limits of the start for self-collision alone
 
 
 def plan_sequence(
@@ -80,6 +77,8 @@ def plan_sequence(
     check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
     plan = plan_with_objective(system, start, legs, settings, warm_start, progress)
     if searchable(constraints) and plan.ok:
+        from .within_limits import within_limits  # (which builds on this module)
+
         plan = within_limits(system, start, legs, settings, plan, constraints, progress)
     return plan
 
@@ -191,136 +190,6 @@ def _short_of_a_minimum(plan, search):
     return replace(plan, notes=(*plan.notes, note))
 
 
-def within_limits(system, start, legs, settings, plan, constraints, progress=None):
-    """`plan` (which reaches every goal) moved inside the joint limits, clear of itself and of
-    the obstacles along every leg (`planners.constrained`): from the plan itself, then from
-    its energy search's Newton plan. The energy objective then lowers the energy inside the
-    limits. If no start leads inside, `plan` is returned with a message naming the limit and
-    the leg where the search stalled (the verification then fails it)."""
-    say = progress or _silent
-    if not all(PLANNERS[leg.method].joint_optimisation for leg in legs):
-        return plan  # Lie legs are refused with [constraints] limits (scenario loading)
-    nominal = [np.asarray(start, dtype=float)]
-    for leg, planned in zip(legs[:-1], plan.legs[:-1], strict=True):
-        nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
-    targets = [np.array(leg.targets, dtype=int) for leg in plan.legs]
-    seeds = [
-        (
-            "planned" if settings.objective == "newton" else "minimum-energy",
-            np.concatenate([leg.coefficients.ravel() for leg in plan.legs]),
-        )
-    ]
-    say("constrained search: moving the plan inside the limits")
-    tried = []  # every start, for `_folding_start`
-    coefficients, notes, stalled, iterations, searched = None, [], "", 0, 0
-    inside = []  # (energy, coefficients, notes, iterations) of each start that got inside
-    wanted = settings.constrained_starts
-    for k in range(CONSTRAINED_SEEDS + wanted):
-        if k:  # another start: a Newton plan from a seed, as the energy search's starts
-            say(f"constrained search: start {k + 1} (a Newton plan from a seed)")
-            other = chain_legs(
-                system, start, legs, settings, restarts=min(settings.restarts, SEED_RESTARTS),
-                seed=settings.seed + 7919 * k, spread=0.02 + 0.3 * k,
-            )  # fmt: skip
-            if not other.ok:
-                continue
-            seeds = [
-                ("seeded Newton", np.concatenate([g.coefficients.ravel() for g in other.legs]))
-            ]
-        tried += seeds
-        coefficients = None
-        searched += 1
-        try:
-            coefficients, notes, stalled, energy, iterations = constrained_search(
-                system, nominal, legs, settings, targets, seeds, constraints,
-                lower_energy=settings.objective == "energy", first=k == 0,
-            )  # fmt: skip
-        except NotSearchable:
-            note = (
-                "the limits were verified, not searched for: the constrained search needs "
-                "quadrature end-point maps (not spatial or ODE-path legs)"
-            )
-            return replace(plan, notes=(*plan.notes, note))
-        except NUMERICAL_ERRORS as exc:
-            stalled = (
-                f"the constrained search stopped on a numerical failure ({type(exc).__name__})"
-            )
-        if coefficients is None and not stalled:
-            break  # (k = 0) inside the limits already
-        if coefficients is not None:
-            inside.append((energy, coefficients, notes, iterations))
-            if len(inside) >= wanted:
-                break
-    if inside:  # the lowest of the starts that got inside (`constrained_starts`)
-        _, coefficients, notes, iterations = min(inside, key=lambda found: found[0])
-        if wanted > 1:
-            energies = ", ".join(f"{e:.6g}" for e, _, _, _ in inside)
-            notes = [
-                *notes,
-                f"lowest of {len(inside)} constrained starts inside the limits ({energies})",
-            ]
-    if coefficients is None and not stalled:
-        return plan  # inside the limits already (then it is also the constrained minimum)
-    if coefficients is None:  # self-collision without joint limits: a start within some
-        found = _folding_start(system, nominal, legs, settings, targets, tried, constraints)
-        if found is not None:
-            say("constrained search: from a plan within auxiliary joint limits")
-            searched += 1
-            coefficients, notes, _, _, iterations = constrained_search(
-                system, nominal, legs, settings, targets, found, constraints,
-                lower_energy=settings.objective == "energy", first=False,
-            )  # fmt: skip
-    if coefficients is None:
-        return replace(plan, message=stalled, notes=(*plan.notes, stalled))
-    final = chain_legs(system, start, legs, settings, initial=coefficients)
-    if not final.ok:
-        note = "the constrained plan did not re-chain onto the goals; " + final.message
-        return replace(plan, message=note, notes=(*plan.notes, note))
-    # The legs are the search's (re-chaining polishes a leg only if it is off by more than the
-    # tolerance): their work is its iterations and starts, over all legs together.
-    legs_found = tuple(
-        replace(
-            leg,
-            strategy="constrained",
-            iterations=iterations + leg.iterations,
-            attempts=searched,
-        )
-        for leg in final.legs
-    )
-    return replace(
-        final, legs=legs_found, optimisation=plan.optimisation, notes=(*final.notes, *notes)
-    )
-
-
-def _folding_start(system, nominal, legs, settings, targets, seeds, constraints):
-    """A start for self-collision without joint limits: the constrained search with
-    auxiliary joint limits of ±`AUXILIARY_LIMIT` rad added, which keep an arm from folding
-    through the base (the free plans of Sim 4 C and D do; the way out of that overlap leads
-    away from the goals). Its plan is inside the original limits too. None if it does not
-    apply or fails."""
-    robot = getattr(system, "robot", None)
-    if robot is None or not constraints.self_collision:
-        return None
-    joints = np.arange(robot.n_joints)
-    if np.isfinite(constraints.lower[joints]).any() or np.isfinite(constraints.upper[joints]).any():
-        return None
-    if any(np.abs(np.asarray(q)[joints]).max() >= AUXILIARY_LIMIT for q in nominal):
-        return None
-    lower, upper = constraints.lower.copy(), constraints.upper.copy()
-    lower[joints], upper[joints] = -AUXILIARY_LIMIT, AUXILIARY_LIMIT
-    auxiliary = replace(constraints, lower=lower, upper=upper)
-    try:
-        coefficients, _, _, _, _ = constrained_search(
-            system, nominal, legs, settings, targets, seeds, auxiliary, lower_energy=False,
-            first=False,
-        )  # fmt: skip
-    except NUMERICAL_ERRORS:
-        return None
-    if coefficients is None:
-        return None
-    return [("joint-limited", np.concatenate([np.ravel(c) for c in coefficients]))]
-
-
 def _exact_hessians(system: System, legs: list[LegSpec], settings: PlannerSettings) -> bool:
     """Whether every leg's end-point map has exact second derivatives; if not (ODE-path
     legs, URDF models) the energy search keeps one start (`optimise_energy`), so no seeded
@@ -392,21 +261,3 @@ def _silent(phase: str) -> None:
 
 def _noted(plan: SequencePlan, note: str) -> SequencePlan:
     return replace(plan, notes=(*plan.notes, note))
-
-
-def candidate_within_limits(system, start, legs, settings, plan, constraints, searched=False):
-    """A candidate sequence's plan for auto mode under `constraints`: moved inside the joint
-    limits, clear of itself and of the obstacles (`within_limits`, unless `searched`: planned
-    by `plan_sequence` with them already), then verified on a dense re-integration and failed
-    if it still breaks one, so that the comparison cannot choose it. Rate and acceleration
-    limits are not checked here: time scaling meets them exactly on whichever plan is chosen
-    (`constraints.enforce`), and at equal total duration they change no ranking."""
-    from .constraints import enforce  # (re-integration and figures' geometry: not needed above)
-
-    if not searchable(constraints) or not plan.ok:  # (rate limits alone: nothing to do here)
-        return plan
-    plan = plan.with_system(system)
-    if not searched:
-        plan = within_limits(system, start, legs, settings, plan, constraints)
-    geometric = replace(constraints, max_rate=None, max_acceleration=None)
-    return enforce(plan, geometric)

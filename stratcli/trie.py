@@ -41,11 +41,12 @@ import numpy as np
 from .interrupts import checkpoint, release_signals, signals_held
 from .models.system import System
 from .node_margins import searchable
-from .objectives import candidate_within_limits, plan_sequence
+from .objectives import plan_sequence
 from .results import LegPlan
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import LegSpec, LegStart, assemble, plan_next_leg, planner_for
+from .within_limits import candidate_within_limits
 
 __all__ = ["STATE", "build_trie", "compare_shared", "compare_whole", "default_jobs"]
 
@@ -351,7 +352,7 @@ def compare_shared(system, settings, start, candidates, valid, jobs, advance):
 
 def _plan_within_limits(unit: tuple[int, list[LegSpec], SequencePlan]) -> tuple:
     """One candidate's Newton plan moved inside its limits and verified
-    (`objectives.candidate_within_limits`): (index, plan, seconds)."""
+    (`within_limits.candidate_within_limits`): (index, plan, seconds)."""
     k, legs, plan = unit
     clock = time.perf_counter()
     system, settings, start = STATE["system"], STATE["settings"], STATE["start"]
