@@ -13,6 +13,7 @@ import jsonschema
 import pytest
 
 import stratcli
+from stratcli.api import plan_run
 from stratcli.records.rundir import finite_or_none
 from stratcli.records.schemas import NAMES
 from stratcli.settings import Continuity
@@ -65,23 +66,28 @@ def failed_plan(task_a):
 
 
 @pytest.fixture(scope="module")
-def plans(task_a, failed_plan):
+def constrained_run():
+    """What `stratplan plan` runs on a scenario with [constraints] (its phases included)."""
+    return plan_run(stratcli.load_scenario(SCENARIOS / "sim4_task_d_constrained.toml"))
+
+
+@pytest.fixture(scope="module")
+def plans(task_a, failed_plan, constrained_run):
     """Plans by kind: the energy objective, Newton, a failed one, Lie legs, constraints."""
     hybrid = stratcli.load_scenario(SCENARIOS / "sim3_hybrid.toml")
-    constrained = stratcli.load_scenario(SCENARIOS / "sim4_task_d_constrained.toml")
     return {
         "energy": stratcli.plan(task_a),
         "newton": stratcli.plan(task_a.with_changes({"planner": {"objective": "newton"}})),
         "failed": failed_plan,
         "lie": stratcli.plan(hybrid),
-        "constrained": stratcli.plan(constrained),
+        "constrained": constrained_run.result,
     }
 
 
 @pytest.fixture(scope="module")
-def records(tmp_path_factory, failed_plan):
-    """Run directories written by `write_record`: a comparison (max_length 2) and a failed
-    plan."""
+def records(tmp_path_factory, failed_plan, constrained_run):
+    """Run directories written by `write_record`: a comparison (max_length 2), a failed plan
+    and the command's outcome of a plan under [constraints]."""
     out = tmp_path_factory.mktemp("runs")
     auto = stratcli.load_scenario(SCENARIOS / "sim4_auto.toml")
     comparison = stratcli.compare_sequences(
@@ -90,6 +96,7 @@ def records(tmp_path_factory, failed_plan):
     return {
         "compare": stratcli.write_record(out, comparison, argv=["stratplan", "compare"]),
         "failed": stratcli.write_record(out, failed_plan, argv=["stratplan", "plan"]),
+        "constrained": stratcli.write_record(out, constrained_run, argv=["stratplan", "plan"]),
     }
 
 
@@ -187,13 +194,21 @@ def test_the_plans_cover_what_the_schema_makes_optional(plans):
     assert {leg["strategy"] for leg in docs["constrained"]["legs"]} == {"constrained"}
 
 
-@pytest.mark.parametrize("run", ["compare", "failed"])
+@pytest.mark.parametrize("run", ["compare", "failed", "constrained"])
 def test_the_files_of_run_records_validate(records, run):
     path = records[run]
     for name in ("result", "manifest"):
         assert errors(name, read(path / f"{name}.json")) == [], name
     manifest = read(path / "manifest.json")
     assert manifest["exit_code"] == (1 if run == "failed" else 0)
+    if run == "constrained":  # every phase of the command's run
+        assert list(manifest["phases"])[:5] == [
+            "import",
+            "check",
+            "compile",
+            "planning",
+            "constraints",
+        ]
 
 
 def test_a_comparison_record_validates(records):
