@@ -12,7 +12,8 @@ The public API, in full (everything else is internal)::
 
 Use cases: `load_scenario`, `plan`, `plan_auto`, `decompose`, `compare_sequences`,
 `check_controllability`, `load_run`, `write_record`, `time_scaled`, `run_sweep`,
-`read_sweep`. Values: `SequencePlan`,
+`read_sweep`, `record_schema` (the JSON Schema of result.json, manifest.json,
+comparison.json or sweep.json). Values: `SequencePlan`,
 `LegPlan`, `Piece`, `Switch`, `Optimisation`, `StartOutcome`, `ModelRef`, `Timings`,
 `Trajectory`, `Task`, `LegSpec`, and the settings `PlannerSettings`, `LieSettings`,
 `DecomposeSettings`, `FourierBasis`. Models: `System`, `Stratum`, `PlanarManipulator`, `Arm`,
@@ -53,6 +54,7 @@ _PUBLIC = {
     "write_record": "api",
     "run_sweep": "api",
     "read_sweep": "api",
+    "record_schema": "records.schemas",
     "time_scaled": "time_scaling",
     "PlanOutcome": "api",
     "ComparisonOutcome": "api",
@@ -137,6 +139,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .models.presets import preset as preset
     from .models.system import Stratum as Stratum
     from .models.system import System as System
+    from .records.schemas import record_schema as record_schema
     from .results import LegPlan as LegPlan
     from .results import ModelRef as ModelRef
     from .results import Optimisation as Optimisation
