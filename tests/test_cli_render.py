@@ -352,3 +352,22 @@ def test_a_record_that_cannot_be_written_is_one_line_exit_4(capsys):
     assert exit_.value.exit_code == 4
     lines = capsys.readouterr().err.splitlines()
     assert lines == ["error: cannot write the run record in /tmp/x: File exists"]
+
+
+def test_a_long_ranking_prints_its_first_rows_and_says_where_the_rest_are(monkeypatch):
+    """986 candidates (an 8-joint URDF robot) printed 986 rows and a line per failure."""
+    doc = _ranking_doc()
+    doc["rows"] = [dict(doc["rows"][k % 12], rank=k + 1) for k in range(100)]
+    for row in doc["rows"][1::2]:  # every other one failed
+        row.update(status="failed", energy=None)
+    doc["sequences"] = 100
+    text = _render(monkeypatch, lambda: render_tables.ranking(_task(AUTO), doc), 160)
+    cells = [line.split("│") for line in text.splitlines() if line.count("│") > 2]
+    ranks = [int(c[0]) for c in cells if c[0].strip().isdigit()]
+    shown = render_tables.SHOWN_RANKS
+    assert ranks == list(range(1, shown + 1))
+    assert f"… and {100 - shown} more sequences, ranks {shown + 1}–100" in text
+    failed = sum(row["status"] == "failed" for row in doc["rows"][:shown])
+    assert failed > render_tables.SHOWN_FAILURES
+    assert text.count(") failed: ") == render_tables.SHOWN_FAILURES
+    assert f"… and {failed - render_tables.SHOWN_FAILURES} more failed above" in text

@@ -12,9 +12,14 @@ from rich.markup import escape
 from . import render
 from .render import fmt, number_column, say, table, text_column
 
+SHOWN_RANKS = 40  # rows of the ranking printed, at most (comparison.csv has every one)
+SHOWN_FAILURES = 10  # failure reasons printed below it, at most
+
 
 def ranking(task, doc: dict) -> None:
-    """`compare-sequences`: the settings, then one row per candidate sequence, best first.
+    """`compare-sequences`: the settings, then one row per candidate sequence, best first
+    (the first `SHOWN_RANKS`: an 8-joint robot's 986 candidates scrolled the terminal for
+    pages; the record's comparison.csv and --json have them all).
 
     A scenario compared with both strategies shows each row's strategy under its sequence.
     """
@@ -50,11 +55,10 @@ def ranking(task, doc: dict) -> None:
     # searched does not have: only its bound at equal duration holds (time scaling keeps it)
     slowed = scaled and task.constraints is not None and task.constraints.timed
     failures = []
-    bounded = 0
-    for row in doc["rows"]:
+    bounded = sum(row["status"] == "bounded" for row in doc["rows"])
+    for row in doc["rows"][:SHOWN_RANKS]:
         ok = row["status"] == "ok"
         bound = row["status"] == "bounded"  # not searched: only a lower bound is known
-        bounded += bound
         style = "bold green" if ok and row["rank"] == 1 else None
         sequence = " → ".join(row["sequence"])
         if not ok and not bound:  # the reason is a sentence: below the table, not in a cell
@@ -78,6 +82,11 @@ def ranking(task, doc: dict) -> None:
             style=style,
         )
     render.out_console.print(rows)
+    if (hidden := len(doc["rows"]) - SHOWN_RANKS) > 0:
+        say(
+            f"… and {hidden} more sequences, ranks {SHOWN_RANKS + 1}–{len(doc['rows'])} "
+            "(comparison.csv in the record, or --json, has every row)"
+        )
     if bounded:
         say(
             f"{bounded} sequence(s) bounded, not searched: the sum of their legs' minimum "
@@ -90,8 +99,10 @@ def ranking(task, doc: dict) -> None:
             f"{reference:g} s (energy × duration / {reference:g} s; time-scaling a path keeps "
             "energy × duration)"
         )
-    for failure in failures:
+    for failure in failures[:SHOWN_FAILURES]:
         say(failure)
+    if (more := len(failures) - SHOWN_FAILURES) > 0:
+        say(f"… and {more} more failed above (their reasons: comparison.csv in the record)")
 
 
 def _number(x: float | None, pattern: str) -> str:
