@@ -587,3 +587,19 @@ def test_check_says_when_eq2_fails_but_no_leg_needs_it(tmp_path):
     verdict = next(line for line in result.output.splitlines() if line.startswith("verdict:"))
     assert "not stratified controllable" in verdict
     assert "which this task's legs do not need" in verdict
+
+
+def test_compare_sequences_in_a_log_says_it_is_alive(tmp_path, newton, monkeypatch):
+    """Output that is no terminal (a CI log) got no progress at all: now plain lines on
+    stderr (here at once: the log's first line is otherwise after 10 s); --quiet none."""
+    from stratcli.cli import progress
+
+    monkeypatch.setattr(progress, "LOG_FIRST", 0.0)
+    monkeypatch.setattr(progress, "LOG_EVERY", 0.0)
+    args = ["compare-sequences", str(newton), "--max-length", "2", "--jobs", "1"]
+    result = runner.invoke(cli.app, [*args, "--out", str(tmp_path / "r")])
+    assert result.exit_code == 0, result.output
+    lines = [x for x in result.stderr.splitlines() if x.startswith("planning sequences: ")]
+    assert lines and lines[-1].startswith("planning sequences: 6 of 6 (")
+    quiet = runner.invoke(cli.app, [*args, "--out", str(tmp_path / "q"), "--quiet"])
+    assert quiet.exit_code == 0 and "planning sequences" not in quiet.stderr

@@ -16,7 +16,7 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from stratcli import api
-from stratcli.cli import app, render, render_analysis, render_tables
+from stratcli.cli import app, progress, render, render_analysis, render_tables
 from stratcli.regress import Difference
 
 TASK_D = ROOT / "scenarios" / "sim4_task_d.toml"
@@ -323,7 +323,7 @@ def test_messages_print_user_text_verbatim_not_as_emoji(tmp_path):
     assert console.file.getvalue() == "localhost:-1: :smile:\n"
     assert all(isinstance(c, render.Stream) for c in (render.out_console, render.err_console))
     task = SimpleNamespace(description="connecting to localhost:-1 [b]")
-    assert render.description_column().render(task).plain == "connecting to localhost:-1 [b]"
+    assert progress.description_column().render(task).plain == "connecting to localhost:-1 [b]"
 
 
 def test_margins_met_exactly_print_as_zero_and_violations_as_they_are():
@@ -371,3 +371,22 @@ def test_a_long_ranking_prints_its_first_rows_and_says_where_the_rest_are(monkey
     assert failed > render_tables.SHOWN_FAILURES
     assert text.count(") failed: ") == render_tables.SHOWN_FAILURES
     assert f"… and {failed - render_tables.SHOWN_FAILURES} more failed above" in text
+
+
+def test_progress_in_a_log_is_a_plain_line_after_10_s_then_at_most_every_30_s(monkeypatch):
+    """A compare-sequences of 565 s printed nothing in a CI log (the bar is for terminals)."""
+    clock = [1000.0]
+    monkeypatch.setattr(progress.time, "monotonic", lambda: clock[0])
+    console = Console(width=80, record=True, file=io.StringIO())
+    monkeypatch.setattr(progress, "err_console", console)
+    update = progress.progress_lines("sweep", " tasks")
+    for t, done in ((5, 1), (11, 2), (20, 3), (41.5, 4), (75, 5)):
+        clock[0] = 1000.0 + t
+        update(done, 9)
+    assert console.export_text().splitlines() == [
+        "sweep: 2 of 9 tasks (11 s)",
+        "sweep: 4 of 9 tasks (41 s)",
+        "sweep: 5 of 9 tasks (1 min 15 s)",
+    ]
+    assert not progress.logged(quiet=True, json_output=False)
+    assert not progress.logged(quiet=False, json_output=True)

@@ -14,6 +14,7 @@ from typing import Annotated, Literal
 import typer
 
 from ..errors import Problem
+from . import progress as bars
 from . import render, render_tables
 from .options import Animation, Json, MaxLength, Out, Quiet, Scenario, Strategy, TaskScenario
 from .render_analysis import check_report, decomposition
@@ -88,7 +89,7 @@ def plan(
     api.draw_ahead(yielding=not task.legs)
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale)
-    with render.phases(render.interactive(quiet, json_output)) as progress:
+    with bars.phases(bars.interactive(quiet, json_output)) as progress:
         with render.reported(file):
             outcome = api.plan_run(
                 task, check=check, time_scale=time_scale, progress=progress, warn=_warning
@@ -110,10 +111,11 @@ def _plan_auto(
     """`plan` on a scenario without legs: compare the candidates, record and show the best."""
     from .. import api  # start-up speed
 
-    interactive = render.interactive(quiet, json_output)
-    with render.reported(file), render.progress_bar(interactive) as bar:
+    interactive = bars.interactive(quiet, json_output)
+    logged = bars.logged(quiet, json_output)
+    with render.reported(file), bars.progress_bar(interactive, log=logged) as bar:
         outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale)
-    with render.phases(interactive) as progress:
+    with bars.phases(interactive) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:
         render.print_json({**outcome.best.document, "record": str(run_dir)})
@@ -187,15 +189,16 @@ def compare_sequences(
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     api.draw_ahead()  # matplotlib loads while the sequences are planned
-    interactive = render.interactive(quiet, json_output)
+    interactive = bars.interactive(quiet, json_output)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
-    with render.reported(), render.progress_bar(interactive, waiting) as bar:
+    logged = bars.logged(quiet, json_output)
+    with render.reported(), bars.progress_bar(interactive, waiting, logged) as bar:
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(
             task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
         )
     render.notes(outcome.settings.notes)
-    with render.phases(interactive) as progress:
+    with bars.phases(interactive) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:  # comparison.json, and where the record is (as `plan --json` says it)
         render.print_json({**outcome.document, "record": str(run_dir)})

@@ -8,7 +8,7 @@ terminal is not wrapped at all (`Stream`): a pipe or a file gets each line whole
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -16,14 +16,6 @@ from typing import Any
 import typer
 from rich.console import Console, ConsoleDimensions
 from rich.markup import escape
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    SpinnerColumn,
-    TextColumn,
-    TimeElapsedColumn,
-)
 from rich.table import Table
 
 from ..errors import InputError, NotControllableError, Problem, RecordError
@@ -138,93 +130,6 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
     except RecordError as exc:
         error("error", str(exc))  # it says what could not be written, and where
         raise typer.Exit(4) from None
-
-
-def description_column() -> TextColumn:
-    """A progress column showing the task's description as it is: no markup, no emoji (the
-    description may quote user text, a scheduler address for one)."""
-    return TextColumn("{task.description}", markup=False)
-
-
-@contextmanager
-def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
-    """A `progress(done, total)` callback drawing a bar on stderr (None when disabled),
-    refreshed by hand: no refresh thread while workers fork. The bar appears with the first
-    call; until then `waiting` is shown, if given (`until_first_update`)."""
-    if not enabled:
-        yield None
-        return
-    columns = (TextColumn("planning sequences"), BarColumn(), MofNCompleteColumn())
-    bar = Progress(
-        *columns, TimeElapsedColumn(), console=err_console, auto_refresh=False, transient=True
-    )
-    job = bar.add_task("plan", total=None)
-    with until_first_update(bar, waiting) as show:
-
-        def update(done: int, total: int) -> None:
-            bar.update(job, completed=done, total=total)
-            show()
-            bar.refresh()
-
-        yield update
-
-
-@contextmanager
-def until_first_update(bar: Progress, waiting: str | None) -> Iterator[Callable[[], None]]:
-    """Yield `show()`, which starts `bar` (not started yet) the first time it is called.
-    Until then nothing is drawn, or `waiting` beside a spinner and the time taken (refreshed
-    by a thread, which `show` stops): connecting to a cluster is not progress at 0."""
-    note = None
-    if waiting is not None:
-        columns = (SpinnerColumn(), description_column(), TimeElapsedColumn())
-        note = Progress(*columns, console=err_console, transient=True)
-        note.add_task(waiting, total=None)
-        note.start()
-
-    def show() -> None:
-        nonlocal note
-        if note is not None:
-            note.stop()
-            note = None
-        if not bar.live.is_started:
-            bar.start()
-
-    try:
-        yield show
-    finally:
-        if note is not None:
-            note.stop()
-        if bar.live.is_started:
-            bar.stop()
-
-
-@contextmanager
-def phases(enabled: bool) -> Iterator[Callable[[str], None] | None]:
-    """A `progress(phase)` callback showing the phase of long work on stderr, with the time
-    it has taken so far (None when disabled); the line goes away when the work is done.
-
-    Refreshed only when the phase changes: no refresh thread (planning may fork workers).
-    """
-    if not enabled:
-        yield None
-        return
-    columns = (SpinnerColumn(), description_column(), TimeElapsedColumn())
-    with Progress(*columns, console=err_console, auto_refresh=False, transient=True) as bar:
-        jobs = []
-
-        def update(phase: str) -> None:
-            if jobs:
-                bar.update(jobs[0], description=phase)
-            else:
-                jobs.append(bar.add_task(phase, total=None))
-            bar.refresh()
-
-        yield update
-
-
-def interactive(quiet: bool, json_output: bool) -> bool:
-    """Show progress: only to people watching a terminal (not under --quiet or --json)."""
-    return not (quiet or json_output) and err_console.is_terminal
 
 
 def fmt(x: float | None) -> str:

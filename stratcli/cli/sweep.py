@@ -20,7 +20,7 @@ from rich.progress import (
 )
 from rich.text import Text
 
-from . import render
+from . import progress, render
 from .options import Quiet
 
 
@@ -33,12 +33,13 @@ class _Rate(ProgressColumn):
 
 
 @contextmanager
-def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
+def progress_bar(enabled: bool, waiting: str | None = None, log: bool = False) -> Iterator[Any]:
     """A `progress(done, total)` callback drawing tasks done, tasks/s and the time left on
-    stderr (None when disabled); refreshed as rows arrive, no refresh thread. The bar appears
-    with the first row (or the first call); until then `waiting` is shown, if given."""
+    stderr (None when disabled; plain lines with `log`, `progress.progress_lines`); refreshed
+    as rows arrive, no refresh thread. The bar appears with the first row (or the first
+    call); until then `waiting` is shown, if given."""
     if not enabled:
-        yield None
+        yield progress.progress_lines("sweep", " tasks") if log else None
         return
     columns = (
         TextColumn("sweep"),
@@ -51,7 +52,7 @@ def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
     )
     bar = Progress(*columns, console=render.err_console, auto_refresh=False, transient=True)
     job = bar.add_task("sweep", total=None)
-    with render.until_first_update(bar, waiting) as show:
+    with progress.until_first_update(bar, waiting) as show:
         first: list[int] = []
 
         def update(done: int, total: int) -> None:
@@ -116,7 +117,8 @@ def sweep(
 
         loaded = load_sweep(file)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
-    with render.reported(), progress_bar(render.interactive(quiet, json_output), waiting) as bar:
+    shown = progress.interactive(quiet, json_output), waiting, progress.logged(quiet, json_output)
+    with render.reported(), progress_bar(*shown) as bar:
         outcome = api.run_sweep(
             loaded, out, jobs=jobs, dask=dask, resume=resume, records=records, progress=bar
         )
