@@ -104,3 +104,20 @@ def test_regress_checks_every_scenario_file_before_planning_any(tmp_path):
         "task, planner, legs, decompose, reference, constraints)"
     )
     assert not (tmp_path / "baseline.json").exists()
+
+
+def test_one_scenario_is_one_scenario_in_the_report(capsys):
+    """`regress` of a single scenario said "1 scenarios" (a URDF researcher's trial)."""
+    from types import SimpleNamespace
+
+    from stratcli.cli import render_tables
+
+    tolerances = {"energy_rel": 1e-6, "error_abs": 1e-6}
+    for n, said in ((1, "1 scenario matches b.json"), (3, "all 3 scenarios match b.json")):
+        report = SimpleNamespace(
+            updated=False, scenarios=n, baseline="b.json", differences=[], tolerances=tolerances
+        )
+        render_tables.regress_report(report)
+        assert said in capsys.readouterr().out
+    render_tables.regress_report(SimpleNamespace(updated=True, scenarios=1, baseline="b.json"))
+    assert "written: 1 scenario\n" in capsys.readouterr().out

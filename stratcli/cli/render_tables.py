@@ -227,11 +227,11 @@ def model(name: str, system, strata: list[dict], of: str | None = None) -> None:
 def regress_report(report) -> None:
     """`regress`: the differences from the baseline, or that there are none."""
     if report.updated:
-        say(f"baseline {report.baseline} written: {report.scenarios} scenarios")
+        say(f"baseline {report.baseline} written: {_scenarios(report.scenarios)}")
         return
     diffs = report.differences
     rows = table()
-    rows.title = f"{report.scenarios} scenarios against {report.baseline}"
+    rows.title = f"{_scenarios(report.scenarios)} against {report.baseline}"
     text_column(rows, "scenario")
     text_column(rows, "quantity")
     number_column(rows, "baseline")
@@ -250,11 +250,17 @@ def regress_report(report) -> None:
         verdict = "[red]regressions[/]" if report.regressions else "[green]no regressions[/]"
         say(f"{verdict}: {report.regressions} of {len(diffs)} differences are regressions")
     else:
+        n = report.scenarios
+        matched = "1 scenario matches" if n == 1 else f"all {n} scenarios match"
         say(
-            f"[green]no regressions[/]: all {report.scenarios} scenarios match {report.baseline} "
+            f"[green]no regressions[/]: {matched} {report.baseline} "
             f"(energy within {report.tolerances['energy_rel']:g} relative, errors within "
             f"{report.tolerances['error_abs']:g})"
         )
+
+
+def _scenarios(n: int) -> str:
+    return f"{n} scenario{'' if n == 1 else 's'}"
 
 
 def regress_failures(report) -> None:
