@@ -74,3 +74,20 @@ def test_finished_means_every_row_and_a_summary_that_counts_them(tmp_path):
     assert sweepdir.finished_summary(tmp_path, {**rows, 3: {}}, 4) == {"done": 4}
     (tmp_path / sweepdir.SUMMARY).write_text("{torn")
     assert sweepdir.finished_summary(tmp_path, {**rows, 3: {}}, 4) is None
+
+
+def test_sweep_json_is_valid_json_with_a_nan_at_any_depth(tmp_path):
+    """Only top-level non-finite numbers became null: a NaN inside `energy` or `best` wrote
+    `NaN`, which is not JSON (a strict reader, e.g. JavaScript's, refuses the file)."""
+    import json
+
+    summary = {
+        "count": 2,
+        "ratio": float("nan"),
+        "energy": {"min": float("nan"), "median": 1.5, "max": float("inf")},
+        "best": {"index": 0, "inputs": {"goal.q1": float("-inf")}, "values": [1.0, float("nan")]},
+    }
+    sweepdir.write_outputs(tmp_path, ["goal.q1"], {}, summary)
+    doc = json.loads((tmp_path / sweepdir.SUMMARY).read_text(), parse_constant=pytest.fail)
+    assert doc["ratio"] is None and doc["energy"] == {"min": None, "median": 1.5, "max": None}
+    assert doc["best"] == {"index": 0, "inputs": {"goal.q1": None}, "values": [1.0, None]}

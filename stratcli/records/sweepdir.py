@@ -62,8 +62,13 @@ def is_sweep_dir(path: Path) -> bool:
 
 
 def _clean(value: Any) -> Any:
+    """`value` with every non-finite float, at any depth, as None (JSON has no NaN)."""
     if isinstance(value, float) and not math.isfinite(value):
         return None
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
     return value
 
 
@@ -286,8 +291,8 @@ def table_text(keys: list[str], rows: dict[int, dict[str, Any]]) -> str:
 def write_outputs(out: Path, keys: list[str], rows: dict[int, dict], summary: dict) -> None:
     """results.csv and sweep.json, each written atomically."""
     write_atomic(Path(out) / TABLE, table_text(keys, rows).encode())
-    doc = {k: _clean(v) for k, v in summary.items()}
-    write_atomic(Path(out) / SUMMARY, (json.dumps(doc, indent=2) + "\n").encode())
+    text = json.dumps(_clean(summary), indent=2, allow_nan=False)  # a NaN at any depth: null
+    write_atomic(Path(out) / SUMMARY, (text + "\n").encode())
 
 
 def read_sweep_dir(out: Path) -> tuple[dict[str, Any], dict[int, dict], dict[str, Any] | None]:
