@@ -4,8 +4,9 @@ A `LegProblem` is everything one leg needs: the stratum, where it starts, what i
 its boundary conditions (the previous leg's final controls, the next leg's inputs, soft start
 and full stop), the basis, its duration and its seed. A `LegPlanner` turns it into a
 `LegOutcome` (one or more pieces of controls, where they end, how well). Newton (`newton.py`)
-and the Lie-algebraic method (`lie.py`) implement it; a third planner is one more module whose
-class sets `method` (it registers itself in `PLANNERS`).
+and the Lie-algebraic method (`lie.py`) implement it; a third planner is one more class that
+sets `method` (it registers itself in `PLANNERS`), in this package or in a user's own module
+(README "Your own leg planner").
 
 `damped_gauss_newton` is the one Levenberg–Marquardt loop with backtracking that both use.
 It watches for a runaway search (`SearchDiverged`): coordinates that fly off, coefficients
@@ -173,9 +174,25 @@ class LegOutcome:
 
 
 class LegPlanner(abc.ABC):
-    """A method that plans one leg. Subclasses set `method` and implement `plan`,
-    `missing_coefficients` and `failure_hint`; they register themselves in `PLANNERS`, under
-    the name a scenario's ``method = "..."`` uses."""
+    """A method that plans one leg: the extension point for a planner of your own.
+
+    A subclass sets `method` and implements `plan` and `missing_coefficients`. Defining the
+    class registers it in `PLANNERS` under `method`, the name a scenario's legs give as
+    ``method = "..."`` (a subclass without `method` registers nothing). Registration is per
+    process: workers that do not import the defining module (a sweep's spawned or Dask
+    workers) do not know the name, and refuse a task that uses it.
+
+    Attributes
+    ----------
+    method : str
+        The name legs use; defining a second class with the same name replaces the first.
+    joint_optimisation : bool
+        Whether the energy objective may optimise its legs jointly with the others. Only for
+        a Newton-like planner: one `Piece` per leg on the leg's duration, `problem.initial`
+        honoured as the first start, and `from_settings` taking `NewtonPlanner`'s options
+        (`restarts`, `budget`, `seed`, `spread`) as overrides. Default False: a sequence
+        with such a leg is planned leg by leg (`objectives`), as with Lie legs.
+    """
 
     method: ClassVar[str]
     joint_optimisation: ClassVar[bool] = False  # its legs can be optimised jointly (energy)
@@ -187,7 +204,9 @@ class LegPlanner(abc.ABC):
 
     @classmethod
     def from_settings(cls, settings, leg, **overrides) -> LegPlanner:
-        """The planner for `leg` under the planner `settings` (a `PlannerSettings`)."""
+        """The planner for `leg` (a `LegSpec`) under the planner `settings` (a
+        `PlannerSettings`); `overrides` are `NewtonPlanner` options (the energy objective's
+        extra starts). Default: ``cls(**overrides)``."""
         return cls(**overrides)
 
     def problem_duration(self, leg_duration: float) -> float:
@@ -214,10 +233,6 @@ class LegPlanner(abc.ABC):
     def missing_coefficients(self, problem: LegProblem) -> tuple[int, int]:
         """(free coefficients left by the boundary conditions, coefficients needed): the
         check made before planning (a leg with fewer free than needed cannot be planned)."""
-
-    @abc.abstractmethod
-    def failure_hint(self) -> Status:
-        """The status of a leg this planner did not bring to its goal."""
 
 
 class SearchDiverged(Exception):

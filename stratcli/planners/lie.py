@@ -164,9 +164,6 @@ class LiePlanner(LegPlanner):
             f"{self.settings.degree}): {needed - free} missing; raise planner.basis.harmonics"
         )
 
-    def failure_hint(self) -> Status:
-        return Status.LIE_NOT_CONVERGED
-
     def missing_coefficients(self, problem: LegProblem) -> tuple[int, int]:
         """A step must leave enough free coefficients to solve `h(λ) = α` (eq. 23) for all
         Hall coordinates, both as the first step and as a later one (from rest)."""

@@ -102,9 +102,6 @@ class NewtonPlanner(LegPlanner):
     def missing_coefficients(self, problem: LegProblem) -> tuple[int, int]:
         return problem.elimination().free, len(problem.targets)
 
-    def failure_hint(self) -> Status:
-        return Status.NOT_CONVERGED
-
     def plan(self, problem: LegProblem) -> LegOutcome:
         """Steer the leg with restarts; deterministic per (seed, leg index, attempt)."""
         endpoint = problem.endpoint()
