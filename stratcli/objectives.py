@@ -212,7 +212,8 @@ def _exact_hessians(system: System, legs: list[LegSpec], settings: PlannerSettin
 
 
 def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
-    """The energy objective for a sequence with Lie legs, which it cannot optimise itself.
+    """The energy objective for a sequence with Lie legs (or legs of another planner without
+    `joint_optimisation`), which it cannot optimise itself.
 
     Lie legs are built step by step from where the system actually is, so there is no fixed
     set of their coefficients to optimise jointly: the sequence is planned leg by leg. The
@@ -224,12 +225,15 @@ def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
     stand_in = [leg if leg.method == "newton" else replace(leg, method="newton") for leg in legs]
     which = ", ".join(map(str, lie_legs))
     objective = settings.objective
+    # the method those legs use: "lie", or a planner of the user's own (`planners.PLANNERS`)
+    methods = sorted({legs[i - 1].method for i in lie_legs})
+    lie = methods == ["lie"]
+    named = f"method {', '.join(map(repr, methods))}, not optimised jointly"
     if len(lie_legs) == len(legs):
         plain = chain_legs(system, start, legs, settings)
+        how = "the Lie-algebraic method (local steps of least energy, planned where the system is)"
         return _noted(
-            plain,
-            f"objective {objective!r} does not apply: every leg uses the Lie-algebraic method "
-            "(local steps of least energy, planned where the system is)",
+            plain, f"objective {objective!r} does not apply: every leg uses {how if lie else named}"
         )
     try:
         check_legs(system, start, stand_in, settings)
@@ -240,18 +244,20 @@ def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
         initial = [np.ravel(leg.coefficients) for leg in proxy.legs]
         seeded = chain_legs(system, start, legs, settings, initial=initial)
         if seeded.ok:
+            how = "the Lie-algebraic method (local steps, planned where the system is)"
             return _noted(
                 seeded,
                 f"objective {objective!r} applied to the Newton legs only: leg(s) {which} use "
-                "the Lie-algebraic method (local steps, planned where the system is); the "
-                "Newton legs come from the minimum-energy plan with a Newton stand-in for "
-                "each Lie leg, then the sequence was planned leg by leg",
+                f"{how if lie else named}; the Newton legs come from the minimum-energy plan "
+                f"with a Newton stand-in for each {'Lie leg' if lie else 'of them'}, then the "
+                "sequence was planned leg by leg",
             )
     plain = chain_legs(system, start, legs, settings)
     return _noted(
         plain,
-        f"objective {objective!r} not applied: leg(s) {which} use the Lie-algebraic method, "
-        "so the sequence was planned leg by leg (Newton legs with the paper's Newton method)",
+        f"objective {objective!r} not applied: leg(s) {which} use "
+        f"{'the Lie-algebraic method' if lie else named}, so the sequence was planned leg by "
+        "leg (Newton legs with the paper's Newton method)",
     )
 
 

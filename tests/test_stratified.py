@@ -10,9 +10,10 @@ from conftest import (
 )
 from reintegrate import PRINTED, reintegrate, verify
 
+import stratcli
 from stratcli.continuity import mode_order
 from stratcli.models.presets import preset
-from stratcli.planners import PLANNERS, LegPlanner, damped_gauss_newton
+from stratcli.planners import PLANNERS, LegPlanner, NewtonPlanner, damped_gauss_newton
 from stratcli.planners.base import COORDINATE_RUNAWAY, SearchDiverged
 from stratcli.records.result import result_document
 from stratcli.scenario import load_scenario
@@ -101,9 +102,6 @@ def breaking_planner():
         def missing_coefficients(self, problem):
             return 1, 0
 
-        def failure_hint(self):
-            return Status.NUMERICAL_FAILURE
-
     yield Breaking
     PLANNERS.pop(Breaking.method)
 
@@ -124,6 +122,53 @@ def test_a_numerical_breakdown_is_a_failed_leg_with_its_status(breaking_planner)
     assert doc["status"] == "failed" and doc["legs"][1]["status"] == "numerical_failure"
     assert doc["legs"][1]["error"] is None and doc["legs"][1]["pieces"] == []
     assert SequencePlan.from_dict(doc).to_dict() == doc
+
+
+class _Patient(LegPlanner):
+    """A planner of a user's own (README "Your own leg planner"): Newton with other settings,
+    counting its legs. Only `method`, `plan` and `missing_coefficients` are required."""
+
+    method = "patient-test"
+    legs = 0
+
+    def __init__(self, **overrides):
+        self.inner = NewtonPlanner(**({"max_iterations": 300, "restarts": 20} | overrides))
+
+    def plan(self, problem):
+        type(self).legs += 1
+        return self.inner.plan(problem)
+
+    def missing_coefficients(self, problem):
+        return self.inner.missing_coefficients(problem)
+
+
+@pytest.fixture
+def patient_planner():
+    _Patient.legs = 0
+    PLANNERS[_Patient.method] = _Patient  # registered on definition; a test before may pop it
+    yield _Patient
+    PLANNERS.pop(_Patient.method)
+
+
+@pytest.mark.parametrize("objective", ["newton", "energy"])
+def test_a_planner_of_ones_own_plans_the_legs_that_name_it(
+    scenarios_dir, patient_planner, objective
+):
+    task = load_scenario(scenarios_dir / "sim4_task_d.toml")
+    legs = [{"stratum": leg.stratum, "method": "patient-test"} for leg in task.legs]
+    for entry, leg in zip(legs[:-1], task.legs, strict=False):
+        entry["goal"] = [None if g != g else float(g) for g in leg.goal]
+    mine = task.with_changes({"legs": legs, "planner": {"objective": objective}})
+    plan = stratcli.plan(mine)
+    assert plan.ok and [leg.method for leg in plan.legs] == ["patient-test"] * len(legs)
+    assert patient_planner.legs == len(legs)  # it planned them, once each
+    verify(mine, plan.to_dict())  # re-integrated independently: every leg at its goal
+    notes = " ".join(plan.notes)
+    if objective == "energy":  # not a Lie leg: the note names the method
+        assert "does not apply: every leg uses method 'patient-test'" in notes
+        assert "Lie" not in notes
+    else:
+        assert not notes
 
 
 def _escaping(z, jacobian):
