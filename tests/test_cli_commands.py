@@ -349,6 +349,9 @@ def test_decompose_command_lists_the_papers_sequences(tmp_path):
         ["-π/3", "π/3", "π/4", "-π/12"],
     ]
     assert rows[("S1", "S2")]["vias_pi"] == [["0", "π/3", "π/4", "-π/12"]]
+    # what each candidate stratum moves, in the document the table is rendered from
+    assert doc["moves"]["S1"] == ["q2", "q3", "theta"]
+    assert "S1 moves q2, q3, theta" in out
     both = json.loads(
         runner.invoke(
             cli.app, ["decompose", str(AUTO), "--json", "--strategy", "both", "--max-length", "2"]

@@ -11,7 +11,7 @@ from contextlib import contextmanager
 from datetime import UTC, datetime
 
 from ..arguments import checked, flag
-from ..decomposition import pi_fraction
+from ..decomposition import moved_coordinates, pi_fraction
 from ..records.comparison import comparison_document
 from ..records.manifest import Phases, phase
 from ..results import Timings
@@ -193,6 +193,10 @@ def decompose(
         "coordinates": list(system.states),
         "essential": [system.states[i] for i in dec.essential],
         "candidate_strata": list(dec.candidates_strata),
+        "moves": {  # what each candidate stratum can change
+            s: [system.states[i] for i in moved_coordinates(system, s)]
+            for s in dec.candidates_strata
+        },
         "max_length": dec.max_length,
         "strategies": list(dec.strategies),
         "sequences": rows,

@@ -20,7 +20,7 @@ def _via_cell(goal) -> str:
 
 def decomposition(outcome, file: Path) -> None:
     """`decompose`: task, essential coordinates, candidate strata and one row per candidate."""
-    from ..decomposition import format_configuration, moved_coordinates  # start-up speed
+    from ..decomposition import format_configuration  # start-up speed
 
     task, dec, rows = outcome.task, outcome.decomposition, outcome.document["sequences"]
     system = task.system
@@ -35,10 +35,7 @@ def decomposition(outcome, file: Path) -> None:
         f"({len(dec.essential)} of {system.n})",
         highlight=False,
     )
-    moves = [
-        f"{s} moves {', '.join(system.states[i] for i in moved_coordinates(system, s))}"
-        for s in dec.candidates_strata
-    ]
+    moves = [f"{s} moves {', '.join(coords)}" for s, coords in outcome.document["moves"].items()]
     render.out_console.print(f"candidate strata: {'; '.join(moves)}", highlight=False)
     listing = table()
     listing.show_lines = True
