@@ -27,6 +27,9 @@ Errors: `StratplanError`, `InputError`, `ModelError`, `NotControllableError`, `R
 
 Arguments are checked before any work: a value of the wrong type raises `TypeError`, a value
 out of range or not one of the choices `InputError` (a `ValueError`); both name the argument.
+
+Extension point: a leg planner of your own is a subclass of `stratcli.planners.LegPlanner`
+(README "Your own leg planner"). A model of your own is a `[model]` table (a dict).
 """
 
 from __future__ import annotations

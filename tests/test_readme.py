@@ -39,3 +39,24 @@ def test_python_api_example_runs_verbatim(tmp_path, capsys):
     goal = plan.legs[-1].goal
     assert abs(q[-1] - goal).max() <= plan.settings.tolerance
     assert "True" in capsys.readouterr().out
+
+
+def test_own_leg_planner_example_runs_verbatim():
+    """README "Your own leg planner": the class registers itself and plans the legs naming it,
+    with the energy and the note the comment gives."""
+    from stratcli.planners import PLANNERS
+
+    section = (ROOT / "README.md").read_text(encoding="utf-8").split("**Your own leg planner.**")[1]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    cwd = os.getcwd()
+    os.chdir(ROOT)  # it reads scenarios/sim4_task_d.toml
+    try:
+        namespace: dict = {}
+        exec(compile(code, "README.md", "exec"), namespace)
+    finally:
+        os.chdir(cwd)
+        PLANNERS.pop("patient", None)
+    plan = namespace["plan"]
+    assert plan.ok and [leg.method for leg in plan.legs] == ["patient", "patient"]
+    assert f"{plan.total_energy:.2f}" == "256.12"
+    assert "every leg uses method 'patient', not optimised jointly" in plan.notes[0]

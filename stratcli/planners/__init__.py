@@ -1,4 +1,8 @@
-"""Leg planners: one interface (`base.LegPlanner`), one module per method."""
+"""Leg planners: one interface (`base.LegPlanner`), one module per method.
+
+The names below are the interface a planner of one's own uses (README "Your own leg
+planner"): subclassing `LegPlanner` with a `method` registers it in `PLANNERS`.
+"""
 
 from .base import PLANNERS as PLANNERS
 from .base import LegOutcome as LegOutcome
