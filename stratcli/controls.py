@@ -41,19 +41,52 @@ class FourierBasis:
         return 2.0 * np.pi * np.arange(1, self.harmonics + 1) / self.period
 
     def values(self, t: np.ndarray | float) -> np.ndarray:
-        """φ(t), shape (..., size)."""
+        """The basis functions φ(t).
+
+        Parameters
+        ----------
+        t : float or array of float
+            Times, s.
+
+        Returns
+        -------
+        ndarray
+            Shape (*t.shape, size): 1, the sines, the cosines.
+        """
         wt = np.multiply.outer(np.asarray(t, dtype=float), self.omega)
         one = np.ones((*wt.shape[:-1], 1))
         return np.concatenate([one, np.sin(wt), np.cos(wt)], axis=-1)
 
     def derivatives(self, t: np.ndarray | float) -> np.ndarray:
-        """φ'(t), shape (..., size)."""
+        """The basis functions' time derivatives φ'(t).
+
+        Parameters
+        ----------
+        t : float or array of float
+            Times, s.
+
+        Returns
+        -------
+        ndarray
+            Shape (*t.shape, size).
+        """
         wt = np.multiply.outer(np.asarray(t, dtype=float), self.omega)
         zero = np.zeros((*wt.shape[:-1], 1))
         return np.concatenate([zero, self.omega * np.cos(wt), -self.omega * np.sin(wt)], axis=-1)
 
     def integrals(self, t: np.ndarray | float) -> np.ndarray:
-        """∫_0^t φ(s) ds, shape (..., size): closed form, so joints need no integration."""
+        """The integrals ∫_0^t φ(s) ds, in closed form (so joints need no integration).
+
+        Parameters
+        ----------
+        t : float or array of float
+            Upper limits, s.
+
+        Returns
+        -------
+        ndarray
+            Shape (*t.shape, size).
+        """
         t = np.asarray(t, dtype=float)
         wt = np.multiply.outer(t, self.omega)
         return np.concatenate(
@@ -61,7 +94,19 @@ class FourierBasis:
         )
 
     def gram(self, duration: float) -> np.ndarray:
-        """Exact `M_ab = ∫_0^T φ_a φ_b dt` (closed form, product-to-sum)."""
+        """The Gram matrix `M_ab = ∫_0^T φ_a φ_b dt`, exact (closed form, product-to-sum).
+
+        Parameters
+        ----------
+        duration : float
+            T, s.
+
+        Returns
+        -------
+        ndarray
+            Shape (size, size), a copy: the energy of coefficients λ (m, size) is
+            ``trace(λ M λᵀ)``.
+        """
         return _gram(self.harmonics, self.period, float(duration)).copy()
 
 

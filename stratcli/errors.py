@@ -22,6 +22,17 @@ class Problem:
     flag_message: str | None = None
 
     def render(self, source: str | None = None) -> str:
+        """The problem as one line, ``source: path: message``.
+
+        Parameters
+        ----------
+        source : str, optional
+            The file or argument it is in, put first.
+
+        Returns
+        -------
+        str
+        """
         where = f"{source}: " if source else ""
         head = self.path if self.given is None else f"{self.path}={self.given!r}"
         return f"{where}{head}: {self.message}" if head else f"{where}{self.message}"
@@ -43,10 +54,31 @@ class InputError(StratplanError, ValueError):
         super().__init__("\n".join(p.render(source) for p in self.problems))
 
     def with_source(self, source: str) -> InputError:
+        """The same problems, in `source` (a file name, shown before each).
+
+        Parameters
+        ----------
+        source : str
+            Where the input came from.
+
+        Returns
+        -------
+        InputError
+        """
         return InputError(self.problems, source)
 
     def prefixed(self, prefix: str) -> InputError:
-        """The same problems, with `prefix` put in front of every field path."""
+        """The same problems, with `prefix` put in front of every field path.
+
+        Parameters
+        ----------
+        prefix : str
+            A dotted path (e.g. "legs[1]").
+
+        Returns
+        -------
+        InputError
+        """
         return InputError(
             [replace(p, path=f"{prefix}.{p.path}" if p.path else prefix) for p in self.problems],
             self.source,

@@ -131,10 +131,23 @@ class LegPlan:
         return np.stack([p.coefficients for p in self.pieces])
 
     def controls(self, t: np.ndarray | float, derivative: bool = False) -> np.ndarray:
-        """All inputs (or their derivatives) at leg-local times `t`, shape (len(t), m).
+        """All inputs (or their derivatives) at leg-local times `t`.
 
         Inputs inactive on the leg are zero. At a joint between two pieces the later piece is
         used (they join as the continuity mode promises); at the leg's end, the last piece.
+
+        Parameters
+        ----------
+        t : float or array of float
+            Times from the leg's start, s, from 0 to `duration`. Not checked, unlike
+            `SequencePlan.controls`: outside, the Fourier series is extrapolated.
+        derivative : bool
+            The inputs' time derivatives instead of their values.
+
+        Returns
+        -------
+        ndarray
+            Shape (len(t), m), also for a single time.
         """
         t = np.atleast_1d(np.asarray(t, dtype=float))
         out = np.zeros((t.size, self.n_inputs))
@@ -149,7 +162,13 @@ class LegPlan:
         return out
 
     def end_controls(self) -> tuple[np.ndarray, np.ndarray]:
-        """Values and derivatives of all inputs at the leg's end (the next leg's start)."""
+        """Values and derivatives of all inputs at the leg's end (the next leg's start).
+
+        Returns
+        -------
+        tuple of ndarray
+            (u, u'), each of shape (m,).
+        """
         T = np.array([self.duration])
         return self.controls(T)[0], self.controls(T, True)[0]
 

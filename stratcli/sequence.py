@@ -131,15 +131,37 @@ class SequencePlan:
         return self._system
 
     def with_system(self, system) -> SequencePlan:
-        """The same plan bound to an already built model (no rebuild on `sample`)."""
+        """The same plan bound to an already built model (no rebuild on `sample`).
+
+        Parameters
+        ----------
+        system : System
+            The model the plan's `ModelRef` describes (it is not checked against it).
+
+        Returns
+        -------
+        SequencePlan
+            A copy that uses `system` instead of rebuilding it.
+        """
         out = replace(self)
         object.__setattr__(out, "_system", system)
         return out
 
     # ---- controls and trajectory ---------------------------------------------------------
     def controls(self, t: np.ndarray | float, derivative: bool = False) -> np.ndarray:
-        """All inputs at plan times `t`, shape (len(t), m), or (m,) for a single time; at a
-        switch the later leg.
+        """All inputs at plan times `t`; at a switch the later leg.
+
+        Parameters
+        ----------
+        t : float or array of float
+            Times on the plan's axis, s, from 0 to `duration`.
+        derivative : bool
+            The inputs' time derivatives instead of their values.
+
+        Returns
+        -------
+        ndarray
+            Shape (len(t), m), or (m,) for a single time; inputs inactive on a leg are 0.
 
         Raises
         ------
@@ -189,7 +211,14 @@ class SequencePlan:
 
     # ---- result.json ---------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        """The `result.json` document (schema "stratplan.result/1")."""
+        """The `result.json` document.
+
+        Returns
+        -------
+        dict
+            Schema "stratplan.result/1" (`stratcli.record_schema("result")`); plain JSON
+            values, non-finite numbers as None.
+        """
         return plan_document(self)
 
     def __eq__(self, other: object) -> bool:
@@ -206,7 +235,17 @@ class SequencePlan:
     def from_dict(cls, doc: dict[str, Any], settings: PlannerSettings | None = None, model=None):
         """A plan read back from a `result.json` document (nothing is re-planned).
 
-        `settings` (e.g. the record's scenario) fill what result.json does not hold; `model`
-        is the `ModelRef` to rebuild the model from.
+        Parameters
+        ----------
+        doc : dict
+            The document (`to_dict`, or a record's result.json).
+        settings : PlannerSettings, optional
+            What result.json does not hold (e.g. from the record's scenario).
+        model : ModelRef, optional
+            The model to rebuild (default: the one the document names).
+
+        Returns
+        -------
+        SequencePlan
         """
         return plan_from_document(cls, doc, settings, model)

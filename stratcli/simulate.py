@@ -69,8 +69,23 @@ class Trajectory:
         return int(self.t.size)
 
     def leg_slice(self, k: int) -> slice:
-        """Index range of leg k's samples (they are contiguous); IndexError for a leg the
-        trajectory does not have."""
+        """Index range of a leg's samples (they are contiguous).
+
+        Parameters
+        ----------
+        k : int
+            The leg, counted from 0.
+
+        Returns
+        -------
+        slice
+            Into `t`, `q`, `u`, `du` and `leg`.
+
+        Raises
+        ------
+        IndexError
+            A leg the trajectory does not have.
+        """
         legs = len(self.strata)
         if not 0 <= k < legs:
             raise IndexError(

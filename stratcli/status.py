@@ -56,5 +56,20 @@ class Status(enum.Enum):
 
     @classmethod
     def from_key(cls, key: str) -> Status:
-        """The member named `key` (as written by `key`)."""
+        """The member named `key`.
+
+        Parameters
+        ----------
+        key : str
+            As `key` writes it (result.json's leg status, e.g. "not_converged").
+
+        Returns
+        -------
+        Status
+
+        Raises
+        ------
+        KeyError
+            No member has that name.
+        """
         return cls[key.upper()]

@@ -1,5 +1,6 @@
 """Every public function documents its parameters (numpydoc; python-control's
-`docstrings_test.py` pattern): the functions of `stratcli.__all__` and of `stratcli.api`."""
+`docstrings_test.py` pattern): the functions of `stratcli.__all__` and of `stratcli.api`, and
+the public methods of the classes in `stratcli.__all__` (`plan.controls(t)`, ...)."""
 
 from __future__ import annotations
 
@@ -17,8 +18,14 @@ def _functions() -> dict[str, object]:
         if name == "__version__":
             continue
         obj = getattr(stratcli, name)
-        if inspect.isfunction(obj):  # classes, enums and errors are not checked here
+        if inspect.isfunction(obj):
             found[f"stratcli.{name}"] = obj
+        elif inspect.isclass(obj):  # its own public methods (properties are not checked)
+            for attr, member in vars(obj).items():
+                if isinstance(member, (classmethod, staticmethod)):
+                    member = member.__func__
+                if not attr.startswith("_") and inspect.isfunction(member):
+                    found[f"stratcli.{name}.{attr}"] = member
     for name in dir(api):
         obj = getattr(api, name)
         if not name.startswith("_") and inspect.isfunction(obj):
@@ -48,6 +55,8 @@ def _section(doc: str, title: str) -> str | None:
 
 def test_the_public_api_has_functions_to_check():
     assert {"stratcli.plan", "stratcli.load_scenario", "stratcli.api.plan_run"} <= set(FUNCTIONS)
+    methods = {"stratcli.SequencePlan.controls", "stratcli.SequencePlan.from_dict"}
+    assert methods | {"stratcli.System.stratum", "stratcli.Task.with_changes"} <= set(FUNCTIONS)
 
 
 @pytest.mark.parametrize(
@@ -67,6 +76,7 @@ def test_public_functions_document_their_parameters(name):
         p
         for p in signature.parameters.values()
         if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or p.name not in ("args", "kwargs")
+        if p.name not in ("self", "cls")  # a method's own
     ]
     if parameters:
         section = _section(doc, "Parameters")

@@ -146,7 +146,19 @@ class Base:
 
     @classmethod
     def rectangle(cls, mass: float, a: float, b: float) -> Base:
-        """Uniform a×b rectangle: I0 = m(a² + b²)/12 (MODELS.md §2)."""
+        """A uniform a×b rectangle: I0 = m(a² + b²)/12 (MODELS.md §2).
+
+        Parameters
+        ----------
+        mass : float
+            kg.
+        a, b : float
+            Side lengths, m.
+
+        Returns
+        -------
+        Base
+        """
         return cls(mass, mass * (a * a + b * b) / 12, a, b)
 
 

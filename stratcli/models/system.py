@@ -42,7 +42,18 @@ class Stratum:
     parameters: tuple[tuple[str, float], ...] = ()
 
     def free(self, n: int) -> tuple[int, ...]:
-        """Indices of the unlocked coordinates (the stratum's state, paper eq. 7-9)."""
+        """Indices of the unlocked coordinates (the stratum's state, paper eq. 7-9).
+
+        Parameters
+        ----------
+        n : int
+            The model's number of coordinates (`System.n`).
+
+        Returns
+        -------
+        tuple of int
+            0-based, in order.
+        """
         return tuple(i for i in range(n) if i not in self.locked)
 
 
@@ -214,6 +225,22 @@ class System:
         return len(self.inputs)
 
     def stratum(self, name: str) -> Stratum:
+        """The stratum called `name`.
+
+        Parameters
+        ----------
+        name : str
+            As in `strata` (e.g. "S1").
+
+        Returns
+        -------
+        Stratum
+
+        Raises
+        ------
+        ModelError
+            The model has no such stratum (the message lists those it has).
+        """
         try:
             return self.strata[name]
         except KeyError:
@@ -221,7 +248,18 @@ class System:
             raise ModelError(f"unknown stratum {name!r} (this model has: {known})") from None
 
     def fields_on(self, stratum: Stratum) -> sp.Matrix:
-        """Vector fields of the stratum's active inputs (columns), parameters substituted."""
+        """Vector fields of the stratum's active inputs, parameters substituted (sympy).
+
+        Parameters
+        ----------
+        stratum : Stratum
+            One of the model's strata (its `parameters` override the model's).
+
+        Returns
+        -------
+        sympy.Matrix
+            Shape (n, len(stratum.active)): a column per active input.
+        """
         import sympy as sp
 
         values = dict(self.parameters)
@@ -231,7 +269,23 @@ class System:
         return G.subs(subs) if subs else G
 
     def compiled(self, stratum: Stratum | str) -> CompiledStratum:
-        """Numeric functions of a stratum, generated on first use and cached."""
+        """Numeric functions of a stratum, generated on first use and cached.
+
+        Parameters
+        ----------
+        stratum : Stratum or str
+            The stratum, or its name.
+
+        Returns
+        -------
+        CompiledStratum
+            What the end-point evaluators use (its inputs are the stratum's active ones).
+
+        Raises
+        ------
+        ModelError
+            Unknown stratum, or fields sympy cannot differentiate or compile.
+        """
         s = self.stratum(stratum) if isinstance(stratum, str) else stratum
         if s.name not in self._compiled:
             try:
