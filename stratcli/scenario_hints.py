@@ -1,8 +1,9 @@
 """Hints added to the validation problems of a scenario for the mistakes that are easy to make
-and that pydantic's own words do not explain: a single `[legs]` table, and a configuration
+and that pydantic's own words do not explain: a single `[legs]` table, a configuration
 written as a table of names on a model that is not a URDF robot (on a URDF robot whose
-`[model]` table is invalid, that table cannot be read yet: only the model's problems stand);
-and the problems of [constraints] that only its model shows, beside its schema's."""
+`[model]` table is invalid, that table cannot be read yet: only the model's problems stand),
+and a model object (a `System`) given from Python instead of its table; and the problems of
+[constraints] that only its model shows, beside its schema's."""
 
 from __future__ import annotations
 
@@ -17,6 +18,11 @@ from .schema_problems import file_location
 __all__ = ["beside_constraints", "hinted"]
 
 _LIST = "Input should be a valid list"
+_MODEL_OBJECT = (
+    "must be a [model] table (a dict with its kind: preset, custom, planar-manipulator or "
+    "urdf), not a {} object; a model of your own is given by its table"
+)
+_PLAIN = (dict, list, str, int, float)  # what a file holds: pydantic's own words fit those
 _CONFIGURATION = re.compile(r"^(task\.(start|goal)|legs\[\d+\]\.goal)$")
 
 
@@ -26,6 +32,11 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
     model = raw.get("model")
     urdf = isinstance(model, dict) and model.get("kind") == "urdf"
     model_broken = any(p.path == "model" or p.path.startswith("model.") for p in problems)
+    if model_broken and model is not None and not isinstance(model, _PLAIN):
+        # a model object (`stratcli.preset(...)`, a `PlanarManipulator`): pydantic reads its
+        # attributes and says `model.kind: is missing`, which does not say what to give
+        problems = [p for p in problems if p.path != "model" and not p.path.startswith("model.")]
+        problems.insert(0, Problem("model", _MODEL_OBJECT.format(type(model).__name__)))
     out = []
     for p in problems:
         hint = None

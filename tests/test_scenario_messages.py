@@ -198,3 +198,26 @@ def test_names_on_a_urdf_model_with_a_bad_table_leave_only_the_model_problem(tmp
     with pytest.raises(InputError) as info:
         load_scenario(path)
     assert [p.path for p in info.value.problems] == ["model.strata[0]"]
+
+
+@pytest.mark.parametrize("build", ["preset", "planar"])
+def test_a_model_object_from_python_is_one_line_saying_to_give_its_table(build):
+    """`stratcli.System` and `PlanarManipulator` are public, so a contributor tries them as a
+    scenario's model; pydantic alone said `model.kind: is missing`."""
+    import stratcli
+
+    if build == "preset":
+        model, kind = stratcli.preset("one-arm"), "PresetSystem"
+    else:
+        arm = stratcli.Arm((0.3, 0.0), 0.0, 1, (stratcli.Link(1.0, 1.0),))
+        model = stratcli.PlanarManipulator(stratcli.Base(10.0, 1.0), (arm,))
+        kind = "PlanarManipulator"
+    scenario = {"name": "x", "model": model, "task": {"start": [0, 0], "goal": [0, 0]}}
+    with pytest.raises(InputError) as info:
+        load_scenario({**scenario, "legs": [{"stratum": "S1"}]})
+    model_problems = [p for p in info.value.problems if p.path.startswith("model")]
+    assert [p.path for p in model_problems] == ["model"]
+    assert model_problems[0].message == (
+        "must be a [model] table (a dict with its kind: preset, custom, planar-manipulator or "
+        f"urdf), not a {kind} object; a model of your own is given by its table"
+    )
