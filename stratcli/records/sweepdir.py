@@ -163,7 +163,8 @@ def _already(out: Path, spec: dict[str, Any]) -> Problem:
     rows = read_rows(out / ROWS)
     done = sum(0 <= k < count for k in rows) if isinstance(count, int) else len(rows)
     if finished_summary(out, rows, count) is not None:
-        what = f"already holds a finished sweep ({count} tasks, all done); "
+        tasks = "1 task, done" if count == 1 else f"{count} tasks, all done"
+        what = f"already holds a finished sweep ({tasks}); "
         return Problem(
             "out",
             what + "resume=True would only return it again (as stratcli.read_sweep reads it); "
