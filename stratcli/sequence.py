@@ -73,9 +73,12 @@ class SequencePlan:
 
     def __repr__(self) -> str:  # the fields' reprs run to many kB (settings, legs' arrays)
         legs = ", ".join(leg.stratum for leg in self.legs)
+        count = len(self.legs)  # a failed plan stops at its first failed leg: say of how many
+        of = f" of {self.planned_legs}" if self.planned_legs > count else ""
+        noun = "leg" if count == 1 and not of else "legs"
         return (
             f"SequencePlan({self.scenario!r}: {self.status.name}, energy "
-            f"{self.total_energy:.6g}, {len(self.legs)} legs ({legs}), {self.duration:g} s)"
+            f"{self.total_energy:.6g}, {count}{of} {noun} ({legs}), {self.duration:g} s)"
         )
 
     def __getstate__(self) -> dict:

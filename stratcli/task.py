@@ -64,6 +64,14 @@ class Task:
             )
         self._read_only()
 
+    def __repr__(self) -> str:  # the dataclass's runs to many kB (the model's fields, text)
+        legs = ", ".join(leg.stratum for leg in self.legs)
+        return (
+            f"Task({self.scenario.name!r}: {self.system.name} model, "
+            f"{f'legs ({legs})' if legs else 'auto mode'}, "
+            f"start {_vector(self.start)}, goal {_vector(self.goal)})"
+        )
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Task):
             return NotImplemented
@@ -123,6 +131,11 @@ class Task:
             return from_raw(raw, None, self.source, self.base_dir)
         except InputError as exc:  # (ModelError included: the same problems, re-sourced)
             raise exc.with_source(where) from None
+
+
+def _vector(values: np.ndarray) -> str:
+    """A configuration in a repr: 4 significant digits, `*` where any value will do."""
+    return "[" + ", ".join("*" if v != v else f"{v:.4g}" for v in values) + "]"
 
 
 def _frozen(value: Any) -> Any:

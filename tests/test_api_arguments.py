@@ -183,7 +183,7 @@ def test_outcomes_and_record_error_are_public_names():
 def test_reprs_are_short_and_say_name_status_energy_and_legs(plan):
     text = repr(plan)
     assert len(text) < 200, text
-    assert text.startswith("SequencePlan('unicycle': SUCCESS, energy ") and "1 legs (drive)" in text
+    assert text.startswith("SequencePlan('unicycle': SUCCESS, energy ") and "1 leg (drive)" in text
     assert f"{plan.total_energy:.6g}" in text
     outcome = api.PlanOutcome(None, plan, plan.to_dict(), None, 0.0, 0.0)
     assert repr(outcome) == f"PlanOutcome({text})"
