@@ -41,7 +41,7 @@ class Task:
     system: System
     start: np.ndarray
     goal: np.ndarray
-    legs: list[LegSpec]
+    legs: tuple[LegSpec, ...]  # a tuple: a list's .reverse() planned what records do not say
     settings: PlannerSettings
     source: str
     text: str
@@ -49,6 +49,7 @@ class Task:
     base_dir: Path | None = None  # what a URDF model's relative path is relative to
 
     def __post_init__(self):
+        object.__setattr__(self, "legs", tuple(self.legs))
         given, entries = self.scenario.task, self.scenario.legs or []
         if (
             self.settings != self.scenario.planner
