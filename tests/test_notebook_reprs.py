@@ -106,3 +106,12 @@ def test_an_unfinished_sweep_read_back_lists_the_tasks_it_misses(tmp_path):
     assert report.summary["missing"] == 4
     assert report.summary["missing_tasks"] == [k for k in range(6) if k not in kept]
     assert repr(report).endswith(": 2 of 6 tasks (ok 2), unfinished)")
+
+
+def test_a_check_that_fails_says_so_and_how_often():
+    from test_api_planning import TURN_ONLY
+
+    report = stratcli.check_controllability(TURN_ONLY, samples=3)
+    assert repr(report).startswith(
+        "CheckReport(turn-only (custom model): NOT controllable (1 problem); strata turn, "
+    )

@@ -34,7 +34,8 @@ class CheckReport:
     def __repr__(self) -> str:  # the dataclass's prints the whole document (kB)
         strata = ", ".join(s["stratum"] for s in self.document.get("strata", []))
         problems = len(self.document.get("problems", []))
-        verdict = "controllable" if self.controllable else f"NOT controllable ({problems} problems)"
+        noun = "problem" if problems == 1 else "problems"
+        verdict = "controllable" if self.controllable else f"NOT controllable ({problems} {noun})"
         warnings = len(self.document.get("warnings", []))
         warned = f", {warnings} warning{'' if warnings == 1 else 's'}" if warnings else ""
         return (
