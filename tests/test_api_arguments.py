@@ -146,6 +146,24 @@ def test_controls_refuse_times_outside_the_plan_but_not_rounding(plan):
     np.testing.assert_allclose(plan.controls(np.float64(T / 2)), inside[2], rtol=0, atol=1e-12)
 
 
+def test_controls_name_t_for_a_table_of_times_and_show_digits_that_differ(plan):
+    """A 2-D `t` raised numpy's IndexError from inside; a float32 end time just past the
+    duration read 'from 0 to 0.666667 s (got 0.666667)'."""
+    _raises(
+        InputError,
+        r"^t: must be a time or a 1-D array of times \(got 3x2\)$",
+        lambda: plan.controls(np.zeros((3, 2))),
+    )
+    fast = stratcli.time_scaled(plan, 3.0)
+    end = np.float32(fast.duration)
+    assert float(end) > fast.duration * (1 + 1e-9)  # float32 rounding, beyond `controls`' slack
+    with pytest.raises(InputError) as caught:
+        fast.controls(end)
+    assert str(caught.value) == (
+        f"t: must be within the plan, from 0 to {fast.duration:.17g} s (got {float(end):.17g})"
+    )
+
+
 def test_leg_slice_of_a_leg_the_trajectory_has_not_is_an_index_error(plan):
     traj = plan.sample(5)
     assert traj.leg_slice(0) == slice(0, 5)
