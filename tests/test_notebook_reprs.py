@@ -115,3 +115,22 @@ def test_a_check_that_fails_says_so_and_how_often():
     assert repr(report).startswith(
         "CheckReport(turn-only (custom model): NOT controllable (1 problem); strata turn, "
     )
+
+
+def test_a_comparisons_parts_are_one_line_each(task):
+    """`outcome.comparison` printed 16 kB (every outcome with its plan and legs' arrays),
+    `outcome.decomposition` 8 kB."""
+    auto = task.with_changes(
+        {"legs": None, "decompose": {"max_length": 2}, "planner": {"objective": "newton"}}
+    )
+    outcome = stratcli.compare_sequences(auto, jobs=1)
+    comparison, best = outcome.comparison, outcome.comparison.best
+    assert repr(comparison) == f"Comparison(6 sequences by energy: {comparison.choice()})"
+    assert repr(best) == (
+        f"Outcome({best.candidate.label} conservative: rank 1, ok, energy {best.energy:.6g})"
+    )
+    assert repr(best.candidate) == f"Candidate({best.candidate.label} conservative)"
+    assert repr(outcome.decomposition) == (
+        "Decomposition(6 candidates of up to 2 strata from S1, S2, S3; conservative)"
+    )
+    assert all(len(repr(o)) < SHORT for o in comparison.outcomes)
