@@ -80,6 +80,13 @@ class Outcome:
     def ok(self) -> bool:
         return self.status == "ok"
 
+    def __repr__(self) -> str:  # the dataclass's prints the candidate's legs and the plan
+        energy = f"energy {self.energy:.6g}" if self.ok else self.reason or self.status
+        return (
+            f"Outcome({self.candidate.label} {self.candidate.strategy}: rank {self.rank}, "
+            f"{self.status}, {energy})"
+        )
+
     @property
     def energy_equal_time(self) -> float:
         """The energy of this path run in the comparison's total duration T (E·duration/T)."""
@@ -131,6 +138,9 @@ class Comparison:
     @property
     def legs_saved(self) -> int:
         return self.legs_requested - self.legs_planned
+
+    def __repr__(self) -> str:  # the dataclass's prints every outcome and its plan (16 kB)
+        return f"Comparison({len(self.outcomes)} sequences by {self.criterion}: {self.choice()})"
 
     def choice(self) -> str:
         """Which sequence is best and why, in one sentence."""

@@ -61,6 +61,9 @@ class Candidate:
     def label(self) -> str:
         return "(" + ", ".join(self.sequence) + ")"
 
+    def __repr__(self) -> str:  # the dataclass's prints every leg's goal array
+        return f"Candidate({self.label} {self.strategy})"
+
     def redundant_legs(self, start: np.ndarray) -> tuple[int, ...]:
         """1-based numbers of legs whose goal equals their start: they only close a loop."""
         out = []
@@ -82,6 +85,12 @@ class Decomposition:
     strategies: tuple[str, ...]
     sequences: tuple[tuple[str, ...], ...]
     candidates: tuple[Candidate, ...]  # sequence-major, strategies in the order asked
+
+    def __repr__(self) -> str:  # the dataclass's prints every candidate's legs (kB)
+        return (
+            f"Decomposition({len(self.candidates)} candidates of up to {self.max_length} "
+            f"strata from {', '.join(self.candidates_strata)}; {', '.join(self.strategies)})"
+        )
 
 
 def essential_coordinates(

@@ -118,6 +118,15 @@ class LegPlan:
             object.__setattr__(self, name, frozen_array(getattr(self, name)))
         object.__setattr__(self, "pieces", tuple(self.pieces))
 
+    def __repr__(self) -> str:  # the dataclass's prints every piece's coefficients (kB)
+        pieces = len(self.pieces)
+        return (
+            f"LegPlan(leg {self.index + 1} on {self.stratum}, {self.method}: "
+            f"{self.status.name}, error {self.error:.2g}, energy {self.energy:.6g}, "
+            f"t {self.t0:g} to {self.t0 + self.duration:g} s, "
+            f"{pieces} piece{'' if pieces == 1 else 's'})"
+        )
+
     @property
     def converged(self) -> bool:
         """True when the leg reached its goal within tolerance."""

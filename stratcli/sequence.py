@@ -73,9 +73,12 @@ class SequencePlan:
 
     def __repr__(self) -> str:  # the fields' reprs run to many kB (settings, legs' arrays)
         legs = ", ".join(leg.stratum for leg in self.legs)
+        count = len(self.legs)  # a failed plan stops at its first failed leg: say of how many
+        of = f" of {self.planned_legs}" if self.planned_legs > count else ""
+        noun = "leg" if count == 1 and not of else "legs"
         return (
             f"SequencePlan({self.scenario!r}: {self.status.name}, energy "
-            f"{self.total_energy:.6g}, {len(self.legs)} legs ({legs}), {self.duration:g} s)"
+            f"{self.total_energy:.6g}, {count}{of} {noun} ({legs}), {self.duration:g} s)"
         )
 
     def __getstate__(self) -> dict:
@@ -174,6 +177,11 @@ class SequencePlan:
             t = np.atleast_1d(np.asarray(t, dtype=float))
         except (TypeError, ValueError):
             raise wrong_type("t", "a time or an array of times (s)", t) from None
+        if t.ndim > 1:  # (its rows would be read as times and fail deep inside)
+            shape = "x".join(map(str, t.shape))
+            raise InputError(
+                [Problem("t", f"must be a time or a 1-D array of times (got {shape})")]
+            )
         out = np.zeros((t.size, len(self.inputs)))
         if not self.legs:
             return out[0] if single else out
@@ -181,8 +189,15 @@ class SequencePlan:
         outside = ~(np.isfinite(t) & (t >= -slack) & (t <= total + slack))
         if outside.any():
             bad = t[outside][0]
+            digits = 6 if f"{bad:g}" != f"{total:g}" else 17  # 0.666667 beyond 0.666667?
             raise InputError(
-                [Problem("t", f"must be within the plan, from 0 to {total:g} s (got {bad:g})")]
+                [
+                    Problem(
+                        "t",
+                        f"must be within the plan, from 0 to {total:.{digits}g} s "
+                        f"(got {bad:.{digits}g})",
+                    )
+                ]
             )
         starts = np.array([leg.t0 for leg in self.legs])
         which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.legs) - 1)

@@ -63,6 +63,14 @@ class Trajectory:
     def __iter__(self):
         return iter((self.t, self.q, self.u))
 
+    def __repr__(self) -> str:  # the dataclass's prints every sample (kB)
+        span = f"t {self.t[0]:g} to {self.t[-1]:g} s" if self.t.size else "no time"
+        failed = f", {len(self.notes)} notes" if self.notes else ""
+        return (
+            f"Trajectory({self.t.size} samples, {span}, {self.q.shape[-1]} coordinates, "
+            f"{self.u.shape[-1]} inputs, legs ({', '.join(self.strata)}){failed})"
+        )
+
     @property
     def size(self) -> int:
         """Number of samples N."""

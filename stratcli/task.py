@@ -41,7 +41,7 @@ class Task:
     system: System
     start: np.ndarray
     goal: np.ndarray
-    legs: list[LegSpec]
+    legs: tuple[LegSpec, ...]  # a tuple: a list's .reverse() planned what records do not say
     settings: PlannerSettings
     source: str
     text: str
@@ -49,6 +49,7 @@ class Task:
     base_dir: Path | None = None  # what a URDF model's relative path is relative to
 
     def __post_init__(self):
+        object.__setattr__(self, "legs", tuple(self.legs))
         given, entries = self.scenario.task, self.scenario.legs or []
         if (
             self.settings != self.scenario.planner
@@ -63,6 +64,14 @@ class Task:
                 "'newton'}})"
             )
         self._read_only()
+
+    def __repr__(self) -> str:  # the dataclass's runs to many kB (the model's fields, text)
+        legs = ", ".join(leg.stratum for leg in self.legs)
+        return (
+            f"Task({self.scenario.name!r}: {self.system.name} model, "
+            f"{f'legs ({legs})' if legs else 'auto mode'}, "
+            f"start {_vector(self.start)}, goal {_vector(self.goal)})"
+        )
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Task):
@@ -123,6 +132,11 @@ class Task:
             return from_raw(raw, None, self.source, self.base_dir)
         except InputError as exc:  # (ModelError included: the same problems, re-sourced)
             raise exc.with_source(where) from None
+
+
+def _vector(values: np.ndarray) -> str:
+    """A configuration in a repr: 4 significant digits, `*` where any value will do."""
+    return "[" + ", ".join("*" if v != v else f"{v:.4g}" for v in values) + "]"
 
 
 def _frozen(value: Any) -> Any:

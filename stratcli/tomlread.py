@@ -152,7 +152,7 @@ def parse_toml(text: str, source: str = "<scenario>", max_depth: int = MAX_DEPTH
 def plain(raw: Mapping[str, Any], max_depth: int = MAX_DEPTH) -> dict[str, Any]:
     """A dict source as the TOML file it stands for: numpy scalars (``np.int64(5)``,
     ``np.True_``) as Python's (``.item()``), numpy arrays and tuples as lists, mappings as
-    dicts; a copy, `raw` is left as it is.
+    dicts, paths (`os.PathLike`) as strings; a copy, `raw` is left as it is.
 
     Raises
     ------
@@ -169,6 +169,8 @@ def plain(raw: Mapping[str, Any], max_depth: int = MAX_DEPTH) -> dict[str, Any]:
             value = value.tolist()  # np.generic: the Python scalar; np.ndarray: nested lists
         if isinstance(value, list | tuple):
             return [convert(item, depth + 1) for item in value]
+        if isinstance(value, os.PathLike):  # a notebook's pathlib.Path: the file's string
+            return os.fspath(value)
         return value
 
     return convert(raw, 0)

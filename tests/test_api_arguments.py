@@ -146,6 +146,24 @@ def test_controls_refuse_times_outside_the_plan_but_not_rounding(plan):
     np.testing.assert_allclose(plan.controls(np.float64(T / 2)), inside[2], rtol=0, atol=1e-12)
 
 
+def test_controls_name_t_for_a_table_of_times_and_show_digits_that_differ(plan):
+    """A 2-D `t` raised numpy's IndexError from inside; a float32 end time just past the
+    duration read 'from 0 to 0.666667 s (got 0.666667)'."""
+    _raises(
+        InputError,
+        r"^t: must be a time or a 1-D array of times \(got 3x2\)$",
+        lambda: plan.controls(np.zeros((3, 2))),
+    )
+    fast = stratcli.time_scaled(plan, 3.0)
+    end = np.float32(fast.duration)
+    assert float(end) > fast.duration * (1 + 1e-9)  # float32 rounding, beyond `controls`' slack
+    with pytest.raises(InputError) as caught:
+        fast.controls(end)
+    assert str(caught.value) == (
+        f"t: must be within the plan, from 0 to {fast.duration:.17g} s (got {float(end):.17g})"
+    )
+
+
 def test_leg_slice_of_a_leg_the_trajectory_has_not_is_an_index_error(plan):
     traj = plan.sample(5)
     assert traj.leg_slice(0) == slice(0, 5)
@@ -183,7 +201,7 @@ def test_outcomes_and_record_error_are_public_names():
 def test_reprs_are_short_and_say_name_status_energy_and_legs(plan):
     text = repr(plan)
     assert len(text) < 200, text
-    assert text.startswith("SequencePlan('unicycle': SUCCESS, energy ") and "1 legs (drive)" in text
+    assert text.startswith("SequencePlan('unicycle': SUCCESS, energy ") and "1 leg (drive)" in text
     assert f"{plan.total_energy:.6g}" in text
     outcome = api.PlanOutcome(None, plan, plan.to_dict(), None, 0.0, 0.0)
     assert repr(outcome) == f"PlanOutcome({text})"

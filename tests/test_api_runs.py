@@ -35,3 +35,25 @@ def test_plans_are_equal_by_value_as_values_should_be(tmp_path):
     replanned = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
     assert replanned != plan and replanned.total_energy == plan.total_energy
     assert plan != plan.to_dict() and {plan: 1}[again] == 1
+
+
+def test_load_run_of_the_runs_folder_names_the_latest_record_in_it(tmp_path):
+    """`load_run("runs")`, where `write_record("runs", plan)` wrote, said only "missing
+    scenario.toml, result.json, manifest.json"."""
+    import pytest
+
+    from stratcli.errors import InputError
+
+    plan = api.plan_run(load_scenario(ROOT / "scenarios" / "unicycle.toml")).result
+    first = api.write_record(tmp_path, plan, animation=False)
+    (tmp_path / "notes").mkdir()  # not a record: not counted
+    with pytest.raises(InputError) as info:
+        api.load_run(tmp_path)
+    assert str(info.value) == (
+        f"{tmp_path} is a folder of 1 run record, not one: give one of them (the latest: {first})"
+    )
+    second = api.write_record(tmp_path, plan, animation=False)
+    with pytest.raises(InputError, match=f"folder of 2 run records, .*latest: {second}\\)$"):
+        api.load_run(tmp_path)
+    with pytest.raises(InputError, match="notes is not a complete run record: missing "):
+        api.load_run(tmp_path / "notes")

@@ -276,7 +276,7 @@ def test_a_task_is_a_value_changed_only_through_its_scenario(tmp_path):
     goal = [*task.scenario.task.goal[:3], -0.2]  # θ only: the last leg (S1) moves it
     assert task.with_changes({"task": {"goal": goal}}).legs[-1].goal[3] == -0.2
     auto = task.with_changes({"legs": None, "decompose": {"max_length": 2}})
-    assert auto.legs == [] and auto.scenario.decompose is not None
+    assert auto.legs == () and auto.scenario.decompose is not None
 
 
 def test_resolved_json_of_free_goal_entries_loads_back_as_the_same_task():
@@ -366,3 +366,16 @@ def test_tasks_compare_and_hash_by_their_scenario():
     assert newton != task and moved != task and newton != moved
     assert len({task, newton, moved}) == 3
     assert task != path.read_text() and task != 0  # other types: unequal, no error
+
+
+def test_a_tasks_legs_cannot_be_changed_in_place():
+    """`task.legs` was a list: `task.legs.reverse()` planned the reversed legs while the
+    task's scenario, which the record writes, still said the given order."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    assert isinstance(task.legs, tuple) and [leg.stratum for leg in task.legs] == ["S3", "S1"]
+    with pytest.raises(AttributeError):
+        task.legs.reverse()
+    import pickle
+
+    again = pickle.loads(pickle.dumps(task))
+    assert isinstance(again.legs, tuple) and again == task

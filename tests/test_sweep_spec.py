@@ -121,6 +121,31 @@ def test_the_command_exits_2_with_one_line_per_problem(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_one_mistake_on_every_value_of_a_long_axis_lists_three_and_counts_the_rest(tmp_path):
+    """Task D's second leg keeps q1 at its first leg's goal: every q1 of the axis is a problem
+    of its own (its message names the value), one line each: 50 lines, 8.8 kB."""
+    scenario = ROOT / "scenarios" / "sim4_task_d.toml"
+    body = '[sweep.grid]\n"goal.q1" = { linspace = [-1.5, -1.2, 50] }\n'
+    with pytest.raises(InputError) as caught:
+        load_sweep(write(tmp_path, body, scenario=scenario))
+    lines = str(caught.value).splitlines()
+    assert len(lines) == 4, lines
+    assert [line.split(": ")[1] for line in lines] == [
+        'sweep.grid."goal.q1"[0]',
+        'sweep.grid."goal.q1"[1]',
+        'sweep.grid."goal.q1"[2]',
+        'sweep.grid."goal.q1"',
+    ]
+    assert "q1 is locked at -1.0472 on this stratum but its goal is -1.5;" in lines[0]
+    assert lines[3].endswith(
+        'sweep.grid."goal.q1": 47 more of its 50 values checked have problems too'
+    )
+    few = '[sweep.grid]\n"goal.q1" = [-1.5, -1.4, -1.3, -1.2]\n'  # four: each is listed
+    with pytest.raises(InputError) as caught:
+        load_sweep(write(tmp_path, few, scenario=scenario, name="few"))
+    assert len(str(caught.value).splitlines()) == 4 and "more of its" not in str(caught.value)
+
+
 INLINE = """[scenario]
 name = "inline"
 model = { kind = "preset", name = "one-arm" }

@@ -31,6 +31,17 @@ class CheckReport:
     def controllable(self) -> bool:
         return bool(self.document["controllable"])
 
+    def __repr__(self) -> str:  # the dataclass's prints the whole document (kB)
+        strata = ", ".join(s["stratum"] for s in self.document.get("strata", []))
+        problems = len(self.document.get("problems", []))
+        noun = "problem" if problems == 1 else "problems"
+        verdict = "controllable" if self.controllable else f"NOT controllable ({problems} {noun})"
+        warnings = len(self.document.get("warnings", []))
+        warned = f", {warnings} warning{'' if warnings == 1 else 's'}" if warnings else ""
+        return (
+            f"CheckReport({self.title}: {verdict}{warned}; strata {strata}, {self.seconds:.2g} s)"
+        )
+
     @property
     def problems(self) -> list[str]:
         return list(self.document["problems"])

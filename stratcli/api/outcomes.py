@@ -78,3 +78,11 @@ class DecompositionOutcome:
     settings: AutoSettings
     decomposition: Decomposition
     document: dict[str, Any]  # what `stratplan decompose --json` prints
+
+    def __repr__(self) -> str:  # the dataclass's runs to many kB (task, every candidate)
+        sequences = [f"({', '.join(c.sequence)})" for c in self.decomposition.candidates]
+        shown = ", ".join(sequences[:6]) + (", ..." if len(sequences) > 6 else "")
+        return (
+            f"DecompositionOutcome({self.task.scenario.name!r}: {len(sequences)} candidate "
+            f"sequences: {shown})"
+        )

@@ -7,14 +7,15 @@ from collections.abc import Callable, Mapping
 from concurrent.futures import Executor
 from contextlib import nullcontext
 from dataclasses import dataclass
+from itertools import islice
 from pathlib import Path
 from typing import Any
 
 from ..arguments import checked, choice, flag, instance, integer, optional, pathlike, source
 from ..records import sweepdir, sweeplock
 from ..sweep.executors import ExecutorInfo, dask_executor
-from ..sweep.outputs import summarise
-from ..sweep.run import RECORDS, Progress, SweepOutcome
+from ..sweep.outputs import MAX_LISTED, summarise
+from ..sweep.run import RECORDS, Progress, SweepOutcome, tally
 from ..sweep.run import run_sweep as run_tasks
 from ..sweep.spec import Sweep, load_sweep
 
@@ -28,6 +29,10 @@ class SweepReport:
     rows: dict[int, dict[str, Any]]
     summary: dict[str, Any]  # sweep.json when the sweep finished, else computed from the rows
     finished: bool  # sweep.json was written (the last run got to the end)
+
+    def __repr__(self) -> str:  # the dataclass's prints every row (kB per 10 tasks)
+        state = "finished" if self.finished else "unfinished"
+        return f"SweepReport({tally(self.summary, self.path)}, {state})"
 
 
 @checked(
@@ -130,8 +135,10 @@ def read_sweep(path: str | Path) -> SweepReport:
         raise InputError(f"{path}: not a sweep directory (no {sweepdir.SPEC})")
     spec, rows, summary = sweepdir.read_sweep_dir(path)
     finished = summary is not None and summary.get("done") == len(rows)
-    if not finished:
-        summary = {**(summary or {}), **summarise(spec, rows)}
+    if not finished:  # the tasks without a row, as sweep.json lists them
+        absent = (k for k in range(spec["count"]) if k not in rows)
+        missing = list(islice(absent, MAX_LISTED))
+        summary = {**(summary or {}), **summarise(spec, rows, missing)}
     return SweepReport(path, spec, rows, summary, finished)
 
 

@@ -201,6 +201,12 @@ class System:
     identity: str | None = None
     _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False)
 
+    def __repr__(self) -> str:  # the dataclass's prints the symbolic fields (kB, padded)
+        return (
+            f"{type(self).__name__}({self.name!r}: coordinates {', '.join(self.states)}; "
+            f"inputs {', '.join(self.inputs)}; strata {', '.join(self.strata)})"
+        )
+
     def __getstate__(self) -> dict:
         """Pickled without its compiled functions (lambdified code does not pickle); they
         are generated again on first use where the system is unpickled."""

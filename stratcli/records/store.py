@@ -165,6 +165,17 @@ def read_record(path: Path) -> Record:
     if is_partial(path):
         raise InputError(f"{path} is an incomplete record (the run was interrupted)")
     missing = [f for f in REQUIRED if not (path / f).is_file()]
+    if len(missing) == len(REQUIRED):  # `runs`, say, where `plan` writes its records?
+        inside = sorted(
+            d.name
+            for d in path.iterdir()
+            if not d.name.startswith(".") and (d / "result.json").is_file()
+        )
+        if inside:
+            raise InputError(
+                f"{path} is a folder of {len(inside)} run record{'s' * (len(inside) > 1)}, "
+                f"not one: give one of them (the latest: {path / inside[-1]})"
+            )
     if missing:
         raise InputError(f"{path} is not a complete run record: missing {', '.join(missing)}")
     docs = []

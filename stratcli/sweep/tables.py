@@ -29,6 +29,7 @@ from .keys import (
 )
 
 MAX_CHECKED = 200  # values of one axis checked by loading the scenario with them
+LISTED = 3  # values of one axis whose problems are listed; the others are counted
 
 
 @dataclass
@@ -106,7 +107,17 @@ def _once(found: list[list[Problem]], where: str) -> list[Problem]:
             kept = [p for problems in found for p in problems if p.message not in shared]
             common = [Problem(where, f"{m} (every value)") for m in sorted(shared)]
             return common + kept
-    return [p for problems in found for p in problems]
+    return _first(found, where)
+
+
+def _first(found: list[list[Problem]], where: str) -> list[Problem]:
+    """The problems of the first `LISTED` values that have any, and a count of the others:
+    a leg's goal locked against the axis made one line per value (200 on a long axis)."""
+    bad = [problems for problems in found if problems]
+    if len(bad) <= LISTED + 1:
+        return [p for problems in bad for p in problems]
+    more = f"{len(bad) - LISTED} more of its {len(found)} values checked have problems too"
+    return [p for problems in bad[:LISTED] for p in problems] + [Problem(where, more)]
 
 
 def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[float | None]]:
