@@ -23,7 +23,7 @@ return: the ranking, and in `.best` the chosen sequence's `PlanOutcome`, its pla
 `.best.result`), `DecompositionOutcome` (`decompose`), `CheckReport`
 (`check_controllability`), `SweepOutcome` (`run_sweep`), `SweepReport` (`read_sweep`).
 Errors: `StratplanError`, `InputError`, `ModelError`, `NotControllableError`, `RecordError`
-(`write_record` could not write), `Problem`; warnings: `IllConditionedWarning`.
+(`write_record` could not write), `Problem`; warnings: `IllConditionedWarning`, `UnusedLegsWarning`.
 
 Arguments are checked before any work: a value of the wrong type raises `TypeError`, a value
 out of range or not one of the choices `InputError` (a `ValueError`); both name the argument.
@@ -92,6 +92,7 @@ _PUBLIC = {
     "ModelError": "errors",
     "NotControllableError": "errors",
     "IllConditionedWarning": "errors",
+    "UnusedLegsWarning": "errors",
     "RecordError": "errors",
     "Problem": "errors",
 }
@@ -135,6 +136,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .errors import Problem as Problem
     from .errors import RecordError as RecordError
     from .errors import StratplanError as StratplanError
+    from .errors import UnusedLegsWarning as UnusedLegsWarning
     from .models.planar import Arm as Arm
     from .models.planar import Base as Base
     from .models.planar import Link as Link

@@ -109,3 +109,9 @@ class RecordError(StratplanError, OSError):
 class IllConditionedWarning(UserWarning):
     """A leg the controllability check expects to be ill-conditioned, and what to try instead:
     `stratcli.plan` warns with it (the command line prints it as `warning: ...`)."""
+
+
+class UnusedLegsWarning(UserWarning):
+    """A scenario's [[legs]] that a call does not use: `decompose`, `compare_sequences` and
+    `plan_auto` decompose its task.start -> task.goal afresh (the command line prints it as
+    `note: ...`)."""

@@ -52,7 +52,8 @@ def test_no_shipped_scenario_gives_both():
 def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
     result = runner.invoke(app, ["decompose", str(TASK_D), "--json"])
     assert result.exit_code == 0
-    assert "[[legs]] are not used here" in result.stderr
+    assert result.stderr.count("[[legs]] are not used here") == 1  # a note, not also a warning
+    assert "UnusedLegsWarning" not in result.stderr
     assert "note:" not in result.stdout  # the JSON stays clean
     auto = runner.invoke(app, ["decompose", str(ROOT / "scenarios" / "sim4_auto.toml")])
     assert auto.exit_code == 0 and "note:" not in auto.output
@@ -221,3 +222,23 @@ def test_a_model_object_from_python_is_one_line_saying_to_give_its_table(build):
         "must be a [model] table (a dict with its kind: preset, custom, planar-manipulator or "
         f"urdf), not a {kind} object; a model of your own is given by its table"
     )
+
+
+def test_the_library_warns_that_a_legs_scenarios_legs_are_not_used():
+    """From Python the note was only in `outcome.settings.notes`, which a notebook never shows:
+    decompose and compare_sequences warn, attributed to the caller's line."""
+    import warnings
+
+    import stratcli
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        outcome = stratcli.decompose(TASK_D, max_length=2)
+    (warning,) = [w for w in caught if w.category is stratcli.UnusedLegsWarning]
+    assert "[[legs]] are not used here" in str(warning.message)
+    assert warning.filename == __file__  # this line, not a line inside the package
+    assert outcome.settings.notes  # and still a note, which the command line prints
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        stratcli.decompose(ROOT / "scenarios" / "sim4_auto.toml", max_length=2)
+    assert not [w for w in caught if w.category is stratcli.UnusedLegsWarning]

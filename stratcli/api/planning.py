@@ -106,15 +106,15 @@ def plan(
     return plan_run(task, check=check, time_scale=time_scale, warn=_warn).result
 
 
-def _warn(sentence: str) -> None:
-    """The check's warnings as Python warnings, attributed to the caller of `plan`: the first
-    frame outside this package (however many of its frames are between, the argument checks'
-    `arguments.checked` among them)."""
+def _warn(sentence: str, category: type[Warning] = IllConditionedWarning) -> None:
+    """The check's warnings (or another `category`) as Python warnings, attributed to the
+    caller of the use case: the first frame outside this package (however many of its frames
+    are between, the argument checks' `arguments.checked` among them)."""
     package = Path(__file__).resolve().parents[1]
     frame, level = sys._getframe(1), 2
     while frame is not None and Path(frame.f_code.co_filename).resolve().is_relative_to(package):
         frame, level = frame.f_back, level + 1
-    warnings.warn(sentence, IllConditionedWarning, stacklevel=level)
+    warnings.warn(sentence, category, stacklevel=level)
 
 
 def plan_run(

@@ -12,6 +12,7 @@ from datetime import UTC, datetime
 
 from ..arguments import checked, flag
 from ..decomposition import moved_coordinates, pi_fraction
+from ..errors import UnusedLegsWarning
 from ..records.comparison import comparison_document
 from ..records.manifest import Phases, phase
 from ..results import Timings
@@ -31,6 +32,7 @@ from .planning import (
     Progress,
     ScenarioLike,
     _named,
+    _warn,
     as_task,
     chosen_as_run,
 )
@@ -208,6 +210,8 @@ def _decomposition(task: Task, max_length, strategy, criterion=None):
     """[decompose] settings with overrides (checked by the use cases: `MAX_LENGTH`, ...), and
     the decomposition; InputError naming the field or argument to change."""
     auto = auto_settings(task, max_length=max_length, strategy=strategy, criterion=criterion)
+    for note in auto.notes:  # the legs it does not use: in Python too (the CLI prints notes)
+        _warn(note, UnusedLegsWarning)
     return auto, decompose_task(task, auto)
 
 

@@ -8,12 +8,15 @@ commands, for start-up speed: `--help` needs none of the planner.
 from __future__ import annotations
 
 import sys
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Literal
 
 import typer
 
-from ..errors import Problem
+from ..errors import Problem, UnusedLegsWarning
 from . import progress as bars
 from . import render, render_tables
 from .options import Animation, Json, MaxLength, Out, Quiet, Scenario, Strategy, TaskScenario
@@ -126,6 +129,15 @@ def _plan_auto(
     raise typer.Exit(0 if outcome.ok else 1)
 
 
+@contextmanager
+def _as_notes() -> Iterator[None]:
+    """The library's `UnusedLegsWarning` is printed as a `note:` line (the outcome's
+    `settings.notes`), not as a Python warning."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnusedLegsWarning)
+        yield
+
+
 def _write(out: Path, outcome, animation: bool, progress, fmt: str = "png") -> Path:
     """Write the run record (exit 4 when it cannot be), telling `progress` so."""
     from .. import api  # start-up speed
@@ -192,7 +204,7 @@ def compare_sequences(
     interactive = bars.interactive(quiet, json_output)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     logged = bars.logged(quiet, json_output)
-    with render.reported(), bars.progress_bar(interactive, waiting, logged) as bar:
+    with render.reported(), bars.progress_bar(interactive, waiting, logged) as bar, _as_notes():
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(
             task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
@@ -228,7 +240,7 @@ def decompose(
     from .. import api  # start-up speed
 
     task = _load(file)
-    with render.reported():
+    with render.reported(), _as_notes():
         outcome = api.decompose(task, max_length=max_length, strategy=strategy)
     render.notes(outcome.settings.notes)
     if json_output:
