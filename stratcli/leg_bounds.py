@@ -16,9 +16,16 @@ from typing import Any
 import numpy as np
 
 from .continuity import Constraints, sequence_constraints
-from .objectives import SEED_RESTARTS, _exact_hessians
+from .objectives import _exact_hessians
 from .planners.energy import optimise_energy
-from .stratified import NUMERICAL_ERRORS, LegStart, _targets, plan_next_leg, planner_for
+from .stratified import (
+    NUMERICAL_ERRORS,
+    SEED_RESTARTS,
+    LegStart,
+    _targets,
+    plan_next_leg,
+    planner_for,
+)
 from .trie import STATE
 
 __all__ = ["leg_items", "leg_minimum", "plan_alone"]

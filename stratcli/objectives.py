@@ -23,12 +23,13 @@ from .planners.energy import optimise_energy
 from .planners.sqp import FIRST_ORDER_ITERATIONS, LOOSE_ABOVE
 from .sequence import SequencePlan
 from .settings import PlannerSettings
-from .stratified import NUMERICAL_ERRORS, LegSpec, chain_legs, check_legs
+from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, LegSpec, chain_legs, check_legs
+from .within_limits import within_limits
 
 __all__ = ["plan_sequence", "plan_with_objective"]
 
-SEED_RESTARTS = 2  # Newton restarts allowed for the extra starts of the energy objective
-# ... and Newton iterations per leg over all its attempts: a seed that needs more is dropped
+# Newton iterations per leg over all attempts of an extra start (`stratified.SEED_RESTARTS`
+# restarts): a seed that needs more is dropped
 # (on the paper's scenarios the seeds that win need at most 34; failing ones ran 39-48)
 SEED_BUDGET = 36
 
@@ -77,8 +78,6 @@ def plan_sequence(
     check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
     plan = plan_with_objective(system, start, legs, settings, warm_start, progress)
     if searchable(constraints) and plan.ok:
-        from .within_limits import within_limits  # (which builds on this module)
-
         plan = within_limits(system, start, legs, settings, plan, constraints, progress)
     return plan
 

@@ -43,6 +43,9 @@ NUMERICAL_ERRORS = (
     ValueError,  # e.g. scipy refusing non-finite arrays
     RuntimeError,  # e.g. a failed ODE integration
 )
+# Newton restarts allowed for the extra, seeded starts (`chain_legs` with a `seed`): the
+# energy objective's, the constrained search's and the screen's leg bounds'
+SEED_RESTARTS = 2
 
 
 @dataclass(frozen=True, eq=False)

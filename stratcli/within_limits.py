@@ -10,10 +10,9 @@ from dataclasses import replace
 import numpy as np
 
 from .node_margins import searchable
-from .objectives import SEED_RESTARTS, _silent
 from .planners import PLANNERS
 from .planners.constrained import NotSearchable, constrained_search
-from .stratified import NUMERICAL_ERRORS, chain_legs
+from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs
 
 __all__ = ["candidate_within_limits", "within_limits"]
 
@@ -27,7 +26,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     its energy search's Newton plan. The energy objective then lowers the energy inside the
     limits. If no start leads inside, `plan` is returned with a message naming the limit and
     the leg where the search stalled (the verification then fails it)."""
-    say = progress or _silent
+    say = progress or (lambda phase: None)
     if not all(PLANNERS[leg.method].joint_optimisation for leg in legs):
         return plan  # Lie legs are refused with [constraints] limits (scenario loading)
     nominal = [np.asarray(start, dtype=float)]
