@@ -388,5 +388,5 @@ def test_progress_in_a_log_is_a_plain_line_after_10_s_then_at_most_every_30_s(mo
         "sweep: 4 of 9 tasks (41 s)",
         "sweep: 5 of 9 tasks (1 min 15 s)",
     ]
-    assert not progress.logged(quiet=True, json_output=False)
-    assert not progress.logged(quiet=False, json_output=True)
+    assert not progress.shown(quiet=True, json_output=False)
+    assert not progress.shown(quiet=False, json_output=True)

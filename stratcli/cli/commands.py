@@ -114,11 +114,9 @@ def _plan_auto(
     """`plan` on a scenario without legs: compare the candidates, record and show the best."""
     from .. import api  # start-up speed
 
-    interactive = bars.interactive(quiet, json_output)
-    logged = bars.logged(quiet, json_output)
-    with render.reported(file), bars.progress_bar(interactive, log=logged) as bar:
+    with render.reported(file), bars.progress_bar(bars.shown(quiet, json_output)) as bar:
         outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale)
-    with bars.phases(interactive) as progress:
+    with bars.phases(bars.interactive(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:
         render.print_json({**outcome.best.document, "record": str(run_dir)})
@@ -201,16 +199,15 @@ def compare_sequences(
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     api.draw_ahead()  # matplotlib loads while the sequences are planned
-    interactive = bars.interactive(quiet, json_output)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
-    logged = bars.logged(quiet, json_output)
-    with render.reported(), bars.progress_bar(interactive, waiting, logged) as bar, _as_notes():
+    shown = bars.shown(quiet, json_output)
+    with render.reported(), bars.progress_bar(shown, waiting) as bar, _as_notes():
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(
             task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
         )
     render.notes(outcome.settings.notes)
-    with bars.phases(interactive) as progress:
+    with bars.phases(bars.interactive(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:  # comparison.json, and where the record is (as `plan --json` says it)
         render.print_json({**outcome.document, "record": str(run_dir)})

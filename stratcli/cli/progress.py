@@ -24,10 +24,10 @@ from .render import err_console
 __all__ = [
     "description_column",
     "interactive",
-    "logged",
     "phases",
     "progress_bar",
     "progress_lines",
+    "shown",
     "until_first_update",
 ]
 
@@ -39,13 +39,13 @@ def description_column() -> TextColumn:
 
 
 @contextmanager
-def progress_bar(enabled: bool, waiting: str | None = None, log: bool = False) -> Iterator[Any]:
+def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
     """A `progress(done, total)` callback drawing a bar on stderr (None when disabled; plain
-    lines with `log`, `progress_lines`), refreshed by hand: no refresh thread while workers
-    fork. The bar appears with the first call; until then `waiting` is shown, if given
-    (`until_first_update`)."""
-    if not enabled:
-        yield progress_lines("planning sequences") if log else None
+    lines where stderr is no terminal, `progress_lines`), refreshed by hand: no refresh
+    thread while workers fork. The bar appears with the first call; until then `waiting` is
+    shown, if given (`until_first_update`)."""
+    if not enabled or not err_console.is_terminal:
+        yield progress_lines("planning sequences") if enabled else None
         return
     columns = (TextColumn("planning sequences"), BarColumn(), MofNCompleteColumn())
     bar = Progress(
@@ -115,15 +115,15 @@ def phases(enabled: bool) -> Iterator[Callable[[str], None] | None]:
         yield update
 
 
+def shown(quiet: bool, json_output: bool) -> bool:
+    """Show progress at all: neither --quiet nor --json asked for silence (a bar on a
+    terminal, plain lines in a log: `progress_bar`)."""
+    return not (quiet or json_output)
+
+
 def interactive(quiet: bool, json_output: bool) -> bool:
-    """Show progress: only to people watching a terminal (not under --quiet or --json)."""
-    return not (quiet or json_output) and err_console.is_terminal
-
-
-def logged(quiet: bool, json_output: bool) -> bool:
-    """Progress as plain lines (`progress_lines`): stderr is no terminal (a CI log, a file),
-    and neither --quiet nor --json asked for silence."""
-    return not (quiet or json_output or err_console.is_terminal)
+    """Show what only a terminal shows (a spinner, `phases`): to people watching one."""
+    return shown(quiet, json_output) and err_console.is_terminal
 
 
 LOG_FIRST, LOG_EVERY = 10.0, 30.0  # s: a log's first progress line, then at most one per

@@ -33,13 +33,13 @@ class _Rate(ProgressColumn):
 
 
 @contextmanager
-def progress_bar(enabled: bool, waiting: str | None = None, log: bool = False) -> Iterator[Any]:
+def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
     """A `progress(done, total)` callback drawing tasks done, tasks/s and the time left on
-    stderr (None when disabled; plain lines with `log`, `progress.progress_lines`); refreshed
-    as rows arrive, no refresh thread. The bar appears with the first row (or the first
-    call); until then `waiting` is shown, if given."""
-    if not enabled:
-        yield progress.progress_lines("sweep", " tasks") if log else None
+    stderr (None when disabled; plain lines where stderr is no terminal,
+    `progress.progress_lines`); refreshed as rows arrive, no refresh thread. The bar appears
+    with the first row (or the first call); until then `waiting` is shown, if given."""
+    if not enabled or not render.err_console.is_terminal:
+        yield progress.progress_lines("sweep", " tasks") if enabled else None
         return
     columns = (
         TextColumn("sweep"),
@@ -117,8 +117,7 @@ def sweep(
 
         loaded = load_sweep(file)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
-    shown = progress.interactive(quiet, json_output), waiting, progress.logged(quiet, json_output)
-    with render.reported(), progress_bar(*shown) as bar:
+    with render.reported(), progress_bar(progress.shown(quiet, json_output), waiting) as bar:
         outcome = api.run_sweep(
             loaded, out, jobs=jobs, dask=dask, resume=resume, records=records, progress=bar
         )
