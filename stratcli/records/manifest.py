@@ -18,6 +18,7 @@ manifest.json.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import platform
@@ -102,6 +103,13 @@ def source_commit(cwd: Path | None = None) -> tuple[str | None, bool | None]:
     return commit, bool(_git("status", "--porcelain", "--untracked-files=no", cwd=here))
 
 
+@functools.cache
+def _this_checkout() -> tuple[str | None, bool | None]:
+    """`source_commit` of this package, asked once a process: the code it runs was read at
+    import (its three git calls took 17 ms, in a sweep for each task's record)."""
+    return source_commit()
+
+
 def manifest(
     text: str,
     argv: list[str],
@@ -110,7 +118,7 @@ def manifest(
     exit_code: int,
     phases: Phases | None = None,
 ):
-    commit, dirty = source_commit()
+    commit, dirty = _this_checkout()
     return {
         "schema": "stratplan.manifest/1",
         "stratplan": __version__,
