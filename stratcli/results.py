@@ -26,6 +26,7 @@ import numpy as np
 
 from .controls import FourierBasis, energy
 from .status import Status
+from .wording import counted
 
 __all__ = [
     "SCHEMA",
@@ -119,12 +120,11 @@ class LegPlan:
         object.__setattr__(self, "pieces", tuple(self.pieces))
 
     def __repr__(self) -> str:  # the dataclass's prints every piece's coefficients (kB)
-        pieces = len(self.pieces)
         return (
             f"LegPlan(leg {self.index + 1} on {self.stratum}, {self.method}: "
             f"{self.status.name}, error {self.error:.2g}, energy {self.energy:.6g}, "
             f"t {self.t0:g} to {self.t0 + self.duration:g} s, "
-            f"{pieces} piece{'' if pieces == 1 else 's'})"
+            f"{counted(len(self.pieces), 'piece')})"
         )
 
     @property

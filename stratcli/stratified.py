@@ -24,6 +24,7 @@ from .results import LegPlan, ModelRef, Switch, make_leg
 from .sequence import SequencePlan
 from .settings import LieSettings, PlannerSettings
 from .status import Status
+from .wording import counted
 
 __all__ = [
     "LegSpec",
@@ -200,10 +201,6 @@ def _evaluator_kind(problem: LegProblem) -> str:
     return "quadrature" if cs.supports_quadrature else "ode"
 
 
-def _count(n: int, noun: str) -> str:
-    return f"{n} {noun}" + ("" if n == 1 else "s")
-
-
 def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
     """What a user reads when a leg fails: which leg, how far off, what to try (first the
     Newton budget, where the scenario set it below its default)."""
@@ -216,12 +213,12 @@ def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
         return f"{where} {head} ({leg.message}); {advice}"
     if leg.status is Status.LIE_NOT_CONVERGED:
         where += " (Lie-algebraic)"
-        work = f"after {_count(leg.iterations, 'step')}"
+        work = f"after {counted(leg.iterations, 'step')}"
         _, drift, how = leg.message.partition(DRIFTED)  # `lie._drifted`: the first thing to try
         if drift:
             advice = f"{drift}{how}, or {advice}"
     else:
-        work = f"after {_count(leg.iterations, 'iteration')} in {_count(leg.attempts, 'attempt')}"
+        work = f"after {counted(leg.iterations, 'iteration')} in {counted(leg.attempts, 'attempt')}"
         if leg.message:  # e.g. the continuation that followed them
             work += f" ({leg.message})"
         defaults = type(settings)()

@@ -16,6 +16,7 @@ from ..models.presets import PRESETS, preset
 from ..models.system import System
 from ..scenario import Task, load_scenario
 from ..tomlread import is_toml_text, is_xml_text
+from ..wording import counted
 from .check import check_document
 
 
@@ -33,11 +34,10 @@ class CheckReport:
 
     def __repr__(self) -> str:  # the dataclass's prints the whole document (kB)
         strata = ", ".join(s["stratum"] for s in self.document.get("strata", []))
-        problems = len(self.document.get("problems", []))
-        noun = "problem" if problems == 1 else "problems"
-        verdict = "controllable" if self.controllable else f"NOT controllable ({problems} {noun})"
+        problems = counted(len(self.document.get("problems", [])), "problem")
+        verdict = "controllable" if self.controllable else f"NOT controllable ({problems})"
         warnings = len(self.document.get("warnings", []))
-        warned = f", {warnings} warning{'' if warnings == 1 else 's'}" if warnings else ""
+        warned = f", {counted(warnings, 'warning')}" if warnings else ""
         return (
             f"CheckReport({self.title}: {verdict}{warned}; strata {strata}, {self.seconds:.2g} s)"
         )

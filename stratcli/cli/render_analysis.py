@@ -6,6 +6,7 @@ from pathlib import Path
 
 from rich.markup import escape
 
+from ..wording import counted
 from . import render
 from .render import number_column, table, text_column
 
@@ -59,8 +60,8 @@ def decomposition(outcome, file: Path) -> None:
     render.out_console.print(listing)
     n, k = len(dec.sequences), len(dec.candidates)
     render.out_console.print(
-        f"{n} sequence{'s' * (n != 1)} of at most {dec.max_length} strata × "
-        f"{' and '.join(dec.strategies)} = {k} candidate{'s' * (k != 1)}; a loop leg's goal "
+        f"{counted(n, 'sequence')} of at most {dec.max_length} strata × "
+        f"{' and '.join(dec.strategies)} = {counted(k, 'candidate')}; a loop leg's goal "
         f"is its start. Plan and rank them: stratplan compare-sequences {file}",
         highlight=False,
     )

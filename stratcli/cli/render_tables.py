@@ -9,6 +9,7 @@ from pathlib import Path
 
 from rich.markup import escape
 
+from ..wording import counted
 from . import render
 from .render import fmt, number_column, say, table, text_column
 
@@ -227,11 +228,11 @@ def model(name: str, system, strata: list[dict], of: str | None = None) -> None:
 def regress_report(report) -> None:
     """`regress`: the differences from the baseline, or that there are none."""
     if report.updated:
-        say(f"baseline {report.baseline} written: {_scenarios(report.scenarios)}")
+        say(f"baseline {report.baseline} written: {counted(report.scenarios, 'scenario')}")
         return
     diffs = report.differences
     rows = table()
-    rows.title = f"{_scenarios(report.scenarios)} against {report.baseline}"
+    rows.title = f"{counted(report.scenarios, 'scenario')} against {report.baseline}"
     text_column(rows, "scenario")
     text_column(rows, "quantity")
     number_column(rows, "baseline")
@@ -257,10 +258,6 @@ def regress_report(report) -> None:
             f"(energy within {report.tolerances['energy_rel']:g} relative, errors within "
             f"{report.tolerances['error_abs']:g})"
         )
-
-
-def _scenarios(n: int) -> str:
-    return f"{n} scenario{'' if n == 1 else 's'}"
 
 
 def regress_failures(report) -> None:

@@ -20,6 +20,7 @@ from rich.progress import (
 )
 from rich.text import Text
 
+from ..wording import counted
 from . import progress, render
 from .options import Quiet
 
@@ -159,7 +160,7 @@ def summary(doc: dict[str, Any], path: Path) -> None:
     if ex:
         wall = doc.get("wall_time_s") or 0.0
         speed = doc.get("tasks_per_s")
-        workers = f"{ex['workers']} worker" + ("" if ex["workers"] == 1 else "s")
+        workers = counted(ex["workers"], "worker")
         say(f"  ran on   {ex['kind']}, {workers}: {doc.get('planned_this_run')} "
             f"tasks in {wall:.1f} s" + (f" ({speed:.2f} tasks/s)" if speed else ""))  # fmt: skip
     if doc.get("missing"):

@@ -19,6 +19,7 @@ from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
+from ..wording import counted
 from .base import (
     ENERGY_RUNAWAY,
     damped_gauss_newton,
@@ -383,7 +384,7 @@ def _starts(seeds: list) -> str:
     kinds = [kind for kind, _ in seeds]
     counts = {kind: kinds.count(kind) for kind in kinds}  # in order of first appearance
     shown = ", ".join(kind if n == 1 else f"{kind} ×{n}" for kind, n in counts.items())
-    return f"{len(seeds)} start{'' if len(seeds) == 1 else 's'} ({shown})"
+    return f"{counted(len(seeds), 'start')} ({shown})"
 
 
 def _newton_part(seeds: list) -> tuple[np.ndarray, bool]:

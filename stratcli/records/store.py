@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError
+from ..wording import counted
 
 REQUIRED = ("scenario.toml", "result.json", "manifest.json")
 
@@ -173,7 +174,7 @@ def read_record(path: Path) -> Record:
         )
         if inside:
             raise InputError(
-                f"{path} is a folder of {len(inside)} run record{'s' * (len(inside) > 1)}, "
+                f"{path} is a folder of {counted(len(inside), 'run record')}, "
                 f"not one: give one of them (the latest: {path / inside[-1]})"
             )
     if missing:
