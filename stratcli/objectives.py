@@ -165,16 +165,17 @@ def _one_start(plan, settings: PlannerSettings):
     return _noted(
         plan,
         f"planner.{' and '.join(asked)} made no difference here: these legs' end-point maps "
-        "have no second derivatives (URDF models, ODE-path legs), so the energy search takes "
-        f"at most {FIRST_ORDER_ITERATIONS} first-order steps from one start",
+        "have no second derivatives (URDF models, ODE-path legs), so the energy search runs "
+        f"from one start (at most {FIRST_ORDER_ITERATIONS} steps, the goals' curvature "
+        "estimated from their Jacobians)",
     )
 
 
 def _short_of_a_minimum(plan, search):
     """`plan` with a note when the search's best start stopped far from a minimum (its
     projected gradient above the SQP's `LOOSE_ABOVE`): its energy may be far above the least.
-    Not for searches without exact second derivatives (ODE-path legs: a few first-order
-    steps by design, `sqp.FIRST_ORDER_ITERATIONS`; result.json still says not converged)."""
+    Not for searches without exact second derivatives (URDF and ODE-path legs: one start,
+    at most `sqp.FIRST_ORDER_ITERATIONS` steps; result.json says whether it converged)."""
     best = search.starts[search.best] if search.best is not None else None
     if best is None or best.converged or not best.projected_gradient > LOOSE_ABOVE:
         return plan

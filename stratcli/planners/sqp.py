@@ -2,7 +2,8 @@
 
 Every iterate reaches the goals (restored by Newton steps of least energy norm); a step
 minimises the quadratic model of the Lagrangian on the constraints' tangent space, with the
-exact Hessian where the legs' end-point maps have one, and is halved until the restored point
+exact Hessian where the legs' end-point maps have one (else the goals' curvature estimated by
+symmetric-rank-one updates: URDF and ODE-path legs), and is halved until the restored point
 has less energy. `planners.energy` races several `Descent`s; the constrained search
 (`planners.constrained`) extends one with its margins.
 """
@@ -20,7 +21,7 @@ if TYPE_CHECKING:
 __all__ = ["CURVATURE_FLOOR", "MINIMUM", "STEP_LIMIT", "Descent"]
 
 SQP_ITERATIONS = 100
-FIRST_ORDER_ITERATIONS = 15  # without exact second derivatives (ODE-path legs)
+FIRST_ORDER_ITERATIONS = 40  # without exact second derivatives (ODE-path legs, URDF robots)
 PG_TOL = 1e-10  # relative projected gradient at convergence (the issue asks ≤ 1e-8)
 CURVATURE_FLOOR = 1e-2  # reduced Hessian ≥ this x the energy's own, on the tangent space
 RESTORATION_STEPS = 12
@@ -30,6 +31,7 @@ LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
 MINIMUM = ("converged", "noise floor")  # stops at a minimum (the others stop on the way down)
+SR1_SKIP = 1e-8  # `_curvature`: an update whose denominator is below this (relative) is skipped
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 
 
@@ -60,6 +62,7 @@ class Descent:
         self.iterations = 0
         self.best_pg, self.since = np.inf, 0
         self.pg, self.pg_at = np.nan, None  # the last projected gradient and its point
+        self.curvature, self.last = None, None  # `_curvature`: without exact Hessians
         start = self._restore(z)
         self.feasible = start is not None
         self.z = z if start is None else start
@@ -100,6 +103,20 @@ class Descent:
             if not np.all(np.isfinite(z)):
                 return None
         return None
+
+    def _curvature(self, z: np.ndarray, J: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        """`Σ_j μ_j ∇²c_j` estimated without second derivatives: symmetric-rank-one updates
+        from the change of `Jᵀμ` between iterates (the energy's own Hessian H0 is exact)."""
+        if self.curvature is None:
+            self.curvature = np.zeros((z.size, z.size))
+        if self.last is not None:
+            s = z - self.last[0]
+            r = (J - self.last[1]).T @ mu - self.curvature @ s
+            sr = float(s @ r)
+            if abs(sr) > SR1_SKIP * np.linalg.norm(s) * np.linalg.norm(r):
+                self.curvature += np.outer(r, r) / sr
+        self.last = (z.copy(), J.copy())
+        return self.curvature
 
     def step(self) -> None:
         clock = time.perf_counter()
@@ -143,7 +160,10 @@ class Descent:
 
         # least-squares multipliers Jᵀμ = -g from the same decomposition
         mu = -(U[:, :rank] / S[:rank]) @ (Vt[:rank] @ g)
-        W = H0 + problem.constraint_hessian(z, mu) if self.exact else H0
+        if self.exact:
+            W = H0 + problem.constraint_hessian(z, mu)
+        else:
+            W = H0 + self._curvature(z, J, mu)
         R = Z.T @ W @ Z
         R0 = Z.T @ H0 @ Z
         # R0 = Zᵀ H0 Z = 2 I (Z orthonormal): the generalised eigenproblem is R's own, halved
