@@ -88,6 +88,37 @@ def test_regress_detects_a_regression(tmp_path):
     assert out.exit_code == 1 and "missing" in out.output  # a scenario vanished
 
 
+def test_regress_json_is_the_report_for_a_ci_script(tmp_path):
+    """`regress --json`: stdout is one JSON document (progress stays on stderr) with the
+    verdict, every difference and each scenario's numbers; a regression still exits 1."""
+    scen = tmp_path / "scen"
+    scen.mkdir()
+    shutil.copy(ROOT / "scenarios" / "unicycle.toml", scen / "d.toml")
+    base = tmp_path / "baseline.json"
+    runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--update"])
+    same = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--json"])
+    report = json.loads(same.stdout)
+    assert same.exit_code == 0 and "planned d: ok" in same.stderr
+    assert report["schema"] == "stratplan.regress/1" and report["regressions"] == 0
+    assert report["differences"] == [] and report["scenarios"] == 1
+    baseline = json.loads(base.read_text())["scenarios"]["d"]
+    d = report["results"]["d"]
+    assert {k: d[k] for k in baseline} == baseline and d["seconds"] > 0
+    baseline["total_energy"] *= 0.5
+    base.write_text(json.dumps({**json.loads(base.read_text()), "scenarios": {"d": baseline}}))
+    worse = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--json"])
+    report = json.loads(worse.stdout)
+    assert worse.exit_code == 1 and report["regressions"] == 1
+    (diff,) = report["differences"]
+    assert diff == {
+        "scenario": "d",
+        "quantity": "total energy",
+        "baseline": baseline["total_energy"],
+        "now": d["total_energy"],
+        "regression": True,
+    }
+
+
 def test_regress_checks_every_scenario_file_before_planning_any(tmp_path):
     """A bad scenario file is exit 2 naming it (and every other bad one) before anything is
     planned: it was found only after planning the files sorted before it."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -28,10 +28,43 @@ class RegressReport:
     tolerances: dict[str, float]
     differences: list[Difference]
     updated: bool  # the baseline was rewritten from this run
+    results: dict[str, dict[str, Any]] = field(default_factory=dict)  # each scenario's summary
+    seconds: dict[str, float] = field(default_factory=dict)  # each scenario's planning (wall)
 
     @property
     def regressions(self) -> int:
         return sum(d.regression for d in self.differences)
+
+    @property
+    def document(self) -> dict[str, Any]:
+        """The report as JSON-ready data (`regress --json`): the verdict, every difference
+        and each scenario's status, energies, errors and seconds (non-finite numbers: None)."""
+        from ..records.rundir import finite_or_none
+
+        return finite_or_none(
+            {
+                "schema": "stratplan.regress/1",
+                "baseline": str(self.baseline),
+                "tolerances": dict(self.tolerances),
+                "updated": self.updated,
+                "scenarios": self.scenarios,
+                "regressions": self.regressions,
+                "differences": [
+                    {
+                        "scenario": d.scenario,
+                        "quantity": d.quantity,
+                        "baseline": d.baseline,
+                        "now": d.now,
+                        "regression": d.regression,
+                    }
+                    for d in self.differences
+                ],
+                "results": {
+                    name: {**summary, "seconds": self.seconds.get(name)}
+                    for name, summary in self.results.items()
+                },
+            }
+        )
 
 
 def regress(
@@ -71,16 +104,17 @@ def regress(
             if not update:
                 raise
     tasks = _load_all(paths)  # a bad file is found before minutes of planning, not after
-    now = {}
+    now, seconds = {}, {}
     for path in paths:
         clock = time.perf_counter()
         now[path.stem] = summarise(tasks[path])
+        seconds[path.stem] = time.perf_counter() - clock
         if progress is not None:
-            progress(path.stem, now[path.stem], time.perf_counter() - clock)
+            progress(path.stem, now[path.stem], seconds[path.stem])
     diffs = compare_baseline(now, old, tolerances)
     if update:
         baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")
-    return RegressReport(len(now), baseline, tolerances, diffs, update)
+    return RegressReport(len(now), baseline, tolerances, diffs, update, now, seconds)
 
 
 def _load_all(paths: list[Path]) -> dict[Path, Task]:

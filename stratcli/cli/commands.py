@@ -355,11 +355,13 @@ def regress(
         bool, typer.Option(metavar="", help="Rewrite the baseline from this run.")
     ] = False,
     quiet: Quiet = False,
+    json_output: Json = False,
 ) -> None:
     """Plan every scenario in DIRECTORY and compare with a baseline; exit 1 on a regression.
 
     Compared: status, each leg's final error and the total energy, with the tolerances stored
-    in the baseline file (`energy_rel`, `error_abs`).
+    in the baseline file (`energy_rel`, `error_abs`). With --json the report is printed as
+    JSON (schema stratplan.regress/1: the differences and each scenario's numbers).
     """
     from .. import api  # start-up speed
 
@@ -368,7 +370,9 @@ def regress(
         report = api.regress(
             directory, baseline, update=update, progress=render_tables.regress_progress(quiet)
         )
-    if not quiet:
+    if json_output:
+        render.print_json(report.document)
+    elif not quiet:
         render_tables.regress_report(report)
     elif report.regressions:  # exit 1 must say why, in a CI log too
         render_tables.regress_failures(report)
