@@ -270,6 +270,11 @@ def test_show_refuses_missing_and_incomplete_records(tmp_path):
     assert missing.exit_code == 2  # show reads sweeps too: the message says so
     assert f"no run record or sweep directory at {tmp_path / 'nope'}" in missing.output
     run = plan_record(tmp_path)
+    (run / "comparison.json").write_text("[1, 2")  # a damaged comparison beside the plan
+    damaged = runner.invoke(app, ["show", str(run)])
+    assert damaged.exit_code == 2 and "Traceback" not in damaged.output
+    assert f"{run / 'comparison.json'}: damaged record" in " ".join(damaged.output.split())
+    (run / "comparison.json").unlink()
     inside = runner.invoke(app, ["show", str(run / "result.json")])  # a file of the record
     assert inside.exit_code == 2 and f"give its directory, {run}" in inside.output
     (run / "result.json").unlink()
@@ -399,7 +404,12 @@ def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, ne
         assert resolved.get("decompose") is None
         again = load_scenario(resolved)
         assert [leg.stratum for leg in again.legs] == doc["rows"][0]["sequence"]
-        assert runner.invoke(cli.app, ["show", str(run_dir)]).exit_code == 0
+        shown = runner.invoke(cli.app, ["show", str(run_dir)])  # which sequence, and why
+        assert shown.exit_code == 0 and f"best of 12 candidate sequences: {doc['choice']}" in (
+            " ".join(shown.output.split())
+        )
+        read = json.loads(runner.invoke(cli.app, ["show", str(run_dir), "--json"]).stdout)
+        assert read["comparison"] == doc and read["result"] == best
         docs.append(doc)
         results.append(best)
     assert docs[0]["jobs"] == 1 and docs[1]["jobs"] == 2

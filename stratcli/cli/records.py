@@ -36,7 +36,10 @@ def show(
             raise InputError(f"no run record or sweep directory at {run}")
         record, log = api.read_run(run)
     if json_output:
-        render.print_json({"result": record.result, "manifest": record.manifest, "mcap": log})
+        doc = {"result": record.result, "manifest": record.manifest, "mcap": log}
+        if record.comparison is not None:  # compare-sequences and auto-mode records
+            doc["comparison"] = record.comparison
+        render.print_json(doc)
     else:
         render.run_record(record, log)
 

@@ -19,6 +19,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError, NotControllableError, Problem, RecordError
+from ..wording import counted
 
 PIPE_WIDTH = 10_000  # not a terminal: lines are as long as their text, never wrapped
 
@@ -294,6 +295,12 @@ def run_record(record, log: dict | None) -> None:
     if record.result.get("status") != "ok":
         message = record.result.get("message") or "no message recorded"
         out_console.print(f"[bold red]failed:[/] {escape(message)}", highlight=False)
+    if record.comparison is not None:  # the plan is the best of a comparison: which and why
+        rows = record.comparison.get("rows", [])
+        say(
+            f"best of {counted(len(rows), 'candidate sequence')}: "
+            f"{escape(record.comparison.get('choice', '?'))} (all of them: comparison.json)"
+        )
     if log:
         topics = ", ".join(f"{t} {n}" for t, n in log["topics"].items())
         say(f"run.mcap: {log['messages']} messages over {log['duration_s']:.2f} s ({topics})")

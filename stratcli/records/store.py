@@ -26,6 +26,7 @@ class Record:
     path: Path
     result: dict[str, Any]
     manifest: dict[str, Any]
+    comparison: dict[str, Any] | None = None  # comparison.json of a compare/auto-mode record
 
     @property
     def started(self) -> str:
@@ -189,7 +190,24 @@ def read_record(path: Path) -> Record:
         except ValueError as exc:  # also json.JSONDecodeError
             raise InputError(f"{path / name}: damaged record: {exc}") from None
         docs.append(doc)
-    return Record(path, *docs)
+    return Record(path, *docs, comparison=_comparison(path / "comparison.json"))
+
+
+def _comparison(file: Path) -> dict[str, Any] | None:
+    """A record's comparison.json (None when it has none), or an InputError naming it."""
+    if not file.is_file():
+        return None
+    try:
+        doc = json.loads(file.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{file}: unreadable ({exc})") from None
+    except ValueError as exc:
+        raise InputError(f"{file}: damaged record: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("schema") != "stratplan.comparison/1":
+        raise InputError(f"{file}: damaged record: not a stratplan.comparison/1 document")
+    if not isinstance(doc.get("choice", ""), str) or not isinstance(doc.get("rows", []), list):
+        raise InputError(f"{file}: damaged record: choice or rows of the wrong type")
+    return doc
 
 
 def mcap_summary(path: Path) -> dict[str, Any] | None:
