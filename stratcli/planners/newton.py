@@ -23,6 +23,7 @@ import numpy as np
 from ..results import Piece
 from ..settings import PlannerSettings
 from ..status import Status
+from ..wording import counted
 from .base import LegOutcome, LegPlanner, LegProblem, damped_gauss_newton, goal_residual
 from .continuation import follow_line
 
@@ -194,8 +195,8 @@ class NewtonPlanner(LegPlanner):
                 best, strategy = path.result, "continuation"
             else:
                 message = (
-                    f"{path.iterations} of them a continuation along the line to the goal, "
-                    "which did not reach it either"
+                    f"the last {counted(path.iterations, 'iteration')} were a continuation "
+                    "along the line to the goal, which did not reach it either"
                 )
         lam, end = best.extra
         error = best.error
