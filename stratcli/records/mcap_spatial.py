@@ -23,11 +23,6 @@ def is_spatial(plan) -> bool:
     return getattr(plan.system, "spatial", None) is not None
 
 
-def _quat(R: np.ndarray) -> dict[str, float]:
-    w, x, y, z = so3.quaternion_from_matrix(R)
-    return {"x": float(x), "y": float(y), "z": float(z), "w": float(w)}
-
-
 def _vec(p: np.ndarray) -> dict[str, float]:
     return {"x": float(p[0]), "y": float(p[1]), "z": float(p[2])}
 
@@ -41,7 +36,7 @@ def spatial_transforms(plan, q: np.ndarray, ns: int) -> dict[str, Any] | None:
     poses = robot.link_poses(q[:k], so3.exp(q[k:]))
     parents = {j.child: j.parent for j in robot.summary.joints}
     stamp = {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
-    out = []
+    frames = []
     for name, (p, R) in poses.items():
         parent = parents.get(name, "world") if name != robot.base else "world"
         if parent != "world" and parent in poses:
@@ -49,15 +44,19 @@ def spatial_transforms(plan, q: np.ndarray, ns: int) -> dict[str, Any] | None:
             p, R = Rp.T @ (p - pp), Rp.T @ R
         elif parent != "world":
             parent = "world"
-        out.append(
-            {
-                "timestamp": stamp,
-                "parent_frame_id": parent,
-                "child_frame_id": name,
-                "translation": _vec(p),
-                "rotation": _quat(R),
-            }
-        )
+        frames.append((parent, name, p, R))
+    # every link's quaternion in one call (one call per link was half of the log's time)
+    quaternions = so3.quaternion_from_matrix(np.array([R for *_, R in frames])).tolist()
+    out = [
+        {
+            "timestamp": stamp,
+            "parent_frame_id": parent,
+            "child_frame_id": name,
+            "translation": _vec(p),
+            "rotation": {"x": x, "y": y, "z": z, "w": w},
+        }
+        for (parent, name, p, _), (w, x, y, z) in zip(frames, quaternions, strict=True)
+    ]
     return {"transforms": out}
 
 
