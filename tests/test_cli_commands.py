@@ -602,6 +602,22 @@ def test_check_says_when_eq2_fails_but_no_leg_needs_it(tmp_path):
     assert "which this task's legs do not need" in verdict
 
 
+def test_plan_in_a_log_says_what_it_is_doing(tmp_path, monkeypatch):
+    """`plan` printed nothing in a log for a minute of constrained starts (a terminal shows
+    a spinner naming the phase): now plain lines on stderr, here at once; --quiet none."""
+    from stratcli.cli import progress
+
+    monkeypatch.setattr(progress, "LOG_FIRST", 0.0)
+    monkeypatch.setattr(progress, "LOG_EVERY", 0.0)
+    scenario = ROOT / "scenarios" / "sim4_task_d.toml"
+    result = runner.invoke(cli.app, ["plan", str(scenario), "--out", str(tmp_path / "r")])
+    assert result.exit_code == 0, result.output
+    assert "energy search: minimum energy from " in result.stderr
+    assert "planning the legs one by one (Newton) (0 s)" in result.stderr
+    quiet = runner.invoke(cli.app, ["plan", str(scenario), "--out", str(tmp_path / "q"), "-q"])
+    assert quiet.exit_code == 0 and "energy search" not in quiet.stderr
+
+
 def test_compare_sequences_in_a_log_says_it_is_alive(tmp_path, newton, monkeypatch):
     """Output that is no terminal (a CI log) got no progress at all: now plain lines on
     stderr (here at once: the log's first line is otherwise after 10 s); --quiet none."""

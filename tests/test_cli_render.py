@@ -390,3 +390,11 @@ def test_progress_in_a_log_is_a_plain_line_after_10_s_then_at_most_every_30_s(mo
     ]
     assert not progress.shown(quiet=True, json_output=False)
     assert not progress.shown(quiet=False, json_output=True)
+    console = Console(width=80, record=True, file=io.StringIO())
+    monkeypatch.setattr(progress, "err_console", console)
+    clock[0] = 0.0
+    phase = progress.phase_lines()  # `plan`'s phases in a log: the same rule
+    for t, text in ((2, "energy search"), (12, "constrained search: start 2 [a seed]"), (20, "x")):
+        clock[0] = float(t)
+        phase(text)
+    assert console.export_text().splitlines() == ["constrained search: start 2 [a seed] (12 s)"]

@@ -92,7 +92,7 @@ def plan(
     api.draw_ahead(yielding=not task.legs)
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale)
-    with bars.phases(bars.interactive(quiet, json_output)) as progress:
+    with bars.phases(bars.shown(quiet, json_output), log=True) as progress:
         with render.reported(file):
             outcome = api.plan_run(
                 task, check=check, time_scale=time_scale, progress=progress, warn=_warning

@@ -24,6 +24,7 @@ from .render import err_console
 __all__ = [
     "description_column",
     "interactive",
+    "phase_lines",
     "phases",
     "progress_bar",
     "progress_lines",
@@ -92,14 +93,15 @@ def until_first_update(bar: Progress, waiting: str | None) -> Iterator[Callable[
 
 
 @contextmanager
-def phases(enabled: bool) -> Iterator[Callable[[str], None] | None]:
+def phases(enabled: bool, log: bool = False) -> Iterator[Callable[[str], None] | None]:
     """A `progress(phase)` callback showing the phase of long work on stderr, with the time
     it has taken so far (None when disabled); the line goes away when the work is done.
+    Where stderr is no terminal: nothing, or with `log` plain lines (`phase_lines`).
 
     Refreshed only when the phase changes: no refresh thread (planning may fork workers).
     """
-    if not enabled:
-        yield None
+    if not enabled or not err_console.is_terminal:
+        yield phase_lines() if enabled and log else None
         return
     columns = (SpinnerColumn(), description_column(), TimeElapsedColumn())
     with Progress(*columns, console=err_console, auto_refresh=False, transient=True) as bar:
@@ -141,10 +143,34 @@ def progress_lines(label: str, unit: str = "") -> Callable[[int, int], None]:
         if now - started < LOG_FIRST or now - last[0] < LOG_EVERY:
             return
         last[0] = now
-        minutes, seconds = divmod(int(now - started), 60)
-        elapsed = f"{minutes} min {seconds} s" if minutes else f"{seconds} s"
         err_console.print(
-            f"{label}: {done} of {total}{unit} ({elapsed})", highlight=False, soft_wrap=True
+            f"{label}: {done} of {total}{unit} ({_elapsed(now - started)})",
+            highlight=False,
+            soft_wrap=True,
         )
 
     return update
+
+
+def phase_lines() -> Callable[[str], None]:
+    """A `progress(phase)` callback for a log: the phase that begins as one plain line on
+    stderr, `phase (elapsed)`, once the work has run `LOG_FIRST` s and then at most every
+    `LOG_EVERY` s (`plan`'s constrained starts can take a minute where a log showed
+    nothing); a short plan prints nothing."""
+    started, last = time.monotonic(), [-math.inf]
+
+    def update(phase: str) -> None:
+        now = time.monotonic()
+        if now - started < LOG_FIRST or now - last[0] < LOG_EVERY:
+            return
+        last[0] = now
+        err_console.print(
+            f"{phase} ({_elapsed(now - started)})", highlight=False, soft_wrap=True, markup=False
+        )
+
+    return update
+
+
+def _elapsed(seconds: float) -> str:
+    minutes, seconds = divmod(int(seconds), 60)
+    return f"{minutes} min {seconds} s" if minutes else f"{seconds} s"
