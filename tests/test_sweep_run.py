@@ -267,6 +267,51 @@ def test_forked_and_spawned_workers_give_the_same_rows(monkeypatch, tmp_path):
     assert rows[True] == rows[False]  # bit for bit
 
 
+PLANNER_MODULE = """
+from stratcli.planners import NewtonPlanner
+
+
+class Patient(NewtonPlanner):
+    method = "patient-spawned"
+"""
+OWN_PLANNER_SCRIPT = """
+import sys, threading, time
+threading.Thread(target=time.sleep, args=(60,), daemon=True).start()
+import stratcli
+{define}
+outcome = stratcli.run_sweep(sys.argv[1], sys.argv[2], jobs=2, records="none")
+for row in outcome.rows.values():
+    print(row["status"], row["message"], flush=True)
+"""
+
+
+@pytest.mark.parametrize("where", ["module", "main"])
+def test_spawned_workers_know_the_callers_own_leg_planners(tmp_path, where):
+    """A user's own `LegPlanner` (README "Your own leg planner") was unknown to spawned and
+    Dask workers: every task `invalid`. Its module is now imported there; a class defined in
+    the main script cannot be, and the row says so, naming the leg."""
+    from sweep_files import TASK_A
+
+    (tmp_path / "my_planner.py").write_text(PLANNER_MODULE)
+    legs = TASK_A.read_text().replace("[[legs]]\n", '[[legs]]\nmethod = "patient-spawned"\n')
+    (tmp_path / "patient.toml").write_text(legs)
+    sweep = write(tmp_path, TWO_TASKS, scenario=tmp_path / "patient.toml")
+    define = "import my_planner" if where == "module" else PLANNER_MODULE
+    (tmp_path / "script.py").write_text(OWN_PLANNER_SCRIPT.format(define=define))
+    done = subprocess.run(
+        [sys.executable, str(tmp_path / "script.py"), str(sweep), str(tmp_path / "out")],
+        capture_output=True, text=True, cwd=tmp_path, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    rows = done.stdout.splitlines()
+    assert len(rows) == 2
+    if where == "module":
+        assert all(row.startswith("ok") for row in rows)
+    else:
+        said = "invalid legs[0].method: leg planner 'patient-spawned' is defined in its main"
+        assert all(row.startswith(f"{said} script, which this worker") for row in rows)
+
+
 # Another thread runs, so the workers are spawned (`_fork_is_safe`); the script has no
 # `if __name__ == "__main__":` guard, and prints "main" once: no worker runs it again.
 SCRIPT = """

@@ -31,7 +31,7 @@ from ..records import sweepdir
 from ..records.rundir import write_run
 from .executors import ExecutorInfo, local_executor
 from .spec import Sweep
-from .worker import run_task
+from .worker import own_planners, run_task
 
 RECORDS = ("best", "failed", "all", "none")
 # tasks submitted ahead of the rows that came back: enough to keep every worker busy, few
@@ -271,6 +271,7 @@ def _payload(sweep: Sweep, task, records: str) -> dict[str, Any]:
         "exhaustive": sweep.exhaustive,
         "records": records,
         "name": sweep.name,
+        "planners": own_planners(),  # a user's own leg planners: imported where not known
     }
 
 

@@ -9,6 +9,7 @@ or a Dask cluster unchanged and the row is the same wherever it was planned.
 
 from __future__ import annotations
 
+import importlib
 import math
 import os
 import socket
@@ -70,6 +71,7 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
     }
     outcome = None
     try:
+        _own_planners(payload.get("planners") or {}, payload["scenario"])
         task = load_scenario(payload["scenario"], name=f"task {index}")
         mode = payload["mode"]
         if mode == "legs":
@@ -124,6 +126,51 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
     row["task_time_s"] = time.perf_counter() - clock
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
     return {"row": row, "record": record, "record_lost": lost}
+
+
+def own_planners() -> dict[str, str]:
+    """{method: module} of the leg planners registered in this process that are not
+    stratplan's own (a user's `LegPlanner` subclasses): what a worker that did not inherit
+    them (spawned, or a Dask worker) imports to register them (`run_task`)."""
+    from ..planners import PLANNERS
+
+    return {
+        method: cls.__module__
+        for method, cls in PLANNERS.items()
+        if not cls.__module__.startswith("stratcli.")
+    }
+
+
+def _own_planners(modules: dict[str, str], scenario: dict[str, Any]) -> None:
+    """Register the parent's own leg planners that this worker lacks by importing their
+    modules; a planner defined in the parent's main script (a notebook, `python script.py`)
+    cannot be imported here: an `InputError` naming the leg that uses it."""
+    from ..errors import InputError, Problem
+    from ..planners import PLANNERS
+
+    for method, module in modules.items():
+        if method in PLANNERS:
+            continue
+        if module != "__main__":
+            try:
+                importlib.import_module(module)
+            except ImportError:
+                pass  # the scenario's own check names the method
+        if method not in PLANNERS:
+            legs = scenario.get("legs") if isinstance(scenario, dict) else None
+            for i, leg in enumerate(legs if isinstance(legs, list) else []):
+                if isinstance(leg, dict) and leg.get("method") == method:
+                    where = "its main script" if module == "__main__" else f"module {module}"
+                    raise InputError(
+                        [
+                            Problem(
+                                f"legs[{i}].method",
+                                f"leg planner {method!r} is defined in {where}, which this "
+                                "worker (spawned, or on a Dask cluster) cannot import: define "
+                                "it in a module that the workers can import",
+                            )
+                        ]
+                    )
 
 
 def _margins(report) -> dict[str, float]:
