@@ -296,3 +296,31 @@ def test_the_schemas_and_the_models_problems_of_constraints_come_in_one_run():
     assert problems[2].startswith("constraints.max_rate: give one number or 3")
     (only,) = _problems(_task_d(self_collision="yes", clearance=0.05))
     assert only.startswith("constraints.self_collision: Input should be a valid boolean")
+
+
+@pytest.mark.parametrize(
+    ("limits", "warned"),
+    [
+        ("[-150, 150]", 'q1, q2, q3 within [-150, 150] rad, 47.7 turns; if degrees were meant, '
+         'write ["-150deg", "150deg"]'),
+        ('{ q2 = [-2.5, 2.5], theta = [-200, 200] }', "theta within [-200, 200] rad"),
+        ('["-150deg", "150deg"]', None),
+        ("[-6, 6]", None),  # within a full turn: radians, surely
+    ],
+)  # fmt: skip
+def test_joint_limits_past_a_full_turn_warn_of_degrees_and_plan_as_written(
+    tmp_path, limits, warned
+):
+    path = tmp_path / "deg.toml"
+    path.write_text(f"{TASK_D.read_text()}\n[constraints]\njoint_limits = {limits}\n")
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    warnings = [x for x in result.output.splitlines() if x.startswith("warning: ")]
+    if warned is None:
+        assert not warnings, warnings
+        return
+    (line,) = warnings
+    assert line.startswith(f"warning: constraints.joint_limits: {warned}"), line
+    (run,) = (tmp_path / "runs").iterdir()  # planned within the limits as written: radians
+    spec = json.loads((run / "result.json").read_text())["constraints"]["spec"]
+    assert spec["joint_limits"] == tomllib.loads(f"x = {limits}")["x"]

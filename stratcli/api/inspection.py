@@ -150,9 +150,11 @@ def check_controllability(
     seconds = time.perf_counter() - clock
     doc["target"] = task.source if task is not None else str(target)
     if task is not None:  # a URDF scenario's start, vias or goal outside the URDF's limits
+        from ..limit_units import degree_like_limits
         from ..urdf_limits import outside_limits
 
         doc["warnings"] += outside_limits(task)
+        doc["warnings"] += degree_like_limits(task.constraints, task.system)
     return CheckReport(doc, title, seconds)
 
 

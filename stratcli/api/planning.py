@@ -18,6 +18,7 @@ from ..constraints import enforce
 from ..decomposition import STRATEGIES
 from ..durations import optimise_durations
 from ..errors import IllConditionedWarning, InputError
+from ..limit_units import degree_like_limits
 from ..node_margins import searchable
 from ..objectives import plan_sequence
 from ..records.manifest import Phases, phase, since_start
@@ -142,7 +143,8 @@ def plan_run(
         (e.g. to show them on a terminal); default: silent.
     warn : callable, optional
         Called as `warn(sentence)`, before any planning, for each leg the check expects to
-        be ill-conditioned (see `check_controllability`); default: silent.
+        be ill-conditioned (see `check_controllability`) and each joint limit past a full
+        turn (degrees written as numbers?); default: silent.
 
     Returns
     -------
@@ -157,6 +159,8 @@ def plan_run(
     if not task.legs:
         raise InputError("the scenario has no legs: plan it in auto mode (plan_auto)", task.source)
     say = progress or (lambda phase: None)
+    for sentence in degree_like_limits(task.constraints, task.system) if warn else ():
+        warn(sentence)  # before the check and the planning: the limits may be a typo
     phases: Phases = {"import": dict(IMPORTED)}
     with phase(phases, "check"):
         if check:
