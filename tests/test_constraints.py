@@ -94,7 +94,7 @@ def test_a_start_in_collision_names_the_bodies_and_the_obstacle():
     ]
     (problem,) = _problems(_task_d(obstacles=obstacles))
     assert problem.startswith("task.start: the robot touches an obstacle here: link 2 and ")
-    assert "obstacles[1] (a circle) are overlapping by at least 0.3" in problem  # not "0.3 into"
+    assert "obstacles[1] (a circle) are overlapping by 0.3" in problem  # not "0.3 into"
     raw = _task_d(self_collision=True, clearance=0.05)
     raw["task"]["start"] = [0.0, 2.9, 2.9, 0.0]  # the arm folded back onto itself
     (problem,) = _problems(raw)
@@ -324,3 +324,43 @@ def test_joint_limits_past_a_full_turn_warn_of_degrees_and_plan_as_written(
     (run,) = (tmp_path / "runs").iterdir()  # planned within the limits as written: radians
     spec = json.loads((run / "result.json").read_text())["constraints"]["spec"]
     assert spec["joint_limits"] == tomllib.loads(f"x = {limits}")["x"]
+
+
+def _depth(p: np.ndarray, q: np.ndarray) -> float:
+    """Independently: the shortest translation separating convex point sets p and q, as the
+    smallest overlap of their projections over 7200 directions (brute force)."""
+    angles = np.linspace(0.0, np.pi, 7200, endpoint=False)
+    n = np.stack((np.cos(angles), np.sin(angles)))
+    pp, qq = p @ n, q @ n
+    overlap = np.minimum(pp.max(0) - qq.min(0), qq.max(0) - pp.min(0))
+    return float(max(overlap.min(), 0.0))
+
+
+def test_a_margin_inside_an_obstacle_is_the_depth_of_the_overlap_not_the_radius():
+    """A link through a box: the margin says how deep (a deeper plan is worse), where the
+    cores' distance alone stops at 0 and every overlap read as the link radius."""
+    from stratcli.body_clearances import clearances
+
+    q = np.array([[-1.0, 1.0, 0.5, 0.3]])
+    geo = world_geometry(load_scenario(_task_d()).system.robot, q)
+    a, b = geo["proximal"][0, 1], geo["distal"][0, 1]  # link 2
+    centre = (0.6 * a + 0.4 * b).tolist()
+    box = {"shape": "box", "centre": centre, "size": [0.3, 0.3], "rotation": 0.2}
+    task = load_scenario(_task_d(obstacles=[box], clearance=0.01))  # the start is clear
+    _, world = clearances(task.system.robot, q, task.constraints)
+    corners = task.constraints.boxes[0]
+    depth = _depth(np.stack((a, b)), corners)
+    assert world[0] == pytest.approx(-depth - 0.05 - 0.01, abs=1e-4)
+    assert world[0] < -0.05 - 0.01 - 0.1  # far deeper than "touching"
+    folded = np.array([[0.0, 2.9, 2.9, 0.0]])  # and the arm folded onto itself and the base
+    task = load_scenario(_task_d(self_collision=True))
+    own, _ = clearances(task.system.robot, folded, task.constraints)
+    geo = world_geometry(task.system.robot, folded)
+    seg = [np.stack((geo["proximal"][0, i], geo["distal"][0, i])) for i in range(3)]
+    base = geo["base_corners"][0]
+    expected = min(
+        -_depth(seg[0], seg[2]) - 0.1 if _depth(seg[0], seg[2]) > 0 else np.inf,
+        -_depth(seg[1], base) - 0.05 if _depth(seg[1], base) > 0 else np.inf,
+        -_depth(seg[2], base) - 0.05 if _depth(seg[2], base) > 0 else np.inf,
+    )
+    assert own[0] == pytest.approx(expected, abs=1e-4)
