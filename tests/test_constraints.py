@@ -364,3 +364,18 @@ def test_a_margin_inside_an_obstacle_is_the_depth_of_the_overlap_not_the_radius(
         -_depth(seg[2], base) - 0.05 if _depth(seg[2], base) > 0 else np.inf,
     )
     assert own[0] == pytest.approx(expected, abs=1e-4)
+
+
+def test_a_length_with_its_unit_is_one_line_saying_to_write_the_number_alone(tmp_path):
+    path = tmp_path / "cm.toml"
+    path.write_text(
+        f'{TASK_D.read_text()}\n[constraints]\nself_collision = true\nclearance = "5cm"\n'
+    )
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
+    assert result.exit_code == 2, result.output
+    (line,) = result.output.strip().splitlines()
+    assert line == (
+        f"error: {path}: constraints.clearance: a unit (cm) is not read: write the number "
+        "alone, in rad for an angle (or as '60deg') and in the model's length unit (m) for a "
+        "length (got '5cm')"
+    )
