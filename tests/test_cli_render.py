@@ -390,3 +390,23 @@ def test_progress_in_a_log_is_a_plain_line_after_10_s_then_at_most_every_30_s(mo
     ]
     assert not progress.shown(quiet=True, json_output=False)
     assert not progress.shown(quiet=False, json_output=True)
+
+
+def test_phases_in_a_log_are_plain_lines_from_10_s_on(monkeypatch):
+    """`plan` of a constrained search was silent for a minute in a log (the spinner is for
+    terminals): each phase that begins after 10 s is a line with the time so far."""
+    clock = [500.0]
+    monkeypatch.setattr(progress.time, "monotonic", lambda: clock[0])
+    console = Console(width=80, record=True, file=io.StringIO())
+    monkeypatch.setattr(progress, "err_console", console)
+    with progress.phases(True) as update:
+        for t, phase in ((0, "compiling the model"), (4, "constrained search: start 2"),
+                         (14, "constrained search: start 3"), (75, "verifying")):  # fmt: skip
+            clock[0] = 500.0 + t
+            update(phase)
+    assert console.export_text().splitlines() == [
+        "constrained search: start 3 (14 s)",
+        "verifying (1 min 15 s)",
+    ]
+    with progress.phases(False) as update:
+        assert update is None

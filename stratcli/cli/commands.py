@@ -92,7 +92,7 @@ def plan(
     api.draw_ahead(yielding=not task.legs)
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale)
-    with bars.phases(bars.interactive(quiet, json_output)) as progress:
+    with bars.phases(bars.shown(quiet, json_output)) as progress:
         with render.reported(file):
             outcome = api.plan_run(
                 task, check=check, time_scale=time_scale, progress=progress, warn=_warning
@@ -116,7 +116,7 @@ def _plan_auto(
 
     with render.reported(file), bars.progress_bar(bars.shown(quiet, json_output)) as bar:
         outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale)
-    with bars.phases(bars.interactive(quiet, json_output)) as progress:
+    with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:
         render.print_json({**outcome.best.document, "record": str(run_dir)})
@@ -207,7 +207,7 @@ def compare_sequences(
             task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
         )
     render.notes(outcome.settings.notes)
-    with bars.phases(bars.interactive(quiet, json_output)) as progress:
+    with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:  # comparison.json, and where the record is (as `plan --json` says it)
         render.print_json({**outcome.document, "record": str(run_dir)})

@@ -23,7 +23,7 @@ from .render import err_console
 
 __all__ = [
     "description_column",
-    "interactive",
+    "phase_lines",
     "phases",
     "progress_bar",
     "progress_lines",
@@ -94,12 +94,13 @@ def until_first_update(bar: Progress, waiting: str | None) -> Iterator[Callable[
 @contextmanager
 def phases(enabled: bool) -> Iterator[Callable[[str], None] | None]:
     """A `progress(phase)` callback showing the phase of long work on stderr, with the time
-    it has taken so far (None when disabled); the line goes away when the work is done.
+    it has taken so far (None when disabled); on a terminal the line goes away when the work
+    is done, in a log each phase is a plain line (`phase_lines`).
 
     Refreshed only when the phase changes: no refresh thread (planning may fork workers).
     """
-    if not enabled:
-        yield None
+    if not enabled or not err_console.is_terminal:
+        yield phase_lines() if enabled else None
         return
     columns = (SpinnerColumn(), description_column(), TimeElapsedColumn())
     with Progress(*columns, console=err_console, auto_refresh=False, transient=True) as bar:
@@ -115,15 +116,29 @@ def phases(enabled: bool) -> Iterator[Callable[[str], None] | None]:
         yield update
 
 
+def phase_lines() -> Callable[[str], None]:
+    """A `progress(phase)` callback for a log: each phase that begins once the work has run
+    `LOG_FIRST` s is one plain line on stderr, `phase (elapsed)`, so that a minute of a
+    constrained search shows in a CI log what it is doing; a short run prints nothing."""
+    started = time.monotonic()
+
+    def update(phase: str) -> None:
+        now = time.monotonic() - started
+        if now >= LOG_FIRST:
+            err_console.print(f"{phase} ({_elapsed(now)})", highlight=False, soft_wrap=True)
+
+    return update
+
+
+def _elapsed(seconds: float) -> str:
+    minutes, seconds = divmod(int(seconds), 60)
+    return f"{minutes} min {seconds} s" if minutes else f"{seconds} s"
+
+
 def shown(quiet: bool, json_output: bool) -> bool:
     """Show progress at all: neither --quiet nor --json asked for silence (a bar on a
     terminal, plain lines in a log: `progress_bar`)."""
     return not (quiet or json_output)
-
-
-def interactive(quiet: bool, json_output: bool) -> bool:
-    """Show what only a terminal shows (a spinner, `phases`): to people watching one."""
-    return shown(quiet, json_output) and err_console.is_terminal
 
 
 LOG_FIRST, LOG_EVERY = 10.0, 30.0  # s: a log's first progress line, then at most one per
@@ -141,10 +156,10 @@ def progress_lines(label: str, unit: str = "") -> Callable[[int, int], None]:
         if now - started < LOG_FIRST or now - last[0] < LOG_EVERY:
             return
         last[0] = now
-        minutes, seconds = divmod(int(now - started), 60)
-        elapsed = f"{minutes} min {seconds} s" if minutes else f"{seconds} s"
         err_console.print(
-            f"{label}: {done} of {total}{unit} ({elapsed})", highlight=False, soft_wrap=True
+            f"{label}: {done} of {total}{unit} ({_elapsed(now - started)})",
+            highlight=False,
+            soft_wrap=True,
         )
 
     return update
