@@ -410,3 +410,13 @@ def test_phases_in_a_log_are_plain_lines_from_10_s_on(monkeypatch):
     ]
     with progress.phases(False) as update:
         assert update is None
+
+
+def test_the_bounded_sequences_are_counted_in_words(monkeypatch):
+    task = _task(AUTO)
+    doc = _limited_ranking_doc()  # one bounded row
+    text = _render(monkeypatch, lambda: render_tables.ranking(task, doc), 160)
+    assert "\n1 sequence bounded, not searched: " in text
+    doc["rows"].append({**doc["rows"][1], "rank": 3, "sequence": ["S2", "S1"]})
+    text = _render(monkeypatch, lambda: render_tables.ranking(task, doc), 160)
+    assert "\n2 sequences bounded, not searched: " in text and "(s)" not in text
