@@ -137,7 +137,13 @@ def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> li
                 continue
             pair, d = min(pairs, key=lambda named: named[1][0])
             if d[0] - c.clearance < 0:
-                problems.append(Problem(where, f"{what}: {pair} are {_apart(d[0])} ({sizes})"))
+                fix = "move the obstacle or change" if "obstacle" in what else "change"
+                fix += " this configuration" + (
+                    " or lower constraints.clearance" if d[0] > 0 else ""
+                )  # apart, but nearer than the clearance
+                problems.append(
+                    Problem(where, f"{what}: {pair} are {_apart(d[0])} ({sizes}); {fix}")
+                )
     return problems
 
 

@@ -95,10 +95,20 @@ def test_a_start_in_collision_names_the_bodies_and_the_obstacle():
     (problem,) = _problems(_task_d(obstacles=obstacles))
     assert problem.startswith("task.start: the robot touches an obstacle here: link 2 and ")
     assert "obstacles[1] (a circle) are overlapping by 0.3" in problem  # not "0.3 into"
+    assert problem.endswith("(clearance 0, link radius 0.05); move the obstacle or change this "
+                            "configuration")  # fmt: skip
     raw = _task_d(self_collision=True, clearance=0.05)
     raw["task"]["start"] = [0.0, 2.9, 2.9, 0.0]  # the arm folded back onto itself
     (problem,) = _problems(raw)
     assert problem.startswith("task.start: the robot collides with itself here: links 1 and 3")
+    assert problem.endswith("; change this configuration")  # they overlap: no clearance helps
+    raw["task"]["start"] = [0.0, 0.7854, 0.0, 0.0]
+    raw["constraints"]["obstacles"] = [{"shape": "circle", "centre": [0.5, 0.08], "radius": 0.1}]
+    (problem,) = [p for p in _problems(raw) if p.startswith("task.start")]  # nearer than the
+    # clearance but apart: lowering it helps
+    assert " apart " in problem
+    assert problem.endswith("; move the obstacle or change this configuration or lower "
+                            "constraints.clearance")  # fmt: skip
 
 
 def test_the_cli_reports_bad_constraints_with_exit_2(tmp_path):
