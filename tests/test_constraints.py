@@ -389,3 +389,20 @@ def test_a_length_with_its_unit_is_one_line_saying_to_write_the_number_alone(tmp
         "alone, in rad for an angle (or as '60deg') and in the model's length unit (m) for a "
         "length (got '5cm')"
     )
+
+
+def test_compare_sequences_and_auto_mode_warn_of_joint_limits_past_a_full_turn(tmp_path):
+    text = (ROOT / "scenarios" / "sim4_auto.toml").read_text()
+    text = text.replace("[planner]\n", '[planner]\nobjective = "newton"\n')
+    path = tmp_path / "auto.toml"
+    path.write_text(text.replace("max_length = 3", "max_length = 2")
+                    + "\n[constraints]\njoint_limits = [-150, 150]\n")  # fmt: skip
+    warned = "warning: constraints.joint_limits: q1, q2, q3 within [-150, 150] rad"
+    for command in ("compare-sequences", "plan"):
+        out = tmp_path / command
+        result = runner.invoke(app, [command, str(path), "--out", str(out), "--quiet"])
+        assert result.exit_code in (0, 1), result.output
+        assert [x for x in result.output.splitlines() if x.startswith("warning:")] == [
+            x for x in result.output.splitlines() if x.startswith(warned)
+        ]
+        assert warned in result.output, command

@@ -18,7 +18,6 @@ from ..constraints import enforce
 from ..decomposition import STRATEGIES
 from ..durations import optimise_durations
 from ..errors import IllConditionedWarning, InputError
-from ..limit_units import degree_like_limits
 from ..node_margins import searchable
 from ..objectives import plan_sequence
 from ..records.manifest import Phases, phase, since_start
@@ -29,7 +28,7 @@ from ..settings import MAX_TIME_SCALE
 from ..time_scaling import scale_time, time_scaled
 from ..urdf_limits import with_limit_notes
 from .auto import auto_choice
-from .inspection import controllability_first
+from .inspection import controllability_first, limit_warnings
 from .outcomes import ComparisonOutcome, PlanOutcome
 
 IMPORTED = since_start()  # the end of the planner's imports: the "import" phase of a run
@@ -159,7 +158,7 @@ def plan_run(
     if not task.legs:
         raise InputError("the scenario has no legs: plan it in auto mode (plan_auto)", task.source)
     say = progress or (lambda phase: None)
-    for sentence in degree_like_limits(task.constraints, task.system) if warn else ():
+    for sentence in limit_warnings(task) if warn else ():
         warn(sentence)  # before the check and the planning: the limits may be a typo
     phases: Phases = {"import": dict(IMPORTED)}
     with phase(phases, "check"):
