@@ -137,6 +137,10 @@ def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> li
                 continue
             pair, d = min(pairs, key=lambda named: named[1][0])
             if d[0] - c.clearance < 0:
+                if d[0] > 0:  # apart: only nearer than the clearance
+                    what = what.replace("touches", "comes within the clearance of").replace(
+                        "collides with", "comes within the clearance of"
+                    )
                 fix = "move the obstacle or change" if "obstacle" in what else "change"
                 fix += " this configuration" + (
                     " or lower constraints.clearance" if d[0] > 0 else ""

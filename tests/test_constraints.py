@@ -106,7 +106,10 @@ def test_a_start_in_collision_names_the_bodies_and_the_obstacle():
     raw["constraints"]["obstacles"] = [{"shape": "circle", "centre": [0.5, 0.08], "radius": 0.1}]
     (problem,) = [p for p in _problems(raw) if p.startswith("task.start")]  # nearer than the
     # clearance but apart: lowering it helps
-    assert " apart " in problem
+    assert problem.startswith(
+        "task.start: the robot comes within the clearance of an obstacle here: link 1 and "
+        "obstacles[0] (a circle) are 0.0388 apart"
+    )
     assert problem.endswith("; move the obstacle or change this configuration or lower "
                             "constraints.clearance")  # fmt: skip
 
