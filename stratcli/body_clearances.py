@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .clearance import (
+    penetration,
     point_polygon_distance,
     point_segment_distance,
     polygon_polygon_distance,
@@ -35,40 +36,55 @@ def _obstacle_names(c: Constraints) -> tuple[list[str], list[str]]:
     return circles, boxes
 
 
+def _signed(d: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Distances `d` between the cores p and q (..., V, 2) where they are apart; where they
+    overlap (d = 0), minus the depth of the overlap (`penetration`), so that a margin tells
+    how deep a link went into the base or a box, not only that it touched."""
+    inside = d <= 0.0
+    if not inside.any():
+        return d
+    out = np.array(d, dtype=float)
+    out[inside] = -penetration(p[inside], q[inside])
+    return out
+
+
 def _pair_distances(robot, q: np.ndarray, c: Constraints) -> tuple[list, list]:
     """Surface distances per sample of each pair of non-adjacent bodies and of each body and
-    obstacle, named: two lists of (name, distances)."""
+    obstacle, named: two lists of (name, distances); negative where they overlap, by how deep."""
     geo = world_geometry(robot, q)
     a, b = geo["proximal"], geo["distal"]  # (N, k, 2)
     corners = geo["base_corners"]  # (N, 4, 2)
     arm = geo["arm_of_link"]
     r = c.link_radius
     k = a.shape[1]
+    link = [np.stack((a[:, i], b[:, i]), axis=-2) for i in range(k)]  # (N, 2, 2) cores
     own, world = [], []
     if c.self_collision:
         first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
         for i in range(k):
             if i not in first:  # a first link is mounted on the base: not checked against it
-                d = segment_polygon_distance(a[:, i], b[:, i], corners) - r
-                own.append((f"link {i + 1} and the base", d))
+                d = _signed(segment_polygon_distance(a[:, i], b[:, i], corners), link[i], corners)
+                own.append((f"link {i + 1} and the base", d - r))
             for j in range(i + 1, k):
                 if arm[j] == arm[i] and j == i + 1:
                     continue  # neighbours share a joint
-                d = segment_segment_distance(a[:, i], b[:, i], a[:, j], b[:, j]) - 2 * r
-                own.append((f"links {i + 1} and {j + 1}", d))
+                d = segment_segment_distance(a[:, i], b[:, i], a[:, j], b[:, j])
+                own.append((f"links {i + 1} and {j + 1}", _signed(d, link[i], link[j]) - 2 * r))
     circle_names, box_names = _obstacle_names(c)
     for (centre, radius), name in zip(c.circles, circle_names, strict=True):
-        d = point_polygon_distance(np.broadcast_to(centre, (len(q), 2)), corners) - radius
-        world.append((f"the base and {name}", d))
-        for i in range(k):
+        point = np.broadcast_to(centre, (len(q), 2))
+        d = _signed(point_polygon_distance(point, corners), point[:, None, :], corners)
+        world.append((f"the base and {name}", d - radius))
+        for i in range(k):  # exact inside too: the centre's distance to the link's core
             d = point_segment_distance(centre, a[:, i], b[:, i]) - r - radius
             world.append((f"link {i + 1} and {name}", d))
     for box, name in zip(c.boxes, box_names, strict=True):
         boxes = np.broadcast_to(box, (len(q), 4, 2))
-        world.append((f"the base and {name}", polygon_polygon_distance(corners, boxes)))
+        d = _signed(polygon_polygon_distance(corners, boxes), corners, boxes)
+        world.append((f"the base and {name}", d))
         for i in range(k):
-            d = segment_polygon_distance(a[:, i], b[:, i], boxes) - r
-            world.append((f"link {i + 1} and {name}", d))
+            d = _signed(segment_polygon_distance(a[:, i], b[:, i], boxes), link[i], boxes)
+            world.append((f"link {i + 1} and {name}", d - r))
     return own, world
 
 
@@ -121,11 +137,20 @@ def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> li
                 continue
             pair, d = min(pairs, key=lambda named: named[1][0])
             if d[0] - c.clearance < 0:
-                problems.append(Problem(where, f"{what}: {pair} are {_apart(d[0])} ({sizes})"))
+                if d[0] > 0:  # apart: only nearer than the clearance
+                    what = what.replace("touches", "comes within the clearance of").replace(
+                        "collides with", "comes within the clearance of"
+                    )
+                fix = "move the obstacle or change" if "obstacle" in what else "change"
+                fix += " this configuration" + (
+                    " or lower constraints.clearance" if d[0] > 0 else ""
+                )  # apart, but nearer than the clearance
+                problems.append(
+                    Problem(where, f"{what}: {pair} are {_apart(d[0])} ({sizes}); {fix}")
+                )
     return problems
 
 
 def _apart(d: float) -> str:
-    """A surface distance in words; an overlap by at least its depth (the distance of the
-    bodies' cores stops at 0 where they cross, so a deep overlap reads as the radii)."""
-    return f"{d:.3g} apart" if d > 0 else f"overlapping by at least {-d:.3g}"
+    """A surface distance in words; an overlap by its depth."""
+    return f"{d:.3g} apart" if d > 0 else f"overlapping by {-d:.3g}"

@@ -336,10 +336,45 @@ def enforce(plan, c: Constraints):
         plan = scale_time(plan, s)
         plan = replace(plan, notes=(*plan.notes, f"slowed {1 / s:.4g}x to meet {which}"))
     report = replace(verify(plan, c), duration_set_by=which if s < 1.0 else "")
+    over = _over_budget(plan, which) if s < 1.0 and report.ok else None
+    if over is not None:
+        report = replace(report, violated=over[0], violation=over[1])
     plan = replace(plan, constraints=report)
     if not report.ok and plan.legs and all(leg.converged for leg in plan.legs):
         violated = report.violated
         if plan.message:  # where the search stalled: the plan is the one found without limits
             violated = f"{plan.message}; the plan found without the limits is kept: {violated}"
-        plan = replace(plan, message=f"{violated}; {violation_advice(plan, report.violated)}")
+        advice = over[2] if over is not None else violation_advice(plan, report.violated)
+        plan = replace(plan, message=f"{violated}; {advice}")
     return plan
+
+
+def _over_budget(plan, which: str) -> tuple[str, dict[str, Any], str] | None:
+    """(violated, violation, advice) when `which` (a rate or acceleration limit) slowed a plan
+    of optimised durations past the budget its scenario gave (`planner.total_duration`);
+    None otherwise. The budget is a limit too: a plan that takes longer is failed. A budget
+    of at least the slowed duration meets the limit with the basis period scaled alike: that
+    plans the same path (time scaling), slower than the limit; with the period unchanged a
+    longer budget fits more of the period's waves into each leg, another path."""
+    budget = plan.settings.total_duration if plan.settings.durations == "optimise" else None
+    needed = plan.duration
+    if budget is None or needed <= budget * (1.0 + 1e-9):
+        return None
+    k = 10.0 ** (2 - math.floor(math.log10(needed)))  # 3 significant digits, rounded up
+    at_least = math.ceil(needed * k) / k
+    violated = (
+        f"the plan needs {needed:.4g} s to meet {which}, more than planner.total_duration = "
+        f"{budget:g} s"
+    )
+    violation = {
+        "leg": len(plan.legs), "limit": "total_duration",
+        "what": f"planner.total_duration ({budget:g} s)", "by": needed - budget, "t": needed,
+    }  # fmt: skip
+    factor = needed / budget if which.startswith("the rate") else (needed / budget) ** 2
+    period = plan.settings.basis.period * plan.time_scale * at_least / budget  # as given
+    advice = (
+        f"raise planner.total_duration to at least {at_least:g} s and planner.basis.period "
+        f"alike, to {period:.6g} s (the same path, slower), or relax that limit: in "
+        f"{budget:g} s this path needs {factor:.3g}x it"
+    )
+    return violated, violation, advice

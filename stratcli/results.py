@@ -308,7 +308,9 @@ class ConstraintReport:
     violated : empty when every margin is ≥ 0; else names the limit, the leg and the time.
     duration_set_by : the rate or acceleration limit that slowed the plan ("" if none did).
     violation : the first violation for scripts (None if none): `leg` (1-based), `limit`
-        (a `LegMargins` key), `what` (the limit named), `by` (how far past it), `t` (s).
+        (a `LegMargins` key, or "total_duration": the budget of optimised durations, which
+        the slowing to the rate limits broke), `what` (the limit named), `by` (how far past
+        it), `t` (s).
     """
 
     spec: dict[str, Any]

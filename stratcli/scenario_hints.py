@@ -1,6 +1,7 @@
 """Hints added to the validation problems of a scenario for the mistakes that are easy to make
-and that pydantic's own words do not explain: a single `[legs]` table, a configuration
-written as a table of names on a model that is not a URDF robot (on a URDF robot whose
+and that pydantic's own words do not explain: a single `[legs]` table, a single obstacle
+table for the list of obstacles, a configuration written as a table of names on a model that
+is not a URDF robot (on a URDF robot whose
 `[model]` table is invalid, that table cannot be read yet: only the model's problems stand),
 and a model object (a `System`) given from Python instead of its table; and the problems of
 [constraints] that only its model shows, beside its schema's."""
@@ -37,11 +38,18 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
         # attributes and says `model.kind: is missing`, which does not say what to give
         problems = [p for p in problems if p.path != "model" and not p.path.startswith("model.")]
         problems.insert(0, Problem("model", _MODEL_OBJECT.format(type(model).__name__)))
+    table = raw.get("constraints")
+    one_obstacle = isinstance(table, dict) and isinstance(table.get("obstacles"), dict)
     out = []
     for p in problems:
         hint = None
         if p.message.startswith(_LIST) and p.path == "legs" and isinstance(raw.get("legs"), dict):
             hint = "write [[legs]] (an array of tables), one per leg"
+        elif p.message.startswith(_LIST) and p.path == "constraints.obstacles" and one_obstacle:
+            hint = (
+                "write a list, even of one: obstacles = [{ shape = ... }], or one "
+                "[[constraints.obstacles]] table per obstacle"
+            )
         elif urdf and model_broken and _CONFIGURATION.match(p.path):
             continue  # by name is right here: read once the model loads (its problem is listed)
         elif p.message.startswith(_LIST) and _CONFIGURATION.match(p.path):

@@ -1,17 +1,18 @@
 """Pydantic's validation errors as the one-line problems users read (`file: field: message`).
 
-Locations become dotted paths as written in the file (`legs[1].goal`), an unknown key lists
+Locations become dotted paths as written in the file (`legs[1].goal`, without the tags pydantic
+adds for a member of a discriminated union: `obstacles[0].centre`), an unknown key lists
 the keys allowed in its table, a model table without a valid `kind` names the kinds.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
 from .errors import Problem
-from .models.specs import KINDS, CustomModel, PlanarModel, PresetModel, UrdfModel
+from .models.specs import KINDS
 from .settings import UNKNOWN_KEY_ERRORS
 
 __all__ = ["file_location", "validation_problems"]
@@ -39,31 +40,49 @@ def _fields_of(cls: Any) -> dict[str, Any] | None:
 
 def _allowed_keys(root: Any, loc: tuple) -> list[str]:
     """Keys allowed at the table that holds `loc[-1]`, by walking the schema from `root`."""
-    cls: Any = root
-    for item in loc[:-1]:
-        if isinstance(item, int):
-            continue
-        if item in KINDS and cls is None:
-            cls = {"preset": PresetModel, "custom": CustomModel, "urdf": UrdfModel}.get(
-                item, PlanarModel
-            )
-            continue
-        fields = _fields_of(cls)
-        if fields is None or item not in fields:
-            return []
-        cls = None if item == "model" else _unwrap(fields[item])
-    fields = _fields_of(cls)
-    return list(fields) if fields else []
+    found = _walk(root, loc[:-1])
+    members = _members(found[0]) if found else []
+    return list(_fields_of(members[0]) or {}) if len(members) == 1 else []
 
 
-def _unwrap(ann: Any) -> Any:
+def _walk(root: Any, loc: tuple) -> tuple[Any, tuple] | None:
+    """(the annotation at `loc` in the schema `root`, `loc` without the tags of discriminated
+    unions, which pydantic adds and the file does not have: `obstacles[0].circle.centre` is
+    `obstacles[0].centre`); None where the schema has no such place."""
+    ann, kept = root, []
+    for item in loc:
+        if isinstance(item, int):  # an item of a list: its members are those of the list
+            kept.append(item)
+            continue
+        members = _members(ann)
+        fields = next((f for m in members if item in (f := _fields_of(m) or {})), None)
+        if fields is not None:
+            ann = fields[item]
+            kept.append(item)
+            continue
+        tagged = [m for m in members if item in _tags(m)]
+        if not tagged:
+            return None
+        ann = tagged[0]  # a union's member, chosen by its tag: not a key of the file
+    return ann, tuple(kept)
+
+
+def _members(ann: Any) -> list[Any]:
+    """The schema classes an annotation may hold (through Annotated, unions, lists, dicts)."""
+    if ann is None:
+        return []
     if _fields_of(ann) is not None:
-        return ann
-    for a in getattr(ann, "__args__", None) or ():
-        found = _unwrap(a)
-        if found is not None:
-            return found
-    return None
+        return [ann]
+    return [m for a in get_args(ann) for m in _members(a)]
+
+
+def _tags(cls: Any, field: str | None = None) -> tuple[str, ...]:
+    """The literal values of `cls`'s field `field` (of any field without one): a member's tags."""
+    fields = _fields_of(cls) or {}
+    names = [field] if field is not None else list(fields)
+    return tuple(
+        v for n in names if get_origin(fields.get(n)) is Literal for v in get_args(fields[n])
+    )
 
 
 _BOUNDS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
@@ -84,10 +103,13 @@ def validation_problems(
         raw = prefix + tuple(err["loc"])
         loc = file_location(raw, models)
         kind = err["type"]
-        if kind in UNKNOWN_KEY_ERRORS:
+        unknown = kind in UNKNOWN_KEY_ERRORS  # a key the schema has not: its table's is walked
+        walked = _walk(root, loc[:-1] if unknown else loc) if root is not None else None
+        where = _path((*walked[1], *loc[-1:]) if unknown else walked[1]) if walked else _path(loc)
+        if unknown:
             allowed = _allowed_keys(root, loc) if root is not None else []
             hint = f" (allowed: {', '.join(allowed)})" if allowed else ""
-            out.append(Problem(_path(loc), f"unknown key{hint}"))
+            out.append(Problem(where, f"unknown key{hint}"))
             continue
         msg = err["msg"].removeprefix("Value error, ")
         if kind in _BOUNDS and "ctx" in err:  # pydantic writes 1e-12 as 0.000000000001
@@ -101,13 +123,18 @@ def validation_problems(
             field = ctx.get("discriminator", "kind").strip("'")
             got = err["input"].get(field) if isinstance(err["input"], dict) else None
             tags = ctx.get("expected_tags")
-            tags = ", ".join(t.strip(" '") for t in tags.split(",")) if tags else ", ".join(KINDS)
+            if tags:
+                tags = ", ".join(t.strip(" '") for t in tags.split(","))
+            else:  # pydantic names none: the union's own members do
+                found = _walk(root, loc) if root is not None else None
+                own = [t for m in _members(found[0]) for t in _tags(m, field)] if found else []
+                tags = ", ".join(own or KINDS)
             what = "is missing" if got is None else f"is {_short(got)}, not a {field}"
-            out.append(Problem(_path((*loc, field)), f"{what} (one of: {tags})"))
+            out.append(Problem(f"{where}.{field}", f"{what} (one of: {tags})"))
             continue
         # a validator's own message may show the value already (parse_number's do)
         shown = "" if kind == "missing" or "(got " in msg else f" (got {_short(err['input'])})"
-        problem = Problem(_path(loc), f"{msg}{shown}")
+        problem = Problem(where, f"{msg}{shown}")
         if loc != raw:  # one form of several: grouped by the value they are forms of
             value = raw[: next(i for i, item in enumerate(raw) if _form(item, models))]
             alternatives.setdefault(value, []).append((kind, problem))

@@ -397,4 +397,17 @@ def test_progress_in_a_log_is_a_plain_line_after_10_s_then_at_most_every_30_s(mo
     for t, text in ((2, "energy search"), (12, "constrained search: start 2 [a seed]"), (20, "x")):
         clock[0] = float(t)
         phase(text)
-    assert console.export_text().splitlines() == ["constrained search: start 2 [a seed] (12 s)"]
+    assert console.export_text().splitlines() == [
+        "constrained search: start 2 [a seed] (12 s)",  # each phase from 10 s on, as written
+        "x (20 s)",
+    ]
+
+
+def test_the_bounded_sequences_are_counted_in_words(monkeypatch):
+    task = _task(AUTO)
+    doc = _limited_ranking_doc()  # one bounded row
+    text = _render(monkeypatch, lambda: render_tables.ranking(task, doc), 160)
+    assert "\n1 sequence bounded, not searched: " in text
+    doc["rows"].append({**doc["rows"][1], "rank": 3, "sequence": ["S2", "S1"]})
+    text = _render(monkeypatch, lambda: render_tables.ranking(task, doc), 160)
+    assert "\n2 sequences bounded, not searched: " in text and "(s)" not in text

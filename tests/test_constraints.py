@@ -94,11 +94,24 @@ def test_a_start_in_collision_names_the_bodies_and_the_obstacle():
     ]
     (problem,) = _problems(_task_d(obstacles=obstacles))
     assert problem.startswith("task.start: the robot touches an obstacle here: link 2 and ")
-    assert "obstacles[1] (a circle) are overlapping by at least 0.3" in problem  # not "0.3 into"
+    assert "obstacles[1] (a circle) are overlapping by 0.3" in problem  # not "0.3 into"
+    assert problem.endswith("(clearance 0, link radius 0.05); move the obstacle or change this "
+                            "configuration")  # fmt: skip
     raw = _task_d(self_collision=True, clearance=0.05)
     raw["task"]["start"] = [0.0, 2.9, 2.9, 0.0]  # the arm folded back onto itself
     (problem,) = _problems(raw)
     assert problem.startswith("task.start: the robot collides with itself here: links 1 and 3")
+    assert problem.endswith("; change this configuration")  # they overlap: no clearance helps
+    raw["task"]["start"] = [0.0, 0.7854, 0.0, 0.0]
+    raw["constraints"]["obstacles"] = [{"shape": "circle", "centre": [0.5, 0.08], "radius": 0.1}]
+    (problem,) = [p for p in _problems(raw) if p.startswith("task.start")]  # nearer than the
+    # clearance but apart: lowering it helps
+    assert problem.startswith(
+        "task.start: the robot comes within the clearance of an obstacle here: link 1 and "
+        "obstacles[0] (a circle) are 0.0388 apart"
+    )
+    assert problem.endswith("; move the obstacle or change this configuration or lower "
+                            "constraints.clearance")  # fmt: skip
 
 
 def test_the_cli_reports_bad_constraints_with_exit_2(tmp_path):
@@ -296,3 +309,103 @@ def test_the_schemas_and_the_models_problems_of_constraints_come_in_one_run():
     assert problems[2].startswith("constraints.max_rate: give one number or 3")
     (only,) = _problems(_task_d(self_collision="yes", clearance=0.05))
     assert only.startswith("constraints.self_collision: Input should be a valid boolean")
+
+
+@pytest.mark.parametrize(
+    ("limits", "warned"),
+    [
+        ("[-150, 150]", 'q1, q2, q3 within [-150, 150] rad, 47.7 turns; if degrees were meant, '
+         'write ["-150deg", "150deg"]'),
+        ('{ q2 = [-2.5, 2.5], theta = [-200, 200] }', "theta within [-200, 200] rad"),
+        ('["-150deg", "150deg"]', None),
+        ("[-6, 6]", None),  # within a full turn: radians, surely
+    ],
+)  # fmt: skip
+def test_joint_limits_past_a_full_turn_warn_of_degrees_and_plan_as_written(
+    tmp_path, limits, warned
+):
+    path = tmp_path / "deg.toml"
+    path.write_text(f"{TASK_D.read_text()}\n[constraints]\njoint_limits = {limits}\n")
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    warnings = [x for x in result.output.splitlines() if x.startswith("warning: ")]
+    if warned is None:
+        assert not warnings, warnings
+        return
+    (line,) = warnings
+    assert line.startswith(f"warning: constraints.joint_limits: {warned}"), line
+    (run,) = (tmp_path / "runs").iterdir()  # planned within the limits as written: radians
+    spec = json.loads((run / "result.json").read_text())["constraints"]["spec"]
+    assert spec["joint_limits"] == tomllib.loads(f"x = {limits}")["x"]
+
+
+def _depth(p: np.ndarray, q: np.ndarray) -> float:
+    """Independently: the shortest translation separating convex point sets p and q, as the
+    smallest overlap of their projections over 7200 directions (brute force)."""
+    angles = np.linspace(0.0, np.pi, 7200, endpoint=False)
+    n = np.stack((np.cos(angles), np.sin(angles)))
+    pp, qq = p @ n, q @ n
+    overlap = np.minimum(pp.max(0) - qq.min(0), qq.max(0) - pp.min(0))
+    return float(max(overlap.min(), 0.0))
+
+
+def test_a_margin_inside_an_obstacle_is_the_depth_of_the_overlap_not_the_radius():
+    """A link through a box: the margin says how deep (a deeper plan is worse), where the
+    cores' distance alone stops at 0 and every overlap read as the link radius."""
+    from stratcli.body_clearances import clearances
+
+    q = np.array([[-1.0, 1.0, 0.5, 0.3]])
+    geo = world_geometry(load_scenario(_task_d()).system.robot, q)
+    a, b = geo["proximal"][0, 1], geo["distal"][0, 1]  # link 2
+    centre = (0.6 * a + 0.4 * b).tolist()
+    box = {"shape": "box", "centre": centre, "size": [0.3, 0.3], "rotation": 0.2}
+    task = load_scenario(_task_d(obstacles=[box], clearance=0.01))  # the start is clear
+    _, world = clearances(task.system.robot, q, task.constraints)
+    corners = task.constraints.boxes[0]
+    depth = _depth(np.stack((a, b)), corners)
+    assert world[0] == pytest.approx(-depth - 0.05 - 0.01, abs=1e-4)
+    assert world[0] < -0.05 - 0.01 - 0.1  # far deeper than "touching"
+    folded = np.array([[0.0, 2.9, 2.9, 0.0]])  # and the arm folded onto itself and the base
+    task = load_scenario(_task_d(self_collision=True))
+    own, _ = clearances(task.system.robot, folded, task.constraints)
+    geo = world_geometry(task.system.robot, folded)
+    seg = [np.stack((geo["proximal"][0, i], geo["distal"][0, i])) for i in range(3)]
+    base = geo["base_corners"][0]
+    expected = min(
+        -_depth(seg[0], seg[2]) - 0.1 if _depth(seg[0], seg[2]) > 0 else np.inf,
+        -_depth(seg[1], base) - 0.05 if _depth(seg[1], base) > 0 else np.inf,
+        -_depth(seg[2], base) - 0.05 if _depth(seg[2], base) > 0 else np.inf,
+    )
+    assert own[0] == pytest.approx(expected, abs=1e-4)
+
+
+def test_a_length_with_its_unit_is_one_line_saying_to_write_the_number_alone(tmp_path):
+    path = tmp_path / "cm.toml"
+    path.write_text(
+        f'{TASK_D.read_text()}\n[constraints]\nself_collision = true\nclearance = "5cm"\n'
+    )
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
+    assert result.exit_code == 2, result.output
+    (line,) = result.output.strip().splitlines()
+    assert line == (
+        f"error: {path}: constraints.clearance: a unit (cm) is not read: write the number "
+        "alone, in rad for an angle (or as '60deg') and in the model's length unit (m) for a "
+        "length (got '5cm')"
+    )
+
+
+def test_compare_sequences_and_auto_mode_warn_of_joint_limits_past_a_full_turn(tmp_path):
+    text = (ROOT / "scenarios" / "sim4_auto.toml").read_text()
+    text = text.replace("[planner]\n", '[planner]\nobjective = "newton"\n')
+    path = tmp_path / "auto.toml"
+    path.write_text(text.replace("max_length = 3", "max_length = 2")
+                    + "\n[constraints]\njoint_limits = [-150, 150]\n")  # fmt: skip
+    warned = "warning: constraints.joint_limits: q1, q2, q3 within [-150, 150] rad"
+    for command in ("compare-sequences", "plan"):
+        out = tmp_path / command
+        result = runner.invoke(app, [command, str(path), "--out", str(out), "--quiet"])
+        assert result.exit_code in (0, 1), result.output
+        assert [x for x in result.output.splitlines() if x.startswith("warning:")] == [
+            x for x in result.output.splitlines() if x.startswith(warned)
+        ]
+        assert warned in result.output, command

@@ -3,19 +3,25 @@ above equal durations, and the plan re-integrates to every goal with continuous 
 
 from __future__ import annotations
 
+import json
+import re
 import tomllib
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pytest
-from reintegrate import verify
+from reintegrate import controls, verify
+from typer.testing import CliRunner
 
-from stratcli import load_scenario
+from stratcli import load_scenario, record_schema
 from stratcli.api import plan_run
+from stratcli.cli import app
 from stratcli.durations import shares
 from stratcli.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
+runner = CliRunner()
 
 
 def _task_d(**planner) -> dict:
@@ -81,3 +87,47 @@ def test_bad_duration_settings_name_their_field(planner, field):
     with pytest.raises(InputError) as info:
         load_scenario(_task_d(**planner))
     assert any(p.path.startswith(field) for p in info.value.problems), info.value.problems
+
+
+def _rate_limited(**planner) -> dict:
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_rate_limited.toml").read_text())
+    raw["planner"].update(durations="optimise", **planner)
+    return raw
+
+
+def test_a_budget_the_rate_limits_cannot_meet_fails_and_its_advice_meets_it(tmp_path):
+    # 0.5 rad/s slows the 2 s plan some 18x: a fixed time slot is broken, not "ok"
+    path = tmp_path / "budget.toml"
+    text = (ROOT / "scenarios" / "sim4_task_d_rate_limited.toml").read_text()
+    budget = '[planner]\ndurations = "optimise"\ntotal_duration = 2.0'
+    path.write_text(text.replace("[planner]", budget))
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs"), "--quiet"])
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    (run,) = (tmp_path / "runs").iterdir()
+    doc = json.loads((run / "result.json").read_text())
+    jsonschema.validate(doc, record_schema("result"))
+    assert doc["status"] == "failed" and doc["duration"] > 2.0
+    violation = doc["constraints"]["violation"]
+    assert violation["limit"] == "total_duration"
+    assert violation["by"] == pytest.approx(doc["duration"] - 2.0)
+    advice = re.search(
+        r"planner.total_duration to at least ([\d.]+) s and planner.basis.period alike, "
+        r"to ([\d.]+) s",
+        doc["message"],
+    )
+    assert advice, doc["message"]
+    budget, period = float(advice[1]), float(advice[2])
+    assert budget >= doc["duration"]
+    # the advice is true: that budget and period plan within the limit, in the budget
+    raw = _rate_limited(total_duration=budget)
+    raw["planner"]["basis"] = {"harmonics": 3, "period": period}
+    outcome = plan_run(load_scenario(raw), check=False)
+    assert outcome.result.ok, outcome.result.message
+    assert outcome.result.duration == pytest.approx(budget, rel=1e-9)
+    assert not outcome.result.constraints.duration_set_by  # not slowed: within the limit
+    for leg in outcome.document["legs"]:  # independently, from result.json's controls
+        (piece,) = leg["pieces"]
+        t = np.linspace(0.0, piece["duration"], 4001)
+        u = np.array([controls(piece, outcome.document["inputs"], s) for s in t])
+        assert np.abs(u).max() <= 0.5 * (1 + 1e-6)

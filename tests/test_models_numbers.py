@@ -46,3 +46,25 @@ def test_what_is_not_a_number_gets_the_full_parsers_message(text, words):
     with pytest.raises(ExpressionError) as fast:
         parse_number(text)
     assert str(fast.value) == str(full.value)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("5cm", "a unit (cm) is not read: write the number alone, in rad for an angle (or as "
+         "'60deg') and in the model's length unit (m) for a length"),
+        ("-2.5 rad", "a unit (rad) is not read"),
+        ("1e-3m", "a unit (m) is not read"),
+        ("2pi", "write the product with *: '2*pi'"),
+    ],
+)  # fmt: skip
+def test_a_number_with_a_unit_says_to_write_it_alone(text, message):
+    with pytest.raises(ExpressionError) as info:
+        parse_number(text)
+    assert str(info.value).startswith(message), info.value
+
+
+@pytest.mark.parametrize(("text", "value"), [("60deg", math.pi / 3), ("30 °", math.pi / 6),
+                                            ("2e3", 2000.0), ("2*pi", 2 * math.pi)])  # fmt: skip
+def test_degrees_and_exponents_are_still_numbers(text, value):
+    assert parse_number(text) == pytest.approx(value)

@@ -404,3 +404,29 @@ def test_a_long_scenario_name_wraps_the_ranking_title_inside_the_figure():
     width, height = fig.get_size_inches() * fig.dpi
     assert box.x0 >= 0 and box.x1 <= width and box.y1 <= height
     assert ax.title.get_text().count("\n") >= 1
+
+
+def test_the_stroboscope_marks_each_legs_closest_approach_to_an_obstacle():
+    import stratcli
+    from stratcli.records.trajectory import world_geometry
+    from stratcli.results import ConstraintReport
+
+    plan = stratcli.plan(ROOT / "scenarios" / "sim4_task_d.toml")
+    circle = {"shape": "circle", "centre": [1.6, 1.1], "radius": 0.1}
+    plan = dataclasses.replace(plan, constraints=ConstraintReport({"obstacles": [circle]}))
+    traj = plan.sample(60)
+    fig = stroboscope_figure(plan, traj)
+    for leg, ax in enumerate(fig.axes[: len(plan.legs)]):
+        # independently: the links' points (capsules of radius 0.05) nearest the circle
+        s = traj.leg_slice(leg)
+        geo = world_geometry(plan.system.robot, traj.q[s])
+        a, b = geo["proximal"], geo["distal"]  # (N, k, 2)
+        t = np.linspace(0, 1, 2001)[:, None, None, None]
+        points = a[None] + t * (b - a)[None]  # (2001, N, k, 2)
+        gap = np.linalg.norm(points - np.array([1.6, 1.1]), axis=-1) - 0.1 - 0.05
+        i, n, j = np.unravel_index(np.argmin(gap), gap.shape)
+        (cross,) = [line for line in ax.get_lines() if line.get_marker() == "x"]
+        np.testing.assert_allclose(cross.get_xydata()[0], points[i, n, j], atol=0.02)
+        (label,) = [x.get_text() for x in ax.texts if x.get_text().startswith("closest")]
+        assert label.startswith(f"closest approach: margin {gap.min():.3g}, near t = "), label
+        assert f"t = {traj.t[s][n]:.4g} s" in label

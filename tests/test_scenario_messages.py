@@ -92,9 +92,20 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
             LAST_LEG + 'method = "Newton"\n',
             "legs[1].method: Input should be 'lie' or 'newton' (got 'Newton')",
         ),
+        (
+            LAST_LEG,
+            LAST_LEG + '\n[constraints]\nobstacles = { shape = "circle", centre = [2, 2], '
+            "radius = 0.1 }\n",
+            "constraints.obstacles: Input should be a valid list: write a list, even of one: "
+            "obstacles = [{ shape = ... }], or one [[constraints.obstacles]] table per obstacle "
+            "(got {'shape': 'circle'",
+        ),
     ],
-    ids=["angle name", "single legs table", "name table on a preset", "lie key", "method"],
-)
+    ids=[
+        "angle name", "single legs table", "name table on a preset", "lie key", "method",
+        "single obstacle table",
+    ],
+)  # fmt: skip
 def test_messages_say_what_to_write(tmp_path, old, new, expected):
     text = TEXT.replace(old, new)
     if new == "":  # [legs] once: a table, not an array of tables

@@ -71,3 +71,31 @@ def test_a_key_of_the_file_that_starts_with_a_capital_stays_in_the_path():
     }
     (problem,) = validation_problems(_errors(raw), root=Scenario)
     assert problem.path == "model.parameters.M"
+
+
+def test_an_obstacle_without_its_shape_names_the_shapes_not_the_model_kinds():
+    raw = {**BASE, "constraints": {"obstacles": [{"centre": [0, 1], "radius": 0.2}]}}
+    (problem,) = validation_problems(_errors(raw), root=Scenario)
+    assert (problem.path, problem.message) == (
+        "constraints.obstacles[0].shape",
+        "is missing (one of: circle, box)",
+    )
+
+
+def test_an_obstacles_keys_are_paths_of_the_file_and_list_the_keys_of_its_shape():
+    """`circle` is pydantic's tag of the union, not a key of the file; a misspelt key lists
+    the keys its shape takes (a circle has no rotation)."""
+    raw = {**BASE, "constraints": {"obstacles": [{"shape": "circle", "center": [0, 1]}]}}
+    found = {p.path: p.message for p in validation_problems(_errors(raw), root=Scenario)}
+    assert found == {
+        "constraints.obstacles[0].centre": "required field is missing",
+        "constraints.obstacles[0].radius": "required field is missing",
+        "constraints.obstacles[0].center": "unknown key (allowed: shape, centre, radius)",
+    }
+    box = {"shape": "box", "centre": [0, 1], "size": [1, -1], "angle": 0.1}
+    raw = {**BASE, "constraints": {"obstacles": [box]}}
+    found = {p.path: p.message for p in validation_problems(_errors(raw), root=Scenario)}
+    assert found["constraints.obstacles[0].size[1]"].startswith("Input should be greater than 0")
+    assert found["constraints.obstacles[0].angle"] == (
+        "unknown key (allowed: shape, centre, size, rotation)"
+    )

@@ -373,3 +373,20 @@ def test_a_urdf_configuration_by_name_takes_its_attitude_components_as_keys(tmp_
             via = loaded.legs[1].goal
             assert np.isnan(via[3]) and via[4] == pytest.approx(0.17408920232346858)
             assert via[5] == 0.05
+
+
+def test_a_grid_over_one_entry_of_a_list_setting_moves_an_obstacle(tmp_path):
+    body = '[sweep.grid]\n"constraints.obstacles[0].centre[0]" = { linspace = [-0.5, 0.1, 3] }\n'
+    obstacles = ROOT / "scenarios" / "sim4_task_d_obstacles.toml"
+    sweep = load_sweep(write(tmp_path, body, scenario=obstacles))
+    xs = []
+    for task in sweep.tasks():
+        (circle, box) = load_scenario(task.scenario).constraints.spec["obstacles"]
+        xs.append(circle["centre"][0])
+        assert circle["centre"][1] == 1.3 and box["centre"] == [1.9, -0.1]  # the rest kept
+    assert xs == pytest.approx([-0.5, -0.2, 0.1])
+    body = body.replace("centre[0]", "centre[2]")
+    with pytest.raises(InputError) as info:
+        load_sweep(write(tmp_path, body, scenario=obstacles, name="past"))
+    (problem,) = info.value.problems
+    assert problem.message == "the scenario has no constraints.obstacles[0].centre[2]"

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 _NAMES = {
     "CheckReport": "inspection",
     "check_controllability": "inspection",
+    "limit_warnings": "inspection",
     "preset_models": "inspection",
     "strata_table": "inspection",
     "ComparisonOutcome": "outcomes",
@@ -59,6 +60,7 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .inspection import CheckReport as CheckReport
     from .inspection import check_controllability as check_controllability
+    from .inspection import limit_warnings as limit_warnings
     from .inspection import preset_models as preset_models
     from .inspection import strata_table as strata_table
     from .outcomes import ComparisonOutcome as ComparisonOutcome

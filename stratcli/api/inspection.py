@@ -153,7 +153,17 @@ def check_controllability(
         from ..urdf_limits import outside_limits
 
         doc["warnings"] += outside_limits(task)
+        doc["warnings"] += limit_warnings(task)
     return CheckReport(doc, title, seconds)
+
+
+def limit_warnings(task: Task) -> list[str]:
+    """One sentence per pair of [constraints] joint limits past a full turn (degrees written
+    as numbers?) on a planar or URDF robot: what `plan`, `compare-sequences` and `check` warn
+    of before planning; none without such limits."""
+    from ..limit_units import degree_like_limits
+
+    return degree_like_limits(task.constraints, task.system)
 
 
 def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | Task | System:

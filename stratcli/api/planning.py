@@ -28,7 +28,7 @@ from ..settings import MAX_TIME_SCALE
 from ..time_scaling import scale_time, time_scaled
 from ..urdf_limits import with_limit_notes
 from .auto import auto_choice
-from .inspection import controllability_first
+from .inspection import controllability_first, limit_warnings
 from .outcomes import ComparisonOutcome, PlanOutcome
 
 IMPORTED = since_start()  # the end of the planner's imports: the "import" phase of a run
@@ -142,7 +142,8 @@ def plan_run(
         (e.g. to show them on a terminal); default: silent.
     warn : callable, optional
         Called as `warn(sentence)`, before any planning, for each leg the check expects to
-        be ill-conditioned (see `check_controllability`); default: silent.
+        be ill-conditioned (see `check_controllability`) and each joint limit past a full
+        turn (degrees written as numbers?); default: silent.
 
     Returns
     -------
@@ -157,6 +158,8 @@ def plan_run(
     if not task.legs:
         raise InputError("the scenario has no legs: plan it in auto mode (plan_auto)", task.source)
     say = progress or (lambda phase: None)
+    for sentence in limit_warnings(task) if warn else ():
+        warn(sentence)  # before the check and the planning: the limits may be a typo
     phases: Phases = {"import": dict(IMPORTED)}
     with phase(phases, "check"):
         if check:

@@ -114,9 +114,11 @@ def _plan_auto(
     """`plan` on a scenario without legs: compare the candidates, record and show the best."""
     from .. import api  # start-up speed
 
+    for sentence in api.limit_warnings(task):  # (plan_run warns of them itself)
+        _warning(sentence)
     with render.reported(file), bars.progress_bar(bars.shown(quiet, json_output)) as bar:
         outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale)
-    with bars.phases(bars.interactive(quiet, json_output)) as progress:
+    with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:
         render.print_json({**outcome.best.document, "record": str(run_dir)})
@@ -199,6 +201,8 @@ def compare_sequences(
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     api.draw_ahead()  # matplotlib loads while the sequences are planned
+    for sentence in api.limit_warnings(task):
+        _warning(sentence)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     shown = bars.shown(quiet, json_output)
     with render.reported(), bars.progress_bar(shown, waiting) as bar, _as_notes():
@@ -207,7 +211,7 @@ def compare_sequences(
             task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
         )
     render.notes(outcome.settings.notes)
-    with bars.phases(bars.interactive(quiet, json_output)) as progress:
+    with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:  # comparison.json, and where the record is (as `plan --json` says it)
         render.print_json({**outcome.document, "record": str(run_dir)})
@@ -295,7 +299,8 @@ def check(
 
 
 def _warning(message: str) -> None:
-    """One `warning:` line on stderr (a leg expected to be ill-conditioned)."""
+    """One `warning:` line on stderr (a leg expected to be ill-conditioned, a joint limit
+    past a full turn)."""
     render.error("warning", message)
 
 

@@ -23,7 +23,6 @@ from .render import err_console
 
 __all__ = [
     "description_column",
-    "interactive",
     "phase_lines",
     "phases",
     "progress_bar",
@@ -117,15 +116,31 @@ def phases(enabled: bool, log: bool = False) -> Iterator[Callable[[str], None] |
         yield update
 
 
+def phase_lines() -> Callable[[str], None]:
+    """A `progress(phase)` callback for a log: each phase that begins once the work has run
+    `LOG_FIRST` s is one plain line on stderr, `phase (elapsed)`, so that a minute of a
+    constrained search shows in a CI log what it is doing; a short run prints nothing."""
+    started = time.monotonic()
+
+    def update(phase: str) -> None:
+        now = time.monotonic() - started
+        if now >= LOG_FIRST:
+            err_console.print(
+                f"{phase} ({_elapsed(now)})", highlight=False, soft_wrap=True, markup=False
+            )
+
+    return update
+
+
+def _elapsed(seconds: float) -> str:
+    minutes, seconds = divmod(int(seconds), 60)
+    return f"{minutes} min {seconds} s" if minutes else f"{seconds} s"
+
+
 def shown(quiet: bool, json_output: bool) -> bool:
     """Show progress at all: neither --quiet nor --json asked for silence (a bar on a
     terminal, plain lines in a log: `progress_bar`)."""
     return not (quiet or json_output)
-
-
-def interactive(quiet: bool, json_output: bool) -> bool:
-    """Show what only a terminal shows (a spinner, `phases`): to people watching one."""
-    return shown(quiet, json_output) and err_console.is_terminal
 
 
 LOG_FIRST, LOG_EVERY = 10.0, 30.0  # s: a log's first progress line, then at most one per
@@ -150,27 +165,3 @@ def progress_lines(label: str, unit: str = "") -> Callable[[int, int], None]:
         )
 
     return update
-
-
-def phase_lines() -> Callable[[str], None]:
-    """A `progress(phase)` callback for a log: the phase that begins as one plain line on
-    stderr, `phase (elapsed)`, once the work has run `LOG_FIRST` s and then at most every
-    `LOG_EVERY` s (`plan`'s constrained starts can take a minute where a log showed
-    nothing); a short plan prints nothing."""
-    started, last = time.monotonic(), [-math.inf]
-
-    def update(phase: str) -> None:
-        now = time.monotonic()
-        if now - started < LOG_FIRST or now - last[0] < LOG_EVERY:
-            return
-        last[0] = now
-        err_console.print(
-            f"{phase} ({_elapsed(now - started)})", highlight=False, soft_wrap=True, markup=False
-        )
-
-    return update
-
-
-def _elapsed(seconds: float) -> str:
-    minutes, seconds = divmod(int(seconds), 60)
-    return f"{minutes} min {seconds} s" if minutes else f"{seconds} s"

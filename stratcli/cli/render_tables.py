@@ -90,7 +90,7 @@ def ranking(task, doc: dict) -> None:
         )
     if bounded:
         say(
-            f"{bounded} sequence(s) bounded, not searched: the sum of their legs' minimum "
+            f"{counted(bounded, 'sequence')} bounded, not searched: the sum of their legs' minimum "
             "energies (each leg planned alone, without the conditions that tie it to its "
             "neighbours) is at least the best's (--exhaustive searches every one)"
         )

@@ -204,6 +204,7 @@ def _node(node: ast.AST, rec, symbols: dict[str, sp.Symbol], text: str, allowed:
 
 
 _DEG = re.compile(r"^\s*(.+?)\s*(deg|°)\s*$")
+_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-zµ]+)\s*$")
 
 
 def parse_number(value: float | int | str) -> float:
@@ -222,6 +223,14 @@ def parse_number(value: float | int | str) -> float:
     match = _DEG.match(value)
     if match:
         text, scale = match.group(1), math.pi / 180.0
+    unit = _UNIT.match(text)
+    if unit and unit.group(2) == "pi":
+        raise ExpressionError(f"write the product with *: '{unit.group(1)}*pi'")
+    if unit and unit.group(2) not in ("e", "E"):
+        raise ExpressionError(
+            f"a unit ({unit.group(2)}) is not read: write the number alone, in rad "
+            "for an angle (or as '60deg') and in the model's length unit (m) for a length"
+        )
     expr = parse_expression(text)
     if expr.free_symbols:
         raise ExpressionError(f"{value!r} is not a constant")

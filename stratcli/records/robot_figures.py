@@ -33,7 +33,13 @@ from .figure_common import (
     locked_names,
     stamp_failed,
 )
-from .obstacles import OBSTACLE_STYLE, draw_obstacles, has_obstacles, obstacle_points
+from .obstacles import (
+    OBSTACLE_STYLE,
+    closest_approach,
+    draw_obstacles,
+    has_obstacles,
+    obstacle_points,
+)
 from .trajectory import Trajectory, world_geometry
 
 __all__ = ["DPI", "frame_schedule", "locked_names", "motion_gif", "stroboscope_figure"]
@@ -169,6 +175,7 @@ def stroboscope_figure(
             ax.plot(tips[s, a, 0], tips[s, a, 1], ":", color="#d35400", lw=1.2, zorder=6)
         ax.plot(0, 0, "+", color="k", markersize=7, zorder=7)
         draw_obstacles(ax, plan)
+        _mark_closest(ax, plan, traj, geo, k)
         ax.set_xlim(*xlim)
         ax.set_ylim(*ylim)
         ax.set_aspect("equal")
@@ -195,6 +202,10 @@ def stroboscope_figure(
     ]
     if has_obstacles(plan):
         handles.append(Patch(label="obstacle", **OBSTACLE_STYLE))
+        handles.append(
+            Line2D([], [], color=FAILED_COLOR, lw=1.0, ls="-.", marker="x", ms=6, mew=2,
+                   label="closest approach")
+        )  # fmt: skip
     fig.legend(
         handles=handles,
         loc="lower center",
@@ -216,6 +227,26 @@ def stroboscope_figure(
     )
     stamp_failed(fig, plan)
     return fig
+
+
+def _mark_closest(ax, plan: SequencePlan, traj: Trajectory, geo: dict, leg: int) -> None:
+    """The pose of a leg's closest approach to an obstacle among the drawn samples, the
+    robot's point nearest it (×), and the leg's margin as result.json has it (from the
+    denser samples of the verification: at most that close between the drawn ones)."""
+    s = traj.leg_slice(leg)
+    near = closest_approach(plan, traj.q[s])
+    if near is None:
+        return
+    k, point, margin = near
+    report = plan.constraints.legs[leg] if leg < len(plan.constraints.legs) else None
+    if report is not None and report.obstacle_clearance is not None:
+        margin = min(margin, report.obstacle_clearance)
+    _draw_poses(ax, geo, np.array([s.start + k]), [FAILED_COLOR], lw=1.0, zorder=3, linestyle="-.")
+    ax.plot(*point, "x", color=FAILED_COLOR, ms=9, mew=2.2, zorder=8)
+    ax.text(
+        0.02, 0.02, f"closest approach: margin {margin:.3g}, near t = {traj.t[s.start + k]:.4g} s",
+        transform=ax.transAxes, fontsize=7.5, color=FAILED_COLOR, va="bottom", zorder=9,
+    )  # fmt: skip
 
 
 SPEEDS = (1, 2, 4, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000)  # of a GIF too long for real time

@@ -2,7 +2,8 @@
 
 A key names a scenario value: ``start.NAME``, ``goal.NAME`` and ``legs[i].goal.NAME`` are
 coordinates (NAME a coordinate of the model; ``task.`` may be written in front), anything else
-a dotted path into the scenario (``planner.tolerance``). A URDF configuration given by name
+a dotted path into the scenario (``planner.tolerance``), whose lists are indexed
+(``constraints.obstacles[0].centre[1]``). A URDF configuration given by name
 (joints, then ``attitude`` or ``rpy``) takes ``rx``, ``ry``, ``rz`` as components of its
 attitude, a rotation vector (``rpy`` converted to one). A value is checked by loading the base
 scenario with it (`stratcli.load_scenario`); its problems are named by the sweep file's field.
@@ -72,7 +73,11 @@ def assign(scenario: dict[str, Any], key: str, value: Any, states: tuple[str, ..
         node.pop("rpy", None)
         node["attitude"][ATTITUDE.index(last)] = value
         return
-    if isinstance(node, list):
+    if isinstance(node, list) and isinstance(last, int) and not is_coordinate(key):
+        if last >= len(node):  # an entry of a list setting: an obstacle's centre[0], say
+            raise ValueError(f"the scenario has no {_dotted(parts)}")
+        node[last] = value
+    elif isinstance(node, list):
         if last not in states:
             raise ValueError(f"unknown coordinate {last!r} (this model has: {', '.join(states)})")
         node[states.index(last)] = value
@@ -80,6 +85,11 @@ def assign(scenario: dict[str, Any], key: str, value: Any, states: tuple[str, ..
         node[last] = value
     else:
         raise ValueError(f"cannot set {key} in the scenario")
+
+
+def _dotted(parts: list[str | int]) -> str:
+    """`parts` as a key is written: `constraints.obstacles[0].centre[2]`."""
+    return "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in parts).lstrip(".")
 
 
 def _attitude(table: dict[str, Any], key: str) -> list:
