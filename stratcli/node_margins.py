@@ -66,6 +66,7 @@ class _Leg:
         # q_E(t_k) = q0_E + C L Ψ(t_k): dq_E/dλ[k, e, (a, b)] = C[e, a] Ψ[k, b]
         self.dE = np.einsum("ea,kb->keab", ep.C, Psi).reshape(len(self.t), ep.E.size, m * s)
         self.theta = need_theta and ep.Q.size > 0
+        self.dqz = None  # dq/dz at the nodes, kept when it is constant (no θ: `NodeMargins`)
         # coordinates that move on this leg (a locked joint stays at its via, checked on
         # loading): joints driven by an input, and θ when it is integrated
         driven = ep.E[np.any(ep.C != 0.0, axis=1)] if ep.E.size else ep.E
@@ -172,6 +173,8 @@ class NodeMargins:
         self._last = None  # (z, clearances, kinds) of the last call: the next often repeats z
         self._limit_rows: list[tuple] = []  # (leg, coordinate, sign, first row, rows) of limits
         self._rows_of = None  # (node, pair) of each clearance row, made once
+        self._limit_slopes: dict[tuple, np.ndarray] = {}  # `_limit_slope`'s constant rows
+        self._dqz_all = None  # the clearance coordinates' dq/dz at every node, if constant
 
     def refined(self, z: np.ndarray, dense: int) -> NodeMargins | None:
         """These margins with more nodes where `dense` equally spaced samples a leg find less
@@ -197,8 +200,13 @@ class NodeMargins:
         label = not self.labels
         configurations, slopes = [], []
         for index, leg in enumerate(self.legs):
-            q, dq = leg.configurations(lam[leg.rows], jacobian)
-            dqz = dq @ null[leg.rows] if jacobian else None  # (N, n, nz)
+            kept = jacobian and leg.dqz is not None  # dq/dz constant: only the joints move
+            q, dq = leg.configurations(lam[leg.rows], jacobian and not kept)
+            dqz = None
+            if jacobian:  # (N, n, nz)
+                dqz = leg.dqz if kept else dq @ null[leg.rows]
+                if not leg.theta:
+                    leg.dqz = dqz
             configurations.append((q, dqz))
             for i in self.limited:
                 if i not in leg.moving:
@@ -207,7 +215,7 @@ class NodeMargins:
                     if np.isfinite(bound):
                         values.append(sign * (q[:, i] - bound) - self.cushion)
                         if jacobian:
-                            grads.append(sign * dqz[:, i])
+                            grads.append(self._limit_slope(index, i, sign, dqz))
                         if label:
                             self._limit_rows.append((index, i, sign, len(labels), len(q)))
                             labels += [(index, f"the joint limits of {self.states[i]}")] * len(q)
@@ -241,8 +249,12 @@ class NodeMargins:
                 if label:
                     labels += [(index, kind) for kind in kinds for _ in range(len(qi))]
                     times += [self.legs[index].t] * len(kinds)
-                if jacobian:
-                    dg = np.einsum("cnp,ncz->pnz", slopes[:, rows], dqz[:, self.geo_coords])
+                if jacobian:  # zero but at the nodes near contact (`slopes`)
+                    at = np.flatnonzero(near[rows])
+                    dg = np.zeros((g_all.shape[1], len(qi), dqz.shape[-1]))
+                    dg[:, at] = np.einsum(
+                        "cnp,ncz->pnz", slopes[:, rows][:, at], dqz[at][:, self.geo_coords]
+                    )
                     grads.append(dg.reshape(-1, dqz.shape[-1]))
         g = np.concatenate(values) if values else np.zeros(0)
         G = (np.concatenate(grads) if grads else np.zeros((0, z.size))) if jacobian else None
@@ -251,9 +263,23 @@ class NodeMargins:
         if jacobian and self.geometric:  # for `curvature`: each clearance row's node and pair
             first = g.size - g_all.size
             node, pair = self._node_and_pair(g_all.shape[1])
-            dqz_all = np.concatenate([c[1][:, self.geo_coords] for c in configurations])
+            dqz_all = self._dqz_all
+            if dqz_all is None:
+                dqz_all = np.concatenate([c[1][:, self.geo_coords] for c in configurations])
+                if not any(leg.theta for leg in self.legs):
+                    self._dqz_all = dqz_all  # constant as the legs' dq/dz are
             self._curvature_at = (z.copy(), first, node, pair, q, dqz_all, slopes, self._sizes)
         return g, G
+
+    def _limit_slope(self, index: int, i: int, sign: float, dqz: np.ndarray) -> np.ndarray:
+        """The gradient rows of coordinate i's limit on leg `index` (kept where constant)."""
+        key = (index, i, sign)
+        if key in self._limit_slopes:
+            return self._limit_slopes[key]
+        rows = sign * dqz[:, i]
+        if self.legs[index].dqz is not None:
+            self._limit_slopes[key] = rows
+        return rows
 
     @cached_property
     def _sizes(self) -> list[int]:
