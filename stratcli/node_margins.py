@@ -10,7 +10,7 @@ Along each leg, at `NODES` equally spaced times (more for fast harmonics, `NODES
 * the base angle θ (needed only for obstacles: self-collision depends on the joints alone) is
   a quadrature of the connection, accumulated over the node intervals with `GAUSS` Gauss
   points each, its derivative by the same quadrature (as `endpoint.QuadratureEndpoint`);
-* the clearances are separating-axis gaps (`geometric_margins`, `clearance.penetration`):
+* the clearances are separating-axis gaps (`geometric_margins`, as `clearance.penetration`):
   minus the depth of overlap where bodies overlap, so that a colliding plan still has a
   direction out, and a lower bound of the distance where they are apart (so a plan with
   positive margins here has them in `constraints.verify` too); differentiated in the
@@ -28,7 +28,7 @@ from functools import cached_property
 import numpy as np
 
 from .endpoint import pair_products
-from .geometric_margins import geometric_margins
+from .geometric_margins import GeometricMargins
 
 __all__ = ["CUSHION", "NODES", "NodeMargins", "searchable"]
 
@@ -146,6 +146,7 @@ class NodeMargins:
         self.problem, self.c, self.cushion, self.reach = problem, constraints, cushion, reach
         self.robot = getattr(system, "robot", None)
         self.geometric = constraints.geometric and self.robot is not None
+        self._geometry = GeometricMargins(self.robot, constraints) if self.geometric else None
         limited = np.isfinite(constraints.lower) | np.isfinite(constraints.upper)
         k = self.robot.n_joints if self.robot is not None else limited.size
         # the quadrature coordinates (θ) are integrated at the nodes for obstacles, and for
@@ -225,7 +226,7 @@ class NodeMargins:
             if self._last is not None and np.array_equal(self._last[0], z):
                 g_all, kinds = self._last[1:]  # the line search's trial, now the iterate
             else:
-                g_all, kinds = geometric_margins(self.robot, q, self.c)
+                g_all, kinds = self._geometry(q)
                 self._last = (z.copy(), g_all, kinds)
             if jacobian:  # differences at nodes near contact, in coordinates that move there
                 slopes = np.zeros((len(self.geo_coords), *g_all.shape))
@@ -236,7 +237,7 @@ class NodeMargins:
                     for c, w in zip(self.geo_coords, where, strict=True)
                 ]
                 if sum(len(w) for w in where):
-                    moved = geometric_margins(self.robot, np.concatenate(steps), self.c)[0]
+                    moved = self._geometry(np.concatenate(steps))[0]
                     start = 0
                     for k, w in enumerate(where):
                         slopes[k, w] = (moved[start : start + len(w)] - g_all[w]) / FD_STEP
@@ -349,7 +350,7 @@ class NodeMargins:
         shifts = signs[:, 0, None, None] * eye[i] + signs[:, 1, None, None] * eye[j]  # (4, P, n)
         base = q[node[rows]]  # (A, n)
         points = base[:, None, None, :] + shifts[None]  # (A, 4, P, n)
-        values = geometric_margins(self.robot, points.reshape(-1, q.shape[1]), self.c)[0]
+        values = self._geometry(points.reshape(-1, q.shape[1]))[0]
         values = values.reshape(rows.size, 4, len(i), -1)[np.arange(rows.size), ..., pair[rows]]
         second = (values[:, 0] - values[:, 1] - values[:, 2] + values[:, 3]) / (4 * h * h)
         H = np.zeros((rows.size, k, k))
