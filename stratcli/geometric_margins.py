@@ -20,13 +20,7 @@ from .clearance import separating_axes
 from .models.geometry import base_extent
 from .models.planar import kinematics, structure
 
-__all__ = ["GeometricMargins", "geometric_margins"]
-
-
-def geometric_margins(robot, q: np.ndarray, c) -> tuple[np.ndarray, list[str]]:
-    """Signed clearances (N, P) at configurations q (N, n) and each column's kind: a
-    one-off `GeometricMargins(robot, c)(q)`."""
-    return GeometricMargins(robot, c)(q)
+__all__ = ["GeometricMargins"]
 
 
 @lru_cache(maxsize=64)
