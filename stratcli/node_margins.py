@@ -109,7 +109,9 @@ class _Leg:
             dq[:, ep.E] = self.dE
         if self.theta:
             qg, u = self._gauss_state(L)  # u: (K, m)
-            if hasattr(ep.cs, "quadrature_jacobian"):
+            if hasattr(ep.cs, "quadrature_jacobian") and not jacobian:  # θ's row alone
+                GQ = ep.cs.quadrature_terms(qg, 0)[0]
+            elif hasattr(ep.cs, "quadrature_jacobian"):
                 GQ, Du = ep.cs.quadrature_jacobian(qg, u[:, None, :])
                 C = ep.C
             else:  # compiled rows: derivatives along the moving joints only (`_C_terms`)
