@@ -67,6 +67,7 @@ class _Leg:
         self.dE = np.einsum("ea,kb->keab", ep.C, Psi).reshape(len(self.t), ep.E.size, m * s)
         self.theta = need_theta and ep.Q.size > 0
         self.dqz = None  # dq/dz at the nodes, kept when it is constant (no θ: `NodeMargins`)
+        self._memo = None  # (λ, q, θ's terms) of the last `configurations`
         # coordinates that move on this leg (a locked joint stays at its via, checked on
         # loading): joints driven by an input, and θ when it is integrated
         driven = ep.E[np.any(ep.C != 0.0, axis=1)] if ep.E.size else ep.E
@@ -80,9 +81,10 @@ class _Leg:
             self.Phi_g, self.Psi_g = ep.basis.values(self.tg), ep.basis.integrals(self.tg)
             self.pairs = pair_products(self.wg, self.Phi_g, self.Psi_g)
 
-    def _gauss_state(self, L: np.ndarray):
+    def _gauss_state(self, lam: np.ndarray):
         """q (θ at the leg's start) and u at the Gauss points, as the end point has them."""
         ep = self.ep
+        L = lam.reshape(ep.m, ep.size)
         qg = np.broadcast_to(ep.q0, (len(self.tg), ep.q0.size)).copy()
         qg[:, ep.E] += self.Psi_g @ (L.T @ ep.C.T)
         return qg, self.Phi_g @ L.T
@@ -92,41 +94,55 @@ class _Leg:
         second derivatives at the nodes, weighted. θ(t_k) sums the integrand over the Gauss
         points before t_k, so the sum is one quadrature over the leg with each Gauss point
         weighted by the node weights from its interval on (`endpoint.integrand_hessian`)."""
-        L = lam.reshape(self.ep.m, self.ep.size)
-        qg, u = self._gauss_state(L)
+        qg, u = self._gauss_state(lam)
         after = np.cumsum(weights[::-1], axis=0)[::-1]  # Σ_{j ≥ k} weights[j]
         return self.ep.integrand_hessian(qg, u, np.repeat(after, GAUSS, axis=0), self.pairs)
 
     def configurations(self, lam: np.ndarray, jacobian: bool):
-        """q at the nodes (N, n) and dq/dλ (N, n, p) (None without `jacobian`)."""
+        """q at the nodes (N, n) and dq/dλ (N, n, p) (None without `jacobian`). The last
+        call's q and θ's integrand terms are kept: a line search's accepted trial is asked for
+        again with the Jacobian."""
         ep = self.ep
-        L = lam.reshape(ep.m, ep.size)
+        memo = self._memo
+        if memo is None or not np.array_equal(memo[0], lam):
+            memo = self._memo = (lam.copy(), *self._values(lam))
+        _, q, GQ, dG = memo
+        dq = None
+        if jacobian:
+            dq = np.zeros((len(self.t), ep.q0.size, lam.size))
+            dq[:, ep.E] = self.dE
+        if jacobian and self.theta:
+            N = len(self.t)
+            u = self.Phi_g @ lam.reshape(ep.m, ep.size).T
+            if dG is None:  # physical models: θ's row and its contraction together
+                GQ, Du = ep.cs.quadrature_jacobian(self._gauss_state(lam)[0], u[:, None, :])
+                C = ep.C
+            else:  # compiled rows: derivatives along the moving joints only (`_C_terms`)
+                Du, C = (u[:, None, None, :] @ dG)[:, :, 0, :], ep._C_terms
+            D = Du @ C  # (K, nQ, m)
+            g = (GQ * self.wg[:, None, None])[..., None] * self.Phi_g[:, None, None, :]
+            g += (D * self.wg[:, None, None])[..., None] * self.Psi_g[:, None, None, :]
+            g = g.reshape(N, GAUSS, ep.Q.size, -1).sum(axis=1)
+            dq[:, ep.Q] = np.cumsum(g, axis=0)
+        return q, dq
+
+    def _values(self, lam: np.ndarray):
+        """q at the nodes, and θ's integrand row at the Gauss points with its derivatives
+        along the joints where the model's rows come compiled (else None)."""
+        ep = self.ep
         N, n = len(self.t), ep.q0.size
         q = np.broadcast_to(ep.q0, (N, n)).copy()
         q[:, ep.E] += self.dE @ lam
-        dq = np.zeros((N, n, lam.size)) if jacobian else None
-        if jacobian:
-            dq[:, ep.E] = self.dE
-        if self.theta:
-            qg, u = self._gauss_state(L)  # u: (K, m)
-            if hasattr(ep.cs, "quadrature_jacobian") and not jacobian:  # θ's row alone
-                GQ = ep.cs.quadrature_terms(qg, 0)[0]
-            elif hasattr(ep.cs, "quadrature_jacobian"):
-                GQ, Du = ep.cs.quadrature_jacobian(qg, u[:, None, :])
-                C = ep.C
-            else:  # compiled rows: derivatives along the moving joints only (`_C_terms`)
-                terms = ep.cs.quadrature_terms(qg, 1)
-                GQ, Du = terms[0], (u[:, None, None, :] @ terms[1])[:, :, 0, :]
-                C = ep._C_terms
-            f = (GQ @ u[:, :, None])[..., 0] * self.wg[:, None]  # (K, nQ)
-            q[:, ep.Q] += np.cumsum(f.reshape(N, GAUSS, -1).sum(axis=1), axis=0)
-            if jacobian:
-                D = Du @ C  # (K, nQ, m)
-                g = (GQ * self.wg[:, None, None])[..., None] * self.Phi_g[:, None, None, :]
-                g += (D * self.wg[:, None, None])[..., None] * self.Psi_g[:, None, None, :]
-                g = g.reshape(N, GAUSS, ep.Q.size, -1).sum(axis=1)
-                dq[:, ep.Q] = np.cumsum(g, axis=0)
-        return q, dq
+        if not self.theta:
+            return q, None, None
+        qg, u = self._gauss_state(lam)  # u: (K, m)
+        if hasattr(ep.cs, "quadrature_jacobian"):  # θ's row alone (as quadrature_jacobian's)
+            GQ, dG = ep.cs.quadrature_terms(qg, 0)[0], None
+        else:
+            GQ, dG = ep.cs.quadrature_terms(qg, 1)
+        f = (GQ @ u[:, :, None])[..., 0] * self.wg[:, None]  # (K, nQ)
+        q[:, ep.Q] += np.cumsum(f.reshape(N, GAUSS, -1).sum(axis=1), axis=0)
+        return q, GQ, dG
 
 
 class NodeMargins:

@@ -102,10 +102,16 @@ def _problem(raw):
     return task, problem, problem.project(lam)
 
 
-@pytest.mark.parametrize("obstacles", [False, True])
-def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstacles):
+@pytest.mark.parametrize(("obstacles", "physical"), [(False, False), (True, False), (True, True)])
+def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstacles, physical):
+    """(`physical`: a robot from its physical parameters, whose θ row is the closed-form
+    connection rather than compiled rows.) The margins asked for without the Jacobian are
+    those with it, to the bit, whichever is asked first."""
     raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_constrained.toml").read_text())
     raw["planner"]["objective"] = "newton"
+    if physical:
+        model = tomllib.loads((ROOT / "scenarios" / "rods_three_link.toml").read_text())
+        raw["model"] = model["model"]
     if obstacles:
         raw["constraints"]["obstacles"] = [
             {"shape": "circle", "centre": [1.2, 0.8], "radius": 0.3},
@@ -113,8 +119,13 @@ def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstac
         ]
     task, problem, z = _problem(raw)
     margins = NodeMargins(problem, task.system, task.constraints, nodes=40)
+    alone = margins(z, False)[0]
     g, G = margins(z)
     assert len(margins.labels) == g.size
+    other = NodeMargins(problem, task.system, task.constraints, nodes=40)
+    first = other(z)[0]
+    assert np.array_equal(alone, g) and np.array_equal(other(z, False)[0], first)
+    assert np.array_equal(first, g)
     rng = np.random.default_rng(0)
     direction = rng.normal(size=z.size)
     direction *= 1e-2 / np.linalg.norm(direction)
