@@ -79,7 +79,12 @@ class _Leg:
             self.tg = (edges[:-1, None] + 0.5 * h[:, None] * (x + 1.0)).ravel()
             self.wg = (0.5 * h[:, None] * w).ravel()
             self.Phi_g, self.Psi_g = ep.basis.values(self.tg), ep.basis.integrals(self.tg)
-            self.pairs = pair_products(self.wg, self.Phi_g, self.Psi_g)
+
+    @cached_property
+    def pairs(self) -> np.ndarray:
+        """The Gauss points' basis products for `theta_hessian` (made when first needed: the
+        dense probe of `NodeMargins.refined` never needs them)."""
+        return pair_products(self.wg, self.Phi_g, self.Psi_g)
 
     def _gauss_state(self, lam: np.ndarray):
         """q (θ at the leg's start) and u at the Gauss points, as the end point has them."""
