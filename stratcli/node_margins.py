@@ -208,7 +208,7 @@ class NodeMargins:
         low = g < -0.75 * self.cushion  # a quarter of the cushion left
         if not low.any():
             return None
-        legs = np.array([leg for leg, _ in probe.labels])
+        legs = np.fromiter((leg for leg, _ in probe.labels), int, len(probe.labels))
         nodes = []
         for index, leg in enumerate(self.legs):
             extra = probe.times[low & (legs == index)]
@@ -271,7 +271,8 @@ class NodeMargins:
                 row += len(qi)
                 values.append(g_all[rows].T.ravel() - self.cushion)
                 if label:
-                    labels += [(index, kind) for kind in kinds for _ in range(len(qi))]
+                    for kind in kinds:
+                        labels += [(index, kind)] * len(qi)
                     times += [self.legs[index].t] * len(kinds)
                 if jacobian:  # zero but at the nodes near contact (`slopes`)
                     at = np.flatnonzero(near[rows])
