@@ -10,7 +10,7 @@ Along each leg, at `NODES` equally spaced times (more for fast harmonics, `NODES
 * the base angle θ (needed only for obstacles: self-collision depends on the joints alone) is
   a quadrature of the connection, accumulated over the node intervals with `GAUSS` Gauss
   points each, its derivative by the same quadrature (as `endpoint.QuadratureEndpoint`);
-* the clearances are separating-axis gaps (`geometric_margins`, `clearance.penetration`):
+* the clearances are separating-axis gaps (`geometric_margins`, as `clearance.penetration`):
   minus the depth of overlap where bodies overlap, so that a colliding plan still has a
   direction out, and a lower bound of the distance where they are apart (so a plan with
   positive margins here has them in `constraints.verify` too); differentiated in the
@@ -28,7 +28,7 @@ from functools import cached_property
 import numpy as np
 
 from .endpoint import pair_products
-from .geometric_margins import geometric_margins
+from .geometric_margins import GeometricMargins
 
 __all__ = ["CUSHION", "NODES", "NodeMargins", "searchable"]
 
@@ -66,6 +66,8 @@ class _Leg:
         # q_E(t_k) = q0_E + C L Ψ(t_k): dq_E/dλ[k, e, (a, b)] = C[e, a] Ψ[k, b]
         self.dE = np.einsum("ea,kb->keab", ep.C, Psi).reshape(len(self.t), ep.E.size, m * s)
         self.theta = need_theta and ep.Q.size > 0
+        self.dqz = None  # dq/dz at the nodes, kept when it is constant (no θ: `NodeMargins`)
+        self._memo = None  # (λ, q, θ's terms) of the last `configurations`
         # coordinates that move on this leg (a locked joint stays at its via, checked on
         # loading): joints driven by an input, and θ when it is integrated
         driven = ep.E[np.any(ep.C != 0.0, axis=1)] if ep.E.size else ep.E
@@ -77,11 +79,17 @@ class _Leg:
             self.tg = (edges[:-1, None] + 0.5 * h[:, None] * (x + 1.0)).ravel()
             self.wg = (0.5 * h[:, None] * w).ravel()
             self.Phi_g, self.Psi_g = ep.basis.values(self.tg), ep.basis.integrals(self.tg)
-            self.pairs = pair_products(self.wg, self.Phi_g, self.Psi_g)
 
-    def _gauss_state(self, L: np.ndarray):
+    @cached_property
+    def pairs(self) -> np.ndarray:
+        """The Gauss points' basis products for `theta_hessian` (made when first needed: the
+        dense probe of `NodeMargins.refined` never needs them)."""
+        return pair_products(self.wg, self.Phi_g, self.Psi_g)
+
+    def _gauss_state(self, lam: np.ndarray):
         """q (θ at the leg's start) and u at the Gauss points, as the end point has them."""
         ep = self.ep
+        L = lam.reshape(ep.m, ep.size)
         qg = np.broadcast_to(ep.q0, (len(self.tg), ep.q0.size)).copy()
         qg[:, ep.E] += self.Psi_g @ (L.T @ ep.C.T)
         return qg, self.Phi_g @ L.T
@@ -91,39 +99,55 @@ class _Leg:
         second derivatives at the nodes, weighted. θ(t_k) sums the integrand over the Gauss
         points before t_k, so the sum is one quadrature over the leg with each Gauss point
         weighted by the node weights from its interval on (`endpoint.integrand_hessian`)."""
-        L = lam.reshape(self.ep.m, self.ep.size)
-        qg, u = self._gauss_state(L)
+        qg, u = self._gauss_state(lam)
         after = np.cumsum(weights[::-1], axis=0)[::-1]  # Σ_{j ≥ k} weights[j]
         return self.ep.integrand_hessian(qg, u, np.repeat(after, GAUSS, axis=0), self.pairs)
 
     def configurations(self, lam: np.ndarray, jacobian: bool):
-        """q at the nodes (N, n) and dq/dλ (N, n, p) (None without `jacobian`)."""
+        """q at the nodes (N, n) and dq/dλ (N, n, p) (None without `jacobian`). The last
+        call's q and θ's integrand terms are kept: a line search's accepted trial is asked for
+        again with the Jacobian."""
         ep = self.ep
-        L = lam.reshape(ep.m, ep.size)
+        memo = self._memo
+        if memo is None or not np.array_equal(memo[0], lam):
+            memo = self._memo = (lam.copy(), *self._values(lam))
+        _, q, GQ, dG = memo
+        dq = None
+        if jacobian:
+            dq = np.zeros((len(self.t), ep.q0.size, lam.size))
+            dq[:, ep.E] = self.dE
+        if jacobian and self.theta:
+            N = len(self.t)
+            u = self.Phi_g @ lam.reshape(ep.m, ep.size).T
+            if dG is None:  # physical models: θ's row and its contraction together
+                GQ, Du = ep.cs.quadrature_jacobian(self._gauss_state(lam)[0], u[:, None, :])
+                C = ep.C
+            else:  # compiled rows: derivatives along the moving joints only (`_C_terms`)
+                Du, C = (u[:, None, None, :] @ dG)[:, :, 0, :], ep._C_terms
+            D = Du @ C  # (K, nQ, m)
+            g = (GQ * self.wg[:, None, None])[..., None] * self.Phi_g[:, None, None, :]
+            g += (D * self.wg[:, None, None])[..., None] * self.Psi_g[:, None, None, :]
+            g = g.reshape(N, GAUSS, ep.Q.size, -1).sum(axis=1)
+            dq[:, ep.Q] = np.cumsum(g, axis=0)
+        return q, dq
+
+    def _values(self, lam: np.ndarray):
+        """q at the nodes, and θ's integrand row at the Gauss points with its derivatives
+        along the joints where the model's rows come compiled (else None)."""
+        ep = self.ep
         N, n = len(self.t), ep.q0.size
         q = np.broadcast_to(ep.q0, (N, n)).copy()
         q[:, ep.E] += self.dE @ lam
-        dq = np.zeros((N, n, lam.size)) if jacobian else None
-        if jacobian:
-            dq[:, ep.E] = self.dE
-        if self.theta:
-            qg, u = self._gauss_state(L)  # u: (K, m)
-            if hasattr(ep.cs, "quadrature_jacobian"):
-                GQ, Du = ep.cs.quadrature_jacobian(qg, u[:, None, :])
-                C = ep.C
-            else:  # compiled rows: derivatives along the moving joints only (`_C_terms`)
-                terms = ep.cs.quadrature_terms(qg, 1)
-                GQ, Du = terms[0], (u[:, None, None, :] @ terms[1])[:, :, 0, :]
-                C = ep._C_terms
-            f = (GQ @ u[:, :, None])[..., 0] * self.wg[:, None]  # (K, nQ)
-            q[:, ep.Q] += np.cumsum(f.reshape(N, GAUSS, -1).sum(axis=1), axis=0)
-            if jacobian:
-                D = Du @ C  # (K, nQ, m)
-                g = (GQ * self.wg[:, None, None])[..., None] * self.Phi_g[:, None, None, :]
-                g += (D * self.wg[:, None, None])[..., None] * self.Psi_g[:, None, None, :]
-                g = g.reshape(N, GAUSS, ep.Q.size, -1).sum(axis=1)
-                dq[:, ep.Q] = np.cumsum(g, axis=0)
-        return q, dq
+        if not self.theta:
+            return q, None, None
+        qg, u = self._gauss_state(lam)  # u: (K, m)
+        if hasattr(ep.cs, "quadrature_jacobian"):  # θ's row alone (as quadrature_jacobian's)
+            GQ, dG = ep.cs.quadrature_terms(qg, 0)[0], None
+        else:
+            GQ, dG = ep.cs.quadrature_terms(qg, 1)
+        f = (GQ @ u[:, :, None])[..., 0] * self.wg[:, None]  # (K, nQ)
+        q[:, ep.Q] += np.cumsum(f.reshape(N, GAUSS, -1).sum(axis=1), axis=0)
+        return q, GQ, dG
 
 
 class NodeMargins:
@@ -145,6 +169,7 @@ class NodeMargins:
         self.problem, self.c, self.cushion, self.reach = problem, constraints, cushion, reach
         self.robot = getattr(system, "robot", None)
         self.geometric = constraints.geometric and self.robot is not None
+        self._geometry = GeometricMargins(self.robot, constraints) if self.geometric else None
         limited = np.isfinite(constraints.lower) | np.isfinite(constraints.upper)
         k = self.robot.n_joints if self.robot is not None else limited.size
         # the quadrature coordinates (θ) are integrated at the nodes for obstacles, and for
@@ -172,6 +197,8 @@ class NodeMargins:
         self._last = None  # (z, clearances, kinds) of the last call: the next often repeats z
         self._limit_rows: list[tuple] = []  # (leg, coordinate, sign, first row, rows) of limits
         self._rows_of = None  # (node, pair) of each clearance row, made once
+        self._limit_slopes: dict[tuple, np.ndarray] = {}  # `_limit_slope`'s constant rows
+        self._dqz_all = None  # the clearance coordinates' dq/dz at every node, if constant
 
     def refined(self, z: np.ndarray, dense: int) -> NodeMargins | None:
         """These margins with more nodes where `dense` equally spaced samples a leg find less
@@ -181,7 +208,7 @@ class NodeMargins:
         low = g < -0.75 * self.cushion  # a quarter of the cushion left
         if not low.any():
             return None
-        legs = np.array([leg for leg, _ in probe.labels])
+        legs = np.fromiter((leg for leg, _ in probe.labels), int, len(probe.labels))
         nodes = []
         for index, leg in enumerate(self.legs):
             extra = probe.times[low & (legs == index)]
@@ -197,8 +224,13 @@ class NodeMargins:
         label = not self.labels
         configurations, slopes = [], []
         for index, leg in enumerate(self.legs):
-            q, dq = leg.configurations(lam[leg.rows], jacobian)
-            dqz = dq @ null[leg.rows] if jacobian else None  # (N, n, nz)
+            kept = jacobian and leg.dqz is not None  # dq/dz constant: only the joints move
+            q, dq = leg.configurations(lam[leg.rows], jacobian and not kept)
+            dqz = None
+            if jacobian:  # (N, n, nz)
+                dqz = leg.dqz if kept else dq @ null[leg.rows]
+                if not leg.theta:
+                    leg.dqz = dqz
             configurations.append((q, dqz))
             for i in self.limited:
                 if i not in leg.moving:
@@ -207,7 +239,7 @@ class NodeMargins:
                     if np.isfinite(bound):
                         values.append(sign * (q[:, i] - bound) - self.cushion)
                         if jacobian:
-                            grads.append(sign * dqz[:, i])
+                            grads.append(self._limit_slope(index, i, sign, dqz))
                         if label:
                             self._limit_rows.append((index, i, sign, len(labels), len(q)))
                             labels += [(index, f"the joint limits of {self.states[i]}")] * len(q)
@@ -217,7 +249,7 @@ class NodeMargins:
             if self._last is not None and np.array_equal(self._last[0], z):
                 g_all, kinds = self._last[1:]  # the line search's trial, now the iterate
             else:
-                g_all, kinds = geometric_margins(self.robot, q, self.c)
+                g_all, kinds = self._geometry(q)
                 self._last = (z.copy(), g_all, kinds)
             if jacobian:  # differences at nodes near contact, in coordinates that move there
                 slopes = np.zeros((len(self.geo_coords), *g_all.shape))
@@ -228,7 +260,7 @@ class NodeMargins:
                     for c, w in zip(self.geo_coords, where, strict=True)
                 ]
                 if sum(len(w) for w in where):
-                    moved = geometric_margins(self.robot, np.concatenate(steps), self.c)[0]
+                    moved = self._geometry(np.concatenate(steps))[0]
                     start = 0
                     for k, w in enumerate(where):
                         slopes[k, w] = (moved[start : start + len(w)] - g_all[w]) / FD_STEP
@@ -239,10 +271,15 @@ class NodeMargins:
                 row += len(qi)
                 values.append(g_all[rows].T.ravel() - self.cushion)
                 if label:
-                    labels += [(index, kind) for kind in kinds for _ in range(len(qi))]
+                    for kind in kinds:
+                        labels += [(index, kind)] * len(qi)
                     times += [self.legs[index].t] * len(kinds)
-                if jacobian:
-                    dg = np.einsum("cnp,ncz->pnz", slopes[:, rows], dqz[:, self.geo_coords])
+                if jacobian:  # zero but at the nodes near contact (`slopes`)
+                    at = np.flatnonzero(near[rows])
+                    dg = np.zeros((g_all.shape[1], len(qi), dqz.shape[-1]))
+                    dg[:, at] = np.einsum(
+                        "cnp,ncz->pnz", slopes[:, rows][:, at], dqz[at][:, self.geo_coords]
+                    )
                     grads.append(dg.reshape(-1, dqz.shape[-1]))
         g = np.concatenate(values) if values else np.zeros(0)
         G = (np.concatenate(grads) if grads else np.zeros((0, z.size))) if jacobian else None
@@ -251,9 +288,23 @@ class NodeMargins:
         if jacobian and self.geometric:  # for `curvature`: each clearance row's node and pair
             first = g.size - g_all.size
             node, pair = self._node_and_pair(g_all.shape[1])
-            dqz_all = np.concatenate([c[1][:, self.geo_coords] for c in configurations])
+            dqz_all = self._dqz_all
+            if dqz_all is None:
+                dqz_all = np.concatenate([c[1][:, self.geo_coords] for c in configurations])
+                if not any(leg.theta for leg in self.legs):
+                    self._dqz_all = dqz_all  # constant as the legs' dq/dz are
             self._curvature_at = (z.copy(), first, node, pair, q, dqz_all, slopes, self._sizes)
         return g, G
+
+    def _limit_slope(self, index: int, i: int, sign: float, dqz: np.ndarray) -> np.ndarray:
+        """The gradient rows of coordinate i's limit on leg `index` (kept where constant)."""
+        key = (index, i, sign)
+        if key in self._limit_slopes:
+            return self._limit_slopes[key]
+        rows = sign * dqz[:, i]
+        if self.legs[index].dqz is not None:
+            self._limit_slopes[key] = rows
+        return rows
 
     @cached_property
     def _sizes(self) -> list[int]:
@@ -323,7 +374,7 @@ class NodeMargins:
         shifts = signs[:, 0, None, None] * eye[i] + signs[:, 1, None, None] * eye[j]  # (4, P, n)
         base = q[node[rows]]  # (A, n)
         points = base[:, None, None, :] + shifts[None]  # (A, 4, P, n)
-        values = geometric_margins(self.robot, points.reshape(-1, q.shape[1]), self.c)[0]
+        values = self._geometry(points.reshape(-1, q.shape[1]))[0]
         values = values.reshape(rows.size, 4, len(i), -1)[np.arange(rows.size), ..., pair[rows]]
         second = (values[:, 0] - values[:, 1] - values[:, 2] + values[:, 3]) / (4 * h * h)
         H = np.zeros((rows.size, k, k))

@@ -17,6 +17,8 @@ from stratcli.clearance import (
     segment_polygon_distance,
     segment_segment_distance,
 )
+from stratcli.geometric_margins import GeometricMargins
+from stratcli.models.geometry import world_bodies
 from stratcli.node_margins import NodeMargins
 from stratcli.planners.energy import StackedProblem
 
@@ -45,6 +47,51 @@ def test_the_separating_axis_gap_bounds_the_distance_apart_and_is_the_depth_insi
     assert penetration(np.array([[0.5, -3.0], [0.5, 3.0]]), square) == pytest.approx(0.5)
 
 
+def test_batched_clearances_are_each_pairs_separating_axis_gap_to_the_bit():
+    """`GeometricMargins` measures all pairs at once; each column must be what
+    `penetration` gives for that pair of bodies alone (its arithmetic), less the radii and
+    the clearance, and a circle's column to a link the centre's distance to the segment."""
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_constrained.toml").read_text())
+    raw["constraints"]["clearance"] = 0.03
+    raw["constraints"]["obstacles"] = [
+        {"shape": "circle", "centre": [1.2, 0.8], "radius": 0.3},
+        {"shape": "box", "centre": [-1.0, 1.5], "size": [0.4, 0.8], "rotation": 0.3},
+        {"shape": "box", "centre": [0.4, -1.2], "size": [0.6, 0.2], "rotation": -0.7},
+    ]
+    c = load_scenario(raw).constraints
+    robot = load_scenario(raw).system.robot
+    q = np.random.default_rng(5).uniform(-3.0, 3.0, (300, robot.n_joints + 1))
+    g, kinds = GeometricMargins(robot, c)(q)
+    corners, links = world_bodies(robot, q)
+    r, less = c.link_radius, c.clearance
+    expected = {  # (bodies, gap): the columns of one arm of three links, in their order
+        "link 0 - link 2": -penetration(links[:, 0], links[:, 2]) - 2 * r,
+        "link 1 - base": -penetration(links[:, 1], corners) - r,
+        "link 2 - base": -penetration(links[:, 2], corners) - r,
+    }
+    centre, radius = c.circles[0]
+    expected["circle - base"] = -penetration(np.broadcast_to(centre, (300, 1, 2)), corners) - radius
+    for i in range(3):
+        a, b = links[:, i, 0], links[:, i, 1]
+        t = np.clip(np.sum((centre - a) * (b - a), -1) / np.sum((b - a) ** 2, -1), 0, 1)
+        distance = np.linalg.norm(centre - (a + t[:, None] * (b - a)), axis=-1)
+        expected[f"circle - link {i}"] = distance - r - radius
+    for o, box in enumerate(c.boxes):
+        shape = np.broadcast_to(box, (300, 4, 2))
+        expected[f"box {o} - base"] = -penetration(corners, shape)
+        for i in range(3):
+            expected[f"box {o} - link {i}"] = -penetration(links[:, i], shape) - r
+    assert g.shape == (300, len(expected)) and kinds == ["self-collision"] * 3 + ["an obstacle"] * (
+        len(expected) - 3
+    )
+    for column, (name, gap) in enumerate(expected.items()):
+        if name.startswith("circle - link"):  # (a dot product in another order)
+            np.testing.assert_allclose(g[:, column], gap - less, rtol=0, atol=1e-12)
+        else:
+            assert np.array_equal(g[:, column], gap - less), name
+    assert (g < 0).any() and (g > 0).any()  # both overlapping and apart configurations
+
+
 def _problem(raw):
     task = load_scenario(raw)
     result = plan({k: v for k, v in raw.items() if k != "constraints"})  # the free plan
@@ -55,10 +102,16 @@ def _problem(raw):
     return task, problem, problem.project(lam)
 
 
-@pytest.mark.parametrize("obstacles", [False, True])
-def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstacles):
+@pytest.mark.parametrize(("obstacles", "physical"), [(False, False), (True, False), (True, True)])
+def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstacles, physical):
+    """(`physical`: a robot from its physical parameters, whose θ row is the closed-form
+    connection rather than compiled rows.) The margins asked for without the Jacobian are
+    those with it, to the bit, whichever is asked first."""
     raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_constrained.toml").read_text())
     raw["planner"]["objective"] = "newton"
+    if physical:
+        model = tomllib.loads((ROOT / "scenarios" / "rods_three_link.toml").read_text())
+        raw["model"] = model["model"]
     if obstacles:
         raw["constraints"]["obstacles"] = [
             {"shape": "circle", "centre": [1.2, 0.8], "radius": 0.3},
@@ -66,8 +119,13 @@ def test_the_jacobian_in_the_search_coordinates_equals_finite_differences(obstac
         ]
     task, problem, z = _problem(raw)
     margins = NodeMargins(problem, task.system, task.constraints, nodes=40)
+    alone = margins(z, False)[0]
     g, G = margins(z)
     assert len(margins.labels) == g.size
+    other = NodeMargins(problem, task.system, task.constraints, nodes=40)
+    first = other(z)[0]
+    assert np.array_equal(alone, g) and np.array_equal(other(z, False)[0], first)
+    assert np.array_equal(first, g)
     rng = np.random.default_rng(0)
     direction = rng.normal(size=z.size)
     direction *= 1e-2 / np.linalg.norm(direction)
