@@ -85,6 +85,9 @@ class MagnusEndpoint(_Endpoint):
         super().__init__(cs, q0, basis, duration)
         self.k = cs.k
         self.C = cs.C_explicit
+        # as a quadrature map's layout (`node_margins`): the joints are the explicit
+        # coordinates, closed-form integrals of the controls; the attitude is not in Q
+        self.E, self.Q = np.arange(self.k), np.zeros(0, dtype=int)
         self.act = cs.act
         self.robot = cs.system.spatial
         self.psi_T = basis.integrals(self.duration)

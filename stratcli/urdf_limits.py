@@ -3,7 +3,8 @@
 With a `[constraints]` table, a URDF model's joint limits default to the URDF's and are
 verified like any other (`constraints.resolve`, `verify`): a plan that leaves them fails,
 and its message says that the limit came from the URDF and what can help there
-(`violation_advice`: the constrained search does not run on URDF models). Without one, the
+(`violation_advice`; the constrained search keeps URDF legs within joint limits as it does
+planar ones: their joints are closed-form too). Without one, the
 plan is left as it is (its status unchanged) and gets a note instead (`with_limit_notes`):
 where its start, vias or goal lie outside the URDF's limits (`outside_limits`, which
 `stratplan check` prints as a warning), and which legs leave them, how far and when (made
@@ -37,26 +38,9 @@ VERIFIED = (
 )
 REFUSED = "with a [constraints] table, even an empty one, that is an error"
 URDF_ADVICE = (
-    "reached its goals but violates a joint limit of the URDF; the constrained search does "
-    "not run on URDF models (more harmonics or the other objective do not help): try via "
-    "configurations that keep the joint away from the limit, another stratum sequence, or "
-    "wider limits in [constraints].joint_limits"
-)
-SPATIAL_ADVICE = (
-    "reached its goals but violates a limit of [constraints]; the constrained search does "
-    "not run on URDF models: try via configurations that keep the robot away from the limit, "
-    "another stratum sequence, or wider limits"
-)
-# objective = "newton": plain Newton's plans can sweep the joints through turns that the
-# least-energy plan of the same legs does not (a 2-leg task on an 8-joint arm: its elbow at
-# 13 rad, at least energy 1.25 rad, inside ±2.6); that plan is not searched within the limits
-# either, so it may help, not must
-NEWTON_ADVICE = (
-    "reached its goals but violates a {what}; the constrained search does not run on URDF "
-    'models (more harmonics do not help): try objective = "energy" (the default: its '
-    "least-energy plan is not kept within the limits either, but usually moves the joints "
-    "less than plain Newton), via configurations that keep the joint away from the limit, another "
-    "stratum sequence, or wider limits in [constraints].joint_limits"
+    "reached its goals but violates a joint limit of the URDF; try via configurations that "
+    "keep the joint away from the limit, another stratum sequence, more harmonics, the other "
+    "objective, or wider limits in [constraints].joint_limits"
 )
 
 
@@ -69,20 +53,14 @@ DURATIONS_ADVICE = (
 
 
 def violation_advice(plan, violated: str) -> str:
-    """What to try after `violated` (a `constraints.verify` violation): for a URDF model's
-    limits what can help there (after plain Newton, the energy objective too), for optimised
+    """What to try after `violated` (a `constraints.verify` violation): for optimised
     durations the fixed ones that the search keeps within the limits (the other objective is
-    refused with them), else the status' own advice."""
-    urdf = getattr(plan.model.spec, "kind", plan.model.name) == "urdf"  # (no model built)
-    if urdf and plan.settings.objective == "newton":
-        what = "joint limit of the URDF" if URDF_LIMIT in violated else "limit of [constraints]"
-        return NEWTON_ADVICE.format(what=what)
-    if URDF_LIMIT in violated:
-        return URDF_ADVICE
-    if urdf:
-        return SPATIAL_ADVICE
+    refused with them), for a URDF's limits the status' advice and wider limits in the
+    table, else the status' own advice."""
     if plan.settings.durations == "optimise":
         return DURATIONS_ADVICE
+    if URDF_LIMIT in violated:
+        return URDF_ADVICE
     return Status.CONSTRAINT_VIOLATED.value
 
 

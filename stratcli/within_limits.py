@@ -67,7 +67,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         except NotSearchable:
             note = (
                 "the limits were verified, not searched for: the constrained search needs "
-                "quadrature end-point maps (not spatial or ODE-path legs)"
+                "joints in closed form (not ODE-path legs)"
             )
             return replace(plan, notes=(*plan.notes, note))
         except NUMERICAL_ERRORS as exc:

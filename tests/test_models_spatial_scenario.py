@@ -150,6 +150,25 @@ def test_three_leg_task_on_the_seven_joint_arm_verifies_independently():
 
 
 @pytest.mark.slow
+def test_the_seven_joint_arm_within_its_urdf_limits_verifies_independently():
+    """arm7_within_limits: arm7_three_legs with the URDF's joint limits (an empty
+    [constraints] table), whose legs 2 and 3 left joint_4's ±2.09 rad; planned inside them
+    (the energy objective, the constrained search) and re-integrated independently."""
+    from test_urdf_limits import _joint_extremes
+
+    task, out = _planned("arm7_within_limits", objective="energy")
+    doc = out.document
+    verify_spatial(doc, task.system.spatial)
+    robot = task.system.spatial
+    for j in range(robot.n_joints):
+        low, high = _joint_extremes(doc, j)
+        assert robot.lower[j] - 1e-6 <= low and high <= robot.upper[j] + 1e-6, j
+    free = _planned("arm7_three_legs", objective="energy")[1].document
+    assert _joint_extremes(free, 3)[0] < robot.lower[3]  # without the table it left them
+    assert doc["total_energy"] >= free["total_energy"] * (1 - 1e-9)
+
+
+@pytest.mark.slow
 def test_energy_objective_lowers_the_energy_and_still_verifies():
     task, out = _planned("arm3_reorient", objective="energy")
     doc = out.document
@@ -170,7 +189,7 @@ def test_regress_covers_the_spatial_scenarios():
     """Against DIR/baseline.json by default (it was scenarios/baseline.json whatever DIR)."""
     result = CliRunner().invoke(app, ["regress", str(SPATIAL)])
     assert result.exit_code == 0, result.output
-    assert "all 3 scenarios match" in result.output
+    assert "all 4 scenarios match" in result.output
 
 
 def test_lie_legs_are_rejected_on_urdf_models():

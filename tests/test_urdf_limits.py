@@ -110,48 +110,59 @@ def test_the_cli_prints_the_note_and_exits_0(tmp_path):
     assert "note: leg 1 leaves the URDF's limits of j2 [-1, 1] (reaches 1.3" in result.output
 
 
-def test_a_violated_urdf_limit_is_named_as_the_urdfs_with_advice_that_can_help(tmp_path):
-    plan = stratcli.plan(_scenario(tmp_path, constraints="[constraints]\n"))
+def _joint_extremes(doc: dict, j: int) -> tuple[float, float]:
+    """Lowest and highest value of joint j along the plan, from result.json's controls alone
+    (the joints of a URDF robot are the integrals of their rates: trapezoids on 20001 points
+    a piece), independent of stratplan's own sampling and verification."""
+    from reintegrate import controls
+
+    q, low, high = float(doc["start"][j]), np.inf, -np.inf
+    for leg in doc["legs"]:
+        for piece in leg["pieces"]:
+            t = np.linspace(0.0, piece["duration"], 20001)
+            u = np.array([controls(piece, doc["inputs"], x)[j] for x in t])
+            path = q + np.concatenate([[0.0], np.cumsum(0.5 * (u[1:] + u[:-1]) * np.diff(t))])
+            low, high, q = min(low, path.min()), max(high, path.max()), float(path[-1])
+    return low, high
+
+
+@pytest.mark.parametrize("objective", ["newton", "energy"])
+def test_a_urdf_plan_is_searched_within_the_urdfs_limits(tmp_path, objective):
+    """With a [constraints] table the URDF's joint limits are searched for, not only verified
+    (they failed the plan): its joints are closed-form, the attitude a goal on SO(3). The
+    unconstrained plan swings j2 to 1.3 rad; the plan found keeps it inside ±1, re-integrated
+    independently (scipy on the group) and the joints from the controls alone."""
+    from spatial_reintegrate import verify_spatial
+
+    path = _scenario(tmp_path, constraints="[constraints]\n")
+    path.write_text(path.read_text().replace('"newton"', f'"{objective}"'))
+    plan = stratcli.plan(path)
+    assert plan.ok, plan.message
+    doc = plan.to_dict()
+    verify_spatial(doc, plan.system.spatial)
+    low, high = _joint_extremes(doc, 1)
+    assert -1.0 - 1e-6 <= low and high <= 1.0 + 1e-6 and high > 0.9  # pressed against it
+    assert not any("not searched for" in note for note in plan.notes)
+    assert any(note.startswith("constrained search from") for note in plan.notes)
+    assert plan.constraints.legs[0].joint_limit >= 0
+
+
+def test_a_urdf_limit_the_search_cannot_keep_is_named_as_the_urdfs(tmp_path):
+    """j2 within ±0.02 rad cannot turn the base 0.1 rad: the search stalls, and the message
+    names the limit as the URDF's with what can help, wider limits in the table among it."""
+    plan = stratcli.plan(_scenario(tmp_path, upper_j2=0.02, constraints="[constraints]\n"))
     assert not plan.ok and plan.status is stratcli.Status.CONSTRAINT_VIOLATED
-    assert plan.message.startswith("leg 1 (S3) violates the URDF's joint limits of j2 [-1, 1] by")
-    assert "wider limits in [constraints].joint_limits" in plan.message
-    assert "another stratum sequence" in plan.message
-    assert "more harmonics" not in plan.message.replace("more harmonics do not help", "")
-    assert "a limit of [constraints]" not in plan.message
-    assert plan.notes[-1].startswith("the limits were verified, not searched for")
-
-
-def test_after_plain_newton_the_advice_names_the_energy_objective(tmp_path):
-    """The scenario's objective is "newton": the energy objective may help there, so the
-    advice names it (after an energy plan it does not)."""
-    table = "[constraints]\njoint_limits = { j2 = [-1, 1] }\n"
-    for plan in (
-        stratcli.plan(_scenario(tmp_path, constraints="[constraints]\n")),  # the URDF's
-        stratcli.plan(_scenario(tmp_path, upper_j2=2.0, constraints=table)),  # the table's
-    ):
-        assert plan.status is stratcli.Status.CONSTRAINT_VIOLATED
-        assert 'try objective = "energy" (the default' in plan.message
-        assert "more harmonics do not help" in plan.message
-        assert "the other objective" not in plan.message
-    energy = _scenario(tmp_path).with_name("energy.toml")  # j2 within ±1: 1.04 at least energy
-    energy.write_text(
-        SCENARIO.replace('objective = "newton"', 'objective = "energy"').format(
-            j2=0, constraints="[constraints]\n"
-        )
+    assert plan.message.startswith("the constrained search stalled on leg 1: the joint limits")
+    assert "leg 1 (S3) violates the URDF's joint limits of j2 [-0.02, 0.02] by" in plan.message
+    assert plan.message.endswith(
+        "try via configurations that keep the joint away from the limit, another stratum "
+        "sequence, more harmonics, the other objective, or wider limits in "
+        "[constraints].joint_limits"
     )
-    plan = stratcli.plan(energy)
-    assert plan.status is stratcli.Status.CONSTRAINT_VIOLATED
-    assert 'objective = "energy"' not in plan.message
-    assert "more harmonics or the other objective do not help" in plan.message
-
-
-def test_a_violated_limit_of_the_table_on_a_urdf_model_does_not_advise_harmonics(tmp_path):
-    table = "[constraints]\njoint_limits = { j2 = [-1, 1] }\n"
+    table = "[constraints]\njoint_limits = { j2 = [-0.02, 0.02] }\n"  # the table's own
     plan = stratcli.plan(_scenario(tmp_path, upper_j2=2.0, constraints=table))
-    assert plan.message.startswith("leg 1 (S3) violates the joint limits of j2 by")
-    assert "URDF's" not in plan.message
-    assert "more harmonics" not in plan.message.replace("more harmonics do not help", "")
-    assert "the constrained search does not run on URDF models" in plan.message
+    assert "violates the joint limits of j2 by" in plan.message and "URDF's" not in plan.message
+    assert plan.message.endswith(stratcli.Status.CONSTRAINT_VIOLATED.value)
 
 
 def test_compare_sequences_notes_the_best_plans_urdf_limits(tmp_path):

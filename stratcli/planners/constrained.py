@@ -3,7 +3,9 @@
 Both objectives search the stacked problem of the energy objective (`energy.StackedProblem`: all
 legs' coefficients, continuity eliminated, every iterate restored onto the goals by Newton
 steps of least energy norm) with the node margins g(z) ≥ 0 of `node_margins` (joint limits
-exact, clearances as signed distances, at 128 nodes a leg, less a cushion).
+exact, clearances as signed distances, at 128 nodes a leg, less a cushion). URDF robots'
+legs (joint limits only: their joints are closed-form, the attitude on SO(3) is a goal) are
+searched alike, the goals' curvature estimated (`sqp.Descent.goal_curvature`).
 
 1. **Feasibility** (`_Search.reach_feasible`, both objectives). The end-point map is extended
    with the violations: its outputs are the goal residuals and `min(0, g_k − 2 PUSH)` at every
@@ -36,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..endpoint import QuadratureEndpoint
+from ..magnus import MagnusEndpoint
 from ..node_margins import CUSHION, NODES, NodeMargins
 from .active_set import convexified, least_distance
 from .energy import StackedProblem
@@ -59,8 +62,8 @@ VIOLATION_CAP = 1e-4  # no SQP trial may leave a node further outside (unless th
 
 
 class NotSearchable(Exception):
-    """The legs' end-point maps are not quadrature maps (ODE path, spatial models): their
-    joints are not closed-form, and the search does not apply (the limits are verified)."""
+    """The legs' joints are not closed-form (ODE-path legs), or a URDF robot's legs have
+    limits on more than its joints: the search does not apply (the limits are verified)."""
 
 
 class _Search(Descent):
@@ -164,7 +167,7 @@ class _Search(Descent):
             return False
         lagrange = -np.linalg.lstsq(J.T, grad, rcond=None)[0]
         GZ = (G[near] @ Z) * inv[:, None]
-        R = Z.T @ (self.H0 + problem.constraint_hessian(z, lagrange)) @ Z
+        R = Z.T @ (self.H0 + self.goal_curvature(z, J, lagrange)) @ Z
         R += (mu / NODES) * (GZ.T @ GZ)
         low = float(np.linalg.eigvalsh(R)[0]) / 2.0 if R.size else np.inf
         if low < CURVATURE_FLOOR:
@@ -249,7 +252,7 @@ class _Search(Descent):
             nu = np.zeros(g.size)
         lagrange = -np.linalg.lstsq(J.T, grad - G.T @ nu, rcond=None)[0]
         reduced = Z.T @ grad
-        W = self.H0 + problem.constraint_hessian(z, lagrange) - self.margins.curvature(z, nu)
+        W = self.H0 + self.goal_curvature(z, J, lagrange) - self.margins.curvature(z, nu)
         R = convexified(Z.T @ W @ Z, G[(nu > 0) & (g < ACTIVE)] @ Z, CURVATURE_FLOOR)
         rows = np.flatnonzero(g < REACH)
         A = G[rows] @ Z
@@ -318,6 +321,18 @@ REFINEMENTS = 6  # passes that add nodes where a dense check finds a margin belo
 DENSE = 1000  # samples a leg of that check
 
 
+def _searchable(problem: StackedProblem, constraints) -> bool:
+    """Whether the search applies: quadrature legs (joints in closed form, θ by quadrature),
+    or legs whose joints are closed-form and the only limits (URDF robots, `MagnusEndpoint`:
+    joint limits are affine in the coefficients; the goals' curvature is estimated)."""
+    if all(isinstance(ep, QuadratureEndpoint) for ep in problem.endpoints):
+        return True
+    limited = np.flatnonzero(np.isfinite(constraints.lower) | np.isfinite(constraints.upper))
+    return not constraints.geometric and all(
+        isinstance(ep, MagnusEndpoint) and np.isin(limited, ep.E).all() for ep in problem.endpoints
+    )
+
+
 def constrained_search(
     system, starts, legs, settings, targets, seeds, constraints, lower_energy: bool, first=True
 ):
@@ -332,7 +347,7 @@ def constrained_search(
     inside the limits (`_Search.lower`).
     """
     problem = StackedProblem(system, starts, legs, settings, targets)
-    if not all(isinstance(ep, QuadratureEndpoint) for ep in problem.endpoints):
+    if not _searchable(problem, constraints):
         raise NotSearchable
     margins = NodeMargins(problem, system, constraints, reach=REACH + CUSHION)
     stalled = ""

@@ -104,6 +104,14 @@ class Descent:
                 return None
         return None
 
+    def goal_curvature(self, z: np.ndarray, J: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        """`Σ_j μ_j ∇²c_j(z)`, the goals' part of the Lagrangian's Hessian: exact where the
+        legs' end-point maps have second derivatives, else estimated (`_curvature`); `J` is
+        the goals' Jacobian at z."""
+        if self.exact:
+            return self.problem.constraint_hessian(z, mu)
+        return self._curvature(z, J, mu)
+
     def _curvature(self, z: np.ndarray, J: np.ndarray, mu: np.ndarray) -> np.ndarray:
         """`Σ_j μ_j ∇²c_j` estimated without second derivatives: symmetric-rank-one updates
         from the change of `Jᵀμ` between iterates (the energy's own Hessian H0 is exact)."""
@@ -160,10 +168,7 @@ class Descent:
 
         # least-squares multipliers Jᵀμ = -g from the same decomposition
         mu = -(U[:, :rank] / S[:rank]) @ (Vt[:rank] @ g)
-        if self.exact:
-            W = H0 + problem.constraint_hessian(z, mu)
-        else:
-            W = H0 + self._curvature(z, J, mu)
+        W = H0 + self.goal_curvature(z, J, mu)
         R = Z.T @ W @ Z
         R0 = Z.T @ H0 @ Z
         # R0 = Zᵀ H0 Z = 2 I (Z orthonormal): the generalised eigenproblem is R's own, halved
