@@ -33,9 +33,7 @@ __all__ = [
 
 SAMPLES = 2000  # per piece of a leg (a Newton leg has one)
 URDF_LIMIT = "the URDF's joint limits of"  # how `constraints.verify` names one it breaks
-VERIFIED = (
-    "add a [constraints] table (even an empty one) to have them verified (the plan then fails)"
-)
+VERIFIED = "add a [constraints] table (even an empty one) to have the plan kept within them"
 REFUSED = "with a [constraints] table, even an empty one, that is an error"
 URDF_ADVICE = (
     "reached its goals but violates a joint limit of the URDF; try via configurations that "

@@ -152,7 +152,7 @@ def test_three_leg_task_on_the_seven_joint_arm_verifies_independently():
 @pytest.mark.slow
 def test_the_seven_joint_arm_within_its_urdf_limits_verifies_independently():
     """arm7_within_limits: arm7_three_legs with the URDF's joint limits (an empty
-    [constraints] table), whose legs 2 and 3 left joint_4's ±2.09 rad; planned inside them
+    [constraints] table), whose leg 2 left joint_4's ±2.09 rad; planned inside them
     (the energy objective, the constrained search) and re-integrated independently."""
     from test_urdf_limits import _joint_extremes
 

@@ -44,8 +44,8 @@ def _scenario(tmp_path, upper_j2=1.0, j2=0, constraints=""):
 
 NOTE = re.compile(
     r"^leg 1 leaves the URDF's limits of j2 \[-1, 1\] \(reaches (?P<value>[-\d.]+) at "
-    r"t = (?P<t>[\d.]+) s\); add a \[constraints\] table \(even an empty one\) to have them "
-    r"verified \(the plan then fails\)$"
+    r"t = (?P<t>[\d.]+) s\); add a \[constraints\] table \(even an empty one\) to have the "
+    r"plan kept within them$"
 )
 
 
