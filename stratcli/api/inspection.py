@@ -158,9 +158,19 @@ def check_controllability(
 
 
 def limit_warnings(task: Task) -> list[str]:
-    """One sentence per pair of [constraints] joint limits past a full turn (degrees written
-    as numbers?) on a planar or URDF robot: what `plan`, `compare-sequences` and `check` warn
-    of before planning; none without such limits."""
+    """What `plan`, `compare-sequences` and `check` warn of before planning: [constraints]
+    joint limits past a full turn (degrees written as numbers?) on a planar or URDF robot.
+
+    Parameters
+    ----------
+    task : Task
+        A loaded scenario.
+
+    Returns
+    -------
+    list of str
+        One sentence per pair of such limits; empty without them.
+    """
     from ..limit_units import degree_like_limits
 
     return degree_like_limits(task.constraints, task.system)
