@@ -296,12 +296,34 @@ def verified_again(plan):
     duration any more (`duration_set_by` is empty): the caller's re-timing did."""
     c = resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
     report = verify(plan, c)
+    budget = plan.settings.total_duration if plan.settings.durations == "optimise" else None
+    slow = report.ok and budget is not None and plan.duration > budget * (1.0 + 1e-9)
+    if slow:  # re-timed past its budget: the budget is a limit too (`_over_budget`)
+        violated = (
+            f"the plan runs {plan.duration:.4g} s, more than planner.total_duration = {budget:g} s"
+        )
+        violation = {
+            "leg": len(plan.legs), "limit": "total_duration",
+            "what": f"planner.total_duration ({budget:g} s)", "by": plan.duration - budget,
+            "t": plan.duration,
+        }  # fmt: skip
+        report = replace(report, violated=violated, violation=violation)
     out = replace(plan, constraints=report)
-    if not report.ok and plan.ok:  # run too fast: only a rate or acceleration limit can break
-        out = replace(out, message=f"{report.violated}; {_too_fast(out, c)}")
+    if not report.ok and plan.ok:  # run too fast for a rate limit, or too slow for its budget
+        advice = _too_slow(plan.duration / budget) if slow else _too_fast(out, c)
+        out = replace(out, message=f"{report.violated}; {advice}")
     elif out.ok and not plan.ok:  # slowed back within its limits: the violation is gone
         out = replace(out, message="")
     return out
+
+
+def _too_slow(ratio: float) -> str:
+    """The advice for a plan re-timed `ratio` times longer than its budget."""
+    k = 10.0 ** (2 - math.floor(math.log10(ratio)))  # 3 significant digits, rounded up
+    return (
+        f"re-timed too slow for its budget: this plan time_scaled by {math.ceil(ratio * k) / k:g}"
+        " or more fits it"
+    )
 
 
 def _too_fast(plan, c: Constraints) -> str:

@@ -14,7 +14,7 @@ import pytest
 from reintegrate import controls, verify
 from typer.testing import CliRunner
 
-from stratcli import load_scenario, record_schema
+from stratcli import load_scenario, record_schema, time_scaled
 from stratcli.api import plan_run
 from stratcli.cli import app
 from stratcli.durations import shares
@@ -131,3 +131,13 @@ def test_a_budget_the_rate_limits_cannot_meet_fails_and_its_advice_meets_it(tmp_
         t = np.linspace(0.0, piece["duration"], 4001)
         u = np.array([controls(piece, outcome.document["inputs"], s) for s in t])
         assert np.abs(u).max() <= 0.5 * (1 + 1e-6)
+    # re-timed from Python past the budget, the plan fails too (it came back ok, the budget
+    # unchecked), and the advice's factor brings it back within both
+    slower = time_scaled(outcome.result, 0.5)
+    assert not slower.ok and slower.constraints.violation["limit"] == "total_duration"
+    assert slower.message == (
+        f"the plan runs {2 * budget:.4g} s, more than planner.total_duration = {budget:g} s; "
+        "re-timed too slow for its budget: this plan time_scaled by 2 or more fits it"
+    )
+    again = time_scaled(slower, 2.0)
+    assert again.ok and again.message == "" and again.duration == pytest.approx(budget)
