@@ -28,7 +28,7 @@ from .base import (
     onto_goals,
 )
 from .legwise import legwise_start
-from .sqp import MINIMUM, Descent
+from .sqp import KEPT, MINIMUM, Descent
 
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
@@ -249,13 +249,15 @@ def optimise_energy(
     """
     say = progress or (lambda phase: None)
     problem = StackedProblem(system, starts, legs, settings, targets, constraints)
-    if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
-        seeds = seeds[:1]
+    if not problem.exact_hessians:  # URDF, ODE-path legs: first-order steps are slow
+        say(f"energy search: minimum energy from {_starts(seeds[:1])}")
+        runs = _first_kept(problem, seeds, settings.tolerance)
+        seeds = seeds[: len(runs)]
     else:
         say("energy search: pulling the Newton plan toward low energy (a start)")
         seeds = _with_pulled_start(problem, seeds, settings.starts)
-    say(f"energy search: minimum energy from {_starts(seeds)}")
-    runs = race(problem, [problem.project(lam) for _, lam in seeds], settings.tolerance)
+        say(f"energy search: minimum energy from {_starts(seeds)}")
+        runs = race(problem, [problem.project(lam) for _, lam in seeds], settings.tolerance)
     if problem.exact_hessians and settings.search == "legwise":
         # raced on its own, after the others: their race (which abandons a start that an
         # earlier low one outruns) is the default search's, so the result is never higher
@@ -328,6 +330,18 @@ def race(problem: StackedProblem, zs: list[np.ndarray], tolerance: float) -> lis
         finish(run, ABANDON_AFTER)
     for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
         finish(run, None)
+    return runs
+
+
+def _first_kept(problem: StackedProblem, seeds: list, tolerance: float) -> list[Descent]:
+    """The SQP from the first of `seeds` only, or while it ends off the goals (its start not
+    restored onto them, or it ran away) from the next one: a leg's bound must come from a
+    search, not from the Newton plan a failed one leaves (`leg_bounds.leg_minimum`)."""
+    runs: list[Descent] = []
+    for _, lam in seeds:
+        runs += race(problem, [problem.project(lam)], tolerance)
+        if runs[-1].feasible and runs[-1].reason in KEPT:
+            break
     return runs
 
 
