@@ -81,36 +81,38 @@ class Descent:
             else:
                 self.z, self.energy = z, self.problem.energy(z)
 
-    def _restore(self, z, chord=None):
+    def _restore(self, z, simplified: bool = False):
         """Back onto the goals: Newton steps of least energy norm, quadratically convergent.
 
-        `chord` (the Jacobian at the iterate a trial step starts from): chord steps with it
-        while they at least halve the violation, then Newton steps (without exact Hessians,
-        every Jacobian of a URDF leg costs a Pinocchio derivative per node, and a trial point
-        is close to the iterate)."""
+        `simplified`: every step after the first reuses the first one's Jacobian while the
+        steps at least halve the violation, then Newton steps again (without exact Hessians:
+        a URDF leg's Jacobian costs a Pinocchio derivative per node, and the corrections
+        after the first are small). The first step is Newton's own either way."""
         problem, previous = self.problem, np.inf
-        factor = None  # (J, Cholesky factor of J H0⁻¹ Jᵀ) of the chord
+        kept = None  # (J, Cholesky factor of J H0⁻¹ Jᵀ) reused by a simplified step
         for _ in range(RESTORATION_STEPS):
-            c, J = problem._evaluate(z, self.eager and chord is None)
+            c, J = problem._evaluate(z, self.eager and kept is None)
             violation = np.abs(c).max(initial=0.0)
             if violation <= self.c_now:
                 return z
             if violation > 0.5 * previous:
-                if chord is None:
+                if kept is None:
                     return None  # not converging fast: let the line search shorten the step
-                chord = factor = None  # the chord is too far off: Newton steps from here
+                kept = None  # the kept Jacobian is too far off: Newton steps from here
+                simplified = False
             previous = violation
-            if chord is not None:
-                J = chord
-            elif J is None:
-                J = problem._evaluate(z, True)[1]
+            if kept is not None:
+                J, L = kept
+            else:
+                if J is None:
+                    J = problem._evaluate(z, True)[1]
+                try:
+                    L = np.linalg.cholesky(J @ (0.5 * J.T))
+                except np.linalg.LinAlgError:
+                    return None
+                if simplified:
+                    kept = (J, L)
             HJ = 0.5 * J.T  # H0⁻¹ Jᵀ (H0 = 2 I: the energy is |z|² in the whitened z)
-            try:
-                if factor is None or factor[0] is not J:
-                    factor = (J, np.linalg.cholesky(J @ HJ))
-                L = factor[1]
-            except np.linalg.LinAlgError:
-                return None
             z = z - HJ @ np.linalg.solve(L.T, np.linalg.solve(L, c))
             if not np.all(np.isfinite(z)):
                 return None
@@ -206,7 +208,7 @@ class Descent:
         merit = energy + float(mu @ problem.constraint(z))
         alpha = 1.0
         while alpha > 1e-10:
-            trial = self._restore(z + alpha * d, None if self.exact else J)
+            trial = self._restore(z + alpha * d, simplified=not self.exact)
             if trial is not None:
                 e = problem.energy(trial)
                 m = e + float(mu @ problem.constraint(trial))
