@@ -112,8 +112,9 @@ def _local_constraints(system, settings, around, mid: int) -> Constraints:
 
 def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> tuple:
     """The least energy found for leg i of a sequence planned alone, under the boundary
-    conditions that involve it alone (`_local_constraints`; `around`: it and its neighbours);
-    (0.0, None) when no start reaches its goal; else (energy, its coefficients). `warm`
+    conditions that involve it alone (`_local_constraints`; `around`: it and its neighbours):
+    (energy, its coefficients, ""), or (0.0, None, why) when no start reaches its goal (why:
+    the Newton plan's message, e.g. a direction its stratum cannot move). `warm`
     (flat coefficients, e.g. the leg's minimum free at both ends) is an extra first start,
     projected onto the conditions.
 
@@ -146,10 +147,10 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
         )
         if planned.converged:
             seeds.append(planned)
-        elif k == 0 and warm is None:
-            return 0.0, None  # as the sequence's search: no Newton plan, no search
+        elif k == 0 and warm is None:  # as the sequence's search: no Newton plan, no search
+            return 0.0, None, planned.message
     if not seeds and warm is None:
-        return 0.0, None
+        return 0.0, None, ""
     low = min((p.energy for p in seeds), default=np.inf)
     stacked = [("newton", p.coefficients.ravel()) for p in seeds if p.energy <= START_RATIO * low]
     if warm is not None:
@@ -162,24 +163,24 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
         )
     found = [s.energy for s in search.starts if s.feasible and np.isfinite(s.energy)]
     if coefficients is not None and found and min(found) <= low:
-        return float(min(found)), coefficients[0]
+        return float(min(found)), coefficients[0], ""
     if not seeds:
-        return 0.0, None
+        return 0.0, None, ""
     best = min(seeds, key=lambda p: p.energy)
-    return float(low), best.coefficients
+    return float(low), best.coefficients, ""
 
 
 def plan_alone(items: list[tuple]) -> dict[tuple, tuple]:
-    """Each leg's minimum energy planned alone (0.0 when its search fails), the CPU seconds
-    and the coefficients (None when it failed)."""
+    """Each leg's minimum energy planned alone (0.0 when its search fails), the CPU seconds,
+    the coefficients (None when it failed) and why it failed ("" when unknown)."""
     system, settings = STATE["system"], STATE["settings"]
     out = {}
     for key, at, around, i, relaxed, warm in items:
         clock = time.process_time()
         own = _relaxed(settings) if relaxed else settings
         try:
-            value, coefficients = leg_minimum(system, at, around, i, own, warm)
+            value, coefficients, why = leg_minimum(system, at, around, i, own, warm)
         except (*NUMERICAL_ERRORS, ValueError):  # no bound from this leg
-            value, coefficients = 0.0, None
-        out[key] = (value, time.process_time() - clock, coefficients)
+            value, coefficients, why = 0.0, None, ""
+        out[key] = (value, time.process_time() - clock, coefficients, why)
     return out

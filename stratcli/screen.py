@@ -133,15 +133,16 @@ def _round(items, jobs: int, pool, flight: dict, ahead: Callable) -> list[dict]:
     return [f.result() for f in wanted]
 
 
-def _sunk(candidate, pairs: list[tuple], loose: tuple) -> str:
+def _sunk(candidate, pairs: list[tuple], loose: tuple, why: str = "") -> str:
     """Why a candidate fails unsearched: one of its legs has no plan even alone, free at both
     ends (Newton with its restarts and continuation, the search the sequence would start
-    with, under fewer conditions)."""
+    with, under fewer conditions), and why when known (a direction its stratum cannot move)."""
     i = next(i for i, (a, _) in enumerate(pairs) if a == loose)
     leg = candidate.legs[i]
+    because = f" ({why})" if why else ""
     return (
-        f"leg {i + 1} on {leg.stratum} has no plan even alone, free at both ends: not searched "
-        "(--exhaustive searches it)"
+        f"leg {i + 1} on {leg.stratum} has no plan even alone, free at both ends{because}: not "
+        "searched (--exhaustive searches it)"
     )
 
 
@@ -237,7 +238,7 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
         items += [(("leg", key), leg_unit(key)) for key in new_legs]
         results = _round(items, jobs, pool, flight, ahead)
         for part in results[len(searches) :]:
-            for key, (value, elapsed, coefficients) in part.items():
+            for key, (value, elapsed, coefficients, why) in part.items():
                 known[key] = value
                 warm[key] = coefficients
                 bounded_legs.append(key)
@@ -245,7 +246,8 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
                 if coefficients is None and len(key) == 5:  # no plan even free at both ends
                     for k in uses[key]:
                         if k not in done:
-                            plans[k], times[k] = _sunk(candidates[k], keys[k], key), 0.0
+                            reason = _sunk(candidates[k], keys[k], key, why)
+                            plans[k], times[k] = reason, 0.0
                             done.add(k)
                             sunk.append(k)
                             advance(1)
