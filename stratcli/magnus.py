@@ -113,6 +113,9 @@ class MagnusEndpoint(_Endpoint):
         self._full: tuple | None = None  # ((λ, steps), end) of the last full-step evaluation
         self._marches: dict[tuple, tuple[np.ndarray, _March]] = {}  # (λ, steps): (end, march)
         self._last: dict[bytes, tuple] = {}  # λ: (end, march) of the last two evaluations
+        # set by a search that needs less (`sqp.Descent` far from a minimum): every evaluation
+        # on the steps that reach this accuracy (rad), not only those far from the goal
+        self.accuracy: float | None = None
 
     @cached_property
     def coupling(self) -> float:
@@ -178,6 +181,12 @@ class MagnusEndpoint(_Endpoint):
             end = np.full(self.q0.size, np.nan)
             return end, (np.full((end.size, self.n_coefficients), np.nan) if jacobian else None)
         full = self.steps(L)
+        if self.accuracy is not None and self.accuracy > ACCURACY and not self.steps_override:
+            steps = int(np.ceil(full * (ACCURACY / self.accuracy) ** 0.25))
+            if max(MIN_STEPS, steps) < full:
+                end, march = self._end(L, max(MIN_STEPS, steps))
+                self._remember(L, end, march)
+                return end.copy(), (self._jacobian(end, march) if jacobian else None)
         coarse = self._coarse_steps(full)
         if coarse < full:
             end, march = self._end(L, coarse)

@@ -127,6 +127,14 @@ class StackedProblem:
         other._z = None  # evaluations are cached per z, and z now means other coefficients
         return other
 
+    def set_accuracy(self, accuracy: float | None) -> None:
+        """The accuracy (rad) the legs' maps may evaluate to (`MagnusEndpoint.accuracy`;
+        None: their own); evaluations cached at another one are dropped."""
+        for ep in self.endpoints:
+            if hasattr(ep, "accuracy") and ep.accuracy != accuracy:
+                ep.accuracy = accuracy
+                self._z = None
+
     def coefficients(self, z):
         return self._particular + self.null @ z
 
@@ -267,6 +275,7 @@ def optimise_energy(
             seeds = [*seeds, ("legwise", problem.coefficients(z))]
             runs += race(problem, [z], settings.tolerance)
 
+    problem.set_accuracy(None)  # the results' goal errors: on the legs' own accuracy
     outcomes: list[StartOutcome] = []
     best_index, coefficients = None, None
     best_energy = np.inf

@@ -28,6 +28,9 @@ RESTORATION_STEPS = 12
 # far from a minimum (projected gradient above LOOSE_ABOVE) iterates meet the goals to
 # LOOSE_RESTORATION only; nearer, and every result, to rounding (`Descent.c_tol`)
 LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
+# ... and while they do, maps that can (URDF legs: fewer Magnus steps) evaluate to this
+# accuracy (rad) instead of their own 5e-10: 1% of the loose restoration tolerance
+LOOSE_ACCURACY = 1e-2 * LOOSE_RESTORATION
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
 MINIMUM = ("converged", "noise floor")  # stops at a minimum (the others stop on the way down)
@@ -89,6 +92,7 @@ class Descent:
         a URDF leg's Jacobian costs a Pinocchio derivative per node, and the corrections
         after the first are small). The first step is Newton's own either way."""
         problem, previous = self.problem, np.inf
+        self._accuracy(self.c_now)
         kept = None  # (J, Cholesky factor of J H0⁻¹ Jᵀ) reused by a simplified step
         for _ in range(RESTORATION_STEPS):
             c, J = problem._evaluate(z, self.eager and kept is None)
@@ -126,6 +130,10 @@ class Descent:
             return self.problem.constraint_hessian(z, mu)
         return self._curvature(z, J, mu)
 
+    def _accuracy(self, tol: float) -> None:
+        """Loose restoration, loose maps (`LOOSE_ACCURACY`); else the maps' own accuracy."""
+        self.problem.set_accuracy(LOOSE_ACCURACY if tol >= LOOSE_RESTORATION else None)
+
     def _curvature(self, z: np.ndarray, J: np.ndarray, mu: np.ndarray) -> np.ndarray:
         """`Σ_j μ_j ∇²c_j` estimated without second derivatives: symmetric-rank-one updates
         from the change of `Jᵀμ` between iterates (the energy's own Hessian H0 is exact)."""
@@ -152,6 +160,7 @@ class Descent:
         if self.iterations >= (SQP_ITERATIONS if self.exact else FIRST_ORDER_ITERATIONS):
             return self.stop("iteration limit")
         self.iterations += 1
+        self._accuracy(self.z_tol)  # the iterate's Jacobian on the maps it was restored on
         _, J = problem._evaluate(z, True)
         g = problem.energy_grad(z)
         U, S, Vt = np.linalg.svd(J)
