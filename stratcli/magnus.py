@@ -171,7 +171,8 @@ class MagnusEndpoint(_Endpoint):
         when the last goal error was large: to an accuracy of `AIM_ACCURACY` × that error
         (the Magnus error falls as N⁻⁴), kept only if it is below `RELATIVE_ACCURACY` × the
         error it then finds, else evaluated again on the full steps. Near the goal every
-        evaluation is on the full steps; `refined` gives the full-step end of any λ.
+        evaluation is on the full steps, unless a search set a looser `accuracy` (then every
+        evaluation is on the steps that reach it); `refined` gives the full-step end of any λ.
         The Jacobian is added only to the evaluation that is kept (`jacobian_of_last` adds
         it later); the last two marches are remembered (a map asked again at the same λ and
         steps, e.g. for its Jacobian after its value, is not integrated again).
