@@ -18,6 +18,7 @@ import numpy as np
 from .continuity import Constraints, sequence_constraints
 from .objectives import _exact_hessians
 from .planners.energy import optimise_energy
+from .planners.sqp import PG_TOL
 from .stratified import (
     NUMERICAL_ERRORS,
     SEED_RESTARTS,
@@ -35,6 +36,11 @@ START_RATIO = 100.0  # a leg's start this many times above its lowest start is n
 # sequence search's own default (2: the Newton plan pulled toward least energy, and itself)
 # starts from a whole sequence's plan, which a leg alone does not have
 BOUND_STARTS = 6
+# Without exact Hessians (URDF legs) a bound's search stops at this relative projected
+# gradient instead of `sqp.PG_TOL`: the energy is then within ~1e-12 of the minimum's (it
+# falls as the square of the gradient), and the last iterations, the costliest (on the full
+# Magnus steps, restored to rounding), are saved
+BOUND_PG_TOL = 1e-6
 
 
 def _context(system, legs, i: int) -> tuple:
@@ -134,7 +140,8 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     begin = LegStart(at, rest, 0.0, 1) if i > 0 else LegStart(at)
     seeds = []
     starts = max(settings.starts, BOUND_STARTS)
-    for k in range(starts if _exact_hessians(system, [leg], settings) else 1):
+    exact = _exact_hessians(system, [leg], settings)
+    for k in range(starts if exact else 1):
         extra = {} if k == 0 else {
             "restarts": min(settings.restarts, SEED_RESTARTS),
             "seed": settings.seed + 7919 * k,
@@ -159,8 +166,9 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     local = _local_constraints(system, settings, around, mid)
     with np.errstate(all="ignore"):
         coefficients, search = optimise_energy(
-            system, [at], [leg], settings, targets, stacked, constraints=local
-        )
+            system, [at], [leg], settings, targets, stacked, constraints=local,
+            pg_tol=PG_TOL if exact else BOUND_PG_TOL,
+        )  # fmt: skip
     found = [s.energy for s in search.starts if s.feasible and np.isfinite(s.energy)]
     if coefficients is not None and found and min(found) <= low:
         return float(min(found)), coefficients[0], ""

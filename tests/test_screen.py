@@ -231,3 +231,17 @@ def test_a_urdf_leg_out_of_reach_fails_its_candidates_naming_the_direction():
         assert row["reason"].startswith("leg 1 on S1 has no plan even alone, free at both ends")
         assert "(S1 cannot move rz from the leg's start" in row["reason"]
     assert doc["rows"][0]["sequence"] == ["S3", "S1"]
+
+
+def test_a_urdf_leg_bound_stops_earlier_within_rounding_of_the_minimum(monkeypatch):
+    """Without exact Hessians a bound's search stops at a relative projected gradient of
+    `BOUND_PG_TOL` (1e-6), not 1e-10: the energy is the same to 1e-9."""
+    from stratcli import leg_bounds
+
+    task = _arm3_auto_energy()
+    (cand,) = [c for c in _arm3_candidates(task) if c.legs[0].stratum == "S3"]
+    settings = _free(task.settings)
+    early, _, _ = leg_bounds.leg_minimum(task.system, task.start, cand.legs[:1], 0, settings)
+    monkeypatch.setattr(leg_bounds, "BOUND_PG_TOL", leg_bounds.PG_TOL)
+    full, _, _ = leg_bounds.leg_minimum(task.system, task.start, cand.legs[:1], 0, settings)
+    assert early == pytest.approx(full, rel=1e-9) and early >= full * (1 - 1e-12)

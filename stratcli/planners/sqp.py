@@ -50,9 +50,10 @@ class Descent:
 
     loose = True  # restore loosely far from a minimum (`_step`)
 
-    def __init__(self, problem: StackedProblem, z: np.ndarray, tol: float):
+    def __init__(self, problem: StackedProblem, z: np.ndarray, tol: float, pg_tol: float = PG_TOL):
         clock = time.perf_counter()
         self.problem = problem
+        self.pg_tol = pg_tol  # relative projected gradient at which it has converged
         self.H0 = problem.H0
         self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
         self.c_tol = min(1e-10, 1e-3 * tol)
@@ -180,7 +181,7 @@ class Descent:
                 self.z, self.energy = tight, problem.energy(tight)
                 self.iterations -= 1
                 return self._step()
-        if pg <= PG_TOL:
+        if pg <= self.pg_tol:
             return self.stop("converged")
         if pg < 0.5 * self.best_pg:
             self.best_pg, self.since = pg, 0
