@@ -158,5 +158,7 @@ def test_a_urdf_leg_out_of_reach_fails_without_continuation_naming_stratum_and_d
     plan = plan_sequence(task.system, task.start, list(task.legs), task.settings)
     (leg,) = plan.legs
     assert not plan.ok and leg.strategy != "continuation"
+    budget = (task.settings.restarts + 1) * task.settings.max_iterations
+    assert leg.iterations <= budget  # Newton's own attempts only: no continuation after them
     assert "S1 cannot move rz from the leg's start" in leg.message
     assert "no continuation tried" in leg.message
