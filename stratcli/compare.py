@@ -12,10 +12,11 @@ then searched fully in the order of their bounds until the next bound is not bel
 value found (at least K of them); the others are *bounded* (status "bounded", `screened`):
 not planned, their minimum is at least their bound, which is at least the best's. They rank
 after the searched ones, by bound. `screen=None` plans every candidate to its minimum
-(exhaustive). The bound is exact for exact leg minima and the legs' searches are local, so
-a searched sequence whose leg costs less than that leg's bound lowers it before anything
-more is pruned (tests/test_screen.py and benchmarks/bench_screen.py compare the choice with
-the exhaustive search's).
+(exhaustive), and so does a screen where no two candidates share a leg (its bounds would
+each serve one candidate: `screen.legs_shared`). The bound is exact for exact leg minima
+and the legs' searches are local, so a searched sequence whose leg costs less than that
+leg's bound lowers it before anything more is pruned (tests/test_screen.py and
+benchmarks/bench_screen.py compare the choice with the exhaustive search's).
 
 Equal duration. A sequence's energy falls as its duration grows (time-scaling a path by s
 multiplies its energy by s and its duration by 1/s, so energy × duration is a property of the
@@ -40,7 +41,7 @@ from .decomposition import Candidate
 from .errors import InputError
 from .metrics import as_run, peak_and_excursion
 from .models.system import System
-from .screen import Screen, screen_candidates
+from .screen import Screen, legs_shared, screen_candidates
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import check_legs
@@ -252,7 +253,11 @@ def compare(
             planned, requested, plans, times = compare_shared(
                 system, settings, start, candidates, valid, jobs, advance
             )
-        elif screen is not None and criterion == "energy":
+        elif (
+            screen is not None
+            and criterion == "energy"
+            and legs_shared(system, candidates, valid, start)
+        ):
             planned, requested, plans, times, screen_result = screen_candidates(
                 system, settings, start, candidates, valid, jobs, advance, screen, reference
             )

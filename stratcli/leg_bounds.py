@@ -18,6 +18,7 @@ import numpy as np
 from .continuity import Constraints, sequence_constraints
 from .objectives import _exact_hessians
 from .planners.energy import optimise_energy
+from .planners.sqp import PG_TOL
 from .stratified import (
     NUMERICAL_ERRORS,
     SEED_RESTARTS,
@@ -35,6 +36,11 @@ START_RATIO = 100.0  # a leg's start this many times above its lowest start is n
 # sequence search's own default (2: the Newton plan pulled toward least energy, and itself)
 # starts from a whole sequence's plan, which a leg alone does not have
 BOUND_STARTS = 6
+# Without exact Hessians (URDF legs) a bound's search stops at this relative projected
+# gradient instead of `sqp.PG_TOL`: the energy is then within ~1e-12 of the minimum's (it
+# falls as the square of the gradient), and the last iterations, the costliest (on the full
+# Magnus steps, restored to rounding), are saved
+BOUND_PG_TOL = 1e-6
 
 
 def _context(system, legs, i: int) -> tuple:
@@ -112,8 +118,9 @@ def _local_constraints(system, settings, around, mid: int) -> Constraints:
 
 def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> tuple:
     """The least energy found for leg i of a sequence planned alone, under the boundary
-    conditions that involve it alone (`_local_constraints`; `around`: it and its neighbours);
-    (0.0, None) when no start reaches its goal; else (energy, its coefficients). `warm`
+    conditions that involve it alone (`_local_constraints`; `around`: it and its neighbours):
+    (energy, its coefficients, ""), or (0.0, None, why) when no start reaches its goal (why:
+    the Newton plan's message, e.g. a direction its stratum cannot move). `warm`
     (flat coefficients, e.g. the leg's minimum free at both ends) is an extra first start,
     projected onto the conditions.
 
@@ -133,7 +140,8 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     begin = LegStart(at, rest, 0.0, 1) if i > 0 else LegStart(at)
     seeds = []
     starts = max(settings.starts, BOUND_STARTS)
-    for k in range(starts if _exact_hessians(system, [leg], settings) else 1):
+    exact = _exact_hessians(system, [leg], settings)
+    for k in range(starts if exact else 1):
         extra = {} if k == 0 else {
             "restarts": min(settings.restarts, SEED_RESTARTS),
             "seed": settings.seed + 7919 * k,
@@ -146,10 +154,10 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
         )
         if planned.converged:
             seeds.append(planned)
-        elif k == 0 and warm is None:
-            return 0.0, None  # as the sequence's search: no Newton plan, no search
+        elif k == 0 and warm is None:  # as the sequence's search: no Newton plan, no search
+            return 0.0, None, planned.message
     if not seeds and warm is None:
-        return 0.0, None
+        return 0.0, None, ""
     low = min((p.energy for p in seeds), default=np.inf)
     stacked = [("newton", p.coefficients.ravel()) for p in seeds if p.energy <= START_RATIO * low]
     if warm is not None:
@@ -158,28 +166,29 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     local = _local_constraints(system, settings, around, mid)
     with np.errstate(all="ignore"):
         coefficients, search = optimise_energy(
-            system, [at], [leg], settings, targets, stacked, constraints=local
-        )
+            system, [at], [leg], settings, targets, stacked, constraints=local,
+            pg_tol=PG_TOL if exact else BOUND_PG_TOL,
+        )  # fmt: skip
     found = [s.energy for s in search.starts if s.feasible and np.isfinite(s.energy)]
     if coefficients is not None and found and min(found) <= low:
-        return float(min(found)), coefficients[0]
+        return float(min(found)), coefficients[0], ""
     if not seeds:
-        return 0.0, None
+        return 0.0, None, ""
     best = min(seeds, key=lambda p: p.energy)
-    return float(low), best.coefficients
+    return float(low), best.coefficients, ""
 
 
 def plan_alone(items: list[tuple]) -> dict[tuple, tuple]:
-    """Each leg's minimum energy planned alone (0.0 when its search fails), the CPU seconds
-    and the coefficients (None when it failed)."""
+    """Each leg's minimum energy planned alone (0.0 when its search fails), the CPU seconds,
+    the coefficients (None when it failed) and why it failed ("" when unknown)."""
     system, settings = STATE["system"], STATE["settings"]
     out = {}
     for key, at, around, i, relaxed, warm in items:
         clock = time.process_time()
         own = _relaxed(settings) if relaxed else settings
         try:
-            value, coefficients = leg_minimum(system, at, around, i, own, warm)
+            value, coefficients, why = leg_minimum(system, at, around, i, own, warm)
         except (*NUMERICAL_ERRORS, ValueError):  # no bound from this leg
-            value, coefficients = 0.0, None
-        out[key] = (value, time.process_time() - clock, coefficients)
+            value, coefficients, why = 0.0, None, ""
+        out[key] = (value, time.process_time() - clock, coefficients, why)
     return out

@@ -76,6 +76,21 @@ class _March:
         return (self.h, self.Phi, self.Psi, self.S_w, self.D, self.x1, self.x2, self.Omega, self.R)
 
 
+def _prefix_products(R0: np.ndarray, E: np.ndarray) -> np.ndarray:
+    """`R_0, R_0 E_0, R_0 E_0 E_1, ...` (N + 1, 3, 3): the attitudes at the step boundaries,
+    by a parallel prefix scan (⌈log₂ N⌉ stacked products instead of N small ones in Python;
+    the same products, associated differently: rounding apart, the same matrices)."""
+    P = np.array(E, dtype=float)
+    shift = 1
+    while shift < P.shape[0]:
+        P[shift:] = P[:-shift] @ P[shift:]
+        shift *= 2
+    R = np.empty((P.shape[0] + 1, 3, 3))
+    R[0] = R0
+    np.matmul(R0, P, out=R[1:])
+    return R
+
+
 class MagnusEndpoint(_Endpoint):
     """`k(λ)` and `∂k/∂λ` of a spatial leg; `kind = "magnus"`. Interface of `endpoint`'s."""
 
@@ -98,6 +113,9 @@ class MagnusEndpoint(_Endpoint):
         self._full: tuple | None = None  # ((λ, steps), end) of the last full-step evaluation
         self._marches: dict[tuple, tuple[np.ndarray, _March]] = {}  # (λ, steps): (end, march)
         self._last: dict[bytes, tuple] = {}  # λ: (end, march) of the last two evaluations
+        # set by a search that needs less (`sqp.Descent` far from a minimum): every evaluation
+        # on the steps that reach this accuracy (rad), not only those far from the goal
+        self.accuracy: float | None = None
 
     @cached_property
     def coupling(self) -> float:
@@ -140,11 +158,7 @@ class MagnusEndpoint(_Endpoint):
         xi = (S_w @ u[:, :, None])[:, :, 0]
         x1, x2 = xi[0::2], xi[1::2]
         Omega = 0.5 * h * (x1 + x2) + (SQRT3 * h * h / 12.0) * so3.cross(x1, x2)
-        E = so3.exp(Omega)
-        R = np.empty((E.shape[0] + 1, 3, 3))
-        R[0] = so3.exp(self.q0[self.k :])
-        for i in range(E.shape[0]):
-            np.matmul(R[i], E[i], out=R[i + 1])
+        R = _prefix_products(so3.exp(self.q0[self.k :]), so3.exp(Omega))
         march = _March(h, Phi, Psi, S_w, x1, x2, Omega, R, (self.robot, state, S, u @ self.C.T))
         if jacobian:
             march.D  # noqa: B018 (computed now, as the caller asked)
@@ -157,7 +171,8 @@ class MagnusEndpoint(_Endpoint):
         when the last goal error was large: to an accuracy of `AIM_ACCURACY` × that error
         (the Magnus error falls as N⁻⁴), kept only if it is below `RELATIVE_ACCURACY` × the
         error it then finds, else evaluated again on the full steps. Near the goal every
-        evaluation is on the full steps; `refined` gives the full-step end of any λ.
+        evaluation is on the full steps, unless a search set a looser `accuracy` (then every
+        evaluation is on the steps that reach it); `refined` gives the full-step end of any λ.
         The Jacobian is added only to the evaluation that is kept (`jacobian_of_last` adds
         it later); the last two marches are remembered (a map asked again at the same λ and
         steps, e.g. for its Jacobian after its value, is not integrated again).
@@ -167,6 +182,12 @@ class MagnusEndpoint(_Endpoint):
             end = np.full(self.q0.size, np.nan)
             return end, (np.full((end.size, self.n_coefficients), np.nan) if jacobian else None)
         full = self.steps(L)
+        if self.accuracy is not None and self.accuracy > ACCURACY and not self.steps_override:
+            steps = int(np.ceil(full * (ACCURACY / self.accuracy) ** 0.25))
+            if max(MIN_STEPS, steps) < full:
+                end, march = self._end(L, max(MIN_STEPS, steps))
+                self._remember(L, end, march)
+                return end.copy(), (self._jacobian(end, march) if jacobian else None)
         coarse = self._coarse_steps(full)
         if coarse < full:
             end, march = self._end(L, coarse)

@@ -36,7 +36,7 @@ from .controllability import _rank_and_sigma
 from .liealgebra import MAX_DEGREE, lie_basis
 from .models.system import System
 
-__all__ = ["WARN_ENERGY", "WARN_LEVERAGE", "Reach", "better_strata", "reach"]
+__all__ = ["WARN_ENERGY", "WARN_LEVERAGE", "Reach", "better_strata", "out_of_reach", "reach"]
 
 WARN_ENERGY = 1e4  # predicted energy above which a leg is flagged
 WARN_LEVERAGE = 10.0  # |u·δ| / σ above which a leg needing third-order brackets is flagged
@@ -119,3 +119,57 @@ def better_strata(
         if r is not None and not r.weak and (r.energy < than.energy or r.degree < than.degree):
             out.append(r)
     return sorted(out, key=lambda r: r.energy)
+
+
+UNSPANNED_RTOL = 1e-7  # singular values below this × the largest: a direction not spanned
+
+
+def out_of_reach(
+    system: System, stratum: str, q: np.ndarray, goal: np.ndarray, tolerance: float
+) -> str | None:
+    """Why a URDF leg cannot reach `goal` (NaN: free) from `q` on `stratum`, or None.
+
+    The leg's fields and Lie brackets (degree 2, else 3) at `q`, restricted to the
+    coordinates it steers, leave some directions unspanned, and the goal lies more than
+    `tolerance` off the spanned ones (the attitude's displacement in the body frame at `q`,
+    the brackets' own frame). Analytic fields whose brackets miss a direction everywhere on
+    the stratum cannot move along it (S1 of robots/arm3.urdf at j1 = 0 turns the base about
+    y only); the newton planner asks this only after its own attempts failed, instead of a
+    continuation that would fail too (tens of seconds on a URDF leg). Other models: None
+    (their continuation runs as before).
+    """
+    if getattr(system, "spatial", None) is None:
+        return None
+    from . import so3
+
+    s = system.stratum(stratum)
+    q, goal = np.asarray(q, dtype=float), np.asarray(goal, dtype=float)
+    targets = [j for j in s.free(system.n) if not np.isnan(goal[j])]
+    if not targets:
+        return None
+    delta = goal[targets] - q[targets]
+    k = system.spatial.n_joints
+    attitude = [r for r, j in enumerate(targets) if j >= k]
+    if len(attitude) == 3:  # on the group: log(R0ᵀ R_goal), the body-frame displacement
+        delta[attitude] = so3.log(so3.exp(q[k:]).T @ so3.exp(goal[k:]))
+    for degree in range(2, MAX_DEGREE + 1):
+        lb = lie_basis(system, s, degree)
+        with np.errstate(all="ignore"):
+            B = lb.evaluate(q)[[lb.free.index(j) for j in targets]]
+        if not np.isfinite(B).all():
+            return None
+        U, S, _ = np.linalg.svd(B)
+        rank = int(np.sum(S > UNSPANNED_RTOL * max(S[0] if S.size else 0.0, 1e-300)))
+        if rank == len(targets):
+            return None
+    missing = U[:, rank:]
+    off = missing.T @ delta
+    if float(np.linalg.norm(off)) <= tolerance:
+        return None
+    worst = missing @ off  # the part of the displacement no field or bracket moves along
+    name = system.states[targets[int(np.argmax(np.abs(worst)))]]
+    return (
+        f"{s.name} cannot move {name} from the leg's start: its fields and Lie brackets up to "
+        f"degree {degree} span {rank} of the {len(targets)} coordinates the leg steers there, "
+        f"and its goal lies {float(np.linalg.norm(off)):.3g} off them (no continuation tried)"
+    )

@@ -96,3 +96,69 @@ def test_plan_of_a_runaway_leg_fails_fast_saying_why(tmp_path):
         result.stderr
     )
     assert "try another stratum" in result.stderr
+
+
+ARM3_LEG = """
+name = "arm3_s1_turns_z"
+[model]
+kind = "urdf"
+path = "{root}/robots/arm3.urdf"
+[task]
+start = {{ j1 = 0, j2 = "20deg", j3 = "-30deg", attitude = [0, 0, 0] }}
+goal = {{ j1 = 0, j2 = "-10deg", j3 = "20deg", attitude = [0, {ry}, {rz}] }}
+[planner]
+objective = "newton"
+tolerance = 1e-6
+leg_duration = 2.0
+[[legs]]
+stratum = "S1"
+"""
+
+
+def _arm3_s1(rz: str, ry: str = "0"):
+    from conftest import ROOT
+
+    return load_scenario(ARM3_LEG.format(root=ROOT, rz=rz, ry=ry))
+
+
+def test_out_of_reach_names_the_direction_a_urdf_stratum_cannot_move():
+    """S1 of the golden arm locks j1 at 0: j2 and j3 swing in the base's xz plane, so every
+    field and bracket turns the base about y only; a goal turning it about z is out of reach,
+    one turning it about y is not (and the other strata span z there)."""
+    from stratcli.reachability import out_of_reach
+
+    task = _arm3_s1('"5deg"')
+    why = out_of_reach(task.system, "S1", task.start, task.goal, 1e-6)
+    assert why is not None and why.startswith("S1 cannot move rz from the leg's start")
+    assert "span 3 of the 5 coordinates" in why
+    reachable = _arm3_s1("0", ry='"5deg"')
+    assert out_of_reach(task.system, "S1", task.start, reachable.goal, 1e-6) is None
+    for other in ("S2", "S3"):
+        assert out_of_reach(task.system, other, task.start, task.goal, 1e-6) is None
+
+
+def test_out_of_reach_leaves_planar_models_to_their_continuation():
+    task = load_scenario(WEAK)
+    assert out_of_reach_of(task) is None
+
+
+def out_of_reach_of(task):
+    from stratcli.reachability import out_of_reach
+
+    leg = task.legs[0]
+    return out_of_reach(task.system, leg.stratum, task.start, leg.goal, 1e-6)
+
+
+def test_a_urdf_leg_out_of_reach_fails_without_continuation_naming_stratum_and_direction():
+    """It took ~30 s of continuation to fail (auto mode on arm3_auto without its strata
+    list); now Newton's own attempts, then the reason."""
+    from stratcli.objectives import plan_sequence
+
+    task = _arm3_s1('"5deg"')
+    plan = plan_sequence(task.system, task.start, list(task.legs), task.settings)
+    (leg,) = plan.legs
+    assert not plan.ok and leg.strategy != "continuation"
+    budget = (task.settings.restarts + 1) * task.settings.max_iterations
+    assert leg.iterations <= budget  # Newton's own attempts only: no continuation after them
+    assert "S1 cannot move rz from the leg's start" in leg.message
+    assert "no continuation tried" in leg.message

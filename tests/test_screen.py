@@ -161,3 +161,87 @@ def test_a_sequence_with_a_leg_that_has_no_plan_alone_fails_unsearched():
         if [leg.stratum for leg in c.legs] == row["sequence"] and c.strategy == row["strategy"]
     ]
     assert not plan_sequence(task.system, task.start, list(candidate.legs), task.settings).ok
+
+
+def _arm3_auto_energy(strata: bool = True):
+    """arm3_auto (robots/arm3.urdf) with the energy objective; without its strata list S1 is
+    a candidate too (it cannot turn the base about z at j1 = 0)."""
+    text = (ROOT / "scenarios" / "spatial" / "arm3_auto.toml").read_text()
+    text = text.replace('objective = "newton"', 'objective = "energy"')
+    text = text.replace("../../robots/", f"{ROOT}/robots/")
+    if not strata:
+        text = "\n".join(line for line in text.splitlines() if not line.startswith("strata"))
+    return load_scenario(text)
+
+
+def _arm3_candidates(task):
+    from stratcli.api.auto import auto_settings, decompose_task
+
+    return decompose_task(task, auto_settings(task)).candidates
+
+
+def test_without_a_shared_leg_the_comparison_searches_every_candidate(sim4):
+    """arm3_auto's two candidates (S2 > S3, S3 > S2) share no leg: bounds would each serve one
+    candidate. The screen bounded eight legs, took a failed tight search's Newton plan (115)
+    for a bound and pruned S2 > S3 (83.12) for S3 > S2 (99.59); now both are searched."""
+    from stratcli.screen import legs_shared
+
+    task = _arm3_auto_energy()
+    candidates = _arm3_candidates(task)
+    valid = list(range(len(candidates)))
+    assert len(valid) == 2 and not legs_shared(task.system, candidates, valid, task.start)
+    dec4 = decompose(sim4.system, sim4.start, sim4.goal, max_length=3)
+    valid4 = list(range(len(dec4.candidates)))
+    assert legs_shared(sim4.system, dec4.candidates, valid4, sim4.start)
+    result = compare(task.system, task.start, candidates, task.settings, screen=SCREEN_TOP)
+    assert result.screen is None and all(o.status == "ok" for o in result.outcomes)
+    best = result.best
+    assert [leg.stratum for leg in best.candidate.legs] == ["S2", "S3"]
+    assert best.energy < 83.1241  # --exhaustive before: 83.12405
+
+
+def test_a_tight_bound_comes_from_a_search_not_from_a_failed_one(monkeypatch):
+    """Without exact Hessians a leg's search keeps one start; when that start (the tight
+    bound's warm start) cannot be restored onto the goals, the next one (its Newton plan) is
+    searched: the bound is a minimum found, not the Newton plan's energy."""
+    from stratcli.leg_bounds import leg_minimum
+
+    task = _arm3_auto_energy()
+    (cand,) = [c for c in _arm3_candidates(task) if [leg.stratum for leg in c.legs] == ["S2", "S3"]]
+    legs = list(cand.legs)
+    loose, free, why = leg_minimum(task.system, task.start, legs[:1], 0, _free(task.settings))
+    assert free is not None and why == "" and loose == pytest.approx(42.02, rel=1e-3)
+    tight, coefficients, _ = leg_minimum(task.system, task.start, legs, 0, task.settings, free)
+    assert coefficients is not None and 45 < tight < 50  # the Newton plan's energy: 115
+
+
+def _free(settings):
+    from stratcli.leg_bounds import _relaxed
+
+    return _relaxed(settings)
+
+
+@pytest.mark.slow  # six arm3 candidates, three searched: ~20 s (it was ~50 s)
+def test_a_urdf_leg_out_of_reach_fails_its_candidates_naming_the_direction():
+    task = _arm3_auto_energy(strata=False)
+    doc = api.compare_sequences(task, jobs=1).document
+    sunk = [r for r in doc["rows"] if r["sequence"][0] == "S1"]
+    assert len(sunk) == 2 and all(r["status"] == "failed" for r in sunk)
+    for row in sunk:
+        assert row["reason"].startswith("leg 1 on S1 has no plan even alone, free at both ends")
+        assert "(S1 cannot move rz from the leg's start" in row["reason"]
+    assert doc["rows"][0]["sequence"] == ["S3", "S1"]
+
+
+def test_a_urdf_leg_bound_stops_earlier_within_rounding_of_the_minimum(monkeypatch):
+    """Without exact Hessians a bound's search stops at a relative projected gradient of
+    `BOUND_PG_TOL` (1e-6), not 1e-10: the energy is the same to 1e-9."""
+    from stratcli import leg_bounds
+
+    task = _arm3_auto_energy()
+    (cand,) = [c for c in _arm3_candidates(task) if c.legs[0].stratum == "S3"]
+    settings = _free(task.settings)
+    early, _, _ = leg_bounds.leg_minimum(task.system, task.start, cand.legs[:1], 0, settings)
+    monkeypatch.setattr(leg_bounds, "BOUND_PG_TOL", leg_bounds.PG_TOL)
+    full, _, _ = leg_bounds.leg_minimum(task.system, task.start, cand.legs[:1], 0, settings)
+    assert early == pytest.approx(full, rel=1e-9) and early >= full * (1 - 1e-12)

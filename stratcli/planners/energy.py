@@ -28,7 +28,7 @@ from .base import (
     onto_goals,
 )
 from .legwise import legwise_start
-from .sqp import MINIMUM, Descent
+from .sqp import KEPT, MINIMUM, PG_TOL, Descent
 
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
@@ -127,6 +127,14 @@ class StackedProblem:
         other._z = None  # evaluations are cached per z, and z now means other coefficients
         return other
 
+    def set_accuracy(self, accuracy: float | None) -> None:
+        """The accuracy (rad) the legs' maps may evaluate to (`MagnusEndpoint.accuracy`;
+        None: their own); evaluations cached at another one are dropped."""
+        for ep in self.endpoints:
+            if hasattr(ep, "accuracy") and ep.accuracy != accuracy:
+                ep.accuracy = accuracy
+                self._z = None
+
     def coefficients(self, z):
         return self._particular + self.null @ z
 
@@ -224,6 +232,7 @@ def optimise_energy(
     seeds: list[tuple[str, np.ndarray]],
     constraints=None,
     progress=None,
+    pg_tol: float = PG_TOL,
 ) -> tuple[list[np.ndarray] | None, Optimisation]:
     """Minimum energy over all legs from each of `seeds` ((kind, stacked feasible
     coefficients); the kind is recorded, e.g. "newton" or "warm start").
@@ -245,17 +254,22 @@ def optimise_energy(
     relaxation of them (`stratcli.screen`).
 
     `progress(phase)` is told the starts that are raced, once they are known (the pulled
-    start is made here), and the legwise start; default: silent.
+    start is made here), and the legwise start; default: silent. `pg_tol`: the relative
+    projected gradient at which a start has converged (`sqp.PG_TOL`; a leg bound of the
+    screen without exact Hessians needs less, `leg_bounds.BOUND_PG_TOL`).
     """
     say = progress or (lambda phase: None)
     problem = StackedProblem(system, starts, legs, settings, targets, constraints)
-    if not problem.exact_hessians:  # ODE-path legs: first-order steps are slow, keep one start
-        seeds = seeds[:1]
+    if not problem.exact_hessians:  # URDF, ODE-path legs: first-order steps are slow
+        say(f"energy search: minimum energy from {_starts(seeds[:1])}")
+        runs = _first_kept(problem, seeds, settings.tolerance, pg_tol)
+        seeds = seeds[: len(runs)]
     else:
         say("energy search: pulling the Newton plan toward low energy (a start)")
         seeds = _with_pulled_start(problem, seeds, settings.starts)
-    say(f"energy search: minimum energy from {_starts(seeds)}")
-    runs = race(problem, [problem.project(lam) for _, lam in seeds], settings.tolerance)
+        say(f"energy search: minimum energy from {_starts(seeds)}")
+        zs = [problem.project(lam) for _, lam in seeds]
+        runs = race(problem, zs, settings.tolerance, pg_tol)
     if problem.exact_hessians and settings.search == "legwise":
         # raced on its own, after the others: their race (which abandons a start that an
         # earlier low one outruns) is the default search's, so the result is never higher
@@ -263,8 +277,9 @@ def optimise_energy(
         z = legwise_start(problem, system, legs, settings, *_newton_part(seeds))
         if z is not None:
             seeds = [*seeds, ("legwise", problem.coefficients(z))]
-            runs += race(problem, [z], settings.tolerance)
+            runs += race(problem, [z], settings.tolerance, pg_tol)
 
+    problem.set_accuracy(None)  # the results' goal errors: on the legs' own accuracy
     outcomes: list[StartOutcome] = []
     best_index, coefficients = None, None
     best_energy = np.inf
@@ -298,10 +313,12 @@ def optimise_energy(
     return coefficients, Optimisation(tuple(outcomes), best_index, None)
 
 
-def race(problem: StackedProblem, zs: list[np.ndarray], tolerance: float) -> list[Descent]:
+def race(
+    problem: StackedProblem, zs: list[np.ndarray], tolerance: float, pg_tol: float = PG_TOL
+) -> list[Descent]:
     """The feasible SQP from each start `zs` (whitened), raced (`optimise_energy`); the runs,
     in the order of `zs`."""
-    runs = [Descent(problem, z, tolerance) for z in zs]
+    runs = [Descent(problem, z, tolerance, pg_tol) for z in zs]
     found: list[np.ndarray] = []  # minima reached by finished starts
     best = [np.inf]
 
@@ -328,6 +345,20 @@ def race(problem: StackedProblem, zs: list[np.ndarray], tolerance: float) -> lis
         finish(run, ABANDON_AFTER)
     for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
         finish(run, None)
+    return runs
+
+
+def _first_kept(
+    problem: StackedProblem, seeds: list, tolerance: float, pg_tol: float = PG_TOL
+) -> list[Descent]:
+    """The SQP from the first of `seeds` only, or while it ends off the goals (its start not
+    restored onto them, or it ran away) from the next one: a leg's bound must come from a
+    search, not from the Newton plan a failed one leaves (`leg_bounds.leg_minimum`)."""
+    runs: list[Descent] = []
+    for _, lam in seeds:
+        runs += race(problem, [problem.project(lam)], tolerance, pg_tol)
+        if runs[-1].feasible and runs[-1].reason in KEPT:
+            break
     return runs
 
 

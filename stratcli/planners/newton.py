@@ -13,13 +13,16 @@ coefficients `z` left by the boundary conditions (eq. 28). Robustness:
   straight line from the start to the goal, each solved from the previous solution. The
   outcome's `strategy` says which reached the goal. The energy objective's extra seeded
   starts (a planner with its own `seed`) skip it: they are meant to be cheap, and a start
-  that needs it is dropped as before.
+  that needs it is dropped as before. A URDF leg whose stratum's fields and brackets at its
+  start leave a direction of its goal unspanned (`reachability.out_of_reach`) fails with that
+  reason instead: the continuation could not reach it either.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..reachability import out_of_reach
 from ..results import Piece
 from ..settings import PlannerSettings
 from ..status import Status
@@ -174,11 +177,18 @@ class NewtonPlanner(LegPlanner):
         # quadrature end point (all space manipulators), not on the general ODE path, where
         # one call can cost 10⁴ evaluations (a custom model would then run for minutes).
         cheap = endpoint.kind in ("quadrature", "magnus")
+        hopeless = None  # why no continuation could reach the goal (URDF legs only)
+        if best.error > problem.tolerance and np.isfinite(best.error) and self.continuation:
+            hopeless = out_of_reach(
+                problem.system, problem.stratum.name, problem.start, goal, problem.tolerance
+            )
+            message = hopeless or ""
         if (
             best.error > problem.tolerance
             and np.isfinite(best.error)
             and self.continuation
             and cheap
+            and hopeless is None
         ):
             path = follow_line(  # from small controls (the feasible ones closest to zero)
                 evaluate_for,

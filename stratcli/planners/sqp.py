@@ -28,6 +28,9 @@ RESTORATION_STEPS = 12
 # far from a minimum (projected gradient above LOOSE_ABOVE) iterates meet the goals to
 # LOOSE_RESTORATION only; nearer, and every result, to rounding (`Descent.c_tol`)
 LOOSE_RESTORATION, LOOSE_ABOVE = 1e-6, 1e-3
+# ... and while they do, maps that can (URDF legs: fewer Magnus steps) evaluate to this
+# accuracy (rad) instead of their own 5e-10: 1% of the loose restoration tolerance
+LOOSE_ACCURACY = 1e-2 * LOOSE_RESTORATION
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
 MINIMUM = ("converged", "noise floor")  # stops at a minimum (the others stop on the way down)
@@ -47,9 +50,10 @@ class Descent:
 
     loose = True  # restore loosely far from a minimum (`_step`)
 
-    def __init__(self, problem: StackedProblem, z: np.ndarray, tol: float):
+    def __init__(self, problem: StackedProblem, z: np.ndarray, tol: float, pg_tol: float = PG_TOL):
         clock = time.perf_counter()
         self.problem = problem
+        self.pg_tol = pg_tol  # relative projected gradient at which it has converged
         self.H0 = problem.H0
         self.exact = problem.exact_hessians  # ODE-path legs: no second derivatives
         self.c_tol = min(1e-10, 1e-3 * tol)
@@ -81,24 +85,39 @@ class Descent:
             else:
                 self.z, self.energy = z, self.problem.energy(z)
 
-    def _restore(self, z):
-        """Back onto the goals: Newton steps of least energy norm, quadratically convergent."""
+    def _restore(self, z, simplified: bool = False):
+        """Back onto the goals: Newton steps of least energy norm, quadratically convergent.
+
+        `simplified`: every step after the first reuses the first one's Jacobian while the
+        steps at least halve the violation, then Newton steps again (without exact Hessians:
+        a URDF leg's Jacobian costs a Pinocchio derivative per node, and the corrections
+        after the first are small). The first step is Newton's own either way."""
         problem, previous = self.problem, np.inf
+        self._accuracy(self.c_now)
+        kept = None  # (J, Cholesky factor of J H0⁻¹ Jᵀ) reused by a simplified step
         for _ in range(RESTORATION_STEPS):
-            c, J = problem._evaluate(z, self.eager)  # else the Jacobian only if needed
+            c, J = problem._evaluate(z, self.eager and kept is None)
             violation = np.abs(c).max(initial=0.0)
             if violation <= self.c_now:
                 return z
             if violation > 0.5 * previous:
-                return None  # not converging fast: let the line search shorten the step
+                if kept is None:
+                    return None  # not converging fast: let the line search shorten the step
+                kept = None  # the kept Jacobian is too far off: Newton steps from here
+                simplified = False
             previous = violation
-            if J is None:
-                J = problem._evaluate(z, True)[1]
+            if kept is not None:
+                J, L = kept
+            else:
+                if J is None:
+                    J = problem._evaluate(z, True)[1]
+                try:
+                    L = np.linalg.cholesky(J @ (0.5 * J.T))
+                except np.linalg.LinAlgError:
+                    return None
+                if simplified:
+                    kept = (J, L)
             HJ = 0.5 * J.T  # H0⁻¹ Jᵀ (H0 = 2 I: the energy is |z|² in the whitened z)
-            try:
-                L = np.linalg.cholesky(J @ HJ)
-            except np.linalg.LinAlgError:
-                return None
             z = z - HJ @ np.linalg.solve(L.T, np.linalg.solve(L, c))
             if not np.all(np.isfinite(z)):
                 return None
@@ -111,6 +130,10 @@ class Descent:
         if self.exact:
             return self.problem.constraint_hessian(z, mu)
         return self._curvature(z, J, mu)
+
+    def _accuracy(self, tol: float) -> None:
+        """Loose restoration, loose maps (`LOOSE_ACCURACY`); else the maps' own accuracy."""
+        self.problem.set_accuracy(LOOSE_ACCURACY if tol >= LOOSE_RESTORATION else None)
 
     def _curvature(self, z: np.ndarray, J: np.ndarray, mu: np.ndarray) -> np.ndarray:
         """`Σ_j μ_j ∇²c_j` estimated without second derivatives: symmetric-rank-one updates
@@ -138,6 +161,7 @@ class Descent:
         if self.iterations >= (SQP_ITERATIONS if self.exact else FIRST_ORDER_ITERATIONS):
             return self.stop("iteration limit")
         self.iterations += 1
+        self._accuracy(self.z_tol)  # the iterate's Jacobian on the maps it was restored on
         _, J = problem._evaluate(z, True)
         g = problem.energy_grad(z)
         U, S, Vt = np.linalg.svd(J)
@@ -157,7 +181,7 @@ class Descent:
                 self.z, self.energy = tight, problem.energy(tight)
                 self.iterations -= 1
                 return self._step()
-        if pg <= PG_TOL:
+        if pg <= self.pg_tol:
             return self.stop("converged")
         if pg < 0.5 * self.best_pg:
             self.best_pg, self.since = pg, 0
@@ -194,7 +218,7 @@ class Descent:
         merit = energy + float(mu @ problem.constraint(z))
         alpha = 1.0
         while alpha > 1e-10:
-            trial = self._restore(z + alpha * d)
+            trial = self._restore(z + alpha * d, simplified=not self.exact)
             if trial is not None:
                 e = problem.energy(trial)
                 m = e + float(mu @ problem.constraint(trial))
