@@ -2,7 +2,7 @@
 derivatives in the coefficients of the stacked energy problem (no I/O).
 
 The constrained search (`planners.constrained`) works in the free coordinates z of the stacked
-problem (`planners.energy.StackedProblem`: λ = λp + N z, the continuity terms eliminated).
+problem (`planners.stacked.StackedProblem`: λ = λp + N z, the continuity terms eliminated).
 Along each leg, at `NODES` equally spaced times (more for fast harmonics, `NODES_PER_RADIAN`):
 
 * the joints are closed-form integrals of the Fourier controls, affine in λ: their margins to
@@ -155,7 +155,7 @@ class NodeMargins:
 
     Parameters
     ----------
-    problem : planners.energy.StackedProblem
+    problem : planners.stacked.StackedProblem
         The stacked problem (its legs' end-point maps must be quadrature maps).
     system : System
         The model (its `robot` carries the collision geometry).

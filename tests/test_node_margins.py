@@ -20,7 +20,7 @@ from stratcli.clearance import (
 from stratcli.geometric_margins import GeometricMargins
 from stratcli.models.geometry import world_bodies
 from stratcli.node_margins import NodeMargins
-from stratcli.planners.energy import StackedProblem
+from stratcli.planners.stacked import StackedProblem
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -54,7 +54,7 @@ def test_without_second_derivatives_the_search_still_converges(name, monkeypatch
     a search keeps (the Newton plan) it reaches a true minimum, on these tasks the one the
     exact Hessians reach from their starts (with the energy's Hessian alone it stopped at its
     15-step limit, projected gradient ~1e-2)."""
-    from stratcli.planners.energy import StackedProblem
+    from stratcli.planners.stacked import StackedProblem
     from stratcli.scenario import load_scenario
 
     task = load_scenario(ROOT / "scenarios" / f"{name}.toml")

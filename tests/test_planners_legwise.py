@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from reintegrate import verify
 
-from stratcli.planners import energy, legwise
+from stratcli.planners import energy, legwise, stacked
 from stratcli.records.result import result_document
 from stratcli.scenario import load_scenario
 from stratcli.stratified import chain_legs
@@ -26,7 +26,7 @@ def _problem(name: str):
     for leg, planned in zip(task.legs[:-1], newton.legs[:-1], strict=True):
         nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
     targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
-    problem = energy.StackedProblem(task.system, nominal, task.legs, task.settings, targets)
+    problem = stacked.StackedProblem(task.system, nominal, task.legs, task.settings, targets)
     lam = np.concatenate([leg.coefficients.ravel() for leg in newton.legs])
     return task, problem, lam
 

@@ -1,6 +1,6 @@
 """Planning within joint limits, self-collision and obstacles, along the whole of every leg.
 
-Both objectives search the stacked problem of the energy objective (`energy.StackedProblem`: all
+Both objectives search the stacked problem of the energy objective (`stacked.StackedProblem`: all
 legs' coefficients, continuity eliminated, every iterate restored onto the goals by Newton
 steps of least energy norm) with the node margins g(z) ≥ 0 of `node_margins` (joint limits
 exact, clearances as signed distances, at 128 nodes a leg, less a cushion). URDF robots'
@@ -41,8 +41,8 @@ from ..endpoint import QuadratureEndpoint
 from ..magnus import MagnusEndpoint
 from ..node_margins import CUSHION, NODES, NodeMargins
 from .active_set import convexified, least_distance
-from .energy import StackedProblem
 from .sqp import CURVATURE_FLOOR, STEP_LIMIT, Descent
+from .stacked import StackedProblem
 
 __all__ = ["NotSearchable", "constrained_search"]
 

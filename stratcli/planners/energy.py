@@ -10,25 +10,20 @@ several deterministic starts that are raced (`optimise_energy`).
 
 from __future__ import annotations
 
-import copy
-from dataclasses import replace
-
 import numpy as np
 
-from ..continuity import eliminate, sequence_constraints
-from ..endpoint import make_endpoint
 from ..models.system import System
 from ..results import Optimisation, StartOutcome
 from ..wording import counted
 from .base import (
     ENERGY_RUNAWAY,
     damped_gauss_newton,
-    goal_residual,
     no_divergence_check,
     onto_goals,
 )
 from .legwise import legwise_start
 from .sqp import KEPT, MINIMUM, PG_TOL, Descent
+from .stacked import StackedProblem
 
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
@@ -38,189 +33,6 @@ SAME_ENERGY = 1e-9  # relative: the legwise start wins only if lower than this (
 # back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
 PULL_WEIGHTS = (0.316, 0.1, 0.0316)
 PULL_ITERATIONS, RESTORE_ITERATIONS, RESTORED = 15, 30, 1e-9
-ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
-
-
-def _block_diag(blocks: list[np.ndarray]) -> np.ndarray:
-    """The block-diagonal matrix of `blocks` (scipy.linalg.block_diag; no scipy import)."""
-    out = np.zeros((sum(b.shape[0] for b in blocks), sum(b.shape[1] for b in blocks)))
-    r = c = 0
-    for b in blocks:
-        out[r : r + b.shape[0], c : c + b.shape[1]] = b
-        r, c = r + b.shape[0], c + b.shape[1]
-    return out
-
-
-def null_space(A: np.ndarray) -> np.ndarray:
-    """Orthonormal basis of A's null space (scipy.linalg.null_space's rank rule)."""
-    if A.size == 0:
-        return np.eye(A.shape[1])
-    _, s, vh = np.linalg.svd(A, full_matrices=True)
-    tol = max(A.shape) * np.finfo(float).eps * (s.max() if s.size else 0.0)
-    return vh[int(np.sum(s > tol)) :].T
-
-
-class StackedProblem:
-    """The stacked problem in the free coordinates z, with evaluations cached per z."""
-
-    def __init__(self, system: System, starts, legs, settings, targets, constraints=None):
-        basis = settings.basis
-        self.legs = legs
-        self.targets = targets
-        actives = [system.stratum(leg.stratum).active for leg in legs]
-        durations = [leg.duration for leg in legs]
-        self.sizes = [len(a) * basis.size for a in actives]
-        self.offsets = np.cumsum([0, *self.sizes])
-        cons = (
-            constraints
-            if constraints is not None
-            else sequence_constraints(
-                basis,
-                durations,
-                actives,
-                system.inputs,
-                settings.continuity,
-                soft_start=settings.soft_start,
-                full_stop=settings.full_stop,
-            )
-        )
-        self.constraints = cons
-        elim = eliminate(cons)
-        self.M = _block_diag(
-            [
-                np.kron(np.eye(len(a)), basis.gram(T))
-                for a, T in zip(actives, durations, strict=True)
-            ]
-        )
-        self.endpoints = [
-            make_endpoint(system.compiled(leg.stratum), s, basis, leg.duration, settings.evaluator)
-            for leg, s in zip(legs, starts, strict=True)
-        ]
-        self.goals = [np.asarray(leg.goal)[t] for leg, t in zip(legs, targets, strict=True)]
-        self.n_residuals = sum(t.size for t in targets)
-        # Work in coordinates where the energy is |z|² (up to λp): whiten the energy's
-        # Hessian. The Fourier basis is far from orthogonal on a leg shorter than its period
-        # (condition number ~1e13 at H = 8), and directions that change no control at all
-        # (energy eigenvalue < 1e-12 of the largest) change nothing else either: drop them.
-        N = elim.null
-        ev, V = np.linalg.eigh(N.T @ self.M @ N)
-        keep = ev > ENERGY_RANK_TOL * ev.max(initial=0.0)
-        self._particular = elim.particular
-        self.null = N @ (V[:, keep] / np.sqrt(ev[keep]))  # λ = λp + null @ z
-        self._to_z = (np.sqrt(ev[keep])[:, None] * V[:, keep].T) @ N.T
-        self.H0 = 2.0 * np.eye(int(keep.sum()))  # Hessian of the energy in z
-        # The energy as the quadratic it is in z, `e0 + b·z + |z|²`: evaluating λᵀMλ instead
-        # loses ~1e-12 of it to the Gram matrix's conditioning, more than the decrease left
-        # near an optimum with 8 harmonics, so the line search would stall short of it.
-        Mp = self.M @ self._particular
-        self._e0 = float(self._particular @ Mp)
-        self._b = 2.0 * self.null.T @ Mp
-        self._z = None
-
-    def with_rhs(self, c: np.ndarray) -> StackedProblem:
-        """This problem with the continuity rows' right-hand side `c` (`legwise.join`): the
-        same rows, so the same null space and whitened coordinates; only λp moves."""
-        other = copy.copy(self)
-        other._particular = eliminate(replace(self.constraints, c=np.asarray(c, float))).particular
-        Mp = self.M @ other._particular
-        other._e0, other._b = float(other._particular @ Mp), 2.0 * self.null.T @ Mp
-        other._z = None  # evaluations are cached per z, and z now means other coefficients
-        return other
-
-    def set_accuracy(self, accuracy: float | None) -> None:
-        """The accuracy (rad) the legs' maps may evaluate to (`MagnusEndpoint.accuracy`;
-        None: their own); evaluations cached at another one are dropped."""
-        for ep in self.endpoints:
-            if hasattr(ep, "accuracy") and ep.accuracy != accuracy:
-                ep.accuracy = accuracy
-                self._z = None
-
-    def coefficients(self, z):
-        return self._particular + self.null @ z
-
-    def project(self, lam):
-        """z of the coefficients closest to `lam` (in energy) that meet the continuity terms."""
-        return self._to_z @ (lam - self._particular)
-
-    def split(self, lam):
-        return [lam[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:], strict=True)]
-
-    def _evaluate(self, z, jacobian: bool):
-        """Goal residuals (and their Jacobian in z), cached for the last z."""
-        if self._z is None or not np.array_equal(z, self._z):
-            self._z, self._c, self._J = z.copy(), None, None
-        if self._c is not None and jacobian and self._J is None:
-            self._J = self._late_jacobian(z)
-        if self._c is None or (jacobian and self._J is None):
-            lam = self.coefficients(z)
-            res = []
-            J = np.zeros((self.n_residuals, lam.size)) if jacobian else None
-            row = 0
-            for i, (ep, t, g) in enumerate(
-                zip(self.endpoints, self.targets, self.goals, strict=True)
-            ):
-                end, Ji = ep(lam[self.offsets[i] : self.offsets[i + 1]], jacobian)
-                r, Jt = goal_residual(ep, end, Ji, g, t)
-                res.append(r)
-                if jacobian:
-                    J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = Jt
-                row += t.size
-            self._c = np.concatenate(res)
-            if jacobian:
-                self._J = J @ self.null
-        return self._c, self._J
-
-    def _late_jacobian(self, z):
-        """The Jacobian in z of the residuals already evaluated at z, from the legs' last
-        evaluations (their marches), or None if a leg's map cannot add it afterwards."""
-        if not all(hasattr(ep, "jacobian_of_last") for ep in self.endpoints):
-            return None
-        lam = self.coefficients(z)
-        J = np.zeros((self.n_residuals, lam.size))
-        row = 0
-        for i, (ep, t, g) in enumerate(zip(self.endpoints, self.targets, self.goals, strict=True)):
-            end, Ji = ep.jacobian_of_last(lam[self.offsets[i] : self.offsets[i + 1]])
-            J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = goal_residual(
-                ep, end, Ji, g, t
-            )[1]
-            row += t.size
-        return J @ self.null
-
-    def constraint(self, z):
-        return self._evaluate(z, False)[0]
-
-    def constraint_jac(self, z):
-        return self._evaluate(z, True)[1]
-
-    def energy(self, z):
-        return self._e0 + float(self._b @ z) + float(z @ z)
-
-    def energy_grad(self, z):
-        return self._b + 2.0 * z
-
-    @property
-    def exact_hessians(self) -> bool:
-        return all(hasattr(ep, "hessian") for ep in self.endpoints)
-
-    def constraint_hessian(self, z, mu) -> np.ndarray:
-        """`Σ_j μ_j ∇²c_j(z)` in z (exact, from the legs' quadrature Hessians)."""
-        lam = self.coefficients(z)
-        H = np.zeros((lam.size, lam.size))
-        row = 0
-        for i, (ep, t) in enumerate(zip(self.endpoints, self.targets, strict=True)):
-            weights = np.zeros(ep.q0.size)
-            weights[t] = mu[row : row + t.size]
-            a, b = self.offsets[i], self.offsets[i + 1]
-            H[a:b, a:b] = ep.hessian(lam[a:b], weights)
-            row += t.size
-        N = self.null
-        return N.T @ H @ N
-
-    def projected_gradient(self, z) -> float:
-        """|Z'∇f| / |∇f| with Z a basis of the constraints' tangent space at z."""
-        g = self.energy_grad(z)
-        Z = null_space(self.constraint_jac(z))
-        return float(np.linalg.norm(Z.T @ g) / max(np.linalg.norm(g), 1e-300))
 
 
 def optimise_energy(

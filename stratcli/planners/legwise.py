@@ -1,6 +1,6 @@
 """The legwise start of the energy search: each leg's lowest minimum alone, then joined.
 
-The stacked problem of the energy objective (`energy.StackedProblem`) has many local minima, and
+The stacked problem of the energy objective (`stacked.StackedProblem`) has many local minima, and
 the feasible-point SQP ends in the basin of its start. Most of that multiplicity is a product:
 each leg has a few minima of its own (on the paper's strata: how many loops the joints run,
 on which side and in which sense, to turn the base), and the legs are tied together only by
@@ -76,7 +76,7 @@ def mode_starts(leg_problem) -> list[np.ndarray]:
     `½ δᵀ H δ` in the direction of the residual: an eigenvector e of H with eigenvalue h > 0,
     scaled to `t = sqrt(2 |r| / h)`, meets it, at energy t² above z1. The `MODES` largest
     such h, each with both signs, are the starts: loops of different shapes and turns."""
-    from .energy import null_space
+    from .stacked import null_space
 
     centre = -0.5 * leg_problem._b  # the energy's minimiser in the whitened coordinates
     r, J = leg_problem._evaluate(centre, True)
@@ -124,7 +124,7 @@ def leg_minima(
     """Each leg's lowest minimum of its own problem (flat coefficients per leg), or None if
     a leg has no start that reaches its goals; `pulled`: `newton` is the stacked pulled
     start (`leg_minimum`)."""
-    from .energy import StackedProblem
+    from .stacked import StackedProblem
 
     out = []
     for i, (leg, part) in enumerate(zip(legs, problem.split(newton), strict=True)):

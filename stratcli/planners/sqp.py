@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from .energy import StackedProblem
+    from .stacked import StackedProblem
 
 __all__ = ["CURVATURE_FLOOR", "MINIMUM", "STEP_LIMIT", "Descent"]
 
