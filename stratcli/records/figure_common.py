@@ -17,9 +17,11 @@ __all__ = [
     "FORMATS",
     "LOG_RATIO",
     "TICK_STEPS",
+    "failed_message",
     "fixed_margins",
     "leg_method",
     "locked_names",
+    "message_band",
     "plain_log_labels",
     "save_figure",
     "stamp_failed",
@@ -127,8 +129,25 @@ def plain_log_labels(axis, minor: bool = True, pattern: str = "{:,.10g}") -> Non
         axis.set_minor_formatter(plain)
 
 
-def stamp_failed(fig: Figure, plan: SequencePlan) -> None:
-    """A failed plan: a red diagonal FAILED across the figure and the plan's message."""
+def failed_message(plan: SequencePlan, width: float) -> list[str]:
+    """A failed plan's message as the lines `stamp_failed` prints in a figure `width` inches
+    wide (none for a plan that is ok)."""
+    if plan.ok:
+        return []
+    message = textwrap.shorten(plan.message or "the plan did not reach its goal", 300)
+    return textwrap.wrap(message, int(width * 11))
+
+
+def message_band(plan: SequencePlan, width: float) -> float:
+    """Inches a figure adds at its bottom for `stamp_failed`'s message (0 if ok)."""
+    lines = failed_message(plan, width)
+    return 0.17 * len(lines) + 0.3 if lines else 0.0
+
+
+def stamp_failed(fig: Figure, plan: SequencePlan, band_at: float | None = None) -> None:
+    """A failed plan: a red diagonal FAILED across the figure and the plan's message, boxed
+    over the figure's middle, or with `band_at` (inches from the bottom) in the band the
+    figure made for it there (`message_band`), clear of the plots."""
     if plan.ok:
         return
     fig.text(
@@ -144,15 +163,16 @@ def stamp_failed(fig: Figure, plan: SequencePlan) -> None:
         va="center",
         zorder=100,
     )
-    message = textwrap.shorten(plan.message or "the plan did not reach its goal", 300)
+    lines = failed_message(plan, fig.get_figwidth())
+    y, va = (0.36, "top") if band_at is None else (band_at / fig.get_figheight(), "bottom")
     fig.text(
         0.5,
-        0.36,
-        "\n".join(textwrap.wrap(message, int(fig.get_figwidth() * 11))),
+        y,
+        "\n".join(lines),
         fontsize=9,
         color=FAILED_COLOR,
         ha="center",
-        va="top",
+        va=va,
         zorder=100,
         bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": FAILED_COLOR, "lw": 0.8},
     )

@@ -44,6 +44,7 @@ from .figure_common import (
     fixed_margins,
     leg_method,
     locked_names,
+    message_band,
     save_figure,
     stamp_failed,
 )
@@ -186,13 +187,14 @@ def _time_series(
         ax.set_ylabel(f"{name} [{unit}]" if unit else name, fontsize=9)
     notes = _decorate_time_axes(axes, plan)
     two_line = labelled and any(plan.legs[k].locked for k in range(len(plan.legs)))
-    fig.set_figheight(fig.get_figheight() + 0.15 * notes + (0.15 if two_line else 0.0))
+    band = message_band(plan, WIDTH)  # a failed plan's message, under the plots
+    fig.set_figheight(fig.get_figheight() + 0.15 * notes + (0.15 if two_line else 0.0) + band)
     fixed_margins(
         fig,
         left=0.85,
         right=0.2,  # the last goal marker sits on the right edge
         top=0.75 + (0.15 if two_line else 0.0),  # title, key line, leg labels
-        bottom=0.5 + 0.15 * notes,
+        bottom=0.5 + 0.15 * notes + band,
         hspace=0.12,
     )
     if unit is None:
@@ -208,7 +210,7 @@ def _time_series(
     if not plan.ok:
         title += " — FAILED"
     fig.suptitle(title, fontsize=11, fontweight="bold", color="k" if plan.ok else FAILED_COLOR)
-    stamp_failed(fig, plan)
+    stamp_failed(fig, plan, band_at=0.15 * max(notes, 1) + 0.16 if band else None)
     return fig
 
 
