@@ -176,8 +176,6 @@ def test_a_failed_plan_is_stamped_failed(failed_plan):
     assert set(files) == {"configuration.png", "controls.png", "stroboscope.png"}
     # in the time plots the message sits under the plots, in a band of its own (it covered
     # the lower panels' curves), and clear of the time axis' label
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
     for fig in figures[:2]:
         renderer = FigureCanvasAgg(fig).get_renderer()
         fig.draw(renderer)
@@ -186,6 +184,23 @@ def test_a_failed_plan_is_stamped_failed(failed_plan):
         lowest = fig.axes[-1]
         assert extent.y1 < lowest.xaxis.label.get_window_extent(renderer).y0
         assert all(extent.y1 < ax.get_window_extent(renderer).y0 for ax in fig.axes)
+
+
+def test_a_plan_with_an_acceleration_limit_gets_its_accelerations_figure(shipped_plans, one_arm):
+    """max_acceleration of [constraints] is met (time scaling) and now drawn: the inputs'
+    rates of change against time, each curve's closest approach to the limit marked ×
+    (the trial found the limit in result.json only); a plan without one has no such file."""
+    _, outcome = shipped_plans["sim4_task_d_rate_limited"]
+    plan = outcome.result
+    traj = simulate.sample(plan, 60)
+    assert "accelerations.png" in render_plots(plan, traj, "t", animation=False)
+    fig = plots.accelerations_figure(plan, traj, "t")
+    assert [ax.get_ylabel() for ax in fig.axes] == [f"du{i}/dt [rad/s²]" for i in (1, 2, 3)]
+    for ax, i in zip(fig.axes, range(3), strict=True):  # the marked points are the peaks
+        (x,) = [line for line in ax.lines if line.get_marker() == "x"]
+        assert abs(x.get_ydata()[0]) == pytest.approx(np.abs(traj.du[:, i]).max())
+    assert "acceleration limit" in " ".join(_texts(fig))
+    assert "accelerations.png" not in render_plots(one_arm.plan, one_arm.traj, "t", False)
 
 
 def test_the_gif_plays_in_real_time(one_arm):

@@ -50,10 +50,12 @@ from .figure_common import (
 )
 from .obstacles import resolved_constraints
 from .robot_figures import motion_gif, stroboscope_figure
+from .time_marks import corner_key, mark_goals, mark_off_inputs, shade_limits
 from .trajectory import Trajectory
 
 __all__ = [
     "FORMATS",
+    "accelerations_figure",
     "configuration_figure",
     "controls_figure",
     "draw",
@@ -65,7 +67,6 @@ __all__ = [
 SHADES = ("#e8eef8", "#f8efe2")  # alternate leg backgrounds
 SWITCH = {"color": "0.35", "linestyle": "--", "linewidth": 0.9}
 LIE_STEP = {"color": "0.55", "linestyle": "-", "linewidth": 0.5}
-GOAL_COLOR = "#c0392b"
 MAX_LABELLED_LEGS = 20  # more legs: no per-leg labels, goals or "off" marks
 WIDTH = 9.0  # in, of the time plots
 LABEL_SIZE = 8.5  # pt, of the leg labels
@@ -159,7 +160,7 @@ def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> int:
     axes[-1].set_xlabel("time [s]")
     keys = (["- - switch"] if switches else []) + (["│ Lie step"] if steps else [])
     if keys:
-        _corner_key(axes[0].figure, "   ".join(keys), "top left", "0.3")
+        corner_key(axes[0].figure, "   ".join(keys), "top left", "0.3")
     return notes
 
 
@@ -202,119 +203,16 @@ def _time_series(
     if not labelled:
         title = f"{title} ({len(plan.legs)} legs; leg labels omitted above {MAX_LABELLED_LEGS})"
     elif kind == "configuration":
-        _mark_goals(plan, axes)
+        mark_goals(plan, axes)
     else:
-        _mark_off_inputs(plan, axes)
+        mark_off_inputs(plan, axes)
     if plan.constraints is not None:
-        _shade_limits(plan, traj, axes, kind)
+        shade_limits(plan, traj, axes, kind)
     if not plan.ok:
         title += " — FAILED"
     fig.suptitle(title, fontsize=11, fontweight="bold", color="k" if plan.ok else FAILED_COLOR)
     stamp_failed(fig, plan, band_at=0.15 * max(notes, 1) + 0.16 if band else None)
     return fig
-
-
-def _mark_goals(plan: SequencePlan, axes: list[Any]) -> None:
-    """The value each leg was asked to reach, at the leg's end time (never clipped)."""
-    ends = [[] for _ in axes]
-    for leg in plan.legs:
-        for i in leg.targets:
-            if not np.isnan(leg.goal[i]):
-                ends[i].append((leg.t0 + leg.duration, leg.goal[i]))
-    for ax, points in zip(axes, ends, strict=True):
-        if not points:
-            continue
-        t, q = np.array(points).T
-        ax.plot(
-            t,
-            q,
-            marker="o",
-            markersize=6,
-            markerfacecolor="none",
-            markeredgecolor=GOAL_COLOR,
-            markeredgewidth=1.3,
-            linestyle="none",
-            zorder=4,
-            clip_on=False,  # the last leg's goal sits on the right edge
-        )
-    if any(ends):
-        _corner_key(axes[0].figure, "○ goal of the leg", "top right", GOAL_COLOR)
-
-
-KEY_INSET = 0.015  # a corner key's distance from the figure's edges (fraction of the figure)
-
-
-def _corner_key(fig, text: str, corner: str, color) -> None:
-    """A small key in a corner of the time plots ("top left", "top right", "bottom left"),
-    inset from the edges so that it is not cut by them."""
-    vertical, horizontal = corner.split()
-    x = KEY_INSET if horizontal == "left" else 1.0 - KEY_INSET
-    y = KEY_INSET if vertical == "bottom" else 1.0 - 1.5 * KEY_INSET
-    fig.text(x, y, text, color=color, ha=horizontal, va=vertical, fontsize=8)
-
-
-def _shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any], kind: str) -> None:
-    """Limits of [constraints] (joint limits on the configuration, rate limits ±max_rate on
-    the controls): a dashed line at each limit near the data, the region beyond it shaded,
-    and each limited curve's closest approach marked ×."""
-    limits = resolved_constraints(plan)
-    if kind == "configuration":
-        lower, upper, values, what = limits.lower, limits.upper, traj.q, "joint limit"
-    elif limits.max_rate is not None:
-        lower, upper, values, what = -limits.max_rate, limits.max_rate, traj.u, "rate limit"
-    else:
-        return
-    shown = False
-    for i, ax in enumerate(axes):
-        lo, hi = lower[i], upper[i]
-        if not (np.isfinite(lo) or np.isfinite(hi)):
-            continue
-        y0, y1 = ax.get_ylim()
-        span = y1 - y0
-        near = [v for v in (lo, hi) if np.isfinite(v) and y0 - span <= v <= y1 + span]
-        if near:  # a limit far from the data would squash the curve: leave it out
-            top, bottom = (
-                max([y1, *[v + 0.12 * span for v in near]]),
-                min([y0, *[v - 0.12 * span for v in near]]),
-            )
-            for v in near:
-                ax.axhline(v, color=FAILED_COLOR, lw=0.9, ls="--", zorder=2)
-                band = (v, top) if v == hi else (bottom, v)
-                ax.axhspan(*band, color=FAILED_COLOR, alpha=0.12, lw=0, zorder=1)
-            ax.set_ylim(bottom, top)
-            shown = True
-        room = np.minimum(values[:, i] - lo, hi - values[:, i])
-        if np.isfinite(room).any():
-            k = int(np.nanargmin(room))
-            ax.plot(traj.t[k], values[k, i], "x", color=FAILED_COLOR, ms=6, mew=1.4, zorder=5)
-            shown = True
-    if shown:
-        key = f"- - {what} (shaded beyond it); × closest approach"
-        _corner_key(axes[0].figure, key, "bottom left", FAILED_COLOR)
-
-
-def _mark_off_inputs(plan: SequencePlan, axes: list[Any]) -> None:
-    """Write "off" over the legs on which an input is not active (it is zero there)."""
-    for i, ax in enumerate(axes):
-        ax.axhline(0.0, color="0.55", linewidth=0.7, zorder=2)
-        lo, hi = ax.get_ylim()
-        zero = (0.0 - lo) / (hi - lo) if hi > lo else 0.5
-        height = 0.8 if zero < 0.5 else 0.2  # away from the zero line the input sits on
-        trans = blended_transform_factory(ax.transData, ax.transAxes)
-        for leg in plan.legs:
-            if i in leg.active:
-                continue
-            ax.text(
-                leg.t0 + leg.duration / 2,
-                height,
-                "off (u = 0)",
-                transform=trans,
-                ha="center",
-                va="center",
-                fontsize=8,
-                style="italic",
-                color="0.35",
-            )
 
 
 # --------------------------------------------------------------------------------------------
@@ -336,6 +234,16 @@ def controls_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Fi
     unit = "rad/s" if _is_manipulator(plan) or _is_spatial(plan) else None
     head = f"{title}: controls" if title else "controls"
     return _time_series(plan, traj, traj.u, plan.system.inputs, unit, head + " vs time", "controls")
+
+
+def accelerations_figure(plan: SequencePlan, traj: Trajectory, title: str = "") -> Figure:
+    """Every input's rate of change against time (rad/s² for manipulators), its
+    `max_acceleration` of [constraints] shaded: drawn for plans that have one."""
+    unit = "rad/s²" if _is_manipulator(plan) or _is_spatial(plan) else None
+    head = f"{title}: accelerations" if title else "accelerations"
+    names = tuple(f"du{name.removeprefix('u')}/dt" if name.startswith("u") else f"d{name}/dt"
+                  for name in plan.system.inputs)  # fmt: skip
+    return _time_series(plan, traj, traj.du, names, unit, head + " vs time", "accelerations")
 
 
 # --------------------------------------------------------------------------------------------
@@ -372,6 +280,10 @@ def plot_makers(
         f"configuration.{fmt}": lambda: save_figure(configuration_figure(plan, traj, title), fmt),
         f"controls.{fmt}": lambda: save_figure(controls_figure(plan, traj, title), fmt),
     }
+    if plan.constraints is not None and resolved_constraints(plan).max_acceleration is not None:
+        makers[f"accelerations.{fmt}"] = lambda: save_figure(
+            accelerations_figure(plan, traj, title), fmt
+        )
     if _is_manipulator(plan):
         makers[f"stroboscope.{fmt}"] = lambda: save_figure(
             stroboscope_figure(plan, traj, title), fmt
