@@ -262,7 +262,7 @@ def _resolve(
         if entry.method not in PLANNERS:
             known = " or ".join(repr(m) for m in PLANNERS)
             got = f"(got {entry.method!r})"
-            problems.append(Problem(f"{where}.method", f"Input should be {known} {got}"))
+            problems.append(Problem(f"{where}.method", f"must be {known} {got}"))
             continue
         if entry.stratum not in system.strata:
             problems.append(

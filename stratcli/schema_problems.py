@@ -85,7 +85,13 @@ def _tags(cls: Any, field: str | None = None) -> tuple[str, ...]:
     )
 
 
-_BOUNDS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+_BOUNDS = {  # pydantic's bound errors, in words
+    "greater_than": "more than",
+    "greater_than_equal": "at least",
+    "less_than": "less than",
+    "less_than_equal": "at most",
+}
+PYDANTIC_VOICE = "Input should be "
 
 
 def validation_problems(
@@ -112,10 +118,12 @@ def validation_problems(
             out.append(Problem(where, f"unknown key{hint}"))
             continue
         msg = err["msg"].removeprefix("Value error, ")
+        if msg.startswith(PYDANTIC_VOICE):  # "Input should be ...": as every other message
+            msg = "must be " + msg.removeprefix(PYDANTIC_VOICE)
         if kind in _BOUNDS and "ctx" in err:  # pydantic writes 1e-12 as 0.000000000001
             bound = next(iter(err["ctx"].values()))
-            if isinstance(bound, float):
-                msg = f"{msg.rsplit(' to ', 1)[0]} to {bound:g}" if " to " in msg else msg
+            shown = f"{bound:g}" if isinstance(bound, float) else str(bound)
+            msg = f"must be {_BOUNDS[kind]} {shown}"
         if kind == "missing":
             msg = "required field is missing"
         if kind in ("union_tag_not_found", "union_tag_invalid"):  # a table without a valid tag

@@ -112,7 +112,7 @@ def test_a_path_with_an_equals_sign_is_a_path(tmp_path):
 
 def test_a_pathlib_path_in_a_dict_is_the_path_it_names(tmp_path):
     """A notebook builds paths with pathlib: `model.path` (a URDF) and a sweep's `scenario`
-    were refused, 'Input should be a valid string (got PosixPath(...))'."""
+    were refused, 'must be a valid string (got PosixPath(...))'."""
     arm = tomllib.loads((ROOT / "scenarios" / "spatial" / "arm3_reorient.toml").read_text())
     arm["model"]["path"] = ROOT / "robots" / "arm3.urdf"
     task = stratcli.load_scenario(arm)

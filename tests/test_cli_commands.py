@@ -92,7 +92,7 @@ BAD = {
     ),
     "unknown preset": (
         TASK_D.replace('name = "one-arm"', 'name = "three-arm"'),
-        "model.name: Input should be 'one-arm' or 'two-arm'",
+        "model.name: must be 'one-arm' or 'two-arm'",
     ),
     "unknown stratum": (
         TASK_D.replace('stratum = "S3"', 'stratum = "S5"'),
@@ -112,15 +112,15 @@ BAD = {
     # strict types: nothing is coerced silently
     "string for a bool": (
         TASK_D.replace("tolerance = 1e-3", 'tolerance = 1e-3\nsoft_start = "yes"'),
-        "planner.soft_start: Input should be a valid boolean",
+        "planner.soft_start: must be a valid boolean",
     ),
     "string for an int": (
         TASK_D.replace("tolerance = 1e-3", 'tolerance = 1e-3\nbasis.harmonics = "3"'),
-        "planner.basis.harmonics: Input should be a valid integer",
+        "planner.basis.harmonics: must be a valid integer",
     ),
     "string for an energy": (
         TASK_D.replace("energy = 124.59", 'energy = "124"'),
-        "reference.energy: Input should be a valid number",
+        "reference.energy: must be a valid number",
     ),
     # non-finite and out-of-range numbers name their field
     "nan start": (
@@ -133,15 +133,15 @@ BAD = {
     ),
     "huge angle": (
         TASK_D.replace('start = [0, "pi/4", 0, 0]', "start = [0, 1e38, 0, 0]"),
-        "task.start[1]: Input should be less than or equal to 10000",
+        "task.start[1]: must be at most 10000",
     ),
     "huge time scale": (
         TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-3\ntime_scale = 1e308"),
-        "planner.time_scale: Input should be less than or equal to 1000",
+        "planner.time_scale: must be at most 1000",
     ),
     "huge leg duration": (
         TASK_D.replace("tolerance = 1e-3", "tolerance = 1e-3\nleg_duration = 1e308"),
-        "planner.leg_duration: Input should be less than or equal to 1000",
+        "planner.leg_duration: must be at most 1000",
     ),
     "infinite tolerance": (
         TASK_D.replace("tolerance = 1e-3", "tolerance = inf"),
@@ -448,16 +448,16 @@ def test_plan_in_auto_mode_chooses_and_says_why(tmp_path, newton):
 
 
 BAD_DECOMPOSE = {
-    "max_length": ("max_length = 3", "max_length = 0", "decompose.max_length: Input should be"),
+    "max_length": ("max_length = 3", "max_length = 0", "decompose.max_length: must be"),
     "strategy": (
         'strategy = "conservative"',
         'strategy = "eager"',
-        "decompose.strategy: Input should be 'conservative', 'postponed' or 'both'",
+        "decompose.strategy: must be 'conservative', 'postponed' or 'both'",
     ),
     "criterion": (
         'criterion = "energy"',
         'criterion = "cost"',
-        "decompose.criterion: Input should be",
+        "decompose.criterion: must be",
     ),
     "unknown key": (
         "max_length = 3",

@@ -304,11 +304,11 @@ def test_the_schemas_and_the_models_problems_of_constraints_come_in_one_run():
     bad = {"max_acceleration": 0, "joint_limits": {"q9": [0, 1]}, "max_rate": [1, 2, 3, 4, 5]}
     problems = _problems(_task_d(**bad))
     assert len(problems) == 3, problems
-    assert problems[0].startswith("constraints.max_acceleration: Input should be greater")
+    assert problems[0].startswith("constraints.max_acceleration: must be more than 0")
     assert problems[1].startswith("constraints.joint_limits.q9: not a coordinate")
     assert problems[2].startswith("constraints.max_rate: give one number or 3")
     (only,) = _problems(_task_d(self_collision="yes", clearance=0.05))
-    assert only.startswith("constraints.self_collision: Input should be a valid boolean")
+    assert only.startswith("constraints.self_collision: must be a valid boolean")
 
 
 @pytest.mark.parametrize(

@@ -152,7 +152,7 @@ def test_an_older_record_without_its_urdf_falls_back_on_resolved_json(record, tm
         (SCENARIO.replace('"robots/mine.urdf"', '"nope.urdf"').replace("stratum", "strata"),
          "model.path: no such URDF file"),
         (SCENARIO.replace('objective = "newton"', "objective = 3\ntolerance = -1"),
-         "planner.tolerance: Input should be greater than or equal to 1e-12 "
+         "planner.tolerance: must be at least 1e-12 "
          "(got -1); and 1 more)"),
     ],
 )  # fmt: skip

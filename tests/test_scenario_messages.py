@@ -71,13 +71,13 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
         (
             LAST_LEG,
             "",
-            "legs: Input should be a valid list: write [[legs]] (an array of tables), one per "
+            "legs: must be a valid list: write [[legs]] (an array of tables), one per "
             "leg (got {'stratum': 'S3'",
         ),
         (
             GOAL,
             'goal = { q1 = "-pi/3", q2 = "pi/3", q3 = "pi/4", q4 = "-pi/12" }',
-            "task.goal: Input should be a valid list: a configuration by name (a table) is for "
+            "task.goal: must be a valid list: a configuration by name (a table) is for "
             "URDF models only; write a list of the model's coordinates in order "
             "(q1, q2, q3, theta) (got {'q1'",
         ),
@@ -90,13 +90,13 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
         (
             LAST_LEG,
             LAST_LEG + 'method = "Newton"\n',
-            "legs[1].method: Input should be 'lie' or 'newton' (got 'Newton')",
+            "legs[1].method: must be 'lie' or 'newton' (got 'Newton')",
         ),
         (
             LAST_LEG,
             LAST_LEG + '\n[constraints]\nobstacles = { shape = "circle", centre = [2, 2], '
             "radius = 0.1 }\n",
-            "constraints.obstacles: Input should be a valid list: write a list, even of one: "
+            "constraints.obstacles: must be a valid list: write a list, even of one: "
             "obstacles = [{ shape = ... }], or one [[constraints.obstacles]] table per obstacle "
             "(got {'shape': 'circle'",
         ),
@@ -177,7 +177,7 @@ def test_a_name_table_on_a_broken_model_lists_its_states_as_written(tmp_path):
     file with the same line: the hint lists the states the model declares instead."""
     line = _problem(tmp_path, BROKEN_UNICYCLE)
     assert line.startswith(
-        "task.start: Input should be a valid list: a configuration by name (a table) is for "
+        "task.start: must be a valid list: a configuration by name (a table) is for "
         "URDF models only; write a list of the model's coordinates in order (x, y, theta) "
         "(got {'x'"
     ), line
@@ -191,9 +191,7 @@ def test_a_name_table_on_a_model_without_states_names_the_model_problem(tmp_path
         load_scenario(path)
     start = [p.message for p in info.value.problems if p.path == "task.start"]
     assert len(start) == 1 and "models FILE" not in start[0]
-    assert (
-        "coordinates in order (fix the model first: model.states: Input should be a " in (start[0])
-    )
+    assert "coordinates in order (fix the model first: model.states: must be a " in (start[0])
 
 
 def test_names_on_a_urdf_model_with_a_bad_table_leave_only_the_model_problem(tmp_path):

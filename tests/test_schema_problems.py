@@ -45,7 +45,7 @@ def test_a_value_of_several_forms_is_reported_at_its_own_path_by_the_form_it_fit
     raw = {**BASE, "constraints": {"max_rate": -1}}
     (problem,) = validation_problems(_errors(raw), root=Scenario)
     assert problem.path == "constraints.max_rate"
-    assert problem.message == "Input should be greater than 0 (got -1)"
+    assert problem.message == "must be more than 0 (got -1)"
 
 
 def test_a_table_with_an_unknown_tag_lists_the_tags_of_its_own_union():
@@ -95,7 +95,7 @@ def test_an_obstacles_keys_are_paths_of_the_file_and_list_the_keys_of_its_shape(
     box = {"shape": "box", "centre": [0, 1], "size": [1, -1], "angle": 0.1}
     raw = {**BASE, "constraints": {"obstacles": [box]}}
     found = {p.path: p.message for p in validation_problems(_errors(raw), root=Scenario)}
-    assert found["constraints.obstacles[0].size[1]"].startswith("Input should be greater than 0")
+    assert found["constraints.obstacles[0].size[1]"].startswith("must be more than 0")
     assert found["constraints.obstacles[0].angle"] == (
         "unknown key (allowed: shape, centre, size, rotation)"
     )

@@ -91,8 +91,8 @@ BAD = [
     ),
     ("[sweep.grid]\n\"legs[5].goal.q1\" = [0]\n", "the scenario has no legs[5]"),
     ("grod = 1\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.grod: unknown key (allowed: name, "),
-    ("check = \"yes\"\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.check: Input should"),
-    ("[sweep.random]\ncount = \"3\"\nranges = { \"goal.q1\" = [0, 1] }\n", "count: Input should"),
+    ("check = \"yes\"\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.check: must be"),
+    ("[sweep.random]\ncount = \"3\"\nranges = { \"goal.q1\" = [0, 1] }\n", "count: must be"),
 ]  # fmt: skip
 
 
@@ -115,7 +115,7 @@ def test_the_command_exits_2_with_one_line_per_problem(tmp_path):
     assert result.exit_code == 2 and "Traceback" not in result.output
     lines = [x for x in result.output.splitlines() if x.startswith("error:")]
     assert len(lines) == 3, result.output
-    assert lines[0].startswith(f"error: {path}: sweep.check: Input should be a valid boolean")
+    assert lines[0].startswith(f"error: {path}: sweep.check: must be a valid boolean")
     assert 'sweep.grid."goal.q9": unknown coordinate' in lines[1]
     assert 'sweep.grid."goal.q1"[0]' in lines[2]
     assert not (tmp_path / "o").exists()
@@ -165,8 +165,8 @@ STAGES = [
         '[sweep.random]\ncount = 0\n'
         'ranges = { "goal.q1" = ["-pi/zz", 0], "goal.theta" = [0, "x"] }\n',
         "automatic", AUTO,
-        ["sweep.mode: Input should be 'legs', 'auto' or 'compare' (got 'automatic')",
-         "sweep.random.count: Input should be greater than or equal to 1",
+        ["sweep.mode: must be 'legs', 'auto' or 'compare' (got 'automatic')",
+         "sweep.random.count: must be at least 1",
          'sweep.random.ranges."goal.q1"[0]: in \'-pi/zz\'',
          'sweep.random.ranges."goal.theta"[1]: in \'x\''],
     ),
@@ -174,14 +174,14 @@ STAGES = [
         'description = 5\n[[sweep.task]]\n"goal.q1" = -0.5\n"planner.seed" = 3\n'
         '[[sweep.task]]\n"goal.q1" = "abc"\n',
         "auto", AUTO,
-        ["sweep.description: Input should be a valid string (got 5)",
+        ["sweep.description: must be a valid string (got 5)",
          'sweep.task[1]."goal.q1": in \'abc\'',
          "sweep.task[1]: misses planner.seed (set by sweep.task[0])"],
     ),
     (  # a setting the schema refuses, the base scenario's own problem, a key naming nothing
         'check = "maybe"\n[sweep.grid]\n"goal.q1" = [0.1]\n"goal.q9" = [1]\n' + INLINE,
         "auto", None,
-        ["sweep.check: Input should be a valid boolean",
+        ["sweep.check: must be a valid boolean",
          "scenario.task.goal: needs 4 values (q1, q2, q3, theta), got 3",
          'sweep.grid."goal.q9": unknown coordinate \'q9\''],
     ),
@@ -220,7 +220,7 @@ REFUSED = [
     ('[sweep.grid]\n"goal.q1" = 5\n', "auto", "sweep.grid.goal.q1: "),
     ('[sweep.random]\ncount = 2\nranges = { "goal.q1" = 3 }\n', "auto", "sweep.random.ranges"),
     ('[[sweep.task]]\n"goal.q1" = 1\n', "automatic", "sweep.mode: "),
-    ('[sweep.grid]\n"goal.q1" = [0]\n', "auto", "sweep.scenario: Input should be a valid string"),
+    ('[sweep.grid]\n"goal.q1" = [0]\n', "auto", "sweep.scenario: must be a valid string"),
 ]  # fmt: skip
 
 
