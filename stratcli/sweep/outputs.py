@@ -31,7 +31,8 @@ def summarise(
         if r.get("sequence"):
             sequences[r["sequence"]] = sequences.get(r["sequence"], 0) + 1
     return {
-        "format": sweepdir.FORMAT,
+        "schema": sweepdir.FORMAT,  # the key every other document of a record has
+        "format": sweepdir.FORMAT,  # the key sweep.json had first: kept for its readers
         "name": spec["name"],
         "mode": spec["mode"],
         "kind": spec["kind"],
