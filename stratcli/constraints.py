@@ -296,33 +296,33 @@ def verified_again(plan):
     duration any more (`duration_set_by` is empty): the caller's re-timing did."""
     c = resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
     report = verify(plan, c)
-    budget = plan.settings.total_duration if plan.settings.durations == "optimise" else None
-    slow = report.ok and budget is not None and plan.duration > budget * (1.0 + 1e-9)
-    if slow:  # re-timed past its budget: the budget is a limit too (`_over_budget`)
+    over = _past_budget(plan) if report.ok else None  # re-timed past it: a limit too
+    if over is not None:
+        budget, violation = over
         violated = (
             f"the plan runs {plan.duration:.4g} s, more than planner.total_duration = {budget:g} s"
         )
-        violation = {
-            "leg": len(plan.legs), "limit": "total_duration",
-            "what": f"planner.total_duration ({budget:g} s)", "by": plan.duration - budget,
-            "t": plan.duration,
-        }  # fmt: skip
         report = replace(report, violated=violated, violation=violation)
     out = replace(plan, constraints=report)
     if not report.ok and plan.ok:  # run too fast for a rate limit, or too slow for its budget
-        advice = _too_slow(plan.duration / budget) if slow else _too_fast(out, c)
+        advice = _too_slow(plan.duration / over[0]) if over is not None else _too_fast(out, c)
         out = replace(out, message=f"{report.violated}; {advice}")
     elif out.ok and not plan.ok:  # slowed back within its limits: the violation is gone
         out = replace(out, message="")
     return out
 
 
+def _three_digits(x: float, up: bool) -> float:
+    """`x` to 3 significant digits, rounded up (or down): advice that still holds."""
+    k = 10.0 ** (2 - math.floor(math.log10(x)))
+    return (math.ceil(x * k) if up else math.floor(x * k)) / k
+
+
 def _too_slow(ratio: float) -> str:
     """The advice for a plan re-timed `ratio` times longer than its budget."""
-    k = 10.0 ** (2 - math.floor(math.log10(ratio)))  # 3 significant digits, rounded up
     return (
-        f"re-timed too slow for its budget: this plan time_scaled by {math.ceil(ratio * k) / k:g}"
-        " or more fits it"
+        f"re-timed too slow for its budget: this plan time_scaled by "
+        f"{_three_digits(ratio, up=True):g} or more fits it"
     )
 
 
@@ -330,8 +330,7 @@ def _too_fast(plan, c: Constraints) -> str:
     """The advice for a plan re-timed faster than its rate or acceleration limits allow
     (joint limits and clearances do not depend on the speed): how much slower meets them."""
     s, which = rate_limited(plan, c)
-    k = 10.0 ** (2 - math.floor(math.log10(s)))  # 3 significant digits, rounded down
-    slower = math.floor(s * k) / k
+    slower = _three_digits(s, up=False)
     return (
         f"re-timed too fast for {which}: this plan time_scaled by {slower:g} or less meets "
         "every rate and acceleration limit"
@@ -371,27 +370,35 @@ def enforce(plan, c: Constraints):
     return plan
 
 
+def _past_budget(plan) -> tuple[float, dict[str, Any]] | None:
+    """(budget, violation) when a plan of optimised durations takes longer than the budget
+    its scenario gave (`planner.total_duration`), else None: the budget is a limit too."""
+    budget = plan.settings.total_duration if plan.settings.durations == "optimise" else None
+    if budget is None or plan.duration <= budget * (1.0 + 1e-9):
+        return None
+    return budget, {
+        "leg": len(plan.legs), "limit": "total_duration",
+        "what": f"planner.total_duration ({budget:g} s)", "by": plan.duration - budget,
+        "t": plan.duration,
+    }  # fmt: skip
+
+
 def _over_budget(plan, which: str) -> tuple[str, dict[str, Any], str] | None:
     """(violated, violation, advice) when `which` (a rate or acceleration limit) slowed a plan
-    of optimised durations past the budget its scenario gave (`planner.total_duration`);
-    None otherwise. The budget is a limit too: a plan that takes longer is failed. A budget
-    of at least the slowed duration meets the limit with the basis period scaled alike: that
-    plans the same path (time scaling), slower than the limit; with the period unchanged a
-    longer budget fits more of the period's waves into each leg, another path."""
-    budget = plan.settings.total_duration if plan.settings.durations == "optimise" else None
-    needed = plan.duration
-    if budget is None or needed <= budget * (1.0 + 1e-9):
+    of optimised durations past its budget (`_past_budget`); None otherwise. A budget of at
+    least the slowed duration meets the limit with the basis period scaled alike: that plans
+    the same path (time scaling), slower than the limit; with the period unchanged a longer
+    budget fits more of the period's waves into each leg, another path."""
+    over = _past_budget(plan)
+    if over is None:
         return None
-    k = 10.0 ** (2 - math.floor(math.log10(needed)))  # 3 significant digits, rounded up
-    at_least = math.ceil(needed * k) / k
+    budget, violation = over
+    needed = plan.duration
+    at_least = _three_digits(needed, up=True)
     violated = (
         f"the plan needs {needed:.4g} s to meet {which}, more than planner.total_duration = "
         f"{budget:g} s"
     )
-    violation = {
-        "leg": len(plan.legs), "limit": "total_duration",
-        "what": f"planner.total_duration ({budget:g} s)", "by": needed - budget, "t": needed,
-    }  # fmt: skip
     factor = needed / budget if which.startswith("the rate") else (needed / budget) ** 2
     period = plan.settings.basis.period * plan.time_scale * at_least / budget  # as given
     advice = (
