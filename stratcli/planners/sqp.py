@@ -94,7 +94,7 @@ class Descent:
         after the first are small). The first step is Newton's own either way."""
         problem, previous = self.problem, np.inf
         self._accuracy(self.c_now)
-        kept = None  # (J, Cholesky factor of J H0⁻¹ Jᵀ) reused by a simplified step
+        kept = None  # (H0⁻¹ Jᵀ, Cholesky factor of J H0⁻¹ Jᵀ) reused by a simplified step
         for _ in range(RESTORATION_STEPS):
             c, J = problem._evaluate(z, self.eager and kept is None)
             violation = np.abs(c).max(initial=0.0)
@@ -107,17 +107,17 @@ class Descent:
                 simplified = False
             previous = violation
             if kept is not None:
-                J, L = kept
+                HJ, L = kept
             else:
                 if J is None:
                     J = problem._evaluate(z, True)[1]
+                HJ = 0.5 * J.T  # H0⁻¹ Jᵀ (H0 = 2 I: the energy is |z|² in the whitened z)
                 try:
-                    L = np.linalg.cholesky(J @ (0.5 * J.T))
+                    L = np.linalg.cholesky(J @ HJ)
                 except np.linalg.LinAlgError:
                     return None
                 if simplified:
-                    kept = (J, L)
-            HJ = 0.5 * J.T  # H0⁻¹ Jᵀ (H0 = 2 I: the energy is |z|² in the whitened z)
+                    kept = (HJ, L)
             z = z - HJ @ np.linalg.solve(L.T, np.linalg.solve(L, c))
             if not np.all(np.isfinite(z)):
                 return None
