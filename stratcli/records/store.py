@@ -180,34 +180,33 @@ def read_record(path: Path) -> Record:
             )
     if missing:
         raise InputError(f"{path} is not a complete run record: missing {', '.join(missing)}")
-    docs = []
-    for name, check in (("result.json", check_result), ("manifest.json", check_manifest)):
-        try:
-            doc = json.loads((path / name).read_text(encoding="utf-8"))
-            check(doc)
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(f"{path / name}: unreadable ({exc})") from None
-        except ValueError as exc:  # also json.JSONDecodeError
-            raise InputError(f"{path / name}: damaged record: {exc}") from None
-        docs.append(doc)
-    return Record(path, *docs, comparison=_comparison(path / "comparison.json"))
+    result, manifest = (
+        _document(path / name, check)
+        for name, check in (("result.json", check_result), ("manifest.json", check_manifest))
+    )
+    comparison = path / "comparison.json"  # a compare-sequences or auto-mode record's
+    found = _document(comparison, _check_comparison) if comparison.is_file() else None
+    return Record(path, result, manifest, comparison=found)
 
 
-def _comparison(file: Path) -> dict[str, Any] | None:
-    """A record's comparison.json (None when it has none), or an InputError naming it."""
-    if not file.is_file():
-        return None
+def _document(file: Path, check: Callable[[Any], None]) -> dict[str, Any]:
+    """The JSON document in `file`, `check`ed, or an InputError naming the file."""
     try:
         doc = json.loads(file.read_text(encoding="utf-8"))
+        check(doc)
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{file}: unreadable ({exc})") from None
-    except ValueError as exc:
+    except ValueError as exc:  # also json.JSONDecodeError
         raise InputError(f"{file}: damaged record: {exc}") from None
-    if not isinstance(doc, dict) or doc.get("schema") != "stratplan.comparison/1":
-        raise InputError(f"{file}: damaged record: not a stratplan.comparison/1 document")
-    if not isinstance(doc.get("choice", ""), str) or not isinstance(doc.get("rows", []), list):
-        raise InputError(f"{file}: damaged record: choice or rows of the wrong type")
     return doc
+
+
+def _check_comparison(doc: Any) -> None:
+    """Raise ValueError naming what `show` could not read in a comparison.json."""
+    if not isinstance(doc, dict) or doc.get("schema") != "stratplan.comparison/1":
+        raise ValueError("not a stratplan.comparison/1 document")
+    if not isinstance(doc.get("choice", ""), str) or not isinstance(doc.get("rows", []), list):
+        raise ValueError("choice or rows of the wrong type")
 
 
 def mcap_summary(path: Path) -> dict[str, Any] | None:
