@@ -122,8 +122,8 @@ def validation_problems(
             msg = "must be " + msg.removeprefix(PYDANTIC_VOICE)
         if kind in _BOUNDS and "ctx" in err:  # pydantic writes 1e-12 as 0.000000000001
             bound = next(iter(err["ctx"].values()))
-            shown = f"{bound:g}" if isinstance(bound, float) else str(bound)
-            msg = f"must be {_BOUNDS[kind]} {shown}"
+            limit = f"{bound:g}" if isinstance(bound, float) else str(bound)
+            msg = f"must be {_BOUNDS[kind]} {limit}"
         if kind == "missing":
             msg = "required field is missing"
         if kind in ("union_tag_not_found", "union_tag_invalid"):  # a table without a valid tag
