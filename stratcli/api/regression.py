@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -49,16 +49,7 @@ class RegressReport:
                 "updated": self.updated,
                 "scenarios": self.scenarios,
                 "regressions": self.regressions,
-                "differences": [
-                    {
-                        "scenario": d.scenario,
-                        "quantity": d.quantity,
-                        "baseline": d.baseline,
-                        "now": d.now,
-                        "regression": d.regression,
-                    }
-                    for d in self.differences
-                ],
+                "differences": [asdict(d) for d in self.differences],
                 "results": {
                     name: {**summary, "seconds": self.seconds.get(name)}
                     for name, summary in self.results.items()

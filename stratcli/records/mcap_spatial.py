@@ -45,7 +45,7 @@ def spatial_transforms(plan, q: np.ndarray, ns: int) -> dict[str, Any] | None:
         elif parent != "world":
             parent = "world"
         frames.append((parent, name, p, R))
-    # every link's quaternion in one call (one call per link was half of the log's time)
+    # every link's quaternion in one call (a call per link: a quarter of /tf's time)
     quaternions = so3.quaternion_from_matrix(np.array([R for *_, R in frames])).tolist()
     out = [
         {
