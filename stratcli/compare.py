@@ -301,7 +301,8 @@ def _bounded(k, cand, bound) -> Outcome:
     message = (
         f"not searched: its energy is at least {_show(bound, 'energy')} (the sum of its legs' "
         "minima, each leg planned alone without the conditions that tie it to its "
-        "neighbours), which cannot beat the best sequence"
+        "neighbours or bounded below by its stratum's curvature), which cannot beat the best "
+        "sequence"
     )
     return Outcome(k, cand, None, "bounded", reason, message, duration=duration, screened=True)
 

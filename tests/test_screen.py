@@ -139,17 +139,25 @@ max_length = 2
 """
 
 
-@pytest.mark.slow  # a two-arm comparison and one hopeless sequence planned in full: ~20 s
-def test_a_sequence_with_a_leg_that_has_no_plan_alone_fails_unsearched():
+@pytest.mark.slow  # two two-arm comparisons and one hopeless sequence planned in full: ~25 s
+def test_a_sequence_with_a_leg_that_has_no_plan_alone_fails_unsearched(monkeypatch):
     """A new user's two-arm task took 79 s: an S13 leg with no plan even free at both ends was
     bounded again under its own conditions and three of its sequences searched, each failing
     after seconds. Such sequences now fail unsearched, naming the leg; planned in full (as
-    --exhaustive does) one of them fails too, and the choice is the same."""
+    --exhaustive does) one of them fails too, and the choice is the same. With the legs'
+    floors (`leg_floors`) they are not even reached: bounded, the same choice."""
+    import stratcli.screen
     from stratcli.objectives import plan_sequence
 
     task = load_scenario(HOPELESS_LEG)
+    floored = api.compare_sequences(task, jobs=2).document
+    assert floored["screen"]["legs_floored"] > 0 and floored["screen"]["failed_unsearched"] == 0
+    assert floored["rows"][0]["sequence"] == ["S2"] and floored["rows"][0]["status"] == "ok"
+    # without floors (as for a model that has none) the legs are searched alone
+    monkeypatch.setattr(stratcli.screen, "leg_floor", lambda *args: 0.0)
     outcome = api.compare_sequences(task, jobs=2)
     doc = outcome.document
+    assert doc["rows"][0]["energy"] == floored["rows"][0]["energy"]
     sunk = [r for r in doc["rows"] if "has no plan even alone" in (r["reason"] or "")]
     assert sunk and doc["screen"]["failed_unsearched"] == len(sunk)
     assert all(r["status"] == "failed" and r["energy"] is None for r in sunk)

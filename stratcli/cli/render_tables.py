@@ -92,7 +92,8 @@ def ranking(task, doc: dict) -> None:
         say(
             f"{counted(bounded, 'sequence')} bounded, not searched: the sum of their legs' minimum "
             "energies (each leg planned alone, without the conditions that tie it to its "
-            "neighbours) is at least the best's (--exhaustive searches every one)"
+            "neighbours, or bounded below by its stratum's curvature) is at least the best's "
+            "(--exhaustive searches every one)"
         )
     if scaled:
         say(

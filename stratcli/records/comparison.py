@@ -74,8 +74,12 @@ def _screen(comparison: Comparison) -> dict[str, Any] | None:
     if screen is None:
         return None
     return {
-        "method": "branch and bound on the sum of the legs' minima, each leg planned alone",
+        "method": (
+            "branch and bound on the sum of the legs' minima, each leg planned alone or "
+            "bounded below by its stratum's curvature"
+        ),
         "legs_bounded": screen.legs,
+        "legs_floored": screen.floored,  # distinct legs with a positive floor (no search)
         "searched": len(screen.searched),
         "bounded": sum(o is not None and o.status == "bounded" for o in comparison.outcomes),
         # failed unsearched: a leg of theirs has no plan even alone, free at both ends

@@ -1,0 +1,164 @@
+"""Certified lower bounds on a leg's energy from its stratum's geometry alone (the screen's
+*floors*: no search, a few milliseconds a leg).
+
+A leg of duration T moves the joints its inputs drive (the stratum's constant rows,
+`q̇_E = C u`) and the base (the rows that depend on the joints, `θ̇ = A(q_E) u`). With
+`w(t) = ∫_0^t u` its energy `E = ∫|u|²` is bounded twice:
+
+- *joints*: `C w(T) = Δq_E` and `|w(T)|² ≤ T E` (Cauchy-Schwarz), so `E ≥ |C⁺ Δq_E|² / T`;
+- *base, two inputs*: close the path `w` by the straight segment back to its start. By
+  Stokes, `Δθ - θ_segment = ∬ F ν dA` (F = ∂A_2/∂w_1 - ∂A_1/∂w_2, the curvature of the
+  connection on the stratum; ν the winding number), and by the Banchoff-Pohl inequality
+  `∬ ν² dA ≤ ℓ²/4π` for a closed curve of length ℓ = ∫|u| + |w(T)| ≤ √(T E) + |w(T)|. So
+  `√(T E) ≥ √(4π |Δθ - θ_segment| / max|F|) - |w(T)|`.
+
+The second is what makes a leg that must turn the base through a small curvature dear: Sim
+4's S2 legs, whose searched minima are 407-557, get floors of 86-119 (the best sequence costs
+64.80), so the screen prunes every sequence with one of them without searching the leg. Unlike
+the searched minima (a multi-start local search may miss a leg's global minimum), a floor
+holds for every plan of the leg: `max|F|` is taken over the whole torus of the two driven
+joints (a grid, with a margin of its spacing times the largest gradient there), which needs
+the connection to be 2π-periodic in them (checked; otherwise only the joints' bound). Legs
+of other strata (one input, three or more, an attitude on SO(3)) get the joints' bound, or 0.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+
+import numpy as np
+
+__all__ = ["leg_floor"]
+
+GRID = 64  # points per driven joint on the torus where |F| is maximised
+NODES = 48  # Gauss-Legendre nodes of the straight segment's integral
+PERIOD_TOL = 1e-9  # relative: the connection repeats after 2π in a driven joint
+SAFETY = 1.0 - 1e-6  # a floor is lowered by this factor (rounding)
+
+
+def leg_floor(system, stratum: str, start, goal, duration: float, peaks=None) -> float:
+    """A lower bound on `∫|u|²` over every plan of the leg from `start` to `goal` (NaN:
+    free) on `stratum` in `duration` seconds (the module docstring); 0 where none is known.
+
+    `peaks`: a dict that keeps each max|F| found, for the legs of a comparison that share a
+    stratum and the joints it does not drive."""
+    try:
+        cs = system.compiled(stratum)
+    except Exception:  # not a quadrature model (URDF): no floor
+        return 0.0
+    terms = getattr(cs, "quadrature_terms", None)
+    if terms is None or not duration > 0:
+        return 0.0
+    start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
+    if not np.isfinite(start).all():
+        return 0.0
+    explicit = np.array(cs.explicit, dtype=int)
+    known = np.isfinite(goal[explicit])
+    C = cs.C_explicit
+    w, *_ = np.linalg.lstsq(C[known], (goal - start)[explicit][known], rcond=None)
+    if not np.allclose(C[known] @ w, (goal - start)[explicit][known], atol=1e-9):
+        return 0.0  # the joints cannot get there: the search says why
+    floor = float(w @ w) / duration
+    if C.shape[1] == 2 and known.all():
+        floor = max(floor, _base_floor(cs, start, goal, w, duration, peaks))
+    return SAFETY * floor
+
+
+def _base_floor(cs, start: np.ndarray, goal: np.ndarray, w: np.ndarray, T: float, peaks) -> float:
+    """The Stokes / Banchoff-Pohl bound of the module docstring, over the base rows."""
+    along = [cs.explicit[r] for r in cs.derivatives_along]
+    C = cs.C_explicit[list(cs.derivatives_along)]  # driven joints x 2 inputs
+    driven = _driven(C, along)
+    if driven is None:
+        return 0.0
+    best = 0.0
+    for row, i in enumerate(cs.quadrature):
+        if not np.isfinite(goal[i]):
+            continue
+        residual = abs(goal[i] - start[i] - _segment(cs, start, w, row))
+        if not residual > 0:
+            continue
+        fixed = np.delete(start, [j for j, _ in driven]).tobytes()
+        key = (cs.stratum.name, row, fixed)
+        peak = peaks.get(key) if peaks is not None else None
+        if peak is None:
+            peak = _peak_curvature(cs, start, driven, row)
+            if peaks is not None:
+                peaks[key] = peak
+        if not peak > 0:
+            continue
+        length = math.sqrt(4.0 * math.pi * residual / peak) - float(np.linalg.norm(w))
+        best = max(best, max(length, 0.0) ** 2 / T)
+    return best
+
+
+def _driven(C: np.ndarray, along: list[int]) -> tuple[tuple[int, float], ...] | None:
+    """Per input, (the joint it drives, the sign) when each drives one joint at unit rate
+    (the connection is then periodic in the inputs' integrals), else None."""
+    out = []
+    for a in range(C.shape[1]):
+        rows = np.flatnonzero(C[:, a])
+        if len(rows) != 1 or abs(abs(C[rows[0], a]) - 1.0) > 1e-12:
+            return None
+        out.append((along[rows[0]], float(np.sign(C[rows[0], a]))))
+    if out[0][0] == out[1][0]:
+        return None
+    return tuple(out)
+
+
+def _segment(cs, start: np.ndarray, w: np.ndarray, row: int) -> float:
+    """`∫ A·dw` along the straight segment from `start` to the leg's joint goal."""
+    s, weights = _nodes()
+    q = np.repeat(start[None, :], NODES, axis=0)
+    q[:, list(cs.explicit)] += s[:, None] * (cs.C_explicit @ w)[None, :]
+    (A,) = cs.quadrature_terms(q, 0)
+    return float(weights @ (A[:, row, :] @ w))
+
+
+@cache
+def _nodes() -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on [0, 1]."""
+    s, weights = np.polynomial.legendre.leggauss(NODES)
+    return 0.5 * (s + 1.0), 0.5 * weights
+
+
+def _peak_curvature(cs, start: np.ndarray, driven, row: int) -> float:
+    """max |F| over the torus of the two driven joints (the others where `start` has them),
+    with a margin of half the grid's diagonal times the largest |∇F| on it; NaN when the
+    connection is not 2π-periodic in a driven joint."""
+    (j0, s0), (j1, s1) = driven
+    e0 = cs.derivatives_along.index(list(cs.explicit).index(j0))
+    e1 = cs.derivatives_along.index(list(cs.explicit).index(j1))
+    h = 2.0 * math.pi / GRID
+    g0, g1 = np.meshgrid(np.arange(GRID) * h, np.arange(GRID) * h, indexing="ij")
+    q = np.repeat(start[None, :], GRID * GRID, axis=0)
+    q[:, j0] += g0.ravel()
+    q[:, j1] += g1.ravel()
+    A, dA, ddA = cs.quadrature_terms(q, 2)
+    if not _periodic(cs, q[:: GRID + 1][:8], A[:: GRID + 1][:8], (j0, j1)):
+        return math.nan
+    # along the inputs' integrals: ∂/∂w_a = s_a ∂/∂q_{j_a}
+    F = s0 * dA[:, row, 1, e0] - s1 * dA[:, row, 0, e1]
+    grad = np.stack(
+        [
+            s0 * (s0 * ddA[:, row, 1, e0, e0] - s1 * ddA[:, row, 0, e1, e0]),
+            s1 * (s0 * ddA[:, row, 1, e0, e1] - s1 * ddA[:, row, 0, e1, e1]),
+        ],
+        axis=-1,
+    )
+    if not (np.isfinite(F).all() and np.isfinite(grad).all()):
+        return math.nan
+    return float(np.abs(F).max() + h / math.sqrt(2.0) * np.linalg.norm(grad, axis=-1).max())
+
+
+def _periodic(cs, q: np.ndarray, A: np.ndarray, joints) -> bool:
+    """The connection at `q` (values `A`) repeats after 2π in each driven joint."""
+    scale = max(1.0, float(np.abs(A).max()))
+    for j in joints:
+        shifted = q.copy()
+        shifted[:, j] += 2.0 * math.pi
+        (B,) = cs.quadrature_terms(shifted, 0)
+        if not np.allclose(A, B, rtol=0.0, atol=PERIOD_TOL * scale):
+            return False
+    return True
