@@ -23,7 +23,7 @@ from .models.geometry import world_geometry
 if TYPE_CHECKING:
     from .constraints import Constraints
 
-__all__ = ["check_configuration", "clearances", "closest_pair"]
+__all__ = ["check_configuration", "clearances", "closest_pair", "self_pairs"]
 
 
 def _obstacle_names(c: Constraints) -> tuple[list[str], list[str]]:
@@ -48,28 +48,46 @@ def _signed(d: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pair_distances(robot, q: np.ndarray, c: Constraints) -> tuple[list, list]:
-    """Surface distances per sample of each pair of non-adjacent bodies and of each body and
-    obstacle, named: two lists of (name, distances); negative where they overlap, by how deep."""
-    geo = world_geometry(robot, q)
+def self_pairs(geo: dict[str, np.ndarray], c: Constraints) -> list[tuple[int, int, np.ndarray]]:
+    """Surface distances per sample of each pair of non-adjacent bodies of `world_geometry`
+    `geo`, as (i, j, distances): links by index from 0, the base as -1 (`j` only); negative
+    where they overlap, by how deep. Empty without `self_collision`."""
+    if not c.self_collision:
+        return []
     a, b = geo["proximal"], geo["distal"]  # (N, k, 2)
     corners = geo["base_corners"]  # (N, 4, 2)
     arm = geo["arm_of_link"]
     r = c.link_radius
     k = a.shape[1]
     link = [np.stack((a[:, i], b[:, i]), axis=-2) for i in range(k)]  # (N, 2, 2) cores
-    own, world = [], []
-    if c.self_collision:
-        first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
-        for i in range(k):
-            if i not in first:  # a first link is mounted on the base: not checked against it
-                d = _signed(segment_polygon_distance(a[:, i], b[:, i], corners), link[i], corners)
-                own.append((f"link {i + 1} and the base", d - r))
-            for j in range(i + 1, k):
-                if arm[j] == arm[i] and j == i + 1:
-                    continue  # neighbours share a joint
-                d = segment_segment_distance(a[:, i], b[:, i], a[:, j], b[:, j])
-                own.append((f"links {i + 1} and {j + 1}", _signed(d, link[i], link[j]) - 2 * r))
+    first = [j for j in range(k) if j == 0 or arm[j] != arm[j - 1]]
+    out = []
+    for i in range(k):
+        if i not in first:  # a first link is mounted on the base: not checked against it
+            d = _signed(segment_polygon_distance(a[:, i], b[:, i], corners), link[i], corners)
+            out.append((i, -1, d - r))
+        for j in range(i + 1, k):
+            if arm[j] == arm[i] and j == i + 1:
+                continue  # neighbours share a joint
+            d = segment_segment_distance(a[:, i], b[:, i], a[:, j], b[:, j])
+            out.append((i, j, _signed(d, link[i], link[j]) - 2 * r))
+    return out
+
+
+def _pair_distances(robot, q: np.ndarray, c: Constraints) -> tuple[list, list]:
+    """Surface distances per sample of each pair of non-adjacent bodies and of each body and
+    obstacle, named: two lists of (name, distances); negative where they overlap, by how deep."""
+    geo = world_geometry(robot, q)
+    a, b = geo["proximal"], geo["distal"]  # (N, k, 2)
+    corners = geo["base_corners"]  # (N, 4, 2)
+    r = c.link_radius
+    k = a.shape[1]
+    link = [np.stack((a[:, i], b[:, i]), axis=-2) for i in range(k)]  # (N, 2, 2) cores
+    own = [
+        (f"link {i + 1} and the base" if j < 0 else f"links {i + 1} and {j + 1}", d)
+        for i, j, d in self_pairs(geo, c)
+    ]
+    world = []
     circle_names, box_names = _obstacle_names(c)
     for (centre, radius), name in zip(c.circles, circle_names, strict=True):
         point = np.broadcast_to(centre, (len(q), 2))
