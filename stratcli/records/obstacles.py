@@ -65,11 +65,14 @@ def closest_approach(plan: SequencePlan, q: np.ndarray) -> tuple[int, np.ndarray
     """Among configurations `q` (N, n) of a leg: the sample closest to an obstacle, the point
     of the robot nearest it there (on a link's core or the base's outline; 101 points along
     each) and that margin (surface distance less the clearance, as result.json's); None
-    without obstacles."""
+    without obstacles or a finite configuration."""
     if not has_obstacles(plan) or not len(q):
         return None
     c = resolved_constraints(plan)
     _, world = clearances(plan.system.robot, q, c)
+    world = np.where(np.isnan(world), np.inf, world)  # a failed leg's diverged samples
+    if not (world < np.inf).any():
+        return None
     k = int(np.argmin(world))
     geo = world_geometry(plan.system.robot, q[k : k + 1])
     corners = geo["base_corners"][0]

@@ -3,7 +3,7 @@
 `stroboscope_figure` draws the robot at regular instants of each leg, fading from light to
 dark, one panel per leg (as the paper's Fig. 7; at most `MAX_PANELS` evenly spaced legs), and
 `motion_gif` animates the same motion, returned as GIF bytes. Both draw poses in the inertial
-frame with `_draw_poses` (base, links and joints as batched collections) from
+frame with `poses.draw_poses` (base, links and joints as batched collections) from
 `trajectory.world_geometry`. `render_plots` in `plots` puts them in a run record.
 
 Positions are in metres: a robot (a preset, the paper's robots, or a `planar-manipulator`
@@ -17,13 +17,12 @@ import io
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection, PolyCollection
-from matplotlib.colors import to_rgb, to_rgba
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Patch
 from matplotlib.ticker import MaxNLocator
 
 from ..sequence import SequencePlan
+from .closest_marks import legend_handles, mark_closest
 from .figure_common import (
     DPI,
     FAILED_COLOR,
@@ -33,13 +32,8 @@ from .figure_common import (
     locked_names,
     stamp_failed,
 )
-from .obstacles import (
-    OBSTACLE_STYLE,
-    closest_approach,
-    draw_obstacles,
-    has_obstacles,
-    obstacle_points,
-)
+from .obstacles import draw_obstacles, obstacle_points
+from .poses import draw_poses, segments
 from .trajectory import Trajectory, world_geometry
 
 __all__ = ["DPI", "frame_schedule", "locked_names", "motion_gif", "stroboscope_figure"]
@@ -48,6 +42,7 @@ ARM_DARK = np.array([0.05, 0.16, 0.40])  # the last snapshot of a leg
 ARM_LIGHT = np.array([0.72, 0.80, 0.92])  # the first one
 BASE_FACE = "#9aa5b1"
 MAX_PANELS = 12  # stroboscope panels
+LEGEND_ENTRY_IN = 1.5  # inches a legend entry takes at most: more wrap to a second row
 
 
 def _limits(
@@ -69,64 +64,11 @@ def _limits(
     return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
 
 
-def _segments(geo: dict[str, np.ndarray], idx: np.ndarray) -> np.ndarray:
-    """Link segments of the samples idx, shape (len(idx) * k, 2, 2)."""
-    seg = np.stack((geo["proximal"][idx], geo["distal"][idx]), axis=-2)
-    return seg.reshape(-1, 2, 2)
-
-
 def _tips(geo: dict[str, np.ndarray]) -> np.ndarray:
     """End-effector position of each arm, (N, n_arms, 2)."""
     arm = geo["arm_of_link"]
     last = [int(np.flatnonzero(arm == a)[-1]) for a in range(int(arm.max()) + 1)]
     return geo["distal"][:, last]
-
-
-def _draw_poses(
-    ax,
-    geo: dict[str, np.ndarray],
-    idx: np.ndarray,
-    colors: list,
-    lw: float,
-    zorder: float,
-    linestyle: str = "-",
-    face: str | None = None,
-    face_alpha: float = 0.5,
-    edge_alpha: float = 1.0,
-) -> None:
-    """Draw the poses of samples `idx` (one colour each) as three batched collections."""
-    idx = np.atleast_1d(idx)
-    k = geo["proximal"].shape[1]
-    faces = "none" if face is None else [(*to_rgb(face), face_alpha)] * idx.size
-    ax.add_collection(
-        PolyCollection(
-            geo["base_corners"][idx],
-            facecolors=faces,
-            edgecolors=[(*to_rgb(c), edge_alpha) for c in colors],
-            linewidths=lw * 0.6,
-            linestyles=linestyle,
-            zorder=zorder,
-        )
-    )
-    ax.add_collection(
-        LineCollection(
-            _segments(geo, idx),
-            colors=np.repeat(np.asarray([to_rgba(c) for c in colors]), k, axis=0),
-            linewidths=lw,
-            linestyles=linestyle,
-            zorder=zorder + 0.1,
-            capstyle="round",
-        )
-    )
-    joints = geo["proximal"][idx].reshape(-1, 2)
-    ax.scatter(
-        joints[:, 0],
-        joints[:, 1],
-        s=(lw + 1.2) ** 2,
-        c=np.repeat(np.asarray([to_rgba(c) for c in colors]), k, axis=0),
-        zorder=zorder + 0.2,
-        linewidths=0,
-    )
 
 
 def stroboscope_figure(
@@ -149,9 +91,19 @@ def stroboscope_figure(
     span = max(xlim[1] - xlim[0], 1e-9) / max(ylim[1] - ylim[0], 1e-9)
     panel_w = min(4.0, 11.0 / cols) if span < 1.6 else min(5.5, 11.0 / cols)
     panel_h = float(np.clip(panel_w / span, 2.0, 4.5))
+    handles = [
+        Line2D([], [], color="0.3", lw=1.7, ls="--", marker="o", ms=3, label="start of leg"),
+        Line2D([], [], color=tuple(ARM_DARK), lw=2.4, marker="o", ms=4, label="end of leg"),
+        Line2D([], [], color="#d35400", lw=1.2, ls=":", label="end-effector path"),
+        Line2D([], [], color="k", marker="+", ls="none", label="system CM (fixed)"),
+    ]
+    handles += legend_handles(plan)
     margins = {"left": 0.7, "right": 0.2, "top": 0.85, "bottom": 0.85}  # in; titles, legend
     gaps = {"hspace": 0.75, "wspace": 0.2}  # in; the next row's panel titles, shared y
     width = panel_w * cols + margins["left"] + margins["right"] + gaps["wspace"] * (cols - 1)
+    per_row = int(max(width, 7.5) // LEGEND_ENTRY_IN)
+    legend_rows = -(-len(handles) // per_row)
+    margins["bottom"] += 0.2 * (legend_rows - 1)
     height = panel_h * rows + margins["top"] + margins["bottom"] + gaps["hspace"] * (rows - 1)
     fig = Figure(figsize=(max(width, 7.5), height), dpi=DPI)
     axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
@@ -168,14 +120,14 @@ def stroboscope_figure(
         idx = np.unique(np.linspace(s.start, s.stop - 1, snapshots).round().astype(int))
         w = np.linspace(0.0, 1.0, len(idx))[1:-1]
         fading = [tuple((1 - x) * ARM_LIGHT + x * ARM_DARK) for x in w]
-        _draw_poses(ax, geo, idx[1:-1], fading, lw=1.2, zorder=2, edge_alpha=0.55)
-        _draw_poses(ax, geo, idx[:1], ["0.3"], lw=1.7, zorder=4, linestyle="--")
-        _draw_poses(ax, geo, idx[-1:], [tuple(ARM_DARK)], lw=2.4, zorder=5, face=BASE_FACE)
+        draw_poses(ax, geo, idx[1:-1], fading, lw=1.2, zorder=2, edge_alpha=0.55)
+        draw_poses(ax, geo, idx[:1], ["0.3"], lw=1.7, zorder=4, linestyle="--")
+        draw_poses(ax, geo, idx[-1:], [tuple(ARM_DARK)], lw=2.4, zorder=5, face=BASE_FACE)
         for a in range(tips.shape[1]):
             ax.plot(tips[s, a, 0], tips[s, a, 1], ":", color="#d35400", lw=1.2, zorder=6)
         ax.plot(0, 0, "+", color="k", markersize=7, zorder=7)
         draw_obstacles(ax, plan)
-        _mark_closest(ax, plan, traj, geo, k)
+        mark_closest(ax, plan, traj, geo, k)
         ax.set_xlim(*xlim)
         ax.set_ylim(*ylim)
         ax.set_aspect("equal")
@@ -194,23 +146,11 @@ def stroboscope_figure(
             ax.set_ylabel("y [m]", fontsize=9)
         if panel // cols == rows - 1 or panel + cols >= legs:
             ax.set_xlabel("x [m]", fontsize=9)
-    handles = [
-        Line2D([], [], color="0.3", lw=1.7, ls="--", marker="o", ms=3, label="start of leg"),
-        Line2D([], [], color=tuple(ARM_DARK), lw=2.4, marker="o", ms=4, label="end of leg"),
-        Line2D([], [], color="#d35400", lw=1.2, ls=":", label="end-effector path"),
-        Line2D([], [], color="k", marker="+", ls="none", label="system CM (fixed)"),
-    ]
-    if has_obstacles(plan):
-        handles.append(Patch(label="obstacle", **OBSTACLE_STYLE))
-        handles.append(
-            Line2D([], [], color=FAILED_COLOR, lw=1.0, ls="-.", marker="x", ms=6, mew=2,
-                   label="closest approach")
-        )  # fmt: skip
     fig.legend(
         handles=handles,
         loc="lower center",
         bbox_to_anchor=(0.5, 0.0),
-        ncols=len(handles),
+        ncols=-(-len(handles) // legend_rows),
         fontsize=8,
         frameon=False,
         handlelength=3.2,
@@ -227,26 +167,6 @@ def stroboscope_figure(
     )
     stamp_failed(fig, plan)
     return fig
-
-
-def _mark_closest(ax, plan: SequencePlan, traj: Trajectory, geo: dict, leg: int) -> None:
-    """The pose of a leg's closest approach to an obstacle among the drawn samples, the
-    robot's point nearest it (×), and the leg's margin as result.json has it (from the
-    denser samples of the verification: at most that close between the drawn ones)."""
-    s = traj.leg_slice(leg)
-    near = closest_approach(plan, traj.q[s])
-    if near is None:
-        return
-    k, point, margin = near
-    report = plan.constraints.legs[leg] if leg < len(plan.constraints.legs) else None
-    if report is not None and report.obstacle_clearance is not None:
-        margin = min(margin, report.obstacle_clearance)
-    _draw_poses(ax, geo, np.array([s.start + k]), [FAILED_COLOR], lw=1.0, zorder=3, linestyle="-.")
-    ax.plot(*point, "x", color=FAILED_COLOR, ms=9, mew=2.2, zorder=8)
-    ax.text(
-        0.02, 0.02, f"closest approach: margin {margin:.3g}, near t = {traj.t[s.start + k]:.4g} s",
-        transform=ax.transAxes, fontsize=7.5, color=FAILED_COLOR, va="bottom", zorder=9,
-    )  # fmt: skip
 
 
 SPEEDS = (1, 2, 4, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000)  # of a GIF too long for real time
@@ -321,8 +241,8 @@ def motion_gif(
     ax.set_ylabel("y [m]", fontsize=9, labelpad=1)
     ax.grid(True, color="0.9", linewidth=0.5)
     draw_obstacles(ax, plan)
-    _draw_poses(ax, geo, np.array([0]), ["0.7"], lw=1.3, zorder=1, linestyle="--")
-    _draw_poses(ax, geo, np.array([traj.size - 1]), ["#7fb3d5"], lw=1.3, zorder=1, linestyle=":")
+    draw_poses(ax, geo, np.array([0]), ["0.7"], lw=1.3, zorder=1, linestyle="--")
+    draw_poses(ax, geo, np.array([traj.size - 1]), ["#7fb3d5"], lw=1.3, zorder=1, linestyle=":")
     (centre,) = ax.plot(0, 0, "+", color="k", markersize=7, zorder=7)
     tips = _tips(geo)
     trails = [
@@ -334,7 +254,7 @@ def motion_gif(
     )
     ax.add_collection(base)
     links = LineCollection(
-        _segments(geo, np.array([0])), colors=tuple(ARM_DARK), linewidths=2.8, zorder=4
+        segments(geo, np.array([0])), colors=tuple(ARM_DARK), linewidths=2.8, zorder=4
     )
     ax.add_collection(links)
     (joints,) = ax.plot([], [], "o", color=tuple(ARM_DARK), markersize=4.5, zorder=5)
@@ -378,7 +298,7 @@ def motion_gif(
     images = []
     for t, i in zip(times, index, strict=True):
         base.set_verts([geo["base_corners"][i]])
-        links.set_segments(_segments(geo, np.array([i])))
+        links.set_segments(segments(geo, np.array([i])))
         joints.set_data(geo["proximal"][i, :, 0], geo["proximal"][i, :, 1])
         for a, line in enumerate(trails):
             line.set_data(tips[: i + 1, a, 0], tips[: i + 1, a, 1])
