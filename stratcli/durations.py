@@ -7,6 +7,12 @@ slower costs 1/s of the energy), so the problem is posed with a budget: the dura
 for each choice the energy objective plans the whole sequence (its starts, its continuity at
 every switch), and Nelder–Mead minimises the resulting energy over y. The search starts from
 equal durations, whose energy the note reports beside the optimum's.
+
+Under a `[constraints]` table the durations are chosen without the limits (each of the
+tens of plans searched within them would cost as much as a whole constrained plan), then the
+plan at the chosen durations is searched within them (`within_limits.within_limits`), as
+at fixed durations; where that search stalls, the equal durations are searched within them
+too and the better plan inside is kept.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ from dataclasses import replace
 import numpy as np
 
 from .models.system import System
+from .node_margins import searchable
 from .objectives import plan_sequence
 from .sequence import SequencePlan
 from .settings import MIN_DURATION, PlannerSettings
@@ -43,6 +50,7 @@ def optimise_durations(
     settings: PlannerSettings,
     total: float,
     progress: Callable[[str], None] | None = None,
+    constraints=None,
 ) -> SequencePlan:
     """The minimum-energy plan over the legs' controls and their durations, which sum to
     `total` (s).
@@ -56,6 +64,9 @@ def optimise_durations(
         The time budget, s.
     progress : callable, optional
         Told each evaluation as it begins.
+    constraints : constraints.Constraints, optional
+        The resolved [constraints] table: the plan at the chosen durations is then searched
+        within its limits (the module docstring).
 
     Returns
     -------
@@ -67,6 +78,7 @@ def optimise_durations(
 
     settings = replace(settings, objective="energy")
     plans: dict[tuple[float, ...], SequencePlan] = {}
+    specs: dict[tuple[float, ...], list[LegSpec]] = {}  # each plan's legs, as timed
     say = progress or (lambda phase: None)
 
     def planned(y: np.ndarray) -> SequencePlan | None:
@@ -80,6 +92,7 @@ def optimise_durations(
                 replace(leg, duration=float(d)) for leg, d in zip(legs, durations, strict=True)
             ]
             plans[key] = plan_sequence(system, start, timed, settings)
+            specs[key] = timed
         return plans[key]
 
     def energy(y: np.ndarray) -> float:
@@ -89,7 +102,7 @@ def optimise_durations(
     k = len(legs)
     equal = planned(np.zeros(k - 1))
     if k == 1:
-        return equal
+        return _inside(system, start, specs, [equal], settings, constraints, progress)
     scale = equal.total_energy if equal.ok else 1.0
     minimize(
         energy,
@@ -105,16 +118,46 @@ def optimise_durations(
     ok = [p for p in plans.values() if p.ok]
     if not ok:
         return equal
-    best = min(ok, key=lambda p: p.total_energy)
-    chosen = ", ".join(f"{leg.duration:.4g}" for leg in best.legs)
+    optimum = min(ok, key=lambda p: p.total_energy)
+    free = optimum.total_energy
+    best = _inside(system, start, specs, [optimum, equal], settings, constraints, progress)
+    chosen = ", ".join(f"{leg.duration:.4g}" for leg in optimum.legs)
     reference = (
         f"{equal.total_energy:.6g} at equal durations ({total / k:.4g} s each), "
-        f"{100 * (1 - best.total_energy / equal.total_energy):.1f} % less"
+        f"{100 * (1 - free / equal.total_energy):.1f} % less"
         if equal.ok
         else "equal durations could not be planned"
     )
     note = (
         f"durations optimised within the {total:g} s budget over {len(plans)} plans of the "
-        f"sequence: {chosen} s; energy {best.total_energy:.6g} against {reference}"
+        f"sequence: {chosen} s; energy {free:.6g} against {reference}"
     )
+    if best is not optimum and not best.message:  # searched within the [constraints] limits
+        kept = ", ".join(f"{leg.duration:.4g}" for leg in best.legs)
+        note += (
+            f"; chosen without the limits, then searched within them at those durations and "
+            f"at equal ones: kept {kept} s, energy {best.total_energy:.6g} inside the limits"
+        )
     return replace(best, notes=(*best.notes, note))
+
+
+def _inside(system, start, specs, choices, settings, constraints, progress) -> SequencePlan:
+    """The lowest-energy plan that the constrained search gets inside the limits of
+    `constraints` from each of `choices` (plans of `specs`' durations: the chosen ones, the
+    equal ones), else the first as searched (`within_limits`: with the message naming where
+    it stalled); the first unchanged without limits to search (`node_margins.searchable`)."""
+    from .within_limits import within_limits
+
+    first = choices[0]
+    if not searchable(constraints) or not first.ok:
+        return first
+    searched, inside = [], []
+    for plan in dict.fromkeys(choices):  # the equal durations may be the chosen ones
+        if not plan.ok:
+            continue
+        key = tuple(np.round([leg.duration for leg in plan.legs], 12))
+        found = within_limits(system, start, specs[key], settings, plan, constraints, progress)
+        searched.append(found)
+        if found.ok and not found.message:
+            inside.append(found)
+    return min(inside, key=lambda p: p.total_energy) if inside else searched[0]

@@ -43,18 +43,17 @@ URDF_ADVICE = (
 
 
 DURATIONS_ADVICE = (
-    'reached its goals but violates a limit of [constraints]; durations = "optimise" does not '
-    'search within the limits: set durations = "fixed" (the default) to have the search keep '
-    "them, or try via configurations that keep the robot away from the limit or another "
-    "stratum sequence"
+    "reached its goals but violates a limit of [constraints]; the search within the limits "
+    "stalled at the optimised durations and at equal ones: try via configurations that keep "
+    "the robot away from the limit, another stratum sequence, or more harmonics (the budget "
+    "does not move the path: time scaling keeps it)"
 )
 
 
 def violation_advice(plan, violated: str) -> str:
     """What to try after `violated` (a `constraints.verify` violation): for optimised
-    durations the fixed ones that the search keeps within the limits (the other objective is
-    refused with them), for a URDF's limits the status' advice and wider limits in the
-    table, else the status' own advice."""
+    durations the status' advice without the other objective (refused with them), for a
+    URDF's limits the status' advice and wider limits in the table, else the status' own advice."""
     if plan.settings.durations == "optimise":
         return DURATIONS_ADVICE
     if URDF_LIMIT in violated:

@@ -18,7 +18,6 @@ from ..constraints import enforce
 from ..decomposition import STRATEGIES
 from ..durations import optimise_durations
 from ..errors import IllConditionedWarning, InputError
-from ..node_margins import searchable
 from ..objectives import plan_sequence
 from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
@@ -175,14 +174,9 @@ def plan_run(
         if task.settings.durations == "optimise":
             total = task.settings.total_duration or sum(leg.duration for leg in task.legs)
             result = optimise_durations(
-                task.system, task.start, task.legs, task.settings, total, progress
-            )
-            if searchable(task.constraints):
-                note = (
-                    'the limits were verified, not searched for: durations = "optimise" '
-                    'does not search within [constraints] (durations = "fixed" does)'
-                )
-                result = dataclasses.replace(result, notes=(*result.notes, note))
+                task.system, task.start, task.legs, task.settings, total, progress,
+                constraints=task.constraints,
+            )  # fmt: skip
         else:
             result = plan_sequence(
                 task.system, task.start, task.legs, task.settings, progress=progress,
