@@ -33,7 +33,8 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -80,6 +81,14 @@ class Outcome:
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+    def __eq__(self, other: object) -> bool:  # a value: NaN (not known) equals NaN
+        if not isinstance(other, Outcome):
+            return NotImplemented
+        return all(_same(getattr(self, f.name), getattr(other, f.name)) for f in fields(self))
+
+    def __hash__(self) -> int:  # of what equal outcomes share (NaN hashes by identity)
+        return hash((self.index, self.candidate, self.status, self.rank))
 
     def __repr__(self) -> str:  # the dataclass's prints the candidate's legs and the plan
         energy = f"energy {self.energy:.6g}" if self.ok else self.reason or self.status
@@ -178,6 +187,13 @@ class Comparison:
                 "value"
             )
         return text
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equal, NaN counting as equal to NaN (a quantity that is not known)."""
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
 
 
 def _show(x: float, criterion: str) -> str:
@@ -301,7 +317,8 @@ def _bounded(k, cand, bound) -> Outcome:
     message = (
         f"not searched: its energy is at least {_show(bound, 'energy')} (the sum of its legs' "
         "minima, each leg planned alone without the conditions that tie it to its "
-        "neighbours or bounded below by its stratum's curvature), which cannot beat the best "
+        "neighbours or bounded below by the joints' travel and the stratum's curvature), which "
+        "cannot beat the best "
         "sequence"
     )
     return Outcome(k, cand, None, "bounded", reason, message, duration=duration, screened=True)

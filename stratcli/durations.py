@@ -102,7 +102,7 @@ def optimise_durations(
     k = len(legs)
     equal = planned(np.zeros(k - 1))
     if k == 1:
-        return _inside(system, start, specs, [equal], settings, constraints, progress)
+        return _inside(system, start, specs, [equal], settings, constraints, progress)[0]
     scale = equal.total_energy if equal.ok else 1.0
     minimize(
         energy,
@@ -120,7 +120,7 @@ def optimise_durations(
         return equal
     optimum = min(ok, key=lambda p: p.total_energy)
     free = optimum.total_energy
-    best = _inside(system, start, specs, [optimum, equal], settings, constraints, progress)
+    best, inside = _inside(system, start, specs, [optimum, equal], settings, constraints, progress)
     chosen = ", ".join(f"{leg.duration:.4g}" for leg in optimum.legs)
     reference = (
         f"{equal.total_energy:.6g} at equal durations ({total / k:.4g} s each), "
@@ -134,30 +134,40 @@ def optimise_durations(
     )
     if best is not optimum and not best.message:  # searched within the [constraints] limits
         kept = ", ".join(f"{leg.duration:.4g}" for leg in best.legs)
+        found = ", ".join(
+            f"{energy:.6g} at {'those' if which == 0 else 'equal'} durations"
+            for which, energy in inside
+        )
         note += (
-            f"; chosen without the limits, then searched within them at those durations and "
-            f"at equal ones: kept {kept} s, energy {best.total_energy:.6g} inside the limits"
+            "; chosen without the limits, then searched within them at those durations and at "
+            f"equal ones (inside: {found}): kept {kept} s, energy {best.total_energy:.6g}"
         )
     return replace(best, notes=(*best.notes, note))
 
 
-def _inside(system, start, specs, choices, settings, constraints, progress) -> SequencePlan:
+def _inside(
+    system, start, specs, choices, settings, constraints, progress
+) -> tuple[SequencePlan, list[tuple[int, float]]]:
     """The lowest-energy plan that the constrained search gets inside the limits of
     `constraints` from each of `choices` (plans of `specs`' durations: the chosen ones, the
     equal ones), else the first as searched (`within_limits`: with the message naming where
-    it stalled); the first unchanged without limits to search (`node_margins.searchable`)."""
+    it stalled); the first unchanged without limits to search (`node_margins.searchable`).
+    Also (index among `choices`, energy) of each plan that got inside."""
     from .within_limits import within_limits
 
     first = choices[0]
     if not searchable(constraints) or not first.ok:
-        return first
+        return first, []
     searched, inside = [], []
-    for plan in dict.fromkeys(choices):  # the equal durations may be the chosen ones
+    for which, plan in enumerate(dict.fromkeys(choices)):  # equal may be the chosen ones
         if not plan.ok:
             continue
         key = tuple(np.round([leg.duration for leg in plan.legs], 12))
         found = within_limits(system, start, specs[key], settings, plan, constraints, progress)
         searched.append(found)
         if found.ok and not found.message:
-            inside.append(found)
-    return min(inside, key=lambda p: p.total_energy) if inside else searched[0]
+            inside.append((which, found))
+    if not inside:
+        return searched[0], []
+    best = min((plan for _, plan in inside), key=lambda p: p.total_energy)
+    return best, [(which, plan.total_energy) for which, plan in inside]

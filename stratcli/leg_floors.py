@@ -12,9 +12,10 @@ A leg of duration T moves the joints its inputs drive (the stratum's constant ro
   `∬ ν² dA ≤ ℓ²/4π` for a closed curve of length ℓ = ∫|u| + |w(T)| ≤ √(T E) + |w(T)|. So
   `√(T E) ≥ √(4π |Δθ - θ_segment| / max|F|) - |w(T)|`.
 
-The second is what makes a leg that must turn the base through a small curvature dear: Sim
-4's S2 legs, whose searched minima are 407-557, get floors of 86-119 (the best sequence costs
-64.80), so the screen prunes every sequence with one of them without searching the leg. Unlike
+The second is what makes a leg that must turn the base through a small curvature dear: the
+Sim 4 comparison's four S2 legs that turn the base far (searched minima 407-557) get floors
+of 79-108 (the best sequence costs 64.80), so the screen prunes every sequence with one of
+them without searching the leg (its two other S2 legs, floors near 7.5, are searched). Unlike
 the searched minima (a multi-start local search may miss a leg's global minimum), a floor
 holds for every plan of the leg: `max|F|` is taken over the whole torus of the two driven
 joints (a grid, with a margin of its spacing times the largest gradient there), which needs

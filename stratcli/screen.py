@@ -20,10 +20,10 @@ its end costs 5,681 when four of its inputs must stop there. At equal total dura
 
 Before any search every leg gets a *floor* (`leg_floors`): a certified lower bound from the
 joints it must move and, on a stratum of two inputs, the curvature of the connection it must
-turn the base with (milliseconds a leg, no search). On Sim 4 the S2 legs' floors (79-108)
-already exceed the best sequence's 64.80, so no sequence with one is ever searched or has
-that leg searched alone (20 legs searched alone before floors, 14 with them: the comparison's
-planning 1.28 -> 0.81 s on 2 processes).
+turn the base with (milliseconds a leg, no search). On Sim 4 the floors of the four S2 legs
+that turn the base far (79-108) already exceed the best sequence's 64.80, so no sequence
+with one is ever searched or has that leg searched alone (20 legs searched alone before
+floors, 14 with them: the comparison's planning 1.28 -> 0.81 s on 2 processes).
 
 Branch and bound, best first: a candidate's bound counts the legs bounded so far (their
 floors for the others, still a lower bound), and candidates are taken in the order of their

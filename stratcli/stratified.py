@@ -68,6 +68,17 @@ class LegSpec:
         """Coordinates whose end value is left to the planner ("*" goals)."""
         return tuple(np.flatnonzero(np.isnan(self.goal)).tolist())
 
+    def __eq__(self, other: object) -> bool:  # a value: the same leg, "*" goals alike
+        if not isinstance(other, LegSpec):
+            return NotImplemented
+        return (self.stratum, self.method, self.duration, self.lie) == (
+            other.stratum, other.method, other.duration, other.lie
+        ) and np.array_equal(self.goal, other.goal, equal_nan=True)  # fmt: skip
+
+    def __hash__(self) -> int:
+        goal = np.asarray(self.goal, dtype=float)
+        return hash((self.stratum, self.method, self.duration, np.nan_to_num(goal).tobytes()))
+
 
 @dataclass(frozen=True, eq=False)
 class LegStart:

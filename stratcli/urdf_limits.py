@@ -44,9 +44,9 @@ URDF_ADVICE = (
 
 DURATIONS_ADVICE = (
     "reached its goals but violates a limit of [constraints]; the search within the limits "
-    "stalled at the optimised durations and at equal ones: try via configurations that keep "
-    "the robot away from the limit, another stratum sequence, or more harmonics (the budget "
-    "does not move the path: time scaling keeps it)"
+    "stalled at the optimised durations and at equal ones: try more harmonics, via "
+    "configurations that keep the robot away from the limit, another stratum sequence, or "
+    "another total_duration (with the basis period unchanged, another path)"
 )
 
 

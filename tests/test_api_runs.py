@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 from conftest import ROOT
 
+import stratcli
 from stratcli import api
 from stratcli.scenario import load_scenario
 
@@ -35,6 +37,30 @@ def test_plans_are_equal_by_value_as_values_should_be(tmp_path):
     replanned = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
     assert replanned != plan and replanned.total_energy == plan.total_energy
     assert plan != plan.to_dict() and {plan: 1}[again] == 1
+
+
+def test_comparisons_and_decompositions_are_equal_by_value_as_values_should_be():
+    """A new user found `pickle.loads(pickle.dumps(out)) == out` False for a comparison and
+    `decompose(f) == decompose(f)` False: legs compared by identity, and the NaN energies of
+    sequences not searched never equal to themselves. Both are values now; the screened and
+    the exhaustive comparisons differ (rows not searched against rows searched)."""
+    import pickle
+
+    out = stratcli.compare_sequences(ROOT / "scenarios" / "sim4_auto.toml", jobs=1)
+    again = pickle.loads(pickle.dumps(out))
+    assert again == out and not (again != out)
+    bounded = [o for o in out.comparison.outcomes if o.screened]
+    assert bounded and all(np.isnan(o.energy) for o in bounded)  # NaN still means unknown
+    assert {o: 1 for o in out.comparison.outcomes}[again.comparison.outcomes[0]] == 1
+    dec = stratcli.decompose(ROOT / "scenarios" / "sim4_auto.toml")
+    assert dec == stratcli.decompose(ROOT / "scenarios" / "sim4_auto.toml")
+    assert dec == pickle.loads(pickle.dumps(dec))
+    legs = dec.decomposition.candidates[0].legs
+    leg = legs[0]
+    assert hash(leg) == hash(pickle.loads(pickle.dumps(leg)))
+    assert leg != legs[-1] or len(legs) == 1
+    full = stratcli.compare_sequences(ROOT / "scenarios" / "sim4_auto.toml", exhaustive=True)
+    assert full != out
 
 
 def test_load_run_of_the_runs_folder_names_the_latest_record_in_it(tmp_path):

@@ -411,3 +411,8 @@ def test_the_bounded_sequences_are_counted_in_words(monkeypatch):
     doc["rows"].append({**doc["rows"][1], "rank": 3, "sequence": ["S2", "S1"]})
     text = _render(monkeypatch, lambda: render_tables.ranking(task, doc), 160)
     assert "\n2 sequences bounded, not searched: " in text and "(s)" not in text
+    # ranked at equal duration, the bound compared with the best's is that one (a new user
+    # read "≥ 60.52" at the sequence's own 3 s against the best's 64.80), and the bounded
+    # rows are in the order of their bounds, not ranks the exhaustive search would give
+    assert "is, at the equal total duration, at least the best's" in text
+    assert "not ranked among themselves" in text

@@ -87,6 +87,7 @@ def test_optimised_durations_are_searched_within_the_limits():
     fixed = dict(raw, planner={k: v for k, v in raw["planner"].items() if "duration" not in k})
     equal = plan_run(load_scenario(fixed), check=False).result  # 1 s + 1 s, searched inside
     assert equal.ok and plan.total_energy <= equal.total_energy * (1 + 1e-9)
+    assert f"{equal.total_energy:.6g} at equal durations)" in note  # the same search, given
     raw["constraints"] = {"max_rate": 5.0}  # a rate limit alone asks the search for nothing
     plan = plan_run(load_scenario(raw), check=False).result
     assert not any("searched within them" in n for n in plan.notes)

@@ -256,6 +256,24 @@ def test_ranking_uses_a_log_axis_iff_the_values_span_more_than_10x(values, log):
     assert labels[0] == "best: S1→S2 · cons."
 
 
+@pytest.mark.parametrize("top", [6115.0, 600.0, 9000.0, 61_150.0])
+def test_ranking_every_value_axis_label_ends_inside_the_figure(top):
+    """The exhaustive Sim 4 chart (64.8 to 6,115) cut its last decade's label, 10,000, at
+    the figure's right edge."""
+    fig = ranking_figure(_ranking_doc([64.8, 104.1, 451.8, top]))
+    (ax,) = fig.axes
+    renderer = fig.canvas.get_renderer()
+    fig.draw(renderer)
+    shown = [t for t in ax.get_xticklabels() if t.get_visible() and t.get_text()]
+    lo, hi = ax.get_xlim()
+    inside = [t for t in shown if lo <= t.get_position()[0] <= hi]
+    assert inside
+    for label in inside:
+        box = label.get_window_extent(renderer)
+        assert 0 <= box.x0 and box.x1 <= fig.bbox.width, label.get_text()
+    assert hi >= top  # every bar still inside
+
+
 def test_ranking_shows_a_bounded_row_as_its_bound_not_as_a_failure():
     doc = _ranking_doc([60.0, None, 70.0])
     doc["rows"][1].update(status="bounded", energy_bound=64.5, reason="not searched")

@@ -188,9 +188,9 @@ def compare_sequences(
     """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
 
     With the energy objective and criterion the sequences are screened: each distinct leg is
-    planned alone at least energy (or bounded below by its stratum's curvature, without a
-    search), and a sequence whose legs' sum cannot beat the best found is not searched
-    (status "bounded", marked "screened" in comparison.json).
+    planned alone at least energy (or bounded below by its joints' travel and its stratum's
+    curvature, without a search), and a sequence whose legs' sum cannot beat the best found
+    is not searched (status "bounded", marked "screened" in comparison.json).
     Ranked by the criterion among the sequences that reached the goal (ties: lower energy);
     failed sequences stay in the table with their reason. The record holds the best
     sequence's full run record plus comparison.json, comparison.csv and ranking.png. Exits 0

@@ -89,11 +89,13 @@ def ranking(task, doc: dict) -> None:
             "(comparison.csv in the record, or --json, has every row)"
         )
     if bounded:
+        at = ", at the equal total duration," if scaled else ""
         say(
             f"{counted(bounded, 'sequence')} bounded, not searched: the sum of their legs' minimum "
             "energies (each leg planned alone, without the conditions that tie it to its "
-            "neighbours, or bounded below by its stratum's curvature) is at least the best's "
-            "(--exhaustive searches every one)"
+            "neighbours, or bounded below by the joints' travel and the stratum's curvature) "
+            f"is{at} at least the best's; they are listed in the order of their bounds, not "
+            "ranked among themselves (--exhaustive searches and ranks every one)"
         )
     if scaled:
         say(

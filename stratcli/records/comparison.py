@@ -76,7 +76,7 @@ def _screen(comparison: Comparison) -> dict[str, Any] | None:
     return {
         "method": (
             "branch and bound on the sum of the legs' minima, each leg planned alone or "
-            "bounded below by its stratum's curvature"
+            "bounded below by the joints' travel and the stratum's curvature"
         ),
         "legs_bounded": screen.legs,
         "legs_floored": screen.floored,  # distinct legs with a positive floor (no search)

@@ -34,6 +34,7 @@ LABEL_SIZE = 7.5  # pt, of the sequences' labels
 VALUE_SIZE = 7.5  # pt, of the texts in the axes (`_room` measures those after the bars)
 TITLE_SIZE = 10  # pt
 RIGHT = 0.15  # inches right of the axes
+TICK_SIZE = 10.0  # pt, the value axis's major labels (matplotlib's default)
 BOUNDED_COLOR = "#777777"
 HOLLOW = dict(facecolor="none", edgecolor=BOUNDED_COLOR, linestyle="--", linewidth=0.8)
 BAR_HEIGHT = 0.7  # of a row's 1
@@ -143,6 +144,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
         ax.set_xlim(
             floor if log else 0.0, max(max([*shown, *at_least]) * (1.7 if log else 1.18), room)
         )
+        if log:  # the last decade's label (10,000) ran past the figure's right edge
+            ax.set_xlim(floor, _last_label_inside(fig, ax, fig.get_figwidth() - left - RIGHT))
     handles = []
     if best is not None:
         handles.append(Patch(color=BEST_COLOR, label=f"best: {labels[best]}"))
@@ -202,6 +205,22 @@ def _room(fig: Figure, ends: dict[str, float], axes: float, log: bool, floor: fl
         stretch = axes / max(axes - width, 0.25 * axes)  # of the axis up to the text's start
         need = max(need, floor * (x / floor) ** stretch if log else x * stretch)
     return need
+
+
+def _last_label_inside(fig: Figure, ax, axes: float) -> float:
+    """The right end of a log value axis `axes` inches wide at which the label of its last
+    decade tick ends inside the figure (centred on its tick, it may stand out of the axes by
+    RIGHT at most); the current end if it does already."""
+    lo, hi = ax.get_xlim()
+    decades = [10.0**k for k in range(math.ceil(math.log10(lo)), math.floor(math.log10(hi)) + 1)]
+    if not decades:
+        return hi
+    last = decades[-1]
+    half = _widths(fig, [f"{last:,.10g}"], TICK_SIZE)[0] / 2 + 0.03  # a small gap
+    if (1 - math.log(last / lo) / math.log(hi / lo)) * axes + RIGHT >= half:
+        return hi
+    share = 1 - (half - RIGHT) / axes  # of the axis up to the tick
+    return lo * (last / lo) ** (1 / share)
 
 
 def _wrapped(fig: Figure, title: str, left: float) -> list[str]:
