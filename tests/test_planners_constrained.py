@@ -224,9 +224,10 @@ def test_legs_the_constrained_search_planned_report_its_iterations_not_zero():
 
 @pytest.mark.slow
 def test_a_task_the_search_cannot_plan_fails_naming_the_limit_and_the_leg(tmp_path):
-    # task A within ±2.5 rad with the paper's 3 harmonics: the S2 leg's loops do not fit
+    # task A within ±2.5 rad with the paper's 3 harmonics, set in the scenario (so kept: with
+    # the default, 5 are tried and plan it): the S2 leg's loops do not fit
     raw = tomllib.loads((SCENARIOS / "sim4_task_a_constrained.toml").read_text())
-    del raw["planner"]["basis"]
+    raw["planner"]["basis"] = {"harmonics": 3}
     from stratcli.tomlwrite import dumps
 
     path = tmp_path / "sim4_task_a_h3.toml"
@@ -336,3 +337,65 @@ def test_the_search_note_says_lowered_only_when_the_energy_fell():
     assert "lowered" not in up and "816.052 when first within them, raised to 1016.03" in up
     newton = search_note("planned", 288, 261, 816.052, 1016.03, False)
     assert "energy 816.052 (at the speed planned" in newton
+
+
+COMBINED = """
+name = "combined_limits"
+[model]
+kind = "preset"
+name = "one-arm"
+[task]
+start = [0, "pi/4", 0, 0]
+goal = ["-pi/3", "pi/3", "pi/4", "-pi/12"]
+[planner]
+continuity = "lr-C1"
+soft_start = true
+full_stop = true
+[[legs]]
+stratum = "S3"
+goal = ["-pi/3", "pi/3", 0, "-pi/12"]
+[[legs]]
+stratum = "S1"
+[constraints]
+joint_limits = ["-150deg", "150deg"]
+max_rate = 0.8
+max_acceleration = 1.5
+self_collision = true
+clearance = 0.05
+obstacles = [
+  { shape = "circle", centre = [-0.3, 1.3], radius = 0.15 },
+  { shape = "box", centre = [1.9, -0.1], size = [0.3, 0.6], rotation = "30deg" },
+]
+"""
+
+
+@pytest.mark.slow  # three constrained searches of a two-leg plan: ~10 s
+def test_a_search_that_stalls_in_the_default_basis_is_planned_with_more_harmonics():
+    """A hardware engineer's realistic table (soft start and full stop, ±150°, self-collision,
+    a circle and a rotated box, rate and acceleration limits) stalled on leg 1 with the
+    default 3 harmonics; it is planned again with 5, inside every limit on an independent
+    re-integration. A scenario that sets its harmonics keeps them and fails as before."""
+    import math
+
+    from stratcli.clearance import box_corners
+
+    task = load_scenario(COMBINED)
+    outcome = plan_run(task, check=False)
+    plan, doc = outcome.result, outcome.document
+    assert plan.ok, plan.message
+    assert any(n.startswith("planned with 5 harmonics: the search within") for n in plan.notes)
+    assert {p["basis"]["harmonics"] for leg in doc["legs"] for p in leg["pieces"]} == {5}
+    verify(task, doc)  # goals, continuity and energies on an independent re-integration
+    q = _dense(task, doc)
+    assert np.abs(q[:, :3]).max() <= math.radians(150) + 1e-6
+    assert _self_clearance(task.system.robot, q, 0.05).min() >= 0.05 - 1e-6
+    circles = [((-0.3, 1.3), 0.15)]
+    boxes = [box_corners((1.9, -0.1), (0.3, 0.6), math.radians(30))]
+    clearance = _obstacle_clearance(task.system.robot, q, 0.05, circles, boxes)
+    assert clearance.min() >= 0.05 - 1e-6
+    given = load_scenario(
+        COMBINED.replace("full_stop = true", "full_stop = true\nbasis = { harmonics = 3 }")
+    )
+    kept = plan_run(given, check=False).result
+    assert not kept.ok and kept.message.startswith("the constrained search stalled on leg 1")
+    assert not any("harmonics" in n for n in kept.notes)
