@@ -14,6 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from .controls import embed
 from .errors import InputError
 from .models.system import System
 from .node_margins import searchable
@@ -24,14 +25,19 @@ from .planners.sqp import FIRST_ORDER_ITERATIONS, LOOSE_ABOVE
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, LegSpec, chain_legs, check_legs
-from .within_limits import within_limits
+from .within_limits import STALLED, within_limits
 
-__all__ = ["plan_sequence", "plan_with_objective"]
+__all__ = ["plan_sequence", "plan_with_objective", "stalled", "with_more_harmonics"]
 
 # Newton iterations per leg over all attempts of an extra start (`stratified.SEED_RESTARTS`
 # restarts): a seed that needs more is dropped
 # (on the paper's scenarios the seeds that win need at most 34; failing ones ran 39-48)
 SEED_BUDGET = 36
+
+# harmonics added when the search stalls in the default basis (`with_more_harmonics`): a
+# realistic table (soft start and full stop, ±150°, self-collision, two obstacles) stalled on
+# Sim 4 task D's legs with 3 and 4 harmonics and was planned inside with 5 and 6
+MORE_HARMONICS = 2
 
 
 def plan_sequence(
@@ -267,3 +273,31 @@ def _silent(phase: str) -> None:
 
 def _noted(plan: SequencePlan, note: str) -> SequencePlan:
     return replace(plan, notes=(*plan.notes, note))
+
+
+def stalled(plan) -> bool:
+    """Whether `within_limits` left `plan` outside the limits (its message says where the
+    search stalled), its legs having reached their goals."""
+    return plan.message.startswith(STALLED) and all(leg.converged for leg in plan.legs)
+
+
+def with_more_harmonics(system, start, legs, settings, plan, constraints, progress=None):
+    """The legs planned again within the limits in a basis of `MORE_HARMONICS` more
+    harmonics (the same period), from `plan`'s controls in it (`controls.embed`: the same
+    controls, a start of the energy search), for a plan whose search stalled (`stalled`).
+    The plan returned says in a note how many harmonics it took; where it stalls again, the
+    first plan is returned with a note saying so."""
+    h = settings.basis.harmonics
+    more = replace(settings, basis=replace(settings.basis, harmonics=h + MORE_HARMONICS))
+    warm = [np.ravel(embed(leg.coefficients, h, h + MORE_HARMONICS)) for leg in plan.legs]
+    again = plan_sequence(system, start, legs, more, warm, progress, constraints=constraints)
+    if again.message or not all(leg.converged for leg in again.legs):
+        return _noted(
+            plan, f"the search within the limits stalled with {h + MORE_HARMONICS} harmonics too"
+        )
+    return _noted(
+        again,
+        f"planned with {h + MORE_HARMONICS} harmonics: the search within the limits stalled "
+        f"with {h} (the default; planner.basis.harmonics = {h + MORE_HARMONICS} asks for "
+        "these from the start)",
+    )

@@ -14,15 +14,11 @@ from .planners import PLANNERS
 from .planners.constrained import NotSearchable, constrained_search
 from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs
 
-__all__ = ["candidate_within_limits", "stalled", "with_more_harmonics", "within_limits"]
+__all__ = ["STALLED", "candidate_within_limits", "within_limits"]
 
 CONSTRAINED_SEEDS = 3  # further starts of the constrained search when the plan's own stalls
 AUXILIARY_LIMIT = 2.5  # rad: joint limits of the start for self-collision alone
-# harmonics added when the search stalls in the default basis (`with_more_harmonics`): a
-# realistic table (soft start and full stop, ±150°, self-collision, two obstacles) stalled on
-# Sim 4 task D's legs with 3 and 4 harmonics and was planned inside with 5 and 6
-MORE_HARMONICS = 2
-STALLED = ("the constrained search stalled", "the constrained search stopped")
+STALLED = ("the constrained search stalled", "the constrained search stopped")  # messages
 
 
 def within_limits(system, start, legs, settings, plan, constraints, progress=None):
@@ -124,36 +120,6 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     return replace(
         final, legs=legs_found, optimisation=plan.optimisation, notes=(*final.notes, *notes)
     )
-
-
-def stalled(plan) -> bool:
-    """Whether `within_limits` left `plan` outside the limits (its message says where the
-    search stalled), its legs having reached their goals."""
-    return plan.message.startswith(STALLED) and all(leg.converged for leg in plan.legs)
-
-
-def with_more_harmonics(system, start, legs, settings, plan, constraints, progress=None):
-    """The legs planned again within the limits in a basis of `MORE_HARMONICS` more
-    harmonics (the same period), from `plan`'s controls in it (`controls.embed`: the same
-    controls, a start of the energy search), for a plan whose search stalled (`stalled`).
-    The plan returned says in a note how many harmonics it took; where it stalls again, the
-    first plan is returned with a note saying so."""
-    from .controls import embed
-    from .objectives import plan_sequence
-
-    h = settings.basis.harmonics
-    more = replace(settings, basis=replace(settings.basis, harmonics=h + MORE_HARMONICS))
-    warm = [np.ravel(embed(leg.coefficients, h, h + MORE_HARMONICS)) for leg in plan.legs]
-    again = plan_sequence(system, start, legs, more, warm, progress, constraints=constraints)
-    if again.message or not all(leg.converged for leg in again.legs):
-        note = f"the search within the limits stalled with {h + MORE_HARMONICS} harmonics too"
-        return replace(plan, notes=(*plan.notes, note))
-    note = (
-        f"planned with {h + MORE_HARMONICS} harmonics: the search within the limits stalled "
-        f"with {h} (the default; planner.basis.harmonics = {h + MORE_HARMONICS} asks for "
-        "these from the start)"
-    )
-    return replace(again, notes=(*again.notes, note))
 
 
 def _folding_start(system, nominal, legs, settings, targets, seeds, constraints):

@@ -18,7 +18,7 @@ from ..constraints import enforce
 from ..decomposition import STRATEGIES
 from ..durations import optimise_durations
 from ..errors import IllConditionedWarning, InputError
-from ..objectives import plan_sequence
+from ..objectives import MORE_HARMONICS, plan_sequence, stalled, with_more_harmonics
 from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
 from ..scenario import Task, load_scenario
@@ -26,7 +26,6 @@ from ..sequence import SequencePlan
 from ..settings import MAX_TIME_SCALE
 from ..time_scaling import scale_time, time_scaled
 from ..urdf_limits import with_limit_notes
-from ..within_limits import MORE_HARMONICS, stalled, with_more_harmonics
 from .auto import auto_choice
 from .inspection import controllability_first, limit_warnings
 from .outcomes import ComparisonOutcome, PlanOutcome
