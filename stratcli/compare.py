@@ -77,6 +77,7 @@ class Outcome:
     screened: bool = False  # not searched: bounded by the screen (its energy is not known)
     reference_duration: float = math.nan  # the comparison's equal total duration T
     energy_bound: float = math.nan  # the screen's lower bound on `energy` (own duration)
+    leg_bounds: tuple[tuple[float, float], ...] = ()  # per leg (floor, bound): the screen's
 
     @property
     def ok(self) -> bool:
@@ -290,7 +291,11 @@ def compare(
         else:  # pruned by the screen: not planned
             outcomes[k] = _bounded(k, candidates[k], screen_result.bounds[k])
         if screen_result is not None:
-            outcomes[k] = replace(outcomes[k], energy_bound=screen_result.bounds[k])
+            outcomes[k] = replace(
+                outcomes[k],
+                energy_bound=screen_result.bounds[k],
+                leg_bounds=screen_result.leg_bounds.get(k, ()),
+            )
     outcomes = [replace(o, reference_duration=reference) for o in outcomes]
     wall = time.perf_counter() - clock
     ranking = rank([o for o in outcomes if o is not None], criterion)

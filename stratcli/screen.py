@@ -69,7 +69,7 @@ import multiprocessing
 import os
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -98,6 +98,9 @@ class Screen:
     seconds: float  # CPU time spent on the leg bounds (all processes)
     sunk: tuple[int, ...] = ()  # failed unsearched: a leg with no plan even alone (`_sunk`)
     floored: int = 0  # distinct legs with a positive floor (`leg_floors`), searched or not
+    # candidate -> per leg (its floor, its bound: the larger of the floor and the leg's
+    # searched minima, loose and tight), at the leg's own duration
+    leg_bounds: dict[int, tuple[tuple[float, float], ...]] = field(default_factory=dict)
 
 
 def _unit(item: tuple[str, list]) -> dict:
@@ -325,7 +328,14 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
     advance(len(valid) - len(searched) - len(sunk))
     bounds = {k: bound(k) / scale(k) for k in valid}
     floored = sum(value > 0 for value in floors.values())
+    per_leg = {
+        k: tuple(
+            (floors[a], max(floors[a], known.get(a, 0.0), known.get(b, 0.0))) for a, b in keys[k]
+        )
+        for k in valid
+    }
     screen = Screen(
-        bounds, tuple(searched), len(bounded_legs), corrections, seconds, tuple(sunk), floored
-    )
+        bounds, tuple(searched), len(bounded_legs), corrections, seconds, tuple(sunk), floored,
+        per_leg,
+    )  # fmt: skip
     return planned, requested, plans, times, screen

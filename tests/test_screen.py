@@ -59,6 +59,12 @@ def test_screen_chooses_as_the_exhaustive_search_on_sim4(sim4):
     for o, full in zip(screened.outcomes, exhaustive.outcomes, strict=True):
         # every bound is below the sequence's minimum (the exhaustive search's)
         assert o.energy_bound_equal_time <= full.energy_equal_time * (1 + 1e-9)
+        # ... the sum of its legs' bounds, each at least the leg's floor; every floor below
+        # the energy of that leg in the sequence's minimum (planned alone it costs no more)
+        assert len(o.leg_bounds) == len(full.plan.legs)
+        assert sum(bound for _, bound in o.leg_bounds) == pytest.approx(o.energy_bound)
+        for (floor, bound), leg in zip(o.leg_bounds, full.plan.legs, strict=True):
+            assert 0.0 <= floor <= bound and floor <= leg.energy * (1 + 1e-9)
         if o.screened:  # bounded: not planned, and its bound cannot beat the best
             assert o.status == "bounded" and o.plan is None
             assert o.energy_bound_equal_time >= best

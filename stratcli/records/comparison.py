@@ -35,12 +35,15 @@ def _pi(q) -> list[str | None]:
 
 def _leg_row(o: Outcome, i: int, leg) -> dict[str, Any]:
     planned = None if o.plan is None or i >= len(o.plan.legs) else o.plan.legs[i]
+    floor, bound = o.leg_bounds[i] if i < len(o.leg_bounds) else (None, None)
     return {
         "stratum": leg.stratum,
         "goal": _vec(leg.goal),
         "error": None if planned is None else planned.error,
         "converged": None if planned is None else planned.converged,
         "energy": None if planned is None else planned.energy,
+        "floor": floor,  # the screen's: certified, without a search (`leg_floors`)
+        "bound": bound,  # ... the larger of it and the leg's searched minima
     }
 
 
