@@ -1,5 +1,5 @@
-"""Certified lower bounds on a leg's energy from its stratum's geometry alone (the screen's
-*floors*: no search, a few milliseconds a leg).
+"""Lower bounds on a leg's energy from its stratum's geometry alone (the screen's *floors*:
+no search, a few milliseconds a leg).
 
 A leg of duration T moves the joints its inputs drive (the stratum's constant rows,
 `q̇_E = C u`) and the base (the rows that depend on the joints, `θ̇ = A(q_E) u`). With
@@ -12,15 +12,18 @@ A leg of duration T moves the joints its inputs drive (the stratum's constant ro
   `∬ ν² dA ≤ ℓ²/4π` for a closed curve of length ℓ = ∫|u| + |w(T)| ≤ √(T E) + |w(T)|. So
   `√(T E) ≥ √(4π |Δθ - θ_segment| / max|F|) - |w(T)|`.
 
+Both allow for a plan that ends within the planner's tolerance of the goal (`slack`).
 The second is what makes a leg that must turn the base through a small curvature dear: the
 Sim 4 comparison's four S2 legs that turn the base far (searched minima 407-557) get floors
 of 79-108 (the best sequence costs 64.80), so the screen prunes every sequence with one of
 them without searching the leg (its two other S2 legs, floors near 7.5, are searched). Unlike
 the searched minima (a multi-start local search may miss a leg's global minimum), a floor
-holds for every plan of the leg: `max|F|` is taken over the whole torus of the two driven
-joints (a grid, with a margin of its spacing times the largest gradient there), which needs
-the connection to be 2π-periodic in them (checked; otherwise only the joints' bound). Legs
-of other strata (one input, three or more, an attitude on SO(3)) get the joints' bound, or 0.
+holds for every plan of the leg, as far as `max|F|` does: it is taken over the whole torus
+of the two driven joints on a 64 x 64 grid, raised by the grid's half-diagonal times the
+largest |∇F| at its points (a margin, not a proof: ~10 % on the one-arm robot), which needs
+the connection to be 2π-periodic in them (checked at 16 points; otherwise only the joints'
+bound). Legs of other strata (one input, three or more) get the joints' bound; a URDF
+robot's (an attitude on SO(3), no quadrature rows) get 0.
 """
 
 from __future__ import annotations
@@ -35,15 +38,20 @@ __all__ = ["leg_floor"]
 GRID = 64  # points per driven joint on the torus where |F| is maximised
 NODES = 48  # Gauss-Legendre nodes of the straight segment's integral
 PERIOD_TOL = 1e-9  # relative: the connection repeats after 2π in a driven joint
+PERIOD_STRIDE = 257  # ... checked at every 257th grid point (16 spread over the torus)
 SAFETY = 1.0 - 1e-6  # a floor is lowered by this factor (rounding)
 
 
-def leg_floor(system, stratum: str, start, goal, duration: float, peaks=None) -> float:
+def leg_floor(
+    system, stratum: str, start, goal, duration: float, peaks=None, slack: float = 0.0
+) -> float:
     """A lower bound on `∫|u|²` over every plan of the leg from `start` to `goal` (NaN:
     free) on `stratum` in `duration` seconds (the module docstring); 0 where none is known.
 
     `peaks`: a dict that keeps each max|F| found, for the legs of a comparison that share a
-    stratum and the joints it does not drive."""
+    stratum and the joints it does not drive. `slack`: how far from `goal` a plan may end
+    (the planner's tolerance: the norm of the joints' error, and the base's), so that the
+    floor holds for such a plan too."""
     try:
         cs = system.compiled(stratum)
     except Exception:  # not a quadrature model (URDF): no floor
@@ -60,17 +68,28 @@ def leg_floor(system, stratum: str, start, goal, duration: float, peaks=None) ->
     w, *_ = np.linalg.lstsq(C[known], (goal - start)[explicit][known], rcond=None)
     if not np.allclose(C[known] @ w, (goal - start)[explicit][known], atol=1e-9):
         return 0.0  # the joints cannot get there: the search says why
-    floor = float(w @ w) / duration
+    # a plan ending within `slack` of the goal: |w(T)| >= |w| - |C⁺| slack
+    reach = float(np.linalg.norm(w)) - float(np.linalg.norm(np.linalg.pinv(C[known]), 2)) * slack
+    floor = max(reach, 0.0) ** 2 / duration
     if C.shape[1] == 2 and known.all():
-        floor = max(floor, _base_floor(cs, start, goal, w, duration, peaks))
+        floor = max(floor, _base_floor(cs, start, goal, w, duration, peaks, slack))
     return SAFETY * floor
 
 
-def _base_floor(cs, start: np.ndarray, goal: np.ndarray, w: np.ndarray, T: float, peaks) -> float:
-    """The Stokes / Banchoff-Pohl bound of the module docstring, over the base rows."""
-    along = [cs.explicit[r] for r in cs.derivatives_along]
-    C = cs.C_explicit[list(cs.derivatives_along)]  # driven joints x 2 inputs
-    driven = _driven(C, along)
+def _along(cs) -> tuple[int, ...]:
+    """The explicit rows (indices into `cs.explicit`) the connection's derivatives are
+    taken along: a compiled stratum's moving ones, a planar manipulator's all of them."""
+    along = getattr(cs, "derivatives_along", None)
+    return tuple(range(len(cs.explicit))) if along is None else tuple(along)
+
+
+def _base_floor(cs, start, goal, w, T: float, peaks, slack: float) -> float:
+    """The Stokes / Banchoff-Pohl bound of the module docstring, over the base rows. A plan
+    that ends within `slack` of the goal is closed by one more segment of at most `slack`
+    to it: the loop is that much longer and encloses up to `slack (1 + max|A|)` less."""
+    along = _along(cs)
+    C = cs.C_explicit[list(along)]  # driven joints x 2 inputs
+    driven = _driven(C, [cs.explicit[r] for r in along])
     if driven is None:
         return 0.0
     best = 0.0
@@ -78,23 +97,27 @@ def _base_floor(cs, start: np.ndarray, goal: np.ndarray, w: np.ndarray, T: float
         if not np.isfinite(goal[i]):
             continue
         residual = abs(goal[i] - start[i] - _segment(cs, start, w, row))
-        if not residual > 0:
+        if not residual > slack:
             continue
         fixed = np.delete(start, [j for j, _ in driven]).tobytes()
         key = (cs.stratum.name, row, fixed)
-        peak = peaks.get(key) if peaks is not None else None
-        if peak is None:
-            peak = _peak_curvature(cs, start, driven, row)
+        found = peaks.get(key) if peaks is not None else None
+        if found is None:
+            found = _peak_curvature(cs, start, driven, row, along)
             if peaks is not None:
-                peaks[key] = peak
+                peaks[key] = found
+        peak, most = found
         if not peak > 0:
             continue
-        length = math.sqrt(4.0 * math.pi * residual / peak) - float(np.linalg.norm(w))
+        enclosed = residual - slack * (1.0 + most)
+        if not enclosed > 0:
+            continue
+        length = math.sqrt(4.0 * math.pi * enclosed / peak) - float(np.linalg.norm(w)) - slack
         best = max(best, max(length, 0.0) ** 2 / T)
     return best
 
 
-def _driven(C: np.ndarray, along: list[int]) -> tuple[tuple[int, float], ...] | None:
+def _driven(C: np.ndarray, joints: list[int]) -> tuple[tuple[int, float], ...] | None:
     """Per input, (the joint it drives, the sign) when each drives one joint at unit rate
     (the connection is then periodic in the inputs' integrals), else None."""
     out = []
@@ -102,7 +125,7 @@ def _driven(C: np.ndarray, along: list[int]) -> tuple[tuple[int, float], ...] | 
         rows = np.flatnonzero(C[:, a])
         if len(rows) != 1 or abs(abs(C[rows[0], a]) - 1.0) > 1e-12:
             return None
-        out.append((along[rows[0]], float(np.sign(C[rows[0], a]))))
+        out.append((joints[rows[0]], float(np.sign(C[rows[0], a]))))
     if out[0][0] == out[1][0]:
         return None
     return tuple(out)
@@ -124,21 +147,22 @@ def _nodes() -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (s + 1.0), 0.5 * weights
 
 
-def _peak_curvature(cs, start: np.ndarray, driven, row: int) -> float:
-    """max |F| over the torus of the two driven joints (the others where `start` has them),
-    with a margin of half the grid's diagonal times the largest |∇F| on it; NaN when the
-    connection is not 2π-periodic in a driven joint."""
+def _peak_curvature(cs, start: np.ndarray, driven, row: int, along) -> tuple[float, float]:
+    """(max |F|, max |A|) over the torus of the two driven joints (the others where `start`
+    has them), |F| with a margin of half the grid's diagonal times the largest |∇F| at the
+    grid's points (|∇F| between them is not bounded: a margin, not a proof); (NaN, NaN) when
+    the connection is not 2π-periodic in a driven joint or not finite there."""
     (j0, s0), (j1, s1) = driven
-    e0 = cs.derivatives_along.index(list(cs.explicit).index(j0))
-    e1 = cs.derivatives_along.index(list(cs.explicit).index(j1))
+    explicit = list(cs.explicit)
+    e0, e1 = along.index(explicit.index(j0)), along.index(explicit.index(j1))
     h = 2.0 * math.pi / GRID
     g0, g1 = np.meshgrid(np.arange(GRID) * h, np.arange(GRID) * h, indexing="ij")
     q = np.repeat(start[None, :], GRID * GRID, axis=0)
     q[:, j0] += g0.ravel()
     q[:, j1] += g1.ravel()
     A, dA, ddA = cs.quadrature_terms(q, 2)
-    if not _periodic(cs, q[:: GRID + 1][:8], A[:: GRID + 1][:8], (j0, j1)):
-        return math.nan
+    if not _periodic(cs, q[::PERIOD_STRIDE], A[::PERIOD_STRIDE], (j0, j1)):
+        return math.nan, math.nan
     # along the inputs' integrals: ∂/∂w_a = s_a ∂/∂q_{j_a}
     F = s0 * dA[:, row, 1, e0] - s1 * dA[:, row, 0, e1]
     grad = np.stack(
@@ -148,9 +172,10 @@ def _peak_curvature(cs, start: np.ndarray, driven, row: int) -> float:
         ],
         axis=-1,
     )
-    if not (np.isfinite(F).all() and np.isfinite(grad).all()):
-        return math.nan
-    return float(np.abs(F).max() + h / math.sqrt(2.0) * np.linalg.norm(grad, axis=-1).max())
+    if not (np.isfinite(F).all() and np.isfinite(grad).all() and np.isfinite(A).all()):
+        return math.nan, math.nan
+    peak = float(np.abs(F).max() + h / math.sqrt(2.0) * np.linalg.norm(grad, axis=-1).max())
+    return peak, float(np.linalg.norm(A[:, row, :], axis=-1).max())
 
 
 def _periodic(cs, q: np.ndarray, A: np.ndarray, joints) -> bool:

@@ -152,15 +152,23 @@ def _round(items, jobs: int, pool, flight: dict, ahead: Callable) -> list[dict]:
 
 
 def _floors(system, legs: dict) -> dict[tuple, float]:
-    """Each loose key's floor (`leg_floors.leg_floor`; 0 for a leg that is not searched)."""
+    """Each loose key's floor (`leg_floors.leg_floor`, for plans within the planner's
+    tolerance of the goal; 0 for a leg that is not searched, or whose floor fails: a floor
+    only saves searches, it never stops a comparison)."""
+    settings = STATE.get("settings")
+    slack = settings.tolerance if settings is not None else 0.0
     out: dict[tuple, float] = {}
     peaks: dict = {}  # shared by legs on the same stratum with the same joints at rest
     for key, item in legs.items():
         if len(key) == 5:
             stratum, _, duration, at, goal = key
             at, goal = np.frombuffer(at), np.frombuffer(goal)
-            floor = 0.0 if item is None else leg_floor(system, stratum, at, goal, duration, peaks)
-            out[key] = floor
+            out[key] = 0.0
+            if item is not None:
+                try:
+                    out[key] = leg_floor(system, stratum, at, goal, duration, peaks, slack)
+                except Exception:  # any model's failure: no floor (0, as before floors)
+                    pass
     return out
 
 
@@ -316,6 +324,9 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
             best = min(best, plan.total_energy * scale(k))
             for pair, leg in zip(keys[k], plan.legs, strict=True):
                 for key in pair:
+                    if len(key) == 5 and leg.energy < floors[key] * (1 - 1e-9):
+                        floors[key] = float(leg.energy)  # a floor above a plan: never (tested)
+                        corrections += 1
                     if leg.energy < known[key] * (1 - 1e-9):  # the leg's search missed this
                         known[key] = float(leg.energy)
                         corrections += 1

@@ -70,6 +70,129 @@ def test_floor_is_below_the_energy_of_random_plans(one_arm, stratum):
     assert max(ratios) > 0.05  # the floors are not all trivially 0
 
 
+def test_floor_is_below_the_energy_of_random_plans_of_a_physical_robot():
+    """A planar-manipulator model (its connection from the physics, evaluated in closed form
+    by the planner, symbolically here): the floors exist and hold too."""
+    robot = load_scenario(ROOT / "scenarios" / "rods_three_link.toml").system
+    rng = np.random.default_rng(11)
+    ratios = []
+    for k in range(12):
+        stratum = ("S1", "S2", "S3")[k % 3]
+        start = rng.uniform(-np.pi, np.pi, robot.n)
+        end, energy = run(robot, stratum, start, controls(rng, 2, loop=k % 2 == 0))
+        floor = leg_floor(robot, stratum, start, end, T)
+        assert 0.0 <= floor <= energy * (1 + 1e-9)
+        ratios.append(floor / energy)
+    assert max(ratios) > 0.05
+
+
+def _circle(r: float, half: bool = False):
+    """Controls tracing a circle of radius r in the inputs' integrals at constant speed from
+    angle π (a half circle, to angle 0, when `half`), and their energy."""
+    turn = np.pi if half else 2 * np.pi
+    speed = turn * r / T
+
+    def u(t):
+        phase = np.pi - turn * t / T if half else turn * t / T
+        return speed * (np.array([np.sin(phase), -np.cos(phase)]) if half else
+                        np.array([-np.sin(phase), np.cos(phase)]))  # fmt: skip
+
+    return u, speed**2 * T
+
+
+def _peak(system, stratum: str, start: np.ndarray, joints: tuple[int, int]):
+    """Where |F| peaks on the torus of `joints` (others at `start`), from the model's
+    symbolic fields (not the planner's numerics): F = ∂A_2/∂q_a - ∂A_1/∂q_b for inputs
+    that drive joints a and b at rate +1."""
+    q = system.symbols
+    G = system.fields_on(system.stratum(stratum))
+    a, b = joints
+    F = sp.diff(G[-1, 1], q[a]) - sp.diff(G[-1, 0], q[b])
+    f = sp.lambdify(q, F, "numpy")
+    grid = np.linspace(-np.pi, np.pi, 361)
+    X, Y = np.meshgrid(grid, grid, indexing="ij")
+    values = np.zeros_like(X)
+    for i in range(len(grid)):
+        point = [np.full(len(grid), v) for v in start]
+        point[a], point[b] = X[i], Y[i]
+        values[i] = np.broadcast_to(f(*point), X[i].shape)
+    i, j = np.unravel_index(np.argmax(np.abs(values)), values.shape)
+    return X[i, j], Y[i, j]
+
+
+def test_floor_of_a_small_loop_where_the_curvature_peaks_is_nearly_its_energy(one_arm):
+    """A circle of radius 0.05 where |F| peaks encloses about |F| π r² of base rotation for
+    an energy of 4π² r² / T: the floor is that energy times F there / max|F| with its
+    margin (0.9 here). A floor that overstated |F|'s area (4π -> 8π) or understated max|F|
+    would exceed the energy; one that had lost the curvature would be far below."""
+    r = 0.05
+    base = np.array([0.0, 0.4, 0.0, 0.0])
+    c1, c3 = _peak(one_arm, "S2", base, (0, 2))  # S2 drives q1 and q3
+    start = base.copy()
+    start[0], start[2] = c1 + r, c3  # on the circle, at angle 0
+    u, energy = _circle(r)
+    end, integrated = run(one_arm, "S2", start, u)
+    assert integrated == pytest.approx(energy, rel=1e-8)
+    ratio = leg_floor(one_arm, "S2", start, end, T) / energy
+    assert 0.8 < ratio <= 1.0
+
+
+def test_floor_of_a_half_loop_takes_off_its_chord(one_arm):
+    """A half circle from one end of a diameter to the other, where |F| peaks: the loop
+    closed by the chord is longer than the path by the chord, so the floor is about half
+    the energy; without taking the chord off it would be 1.8 times the energy."""
+    r = 0.05
+    base = np.array([0.0, 0.4, 0.0, 0.0])
+    c1, c3 = _peak(one_arm, "S2", base, (0, 2))
+    start = base.copy()
+    start[0], start[2] = c1 - r, c3  # at angle π
+    u, energy = _circle(r, half=True)
+    end, _ = run(one_arm, "S2", start, u)
+    assert end[0] == pytest.approx(c1 + r, abs=1e-9) and end[2] == pytest.approx(c3, abs=1e-9)
+    ratio = leg_floor(one_arm, "S2", start, end, T) / energy
+    assert 0.3 < ratio <= 1.0
+
+
+def test_an_input_that_drives_its_joint_backwards_counts_with_its_sign():
+    """z' = sin(x + y) (u1 + u2) with x' = -u1, y' = u2: in the inputs' integrals the
+    curvature is -2 cos(x + y) (it would vanish with the signs ignored). A small loop where
+    it peaks gets a floor near its energy."""
+    system = load_scenario(
+        {
+            "name": "backwards",
+            "model": {
+                "kind": "custom",
+                "states": ["x", "y", "z"],
+                "inputs": ["u1", "u2"],
+                "fields": {"u1": [-1, 0, "sin(x + y)"], "u2": [0, 1, "sin(x + y)"]},
+                "strata": [{"name": "both", "active": ["u1", "u2"]}],
+            },
+            "task": {"start": [0, 0, 0], "goal": [0, 0, 0.1]},
+            "planner": {"continuity": "none", "leg_duration": 1.0},
+            "legs": [{"stratum": "both"}],
+        }
+    ).system
+    r = 0.05
+    u, energy = _circle(r)
+    start = np.array([-r, 0.0, 0.0])  # the circle's centre at x = y = 0, where |F| = 2
+    end, _ = run(system, "both", start, u)
+    assert abs(end[2]) == pytest.approx(2 * np.pi * r**2, rel=1e-2)
+    ratio = leg_floor(system, "both", start, end, T) / energy
+    assert 0.8 < ratio <= 1.0
+
+
+def test_a_plan_within_the_tolerance_of_the_goal_stays_above_the_floor(one_arm):
+    """`slack`: a plan may end up to the tolerance short of the goal; the floor at the goal
+    allows for it (a straight leg's floor without it equals the plan's energy)."""
+    start = np.array([0.2, 0.5, -0.3, 0.1])
+    rates = np.array([1.1, -0.7])
+    end, energy = run(one_arm, "S2", start, lambda t: rates)
+    goal = end.copy()
+    goal[[0, 2]] += 1e-3 * rates / np.linalg.norm(rates)  # 1e-3 past where the plan ended
+    assert leg_floor(one_arm, "S2", start, goal, T) > energy
+    assert leg_floor(one_arm, "S2", start, goal, T, slack=1e-3) <= energy * (1 + 1e-9)
+
+
 def test_floor_of_a_closed_loop_comes_from_the_base(one_arm):
     """The joints return where they started; the base does not: only the curvature bound
     can be positive, and it is."""
