@@ -150,6 +150,13 @@ class Comparison:
     def legs_saved(self) -> int:
         return self.legs_requested - self.legs_planned
 
+    def __eq__(self, other: object) -> bool:  # a value: no reference duration (NaN) alike
+        if not isinstance(other, Comparison):
+            return NotImplemented
+        return all(_same(getattr(self, f.name), getattr(other, f.name)) for f in fields(self))
+
+    __hash__ = None  # its outcomes are a list
+
     def __repr__(self) -> str:  # the dataclass's prints every outcome and its plan (16 kB)
         return f"Comparison({len(self.outcomes)} sequences by {self.criterion}: {self.choice()})"
 

@@ -283,8 +283,10 @@ def stalled(plan) -> bool:
 
 def with_more_harmonics(system, start, legs, settings, plan, constraints, progress=None):
     """The legs planned again within the limits in a basis of `MORE_HARMONICS` more
-    harmonics (the same period), from `plan`'s controls in it (`controls.embed`: the same
-    controls, a start of the energy search), for a plan whose search stalled (`stalled`).
+    harmonics (the same period), for a plan whose search stalled (`stalled`): the whole
+    plan again (Newton, the energy search, the constrained search), with `plan`'s controls
+    (the plan found without the limits, which the stalled search returns) in the larger
+    basis as one more start of the energy search (`controls.embed`: the same controls).
     The plan returned says in a note how many harmonics it took; where it stalls again, the
     first plan is returned with a note saying so."""
     h = settings.basis.harmonics
@@ -293,7 +295,8 @@ def with_more_harmonics(system, start, legs, settings, plan, constraints, progre
     again = plan_sequence(system, start, legs, more, warm, progress, constraints=constraints)
     if again.message or not all(leg.converged for leg in again.legs):
         return _noted(
-            plan, f"the search within the limits stalled with {h + MORE_HARMONICS} harmonics too"
+            plan,
+            f"with {h + MORE_HARMONICS} harmonics the plan did not get inside the limits either",
         )
     return _noted(
         again,

@@ -77,7 +77,10 @@ class LegSpec:
 
     def __hash__(self) -> int:
         goal = np.asarray(self.goal, dtype=float)
-        return hash((self.stratum, self.method, self.duration, np.nan_to_num(goal).tobytes()))
+        # + 0.0: -0.0 and 0.0 are equal goals (`np.array_equal`), so they must hash alike
+        return hash(
+            (self.stratum, self.method, self.duration, (np.nan_to_num(goal) + 0.0).tobytes())
+        )
 
 
 @dataclass(frozen=True, eq=False)

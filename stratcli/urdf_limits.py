@@ -43,8 +43,7 @@ URDF_ADVICE = (
 
 
 DURATIONS_ADVICE = (
-    "reached its goals but violates a limit of [constraints]; the search within the limits "
-    "stalled at the optimised durations and at equal ones: try more harmonics, via "
+    "reached its goals but violates a limit of [constraints]; try more harmonics, via "
     "configurations that keep the robot away from the limit, another stratum sequence, or "
     "another total_duration (with the basis period unchanged, another path)"
 )

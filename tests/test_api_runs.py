@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -58,7 +59,14 @@ def test_comparisons_and_decompositions_are_equal_by_value_as_values_should_be()
     legs = dec.decomposition.candidates[0].legs
     leg = legs[0]
     assert hash(leg) == hash(pickle.loads(pickle.dumps(leg)))
-    assert leg != legs[-1] or len(legs) == 1
+    # equal goals hash alike, a zero of either sign among them (a review found -0.0 did not)
+    signed = dataclasses.replace(leg, goal=np.where(leg.goal == 0.0, -0.0, leg.goal))
+    assert signed == leg and hash(signed) == hash(leg) and len({signed, leg}) == 1
+    moved = dataclasses.replace(leg, goal=leg.goal + 1e-9)
+    assert moved != leg
+    # a comparison without a reference duration (NaN) equals its pickle too
+    plain = dataclasses.replace(out.comparison, reference_duration=float("nan"))
+    assert pickle.loads(pickle.dumps(plain)) == plain
     full = stratcli.compare_sequences(ROOT / "scenarios" / "sim4_auto.toml", exhaustive=True)
     assert full != out
 

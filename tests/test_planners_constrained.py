@@ -393,6 +393,12 @@ def test_a_search_that_stalls_in_the_default_basis_is_planned_with_more_harmonic
     boxes = [box_corners((1.9, -0.1), (0.3, 0.6), math.radians(30))]
     clearance = _obstacle_clearance(task.system.robot, q, 0.05, circles, boxes)
     assert clearance.min() >= 0.05 - 1e-6
+    for leg in doc["legs"]:  # the rates and accelerations as run, from the controls alone
+        for piece in leg["pieces"]:
+            t = np.linspace(0.0, piece["duration"], 2001)
+            u = np.array([controls(piece, doc["inputs"], s) for s in t])
+            du = np.array([controls(piece, doc["inputs"], s, derivative=True) for s in t])
+            assert np.abs(u).max() <= 0.8 + 1e-6 and np.abs(du).max() <= 1.5 + 1e-6
     given = load_scenario(
         COMBINED.replace("full_stop = true", "full_stop = true\nbasis = { harmonics = 3 }")
     )

@@ -35,6 +35,7 @@ VALUE_SIZE = 7.5  # pt, of the texts in the axes (`_room` measures those after t
 TITLE_SIZE = 10  # pt
 RIGHT = 0.15  # inches right of the axes
 TICK_SIZE = 10.0  # pt, the value axis's major labels (matplotlib's default)
+MINOR_SIZE = 8.0  # pt, its minor labels (2 and 5 of each decade)
 BOUNDED_COLOR = "#777777"
 HOLLOW = dict(facecolor="none", edgecolor=BOUNDED_COLOR, linestyle="--", linewidth=0.8)
 BAR_HEIGHT = 0.7  # of a row's 1
@@ -122,7 +123,7 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     if log:
         ax.set_xscale("log")
         plain_log_labels(ax.xaxis, minor=ratio < 1000)  # 2 and 5 too, up to three decades
-        ax.tick_params(axis="x", which="minor", labelsize=8)
+        ax.tick_params(axis="x", which="minor", labelsize=MINOR_SIZE)
     # the sequences' labels as texts left of the axes where tick labels stand (a tick per row
     # was as costly as the bars)
     ax.set_yticks([])
@@ -145,7 +146,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
             floor if log else 0.0, max(max([*shown, *at_least]) * (1.7 if log else 1.18), room)
         )
         if log:  # the last decade's label (10,000) ran past the figure's right edge
-            ax.set_xlim(floor, _last_label_inside(fig, ax, fig.get_figwidth() - left - RIGHT))
+            room = fig.get_figwidth() - left - RIGHT
+            ax.set_xlim(floor, _last_label_inside(fig, ax, room, minor=ratio < 1000))
     handles = []
     if best is not None:
         handles.append(Patch(color=BEST_COLOR, label=f"best: {labels[best]}"))
@@ -207,16 +209,20 @@ def _room(fig: Figure, ends: dict[str, float], axes: float, log: bool, floor: fl
     return need
 
 
-def _last_label_inside(fig: Figure, ax, axes: float) -> float:
+def _last_label_inside(fig: Figure, ax, axes: float, minor: bool) -> float:
     """The right end of a log value axis `axes` inches wide at which the label of its last
-    decade tick ends inside the figure (centred on its tick, it may stand out of the axes by
-    RIGHT at most); the current end if it does already."""
+    labelled tick (decades; with `minor` labels, 2 and 5 of each decade too) ends inside the
+    figure (centred on its tick, it may stand out of the axes by RIGHT at most); the current
+    end if it does already."""
     lo, hi = ax.get_xlim()
-    decades = [10.0**k for k in range(math.ceil(math.log10(lo)), math.floor(math.log10(hi)) + 1)]
-    if not decades:
+    steps = (1.0, 2.0, 5.0) if minor else (1.0,)
+    decades = range(math.floor(math.log10(lo)), math.floor(math.log10(hi)) + 1)
+    ticks = [m * 10.0**k for k in decades for m in steps if lo <= m * 10.0**k <= hi]
+    if not ticks:
         return hi
-    last = decades[-1]
-    half = _widths(fig, [f"{last:,.10g}"], TICK_SIZE)[0] / 2 + 0.03  # a small gap
+    last = max(ticks)
+    size = TICK_SIZE if math.log10(last).is_integer() else MINOR_SIZE
+    half = _widths(fig, [f"{last:,.10g}"], size)[0] / 2 + 0.03  # a small gap
     if (1 - math.log(last / lo) / math.log(hi / lo)) * axes + RIGHT >= half:
         return hi
     share = 1 - (half - RIGHT) / axes  # of the axis up to the tick
