@@ -16,7 +16,7 @@ Both allow for a plan that ends within the planner's tolerance of the goal (`sla
 The second is what makes a leg that must turn the base through a small curvature dear: the
 Sim 4 comparison's four S2 legs that turn the base far (searched minima 407-557) get floors
 of 79-108 (the best sequence costs 64.80), so the screen prunes every sequence with one of
-them without searching the leg (its two other S2 legs, floors near 7.5, are searched). Unlike
+them without searching the leg (its two other S2 legs, floors 7.1 and 7.5, are searched). Unlike
 the searched minima (a multi-start local search may miss a leg's global minimum), a floor
 holds for every plan of the leg, as far as `max|F|` does: it is taken over the whole torus
 of the two driven joints on a 64 x 64 grid, raised by the grid's half-diagonal times the
