@@ -37,7 +37,7 @@ from .planners import PLANNERS
 from .results import none_to_nan
 from .scenario_checks import acceleration_problems, duration_problems, lie_problems
 from .scenario_hints import beside_constraints, hinted
-from .schema_problems import validation_problems
+from .schema_problems import suggested, validation_problems
 from .settings import (
     MAX_DURATION,
     MIN_DURATION,
@@ -262,7 +262,8 @@ def _resolve(
         if entry.method not in PLANNERS:
             known = " or ".join(repr(m) for m in PLANNERS)
             got = f"(got {entry.method!r})"
-            problems.append(Problem(f"{where}.method", f"must be {known} {got}"))
+            message = suggested(f"must be {known} {got}", entry.method)
+            problems.append(Problem(f"{where}.method", message))
             continue
         if entry.stratum not in system.strata:
             problems.append(

@@ -7,6 +7,8 @@ the keys allowed in its table, a model table without a valid `kind` names the ki
 
 from __future__ import annotations
 
+import difflib
+import re
 from typing import Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
@@ -15,7 +17,7 @@ from .errors import Problem
 from .models.specs import KINDS
 from .settings import UNKNOWN_KEY_ERRORS
 
-__all__ = ["file_location", "validation_problems"]
+__all__ = ["file_location", "suggested", "validation_problems"]
 
 
 def _path(loc: tuple) -> str:
@@ -115,7 +117,9 @@ def validation_problems(
         if unknown:
             allowed = _allowed_keys(root, loc) if root is not None else []
             hint = f" (allowed: {', '.join(allowed)})" if allowed else ""
-            out.append(Problem(where, f"unknown key{hint}"))
+            near = difflib.get_close_matches(str(loc[-1]), allowed, n=1, cutoff=0.75)
+            typo = f": did you mean {near[0]!r}?" if near else ""  # tolerence, tolerance
+            out.append(Problem(where, f"unknown key{typo}{hint}"))
             continue
         msg = err["msg"].removeprefix("Value error, ")
         if msg.startswith(PYDANTIC_VOICE):  # "Input should be ...": as every other message
@@ -142,7 +146,7 @@ def validation_problems(
             continue
         # a validator's own message may show the value already (parse_number's do)
         shown = "" if kind == "missing" or "(got " in msg else f" (got {_short(err['input'])})"
-        problem = Problem(where, f"{msg}{shown}")
+        problem = Problem(where, suggested(f"{msg}{shown}", err.get("input")))
         if loc != raw:  # one form of several: grouped by the value they are forms of
             value = raw[: next(i for i, item in enumerate(raw) if _form(item, models))]
             alternatives.setdefault(value, []).append((kind, problem))
@@ -184,6 +188,20 @@ def _model_names() -> set[str]:
                 names.add(sub.__name__)
                 todo.append(sub)
     return names
+
+
+def suggested(message: str, got: Any) -> str:
+    """`message` ("must be 'a' or 'b' (got 'x')") with the choice closest to the string
+    given, if one is: the same letters in another case ('Newton', 'lr-c1'), or a close
+    spelling ('optimize' for 'optimise')."""
+    choices = re.findall(r"'([^']*)'", message.partition(" (got ")[0])
+    if not message.startswith("must be '") or not isinstance(got, str) or not choices:
+        return message
+    near = [c for c in choices if c.lower() == got.lower()]
+    near = near or difflib.get_close_matches(got, choices, n=1, cutoff=0.75)
+    if not near or not message.endswith(")"):
+        return message
+    return f"{message[:-1]}: did you mean {near[0]!r}?)"
 
 
 def _short(value: Any) -> str:

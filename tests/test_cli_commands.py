@@ -76,7 +76,7 @@ BAD = {
     "malformed TOML": (TASK_D.replace('name = "one-arm"', 'name = "one-arm'), "not valid TOML"),
     "unknown key": (
         TASK_D.replace("tolerance = 1e-3", "tolerence = 1e-3"),
-        "planner.tolerence: unknown key (allowed: continuity",
+        "planner.tolerence: unknown key: did you mean 'tolerance'? (allowed: continuity",
     ),
     "wrong type": (
         TASK_D.replace("tolerance = 1e-3", 'tolerance = "small"'),
@@ -462,7 +462,8 @@ BAD_DECOMPOSE = {
     "unknown key": (
         "max_length = 3",
         "max_len = 3",
-        "decompose.max_len: unknown key (allowed: max_length, strategy, criterion, strata)",
+        "decompose.max_len: unknown key: did you mean 'max_length'? (allowed: max_length, "
+        "strategy, criterion, strata)",
     ),
     "strata": (
         "max_length = 3",

@@ -84,13 +84,13 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
         (
             LAST_LEG,
             LAST_LEG + 'method = "lie"\nlie = { step_duraton = 0.5 }\n',
-            "legs[1].lie.step_duraton: unknown key (allowed: step_duration, gamma, degree, "
-            "max_steps, alpha, rest)",
+            "legs[1].lie.step_duraton: unknown key: did you mean 'step_duration'? (allowed: "
+            "step_duration, gamma, degree, max_steps, alpha, rest)",
         ),
         (
             LAST_LEG,
             LAST_LEG + 'method = "Newton"\n',
-            "legs[1].method: must be 'lie' or 'newton' (got 'Newton')",
+            "legs[1].method: must be 'lie' or 'newton' (got 'Newton': did you mean 'newton'?)",
         ),
         (
             LAST_LEG,
@@ -100,10 +100,28 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
             "obstacles = [{ shape = ... }], or one [[constraints.obstacles]] table per obstacle "
             "(got {'shape': 'circle'",
         ),
+        (
+            'continuity = "lr-C1"',
+            'continuity = "lr-c1"',
+            "planner.continuity: must be 'none', 'l-C0', 'l-C1', 'lr-C0' or 'lr-C1' (got "
+            "'lr-c1': did you mean 'lr-C1'?)",
+        ),
+        (
+            'continuity = "lr-C1"',
+            'continuity = "lr-C1"\ndurations = "optimize"',
+            "planner.durations: must be 'fixed' or 'optimise' (got 'optimize': did you mean "
+            "'optimise'?)",
+        ),
+        (
+            'continuity = "lr-C1"',
+            'continuity = "lr-C1"\nobjective = "speed"',
+            "planner.objective: must be 'energy' or 'newton' (got 'speed')",  # nothing near
+        ),
     ],
     ids=[
         "angle name", "single legs table", "name table on a preset", "lie key", "method",
-        "single obstacle table",
+        "single obstacle table", "a choice in another case", "a choice spelled otherwise",
+        "no choice near",
     ],
 )  # fmt: skip
 def test_messages_say_what_to_write(tmp_path, old, new, expected):

@@ -25,7 +25,9 @@ def test_an_unknown_key_lists_the_keys_of_its_own_table_when_given_the_schema():
     exc = _errors({**BASE, "planner": {"tolerence": 1e-3}})
     (problem,) = validation_problems(exc, root=Scenario)
     assert problem.path == "planner.tolerence"
-    assert problem.message.startswith("unknown key (allowed: ") and "tolerance" in problem.message
+    assert problem.message.startswith("unknown key: did you mean 'tolerance'? (allowed: ")
+    far = validation_problems(_errors({**BASE, "planner": {"colour": 1}}), root=Scenario)
+    assert far[0].message.startswith("unknown key (allowed: ")  # nothing near it: no guess
     (bare,) = validation_problems(exc)  # no schema to walk: no list
     assert (bare.path, bare.message) == ("planner.tolerence", "unknown key")
 
@@ -90,7 +92,9 @@ def test_an_obstacles_keys_are_paths_of_the_file_and_list_the_keys_of_its_shape(
     assert found == {
         "constraints.obstacles[0].centre": "required field is missing",
         "constraints.obstacles[0].radius": "required field is missing",
-        "constraints.obstacles[0].center": "unknown key (allowed: shape, centre, radius)",
+        "constraints.obstacles[0].center": (
+            "unknown key: did you mean 'centre'? (allowed: shape, centre, radius)"
+        ),
     }
     box = {"shape": "box", "centre": [0, 1], "size": [1, -1], "angle": 0.1}
     raw = {**BASE, "constraints": {"obstacles": [box]}}

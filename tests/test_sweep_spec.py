@@ -90,7 +90,10 @@ BAD = [
         "sweep.task[0]: misses goal.q2 (set by sweep.task[1]): every [[sweep.task]] sets the same",
     ),
     ("[sweep.grid]\n\"legs[5].goal.q1\" = [0]\n", "the scenario has no legs[5]"),
-    ("grod = 1\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.grod: unknown key (allowed: name, "),
+    (
+        "grod = 1\n[sweep.grid]\n\"goal.q1\" = [0]\n",
+        "sweep.grod: unknown key: did you mean 'grid'? (allowed: name, ",
+    ),
     ("check = \"yes\"\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.check: must be"),
     ("[sweep.random]\ncount = \"3\"\nranges = { \"goal.q1\" = [0, 1] }\n", "count: must be"),
 ]  # fmt: skip
