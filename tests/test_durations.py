@@ -96,12 +96,31 @@ def test_optimised_durations_are_searched_within_the_limits():
 def test_optimised_durations_where_the_search_stalls_advise_without_the_other_objective():
     # the other objective is refused with optimised durations: not advised
     raw = _task_d(durations="optimise", total_duration=2.0)
-    raw["constraints"] = {"joint_limits": [-2.0, 2.0]}  # stalls at any durations
+    raw["constraints"] = {"joint_limits": [-2.0, 2.0]}  # stalls at any durations with 3
+    raw["planner"]["basis"] = {"harmonics": 3}  # set: kept, no retry with more
     plan = plan_run(load_scenario(raw), check=False).result
     assert not plan.ok
     assert plan.message.startswith("the constrained search stalled on leg 1")
     assert "try more harmonics" in plan.message
     assert "the other objective" not in plan.message
+
+
+def test_optimised_durations_where_the_search_stalls_in_the_default_basis_get_more_harmonics():
+    """The same table with the default basis: planned again with 5 harmonics at the
+    durations chosen, inside the limits on an independent integration, both notes kept."""
+    raw = _task_d(durations="optimise", total_duration=2.0)
+    raw["constraints"] = {"joint_limits": [-2.0, 2.0]}
+    task = load_scenario(raw)
+    outcome = plan_run(task, check=False)
+    plan = outcome.result
+    assert plan.ok, plan.message
+    assert sum(leg.duration for leg in plan.legs) == pytest.approx(2.0, abs=1e-9)
+    assert {p["basis"]["harmonics"] for leg in outcome.document["legs"] for p in leg["pieces"]} == {
+        5
+    }
+    assert np.abs(_dense(task, outcome.document)[:, :3]).max() <= 2.0 + 1e-6
+    assert any(n.startswith("durations optimised within the 2 s budget") for n in plan.notes)
+    assert any(n.startswith("planned with 5 harmonics") for n in plan.notes)
 
 
 @pytest.mark.parametrize(

@@ -171,24 +171,32 @@ def plan_run(
             task.system.compiled(leg.stratum)
     compile_time = phases["compile"]["wall_s"]  # the check's own time is `check_time`
     with phase(phases, "planning"):
+        legs = task.legs
         if task.settings.durations == "optimise":
             total = task.settings.total_duration or sum(leg.duration for leg in task.legs)
             result = optimise_durations(
                 task.system, task.start, task.legs, task.settings, total, progress,
                 constraints=task.constraints,
             )  # fmt: skip
+            legs = [  # as chosen: a retry with more harmonics plans these durations
+                dataclasses.replace(leg, duration=planned.duration)
+                for leg, planned in zip(task.legs, result.legs, strict=False)
+            ]
         else:
             result = plan_sequence(
                 task.system, task.start, task.legs, task.settings, progress=progress,
                 constraints=task.constraints,
             )  # fmt: skip
-            if stalled(result) and not _harmonics_given(task):
-                h = task.settings.basis.harmonics + MORE_HARMONICS
-                say(f"constrained search: stalled; planning again with {h} harmonics")
-                result = with_more_harmonics(
-                    task.system, task.start, task.legs, task.settings, result,
-                    task.constraints, progress,
-                )  # fmt: skip
+        if stalled(result) and not _harmonics_given(task):
+            h = task.settings.basis.harmonics + MORE_HARMONICS
+            say(f"constrained search: stalled; planning again with {h} harmonics")
+            again = with_more_harmonics(
+                task.system, task.start, legs, task.settings, result, task.constraints, progress
+            )
+            chosen = tuple(n for n in result.notes if n.startswith("durations optimised"))
+            if again is not result and chosen and not again.message:  # the durations' note
+                again = dataclasses.replace(again, notes=(*chosen, *again.notes))
+            result = again
     planning_time = phases["planning"]["wall_s"]
     scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
     if task.constraints is not None:  # rate limits by time scaling; every limit verified
