@@ -232,6 +232,7 @@ def compare(
     screen: int | None = None,
     executor: Executor | None = None,
     constraints=None,
+    more_harmonics: bool = False,
 ) -> Comparison:
     """Plan every candidate (sharing work), measure it, rank by `criterion`.
 
@@ -243,7 +244,9 @@ def compare(
     there instead of in forked processes; its workers rebuild the model from its `[model]`
     table (a model made in Python has none: use `jobs`). `constraints` (a resolved
     [constraints] table): every candidate planned within its joint limits, self-collision and
-    obstacles, and failed where it still breaks one (`within_limits.candidate_within_limits`).
+    obstacles, and failed where it still breaks one (`within_limits.candidate_within_limits`);
+    with `more_harmonics` (the scenario leaves the basis to the default) a candidate whose
+    constrained search stalls is planned again with more (`objectives.with_more_harmonics`).
     """
     if criterion not in CRITERIA:
         raise ValueError(f"unknown criterion {criterion!r} (known: {', '.join(CRITERIA)})")
@@ -270,8 +273,9 @@ def compare(
     durations = [sum(leg.duration for leg in cand.legs) for cand in candidates]
     reference = min((d for d in durations if d > 0), default=math.nan)
     STATE.update(
-        system=system, settings=settings, start=start, executor=executor, constraints=constraints
-    )
+        system=system, settings=settings, start=start, executor=executor, constraints=constraints,
+        more_harmonics=more_harmonics,
+    )  # fmt: skip
     try:
         if is_newton(settings):
             planned, requested, plans, times = compare_shared(

@@ -41,12 +41,12 @@ import numpy as np
 from .interrupts import checkpoint, release_signals, signals_held
 from .models.system import System
 from .node_margins import searchable
-from .objectives import plan_sequence
+from .objectives import plan_sequence, stalled, with_more_harmonics
 from .results import LegPlan
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import LegSpec, LegStart, assemble, plan_next_leg, planner_for
-from .within_limits import candidate_within_limits
+from .within_limits import candidate_within_limits, within_limits
 
 __all__ = ["STATE", "build_trie", "compare_shared", "compare_whole", "default_jobs"]
 
@@ -165,6 +165,7 @@ def plan_whole(items: list[tuple[int, list[LegSpec]]]) -> dict[int, Any]:
         clock = time.perf_counter()
         try:
             plan = plan_sequence(system, start, legs, settings, constraints=constraints)
+            plan = _retried(system, start, legs, settings, plan, constraints)
             plan = candidate_within_limits(
                 system, start, legs, settings, plan, constraints, searched=True
             )
@@ -356,8 +357,21 @@ def _plan_within_limits(unit: tuple[int, list[LegSpec], SequencePlan]) -> tuple:
     k, legs, plan = unit
     clock = time.perf_counter()
     system, settings, start = STATE["system"], STATE["settings"], STATE["start"]
-    plan = candidate_within_limits(system, start, legs, settings, plan, STATE["constraints"])
+    constraints = STATE["constraints"]
+    if searchable(constraints) and plan.ok:  # searched here, retried where it stalls
+        plan = within_limits(system, start, legs, settings, plan.with_system(system), constraints)
+        plan = _retried(system, start, legs, settings, plan, constraints)
+    plan = candidate_within_limits(system, start, legs, settings, plan, constraints, searched=True)
     return k, plan, time.perf_counter() - clock
+
+
+def _retried(system, start, legs, settings, plan, constraints) -> SequencePlan:
+    """`plan` planned again with more harmonics where its constrained search stalled and the
+    scenario left the basis to the default (`objectives.with_more_harmonics`;
+    STATE["more_harmonics"], set by `compare.compare`)."""
+    if STATE.get("more_harmonics") and stalled(plan):
+        return with_more_harmonics(system, start, legs, settings, plan, constraints)
+    return plan
 
 
 def compare_whole(system, settings, candidates, valid, jobs, advance):

@@ -153,3 +153,32 @@ def test_newton_auto_mode_counts_a_candidate_done_after_its_limits(monkeypatch):
     assert during and max(during) < total  # not shown finished while it is being moved inside
     assert seen[-1] == (total, total)
     assert all(a[0] <= b[0] for a, b in itertools.pairwise(seen))
+
+
+@pytest.mark.slow  # two comparisons of 18 constrained candidates: ~20 s
+def test_a_candidate_that_stalls_in_the_default_basis_is_planned_with_more_harmonics():
+    """Sim 4 in auto mode within ±2.5 rad and self-collision: (S1, S3, S1) and (S1, S3, S2)
+    stall on self-collision with the default 3 harmonics and are planned inside the limits
+    with 5 (each such plan says so; its pieces are in 5 harmonics); the same choice. With the
+    harmonics set by the scenario, they fail as before."""
+    task = stratcli.load_scenario(ROOT / "scenarios" / "sim4_auto.toml").with_changes(
+        {"constraints": LIMITS}
+    )
+    outcome = stratcli.compare_sequences(task, jobs=2)
+
+    def more(o) -> bool:
+        return o.plan is not None and any(n.startswith("planned with 5") for n in o.plan.notes)
+
+    retried = [o for o in outcome.comparison.outcomes if more(o)]
+    assert retried and all(o.ok and o.plan.constraints.ok for o in retried)
+    assert all(leg.basis.harmonics == 5 for o in retried for leg in o.plan.legs)
+    assert not any(r["status"] == "failed" for r in outcome.document["rows"])
+    best = outcome.document["rows"][0]
+    assert best["sequence"] == ["S1", "S3"] and best["status"] == "ok"
+    kept = stratcli.compare_sequences(
+        task.with_changes({"planner": {"basis": {"harmonics": 3}}}), jobs=2
+    )
+    failed = [r for r in kept.document["rows"] if r["status"] == "failed"]
+    assert {tuple(r["sequence"]) for r in failed} == {tuple(o.candidate.sequence) for o in retried}
+    assert all("stalled" in r["reason"] for r in failed)
+    assert kept.document["rows"][0]["energy"] == best["energy"]

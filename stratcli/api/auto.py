@@ -116,6 +116,7 @@ def compare_decomposition(
         screen=None if exhaustive else SCREEN_TOP,
         executor=executor,
         constraints=task.constraints,
+        more_harmonics=not harmonics_given(task),
     )
     best = comparison.best
     if best is None or best.plan is None:
@@ -124,6 +125,18 @@ def compare_decomposition(
             task.source,
         )
     return comparison, compile_time
+
+
+def harmonics_given(task) -> bool:
+    """Whether the scenario itself sets `planner.basis.harmonics` (then it is kept, and a
+    search that stalls within the limits is not tried again with more)."""
+    import tomllib
+
+    try:
+        basis = tomllib.loads(task.text).get("planner", {}).get("basis", {})
+    except (tomllib.TOMLDecodeError, AttributeError):
+        return True
+    return not isinstance(basis, dict) or "harmonics" in basis
 
 
 def auto_choice(outcome) -> str:

@@ -26,7 +26,7 @@ from ..sequence import SequencePlan
 from ..settings import MAX_TIME_SCALE
 from ..time_scaling import scale_time, time_scaled
 from ..urdf_limits import with_limit_notes
-from .auto import auto_choice
+from .auto import auto_choice, harmonics_given
 from .inspection import controllability_first, limit_warnings
 from .outcomes import ComparisonOutcome, PlanOutcome
 
@@ -187,7 +187,7 @@ def plan_run(
                 task.system, task.start, task.legs, task.settings, progress=progress,
                 constraints=task.constraints,
             )  # fmt: skip
-        if stalled(result) and not _harmonics_given(task):
+        if stalled(result) and not harmonics_given(task):
             h = task.settings.basis.harmonics + MORE_HARMONICS
             say(f"constrained search: stalled; planning again with {h} harmonics")
             again = with_more_harmonics(
@@ -209,18 +209,6 @@ def plan_run(
     result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
     doc = result.to_dict()
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases, check_time)
-
-
-def _harmonics_given(task: Task) -> bool:
-    """Whether the scenario itself sets `planner.basis.harmonics` (then it is kept, and a
-    search that stalls within the limits is not tried again with more)."""
-    import tomllib
-
-    try:
-        basis = tomllib.loads(task.text).get("planner", {}).get("basis", {})
-    except (tomllib.TOMLDecodeError, AttributeError):
-        return True
-    return not isinstance(basis, dict) or "harmonics" in basis
 
 
 @checked(scenario=SCENARIO, check=flag, jobs=JOBS, progress=PROGRESS, time_scale=TIME_SCALE)
