@@ -334,8 +334,7 @@ def _bounded(k, cand, bound) -> Outcome:
         f"not searched: its energy is at least {_show(bound, 'energy')} (the sum of its legs' "
         "minima, each leg planned alone without the conditions that tie it to its "
         "neighbours or bounded below by the joints' travel and the stratum's curvature), which "
-        "cannot beat the best "
-        "sequence"
+        "cannot beat the best sequence"
     )
     return Outcome(k, cand, None, "bounded", reason, message, duration=duration, screened=True)
 
@@ -343,7 +342,7 @@ def _bounded(k, cand, bound) -> Outcome:
 def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
     if isinstance(plan, str):  # an exception while planning
         return Outcome(k, cand, None, "failed", plan, plan, planning_time=seconds)
-    peak, excursion = peak_and_excursion(plan, system, settings)
+    peak, excursion = peak_and_excursion(plan, system)
     reason = ""
     if not plan.ok:
         last = plan.legs[-1] if plan.legs else None

@@ -29,7 +29,7 @@ from .sequence import SequencePlan
 from .settings import MIN_DURATION, PlannerSettings
 from .stratified import LegSpec
 
-__all__ = ["optimise_durations", "shares"]
+__all__ = ["optimise_durations", "shares", "timed_as"]
 
 EVALUATIONS_PER_LEG = 25  # Nelder–Mead budget: plans of the sequence per free duration
 X_TOL = 2e-3  # in the softmax weights: durations to ~0.1 % of the budget
@@ -78,7 +78,6 @@ def optimise_durations(
 
     settings = replace(settings, objective="energy")
     plans: dict[tuple[float, ...], SequencePlan] = {}
-    specs: dict[tuple[float, ...], list[LegSpec]] = {}  # each plan's legs, as timed
     say = progress or (lambda phase: None)
 
     def planned(y: np.ndarray) -> SequencePlan | None:
@@ -92,7 +91,6 @@ def optimise_durations(
                 replace(leg, duration=float(d)) for leg, d in zip(legs, durations, strict=True)
             ]
             plans[key] = plan_sequence(system, start, timed, settings)
-            specs[key] = timed
         return plans[key]
 
     def energy(y: np.ndarray) -> float:
@@ -102,7 +100,7 @@ def optimise_durations(
     k = len(legs)
     equal = planned(np.zeros(k - 1))
     if k == 1:
-        return _inside(system, start, specs, [equal], settings, constraints, progress)[0]
+        return _inside(system, start, legs, [equal], settings, constraints, progress)[0]
     scale = equal.total_energy if equal.ok else 1.0
     minimize(
         energy,
@@ -120,7 +118,7 @@ def optimise_durations(
         return equal
     optimum = min(ok, key=lambda p: p.total_energy)
     free = optimum.total_energy
-    best, inside = _inside(system, start, specs, [optimum, equal], settings, constraints, progress)
+    best, inside = _inside(system, start, legs, [optimum, equal], settings, constraints, progress)
     chosen = ", ".join(f"{leg.duration:.4g}" for leg in optimum.legs)
     reference = (
         f"{equal.total_energy:.6g} at equal durations ({total / k:.4g} s each), "
@@ -145,29 +143,35 @@ def optimise_durations(
     return replace(best, notes=(*best.notes, note))
 
 
+def timed_as(legs: list[LegSpec], plan: SequencePlan) -> list[LegSpec]:
+    """`legs` with the durations `plan` gave them (its legs planned so far)."""
+    return [replace(leg, duration=p.duration) for leg, p in zip(legs, plan.legs, strict=False)]
+
+
 def _inside(
-    system, start, specs, choices, settings, constraints, progress
+    system, start, legs, choices, settings, constraints, progress
 ) -> tuple[SequencePlan, list[tuple[int, float]]]:
     """The lowest-energy plan that the constrained search gets inside the limits of
-    `constraints` from each of `choices` (plans of `specs`' durations: the chosen ones, the
-    equal ones), else the first as searched (`within_limits`: with the message naming where
-    it stalled); the first unchanged without limits to search (`node_margins.searchable`).
-    Also (index among `choices`, energy) of each plan that got inside."""
+    `constraints` from each of `choices` (plans of `legs` at other durations: the chosen
+    ones, the equal ones), else the first as searched (`within_limits`: with the message
+    naming where it stalled); the first unchanged without limits to search
+    (`node_margins.searchable`). Also (index among `choices`, energy) of each plan that got
+    inside."""
     from .within_limits import within_limits
 
     first = choices[0]
     if not searchable(constraints) or not first.ok:
         return first, []
-    searched, inside = [], []
+    searched, inside = None, []  # the first plan as searched, and those inside
     for which, plan in enumerate(dict.fromkeys(choices)):  # equal may be the chosen ones
         if not plan.ok:
             continue
-        key = tuple(np.round([leg.duration for leg in plan.legs], 12))
-        found = within_limits(system, start, specs[key], settings, plan, constraints, progress)
-        searched.append(found)
+        timed = timed_as(legs, plan)
+        found = within_limits(system, start, timed, settings, plan, constraints, progress)
         if found.ok and not found.message:
             inside.append((which, found))
+        searched = searched or found
     if not inside:
-        return searched[0], []
+        return searched, []
     best = min((plan for _, plan in inside), key=lambda p: p.total_energy)
     return best, [(which, plan.total_energy) for which, plan in inside]

@@ -43,15 +43,16 @@ def joint_coordinates(system: System, strata: Sequence[str]) -> tuple[int, ...]:
     return tuple(sorted(set.intersection(*sets))) if sets else ()
 
 
-def peak_and_excursion(plan: SequencePlan, system, settings) -> tuple[float, float]:
+def peak_and_excursion(plan: SequencePlan, system) -> tuple[float, float]:
     """max |u_k(t)| and the largest range max_t q_j − min_t q_j over the joints, sampled
-    (each leg in its own basis: a plan retried with more harmonics has more than `settings`)."""
+    (each leg in its own basis: a plan retried with more harmonics has more than the
+    settings')."""
     joints = joint_coordinates(system, [leg.stratum for leg in plan.legs])
     peak = 0.0
     lo = np.full(len(joints), np.inf)
     hi = np.full(len(joints), -np.inf)
     for leg in plan.legs:
-        basis = getattr(leg, "basis", None) or settings.basis
+        basis = leg.basis
         t = np.linspace(0.0, leg.duration, SAMPLES_PER_LEG)
         u = np.atleast_2d(basis.values(t)) @ leg.coefficients.T  # (samples, m_active)
         peak = max(peak, float(np.abs(u).max(initial=0.0)))

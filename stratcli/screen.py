@@ -230,9 +230,11 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
         duration = sum(leg.duration for leg in candidates[k].legs)
         return duration / reference if math.isfinite(reference) and reference > 0 else 1.0
 
-    def bound(k: int) -> float:  # on the energy at equal duration; legs not searched: floors
-        legs_bound = (max(floors[a], known.get(a, 0.0), known.get(b, 0.0)) for a, b in keys[k])
-        return sum(legs_bound) * scale(k)
+    def leg_bound(loose: tuple, tight: tuple) -> float:  # a leg not searched: its floor
+        return max(floors[loose], known.get(loose, 0.0), known.get(tight, 0.0))
+
+    def bound(k: int) -> float:  # on the energy at equal duration
+        return sum(leg_bound(a, b) for a, b in keys[k]) * scale(k)
 
     def unbounded(k: int) -> list[tuple]:  # loose bounds first, then the tight ones
         loose = [a for a, _ in keys[k] if a not in known]
@@ -339,12 +341,7 @@ def _branch_and_bound(system, candidates, valid, jobs, advance, top, reference, 
     advance(len(valid) - len(searched) - len(sunk))
     bounds = {k: bound(k) / scale(k) for k in valid}
     floored = sum(value > 0 for value in floors.values())
-    per_leg = {
-        k: tuple(
-            (floors[a], max(floors[a], known.get(a, 0.0), known.get(b, 0.0))) for a, b in keys[k]
-        )
-        for k in valid
-    }
+    per_leg = {k: tuple((floors[a], leg_bound(a, b)) for a, b in keys[k]) for k in valid}
     screen = Screen(
         bounds, tuple(searched), len(bounded_legs), corrections, seconds, tuple(sunk), floored,
         per_leg,

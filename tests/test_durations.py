@@ -69,18 +69,27 @@ def _dense(task, doc, samples: int = 2000) -> np.ndarray:
     return np.concatenate(out)
 
 
-def test_optimised_durations_are_searched_within_the_limits():
-    """The free optimum takes q2 past 3 rad; the durations are chosen without the limits,
-    then the plan is searched within them at those durations and at equal ones: inside on
-    an independent integration, no dearer than the fixed durations' constrained plan."""
+def _within(limit: float):
+    """Task D, durations optimised in a 2 s budget, joints within ±`limit`: the raw
+    scenario, the task and its outcome, checked planned, within the budget and inside the
+    limits on an independent integration."""
     raw = _task_d(durations="optimise", total_duration=2.0)
-    raw["constraints"] = {"joint_limits": [-2.5, 2.5]}
+    raw["constraints"] = {"joint_limits": [-limit, limit]}
     task = load_scenario(raw)
     outcome = plan_run(task, check=False)
     plan = outcome.result
     assert plan.ok, plan.message
     assert sum(leg.duration for leg in plan.legs) == pytest.approx(2.0, abs=1e-9)
-    assert np.abs(_dense(task, outcome.document)[:, :3]).max() <= 2.5 + 1e-6
+    assert np.abs(_dense(task, outcome.document)[:, :3]).max() <= limit + 1e-6
+    return raw, task, outcome
+
+
+def test_optimised_durations_are_searched_within_the_limits():
+    """The free optimum takes q2 past 3 rad; the durations are chosen without the limits,
+    then the plan is searched within them at those durations and at equal ones: inside on
+    an independent integration, no dearer than the fixed durations' constrained plan."""
+    raw, task, outcome = _within(2.5)
+    plan = outcome.result
     verify(task, outcome.document)  # goals, chaining, energies, continuity at the switch
     (note,) = [n for n in plan.notes if n.startswith("durations optimised")]
     assert "then searched within them at those durations and at equal ones" in note
@@ -108,17 +117,10 @@ def test_optimised_durations_where_the_search_stalls_advise_without_the_other_ob
 def test_optimised_durations_where_the_search_stalls_in_the_default_basis_get_more_harmonics():
     """The same table with the default basis: planned again with 5 harmonics at the
     durations chosen, inside the limits on an independent integration, both notes kept."""
-    raw = _task_d(durations="optimise", total_duration=2.0)
-    raw["constraints"] = {"joint_limits": [-2.0, 2.0]}
-    task = load_scenario(raw)
-    outcome = plan_run(task, check=False)
+    _, _, outcome = _within(2.0)
     plan = outcome.result
-    assert plan.ok, plan.message
-    assert sum(leg.duration for leg in plan.legs) == pytest.approx(2.0, abs=1e-9)
-    assert {p["basis"]["harmonics"] for leg in outcome.document["legs"] for p in leg["pieces"]} == {
-        5
-    }
-    assert np.abs(_dense(task, outcome.document)[:, :3]).max() <= 2.0 + 1e-6
+    pieces = [p for leg in outcome.document["legs"] for p in leg["pieces"]]
+    assert {p["basis"]["harmonics"] for p in pieces} == {5}
     assert any(n.startswith("durations optimised within the 2 s budget") for n in plan.notes)
     assert any(n.startswith("planned with 5 harmonics") for n in plan.notes)
 

@@ -16,7 +16,7 @@ from ..arguments import checked, choice, flag, instance, integer, number, option
 from ..compare import CRITERIA
 from ..constraints import enforce
 from ..decomposition import STRATEGIES
-from ..durations import optimise_durations
+from ..durations import optimise_durations, timed_as
 from ..errors import IllConditionedWarning, InputError
 from ..objectives import MORE_HARMONICS, plan_sequence, stalled, with_more_harmonics
 from ..records.manifest import Phases, phase, since_start
@@ -178,10 +178,7 @@ def plan_run(
                 task.system, task.start, task.legs, task.settings, total, progress,
                 constraints=task.constraints,
             )  # fmt: skip
-            legs = [  # as chosen: a retry with more harmonics plans these durations
-                dataclasses.replace(leg, duration=planned.duration)
-                for leg, planned in zip(task.legs, result.legs, strict=False)
-            ]
+            legs = timed_as(task.legs, result)  # as chosen: a retry plans these durations
         else:
             result = plan_sequence(
                 task.system, task.start, task.legs, task.settings, progress=progress,

@@ -99,7 +99,7 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
         # the plan as run: re-timed (planner.time_scale) and slowed to its rate limits, its
         # own basis (the task's has the period before re-timing); in auto and compare mode
         # not the comparison's numbers, which are the chosen sequence as planned
-        peak, excursion = peak_and_excursion(plan, task.system, plan.settings)
+        peak, excursion = peak_and_excursion(plan, task.system)
         row.update(
             peak_control=_finite(peak),
             excursion=_finite(excursion),
