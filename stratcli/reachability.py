@@ -134,7 +134,7 @@ def out_of_reach(
     `tolerance` off the spanned ones (the attitude's displacement in the body frame at `q`,
     the brackets' own frame). Analytic fields whose brackets miss a direction everywhere on
     the stratum cannot move along it (S1 of robots/arm3.urdf at j1 = 0 turns the base about
-    y only); the newton planner asks this only after its own attempts failed, instead of a
+    y only); the newton planner asks this once two of its attempts failed, instead of a
     continuation that would fail too (tens of seconds on a URDF leg). Other models: None
     (their continuation runs as before).
     """

@@ -133,3 +133,32 @@ def test_a_continuation_that_fails_too_is_said_and_not_counted_as_an_attempt(mon
     assert not plan.ok
     assert f"in {task.settings.restarts + 1} attempts (" in plan.message
     assert "a continuation along the line to the goal, which did not reach it" in plan.message
+
+
+def test_two_stalled_attempts_hand_the_leg_to_a_short_continuation(monkeypatch):
+    """Sim 4 task A's S2 leg: Newton's first two attempts stall; a short continuation
+    (`EARLY_STEPS`, one attempt's iterations) reaches the goal before any blind restart, and
+    in fewer iterations than the restarts took to find one (the sixth attempt did)."""
+    import stratcli.planners.newton as newton
+
+    task = load_scenario("scenarios/sim4_task_a.toml")
+    plan = chain_legs(task.system, task.start, task.legs, task.settings)
+    assert [leg.strategy for leg in plan.legs] == ["newton", "continuation"]
+    verify(task, result_document(plan, "a", "one-arm"))  # independent re-integration
+    first = plan.legs[0]
+    at = LegStart(first.end, first.end_controls(), first.duration, 1)  # as chain_legs
+
+    def plan_leg():
+        planner = NewtonPlanner.from_settings(task.settings, task.legs[1])
+        problem = leg_problem(task.system, task.settings, task.legs[1], at, None, planner)
+        return problem, planner.plan(problem)
+
+    problem, early = plan_leg()
+    early_after = newton.EARLY_CONTINUATION
+    assert (early.attempts, early.strategy) == (early_after, "continuation")
+    assert early.error <= problem.tolerance
+    monkeypatch.setattr(newton, "EARLY_CONTINUATION", task.settings.restarts + 2)  # never
+    _, late = plan_leg()
+    assert late.strategy == "newton" and late.attempts > early_after + 1
+    assert late.error <= problem.tolerance
+    assert early.iterations < late.iterations

@@ -189,6 +189,43 @@ def test_a_runaway_search_raises_with_the_coordinate():
     assert "after" in caught.value.detail  # the iterations it took, bounded by the limit
 
 
+def test_refused_full_steps_cost_no_jacobian_and_the_iterates_are_the_same():
+    """On a residual whose Gauss-Newton step overshoots (cube roots: the full step lands at
+    -2x) the search asks no Jacobian with the next full step after one was refused, so fewer
+    Jacobians are thrown away than full steps refused; the path is the one a search given
+    every Jacobian takes, to the bit."""
+
+    def make(always):
+        log = []  # (asked for the Jacobian, accepted, first trial after an acceptance)
+        state = {"err": np.inf, "new": True}
+
+        def cube_roots(z, jacobian):
+            x = z - np.array([1.0, -0.5])
+            e = -np.array([np.cbrt(x[0]), x[1]])  # -residual; J = -de/dz as the search expects
+            err = float(np.linalg.norm(e))
+            accepted = err < state["err"]
+            if err != state["err"]:  # (not the accepted point asked again for its Jacobian)
+                log.append((jacobian, accepted, state["new"]))
+                state["new"] = accepted
+                state["err"] = min(err, state["err"])
+            with np.errstate(divide="ignore"):  # (at the root itself: not used there)
+                J = np.diag([1.0 / (3.0 * np.cbrt(x[0]) ** 2), 1.0])
+            return e, (J if jacobian or always else None), (z.copy(), z.copy())
+
+        return cube_roots, log
+
+    lazy, log = make(False)
+    eager, _ = make(True)
+    kwargs = dict(tolerance=1e-6, max_iterations=200, mu=1e-10, diverged=lambda _: None)
+    a = damped_gauss_newton(lazy, np.array([4.0, 3.0]), **kwargs)
+    b = damped_gauss_newton(eager, np.array([4.0, 3.0]), **kwargs)
+    assert a.error <= 1e-6 and np.array_equal(a.z, b.z) and a.iterations == b.iterations
+    refused_full = sum(1 for _, accepted, first in log[1:] if first and not accepted)
+    thrown_away = sum(1 for asked, accepted, _ in log[1:] if asked and not accepted)
+    assert refused_full >= 3  # the residual makes the search refuse full steps
+    assert thrown_away < refused_full
+
+
 def test_a_runaway_check_of_the_caller_stops_the_loop_with_its_reason():
     def far(payload):
         return "too far" if payload[1][0] > 5.0 else None

@@ -314,6 +314,10 @@ def damped_gauss_newton(
     err = float(np.linalg.norm(e))
     iterations = 0
     history = [err]
+    # the full step's Jacobian comes with its evaluation (usually accepted: little extra
+    # cost), but not after a full step was refused: a search crawling on a curved residual
+    # refuses many, and a refused step's Jacobian is thrown away (the same numbers either way)
+    eager = jacobian_after is None
     while err > tolerance and iterations < max_iterations:
         if stall_window and len(history) > stall_window:
             if err > stall_ratio * history[-stall_window - 1]:
@@ -329,13 +333,13 @@ def damped_gauss_newton(
         gamma, accepted = 1.0, False
         while gamma > min_step:
             z_new = z + gamma * step
-            # the full step is usually accepted: its Jacobian comes with it at little cost
-            e_new, J_new, payload_new = evaluate(z_new, gamma == 1.0 and jacobian_after is None)
+            e_new, J_new, payload_new = evaluate(z_new, gamma == 1.0 and eager)
             err_new = float(np.linalg.norm(e_new))
             if np.isfinite(err_new) and err_new < err:
                 accepted = True
                 break
             gamma *= 0.5
+        eager = jacobian_after is None and gamma == 1.0  # whether the full step was taken
         if not accepted:
             mu *= 100.0
             if mu > 1e8:
