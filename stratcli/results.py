@@ -85,7 +85,8 @@ class LegPlan:
     n_inputs : number of inputs of the model (inactive ones are 0).
     message : the numerical failure, if any (added to the status' advice).
     strategy : what reached the goal: "newton" (damped Newton and its restarts),
-        "continuation" (a homotopy along the line to the goal, after Newton failed) or
+        "continuation" (a homotopy along the line to the goal, after two of Newton's attempts
+        stalled, or all of them) or
         "constrained" (the constrained search over all legs together: `iterations` and
         `attempts` are then its iterations, plus any Newton polish of the leg, and starts).
     """

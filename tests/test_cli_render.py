@@ -416,3 +416,20 @@ def test_the_bounded_sequences_are_counted_in_words(monkeypatch):
     # rows are in the order of their bounds, not ranks the exhaustive search would give
     assert "is, at the equal total duration, at least the best's" in text
     assert "not ranked among themselves" in text
+
+
+def test_a_leg_the_continuation_reached_says_so_in_the_plan_table(monkeypatch):
+    """Sim 4 task A planned by Newton: the second leg's first two attempts stall and the
+    short continuation reaches it; the table and the plots' leg labels say so beside the
+    method, as result.json's `strategy` does."""
+    scenario = tomllib.loads((ROOT / "scenarios" / "sim4_task_a.toml").read_text())
+    scenario["planner"]["objective"] = "newton"
+    plan = api.plan(scenario, check=False)
+    doc = plan.to_dict()
+    assert [leg["strategy"] for leg in doc["legs"]] == ["newton", "continuation"]
+    from stratcli.records.figure_common import leg_method  # the plots' leg labels
+
+    assert [leg_method(plan, k) for k in (0, 1)] == ["S1 · newton", "S2 · newton (continuation)"]
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    rows = [line for line in text.splitlines() if " S1 " in line or " S2 " in line]
+    assert "newton (continuation)" in rows[1] and "(continuation)" not in rows[0]

@@ -181,7 +181,7 @@ def plan_summary(doc: dict) -> None:
         legs.add_row(
             str(i + 1),
             leg["stratum"],
-            leg["method"],
+            leg["method"] + (" (continuation)" if leg.get("strategy") == "continuation" else ""),
             leg["evaluator"],
             *((f"{leg['iterations']}{joint}", f"{leg['attempts']}{joint}") if per_leg else ()),
             fmt_error(leg["error"]),

@@ -42,12 +42,14 @@ def locked_names(plan: SequencePlan, k: int) -> list[str]:
 
 
 def leg_method(plan: SequencePlan, k: int) -> str:
-    """Stratum and method of leg `k`: "S1 · newton", "S1 · lie (8 steps)"."""
+    """Stratum and method of leg `k`: "S1 · newton", "S2 · newton (continuation)" (the
+    homotopy reached its goal), "S1 · lie (8 steps)"."""
     leg = plan.legs[k]
     steps = len(leg.pieces)
     if leg.method == "lie":
         return f"{leg.stratum} · lie ({steps} step{'s' if steps != 1 else ''})"
-    return f"{leg.stratum} · {leg.method}"
+    reached = " (continuation)" if leg.strategy == "continuation" else ""
+    return f"{leg.stratum} · {leg.method}{reached}"
 
 
 def fixed_margins(
