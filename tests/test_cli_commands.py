@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import json
 import re
+import tomllib
 from csv import DictReader
+from dataclasses import replace
+from pathlib import Path
 
 import pytest
 from conftest import ROOT, UNICYCLE, plan_record
@@ -14,6 +17,7 @@ from typer.testing import CliRunner
 import stratcli.cli as cli
 from stratcli import load_scenario
 from stratcli.cli import app
+from stratcli.objectives import plan_sequence
 from stratcli.records.comparison import without_timings
 from stratcli.records.store import read_record
 
@@ -63,6 +67,26 @@ def test_time_scaled_plan_is_compared_with_the_paper_at_its_own_speed(tmp_path):
     assert f"at time scale 1: {own:,.2f}; paper: 124.59, ratio {own / 124.59:.2f}" in text
     assert "before time scaling" in text
     assert f"duration {doc['duration']:.4g} s" in text and doc["duration"] == 1.0  # 2 s / 2
+
+
+def test_objective_option_plans_with_it_and_records_the_changed_scenario(tmp_path):
+    """--objective newton plans sim4_task_d.toml (energy objective by default) by the paper's
+    method: the plain Newton plan's energy, result.json and the recorded scenario say newton;
+    a misspelt value is one line naming the field it sets, exit 2."""
+    result, path = run(tmp_path, TASK_D, "--objective", "newton", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert doc["objective"] == "newton" and doc["optimisation"] is None
+    task = load_scenario(path)
+    newton = plan_sequence(
+        task.system, task.start, task.legs, replace(task.settings, objective="newton")
+    )
+    assert doc["total_energy"] == pytest.approx(newton.total_energy, rel=1e-12)
+    recorded = tomllib.loads((Path(doc["record"]) / "scenario.toml").read_text())
+    assert recorded["planner"]["objective"] == "newton"
+    bad, _ = run(tmp_path, TASK_D, "--objective", "newtn")
+    (line,) = _one_line_errors(bad, path)
+    assert "planner.objective: must be 'energy' or 'newton'" in line and "'newton'?" in line
 
 
 def test_json_output_is_the_result_document(tmp_path):

@@ -67,6 +67,14 @@ def plan(
         ),
     ] = True,
     fmt: Format = "png",
+    objective: Annotated[
+        str | None,
+        typer.Option(
+            metavar="energy|newton",
+            help="Plan with this objective instead of the scenario's planner.objective: newton "
+            "(the paper's method, leg by leg) or energy (least energy over all legs).",
+        ),
+    ] = None,
 ) -> None:
     """Plan a scenario: every leg to tolerance, controls continuous across switches.
 
@@ -86,6 +94,9 @@ def plan(
     from .. import api  # start-up speed
 
     task = _load(file)
+    if objective is not None:  # the record holds the scenario as changed
+        with render.reported():
+            task = task.with_changes({"planner": {"objective": objective}})
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     # matplotlib loads while the plan is made; niced only beside a comparison's workers
