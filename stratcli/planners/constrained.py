@@ -77,12 +77,6 @@ class _Search(Descent):
         self.stalled = ""
         self.outside = False  # whether the last SQP step started outside the node margins
 
-    def _restore(self, z, simplified: bool = True):
-        """`Descent._restore`, simplified: the corrections after a trial's first Newton step
-        reuse its Jacobian (a Jacobian costs about six values here; the obstacle task's
-        search asked 1174 of them, now 695, its plan the same to 1e-4)."""
-        return super()._restore(z, simplified)
-
     def _subspace(self, z):
         _, J = self.problem._evaluate(z, True)
         _, S, Vt = np.linalg.svd(J)
