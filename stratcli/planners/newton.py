@@ -13,8 +13,8 @@ coefficients `z` left by the boundary conditions (eq. 28). Robustness:
   solution; at most `EARLY_STEPS` steps and one attempt's iterations): where the line is
   easy it reaches the goal in a few steps, where blind restarts took up to ten more
   attempts and found plans of many times the energy (Sim 4 task A's Newton plan: 644
-  instead of 8540 after six attempts on its second leg; of 77 random tasks' Newton plans 13
-  are lower, one 1.6 % higher);
+  instead of 8540 after six attempts on its second leg; of 77 random tasks' Newton plans 14
+  are lower, two higher by at most 1.6 %);
 * then deterministic restarts with larger seeded perturbations, and when every attempt
   failed, the whole continuation (with its kicks at folds). The outcome's `strategy` says
   which reached the goal. The energy objective's extra seeded
