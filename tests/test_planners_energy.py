@@ -126,6 +126,33 @@ def test_a_start_far_above_the_first_is_abandoned_as_diverged(task_d, monkeypatc
     assert again.total_energy == pytest.approx(optimal.total_energy, rel=1e-9)
 
 
+def test_a_start_whose_newton_model_settles_far_above_the_best_is_abandoned(monkeypatch):
+    """Sim 4 task A: the plain Newton start converges to 549.87 in 8 SQP iterations after
+    the pulled start reached 451.76; its own convex Newton model puts its minimum more than
+    `MODEL_ABOVE` x the best, so the race drops it at iteration `ABANDON_AFTER`. The same
+    plan either way, and the same energy where the start was left to run."""
+    import stratcli.planners.energy as energy_search
+    from stratcli.scenario import load_scenario
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
+
+    def searched():
+        plan = plan_sequence(task.system, task.start, task.legs, task.settings)
+        return plan, {s.kind: s for s in plan.optimisation.starts}
+
+    plan, starts = searched()
+    assert starts["newton"].stopped == "abandoned"
+    assert starts["newton"].iterations == energy_search.ABANDON_AFTER
+    above = energy_search.MODEL_ABOVE
+    monkeypatch.setattr(energy_search, "MODEL_ABOVE", np.inf)  # never by the model
+    full, full_starts = searched()
+    assert full_starts["newton"].stopped == "converged"
+    assert full_starts["newton"].iterations > energy_search.ABANDON_AFTER
+    best = full_starts["pulled"].energy
+    assert full_starts["newton"].energy > above * best  # rightly dropped
+    assert plan.total_energy == full.total_energy
+
+
 def test_the_first_start_is_the_newton_plan_pulled_toward_least_energy(task_d):
     """By default the search starts from the Newton plan pulled toward least energy and from
     the Newton plan itself; the pulled start meets the goals and costs no more."""

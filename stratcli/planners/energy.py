@@ -26,6 +26,7 @@ from .sqp import KEPT, MINIMUM, PG_TOL, Descent
 from .stacked import StackedProblem
 
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
+MODEL_ABOVE = 1.05  # ... or whose Newton model's minimum is this far above it
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 SAME_ENERGY = 1e-9  # relative: the legwise start wins only if lower than this (`legwise`)
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
@@ -142,6 +143,8 @@ def race(
                 run.stop("diverged")  # ran away from the first feasible start's energy
             elif run.iterations >= ABANDON_AFTER and run.energy > ABANDON_RATIO * best[0]:
                 run.stop("abandoned")  # energy only decreases: unlikely to beat the best
+            elif run.iterations >= ABANDON_AFTER and (run.model_low or 0.0) > MODEL_ABOVE * best[0]:
+                run.stop("abandoned")  # its own Newton model's minimum is well above the best
             elif any(
                 np.linalg.norm(run.z - f) <= SAME_MINIMUM * np.sqrt(run.energy) for f in found
             ):

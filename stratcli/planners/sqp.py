@@ -66,6 +66,7 @@ class Descent:
         self.iterations = 0
         self.best_pg, self.since = np.inf, 0
         self.pg, self.pg_at = np.nan, None  # the last projected gradient and its point
+        self.model_low = None  # the last full Newton step's model minimum (`_step`)
         self.curvature, self.last = None, None  # `_curvature`: without exact Hessians
         start = self._restore(z)
         self.feasible = start is not None
@@ -197,7 +198,8 @@ class Descent:
         R0 = Z.T @ H0 @ Z
         # R0 = Zᵀ H0 Z = 2 I (Z orthonormal): the generalised eigenproblem is R's own, halved
         low = float(np.linalg.eigvalsh(R)[0]) / 2.0 if R.size else np.inf
-        if low < CURVATURE_FLOOR:  # convexify in the energy metric (the basis is ill-scaled)
+        convex = low >= CURVATURE_FLOOR
+        if not convex:  # convexify in the energy metric (the basis is ill-scaled)
             R = R + (CURVATURE_FLOOR - low) * R0
         d = -Z @ np.linalg.solve(R, reduced)
         # Trust region in the energy norm: a step may change the controls by at most
@@ -208,6 +210,10 @@ class Descent:
         if size > limit:
             d *= limit / size
         slope = float(g @ d)
+        # where the reduced model is convex and its Newton step within the trust region, the
+        # model's minimum is energy + slope / 2 (the race drops a start converging far above
+        # the best: `energy.race`)
+        self.model_low = energy + 0.5 * slope if convex and size <= limit else None
         if -slope <= 1e-16 * max(energy, 1e-300):
             return self.stop("converged")  # no decrease predicted above rounding
         near = np.linalg.norm(reduced) <= 1e-6 * np.linalg.norm(g)
