@@ -137,8 +137,9 @@ def test_a_continuation_that_fails_too_is_said_and_not_counted_as_an_attempt(mon
 
 def test_two_stalled_attempts_hand_the_leg_to_a_short_continuation(monkeypatch):
     """Sim 4 task A's S2 leg: Newton's first two attempts stall; a short continuation
-    (`EARLY_STEPS`, one attempt's iterations) reaches the goal before any blind restart, and
-    in fewer iterations than the restarts took to find one (the sixth attempt did)."""
+    (`EARLY_STEPS` steps, `EARLY_BUDGET` attempts' iterations) reaches the goal before any
+    blind restart, and in fewer iterations than the restarts took to find one (the sixth
+    attempt did)."""
     import stratcli.planners.newton as newton
 
     task = load_scenario("scenarios/sim4_task_a.toml")
