@@ -153,6 +153,33 @@ def test_a_start_whose_newton_model_settles_far_above_the_best_is_abandoned(monk
     assert plan.total_energy == full.total_energy
 
 
+def test_the_newton_model_minimum_predicts_where_a_start_settles():
+    """`Descent.model_low`, what the race's rule reads: below the iterate's energy, and
+    nearer the minimum the start then converges to (Sim 4 task A's plain Newton start:
+    549.87) than the iterate itself, from the second step on."""
+    from stratcli.planners.sqp import Descent
+    from stratcli.planners.stacked import StackedProblem
+    from stratcli.scenario import load_scenario
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
+    newton = chain_legs(task.system, task.start, task.legs, task.settings)
+    targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
+    nominal = [task.start, np.asarray(task.legs[0].goal, dtype=float)]  # (its via is fixed)
+    problem = StackedProblem(task.system, nominal, task.legs, task.settings, targets)
+    lam = np.concatenate([leg.coefficients.ravel() for leg in newton.legs])
+    run = Descent(problem, problem.project(lam), task.settings.tolerance)
+    steps = []
+    while not run.done:
+        before = run.energy
+        run.step()
+        steps.append((before, run.model_low))
+    final = run.energy
+    predicted = [(e, low) for e, low in steps if low is not None]
+    assert run.reason == "converged" and len(predicted) >= 3
+    assert all(low <= e * (1 + 1e-12) for e, low in predicted)
+    assert all(abs(low - final) < abs(e - final) for e, low in predicted[:-2])  # not yet there
+
+
 def test_the_first_start_is_the_newton_plan_pulled_toward_least_energy(task_d):
     """By default the search starts from the Newton plan pulled toward least energy and from
     the Newton plan itself; the pulled start meets the goals and costs no more."""

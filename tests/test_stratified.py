@@ -190,10 +190,10 @@ def test_a_runaway_search_raises_with_the_coordinate():
 
 
 def test_refused_full_steps_cost_no_jacobian_and_the_iterates_are_the_same():
-    """On a residual whose Gauss-Newton step overshoots (cube roots: the full step lands at
-    -2x) the search asks no Jacobian with the next full step after one was refused, so fewer
-    Jacobians are thrown away than full steps refused; the path is the one a search given
-    every Jacobian takes, to the bit."""
+    """With `lazy`, on a residual whose Gauss-Newton step overshoots (cube roots: the full
+    step lands at -2x) the search asks no Jacobian with the next full step after one was
+    refused, so fewer Jacobians are thrown away than full steps refused; the path is the one
+    a search given every Jacobian takes, to the bit."""
 
     def make(always):
         log = []  # (asked for the Jacobian, accepted, first trial after an acceptance)
@@ -216,7 +216,7 @@ def test_refused_full_steps_cost_no_jacobian_and_the_iterates_are_the_same():
 
     lazy, log = make(False)
     eager, _ = make(True)
-    kwargs = dict(tolerance=1e-6, max_iterations=200, mu=1e-10, diverged=lambda _: None)
+    kwargs = dict(tolerance=1e-6, max_iterations=200, mu=1e-10, diverged=lambda _: None, lazy=True)
     a = damped_gauss_newton(lazy, np.array([4.0, 3.0]), **kwargs)
     b = damped_gauss_newton(eager, np.array([4.0, 3.0]), **kwargs)
     assert a.error <= 1e-6 and np.array_equal(a.z, b.z) and a.iterations == b.iterations

@@ -289,6 +289,7 @@ def damped_gauss_newton(
     stall_ratio: float = 0.5,
     diverged: Callable[[object], str | None] | None = None,
     jacobian_after: Callable[[], np.ndarray] | None = None,
+    lazy: bool = False,
 ) -> GaussNewtonResult:
     """Drive the residual `e(z)` to zero: damped pseudo-inverse steps with backtracking.
 
@@ -308,6 +309,14 @@ def damped_gauss_newton(
     an end-point map that keeps its last evaluation), the full step too is evaluated without
     its Jacobian, which is added only once the step is accepted short of the tolerance (the
     same numbers, without the Jacobians of rejected and of final steps).
+
+    With `lazy` (maps whose value is much cheaper than the Jacobian and the same with or
+    without it: quadrature legs and stacked problems), a full step after a refused one is
+    evaluated without its Jacobian, which is asked for once the step is accepted: a search
+    crawling on a curved residual refuses many full steps, each throwing a Jacobian away.
+    Not for maps whose evaluation depends on what was asked before (Magnus legs choose their
+    steps from the last error) or whose value and Jacobian come from different solves (the
+    ODE path): the value and the Jacobian might then not match.
     """
     e, J, payload = evaluate(z, True)
     first = payload
@@ -315,8 +324,7 @@ def damped_gauss_newton(
     iterations = 0
     history = [err]
     # the full step's Jacobian comes with its evaluation (usually accepted: little extra
-    # cost), but not after a full step was refused: a search crawling on a curved residual
-    # refuses many, and a refused step's Jacobian is thrown away (the same numbers either way)
+    # cost), but with `lazy` not after a full step was refused
     eager = jacobian_after is None
     while err > tolerance and iterations < max_iterations:
         if stall_window and len(history) > stall_window:
@@ -339,7 +347,7 @@ def damped_gauss_newton(
                 accepted = True
                 break
             gamma *= 0.5
-        eager = jacobian_after is None and gamma == 1.0  # whether the full step was taken
+        eager = jacobian_after is None and (gamma == 1.0 or not lazy)
         if not accepted:
             mu *= 100.0
             if mu > 1e8:
@@ -379,6 +387,7 @@ def onto_goals(evaluate, z: np.ndarray, tolerance: float, max_iterations: int):
         max_iterations=max_iterations,
         mu=1e-2,
         diverged=no_divergence_check,
+        lazy=True,  # (stacked problems: a Jacobian after the value is the same march's)
     )
     return back.z if back.error <= tolerance and np.all(np.isfinite(back.z)) else None
 

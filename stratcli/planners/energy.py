@@ -205,6 +205,7 @@ def pulled_start(problem: StackedProblem, z: np.ndarray) -> np.ndarray | None:
             mu=1e-3,
             stall_window=5,
             diverged=no_divergence_check,
+            lazy=True,
         ).z
 
     return onto_goals(problem._evaluate, z, RESTORED, RESTORE_ITERATIONS)

@@ -82,8 +82,9 @@ class NewtonPlanner(LegPlanner):
     seed : int or None
         Overrides the problem's seed (the energy objective's extra starts).
     continuation : bool or None
-        Follow a homotopy when every attempt failed; default: unless `seed` is given (the
-        energy objective's extra starts stay cheap and behave as before).
+        Follow a homotopy, a short one after two stalled attempts and a whole one when every
+        attempt failed; default: unless `seed` is given (the energy objective's extra starts
+        stay cheap and behave as before).
     budget : int or None
         Newton iterations allowed over all attempts of a leg (the energy objective's extra
         starts: a seed that needs more is dropped); default: no limit.
@@ -218,6 +219,7 @@ class NewtonPlanner(LegPlanner):
                 stall_window=STALL_WINDOW,
                 stall_ratio=STALL_RATIO,
                 jacobian_after=jacobian_after,
+                lazy=endpoint.kind == "quadrature",
             )
             total += result.iterations
             if best is None or _rank(result.error) < _rank(best.error):

@@ -210,10 +210,11 @@ class Descent:
         if size > limit:
             d *= limit / size
         slope = float(g @ d)
-        # where the reduced model is convex and its Newton step within the trust region, the
-        # model's minimum is energy + slope / 2 (the race drops a start converging far above
-        # the best: `energy.race`)
-        self.model_low = energy + 0.5 * slope if convex and size <= limit else None
+        # where the reduced model is exact, convex and its Newton step within the trust region,
+        # the model's minimum is energy + slope / 2 (the race drops a start converging far
+        # above the best: `energy.race`; not on estimated curvature, a few updates old)
+        trusted = self.exact and convex and size <= limit
+        self.model_low = energy + 0.5 * slope if trusted else None
         if -slope <= 1e-16 * max(energy, 1e-300):
             return self.stop("converged")  # no decrease predicted above rounding
         near = np.linalg.norm(reduced) <= 1e-6 * np.linalg.norm(g)
