@@ -5,10 +5,11 @@ Usage: python benchmarks/bench_against.py DIR [--rounds 5] [--plans 9] [SCENARIO
 DIR is another checkout (e.g. `git archive REV | tar -x -C DIR`). Each round runs one fresh
 process per checkout, alternating; each process plans every scenario once untimed (model
 compilation), then `--plans` times, and reports the median CPU time (time.process_time) per
-plan. Printed: per scenario the median over the rounds for each checkout and their ratio.
-On a shared machine whose speed drifts within minutes, such side-by-side ratios say whether
-a change made planning faster where absolute times of separate runs cannot. Default
-scenarios: the paper's Sim 4 tasks A-D.
+plan and the plan's energy. Printed: per scenario the median over the rounds for each
+checkout, their ratio and the two energies. On a shared machine whose speed drifts within
+minutes, such side-by-side ratios say whether a change made planning faster where absolute
+times of separate runs cannot. Default scenarios: the paper's Sim 4 tasks A-D.
+(`bench_constraints.py --against DIR` is this, for the constrained scenarios.)
 """
 
 from __future__ import annotations
@@ -34,11 +35,40 @@ for path in sys.argv[3:]:
     times = []
     for _ in range(int(sys.argv[2])):
         clock = time.process_time()
-        plan_run(task, check=False)
+        result = plan_run(task, check=False).result
         times.append(time.process_time() - clock)
-    out[path] = statistics.median(times)
+    out[path] = [statistics.median(times), result.total_energy]
 print(json.dumps(out))
 """
+
+
+def side_by_side(paths: list[Path], other: Path, rounds: int, plans: int) -> dict:
+    """Per scenario path: (other's median CPU s, this one's, other's energy, this one's)."""
+    roots = {"other": str(other.resolve()), "this": str(ROOT)}
+    found: dict[str, dict[str, list]] = {k: {str(p): [] for p in paths} for k in roots}
+    for _ in range(rounds):
+        for which, root in roots.items():
+            argv = [sys.executable, "-c", CHILD, root, str(plans), *map(str, paths)]
+            done = subprocess.run(argv, capture_output=True, text=True, check=True, cwd=ROOT)
+            for path, row in json.loads(done.stdout).items():
+                found[which][path].append(row)
+    out = {}
+    for path in map(str, paths):
+        o, t = found["other"][path], found["this"][path]
+        median = [statistics.median(r[0] for r in rows) for rows in (o, t)]
+        out[path] = (*median, o[0][1], t[0][1])
+    return out
+
+
+def report(names: list[str], paths: list[Path], other: Path, rounds: int, plans: int) -> None:
+    """`side_by_side`, printed as a table."""
+    rows = side_by_side(paths, other, rounds, plans)
+    print(f"this checkout vs {other}: CPU ms per plan, median of {rounds} rounds of "
+          f"{plans} plan{'s' if plans != 1 else ''} (fresh processes, alternating)")  # fmt: skip
+    print(f"{'scenario':26} {'other ms':>9} {'this ms':>9} {'other/this':>10}  energies")
+    for name, path in zip(names, paths, strict=True):
+        o, t, e_o, e_t = rows[str(path)]
+        print(f"{name:26} {1000 * o:9.1f} {1000 * t:9.1f} {o / t:10.2f}  {e_o:.6f} -> {e_t:.6f}")
 
 
 def main() -> None:
@@ -48,22 +78,8 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--plans", type=int, default=9)
     args = parser.parse_intermixed_args()
-    paths = [str(ROOT / "scenarios" / f"{name}.toml") for name in args.scenarios]
-    roots = {"other": str(args.other.resolve()), "this": str(ROOT)}
-    times: dict[str, dict[str, list[float]]] = {k: {p: [] for p in paths} for k in roots}
-    for _ in range(args.rounds):
-        for which, root in roots.items():
-            argv = [sys.executable, "-c", CHILD, root, str(args.plans), *paths]
-            done = subprocess.run(argv, capture_output=True, text=True, check=True, cwd=ROOT)
-            for path, seconds in json.loads(done.stdout).items():
-                times[which][path].append(seconds)
-    print(f"this checkout vs {args.other}: CPU ms per plan, median of {args.rounds} rounds of "
-          f"{args.plans} plans (fresh processes, alternating)")  # fmt: skip
-    print(f"{'scenario':26} {'other ms':>9} {'this ms':>9} {'other/this':>10}")
-    for name, path in zip(args.scenarios, paths, strict=True):
-        other = statistics.median(times["other"][path])
-        this = statistics.median(times["this"][path])
-        print(f"{name:26} {1000 * other:9.1f} {1000 * this:9.1f} {other / this:10.2f}")
+    paths = [ROOT / "scenarios" / f"{name}.toml" for name in args.scenarios]
+    report(args.scenarios, paths, args.other, args.rounds, args.plans)
 
 
 if __name__ == "__main__":

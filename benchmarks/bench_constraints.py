@@ -13,7 +13,8 @@ status. A failed constrained plan is timed too (its search ran to its stall).
 `--against DIR` (another checkout, e.g. `git archive REV | tar -x -C DIR`) times instead the
 constrained plan of each scenario with this checkout and with DIR's code, in fresh processes
 alternating the two, --repeats pairs (each process warms up first): on a shared machine whose
-speed drifts, the ratio of such pairs is what says whether a change made the search faster.
+speed drifts, the ratio of such pairs is what says whether a change made the search faster
+(`bench_against.report`, with one timed plan a process).
 """
 
 from __future__ import annotations
@@ -23,14 +24,13 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the stratplan command does
 
 import argparse
-import json
 import platform
 import statistics
-import subprocess
-import sys
 import time
 import tomllib
 from pathlib import Path
+
+from bench_against import report
 
 from stratcli.api.planning import plan_run
 from stratcli.scenario import load_scenario
@@ -55,48 +55,15 @@ def _timed(task, repeats: int):
     return statistics.median(times), result
 
 
-CHILD = """
-import json, os, sys, time
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-from stratcli.api.planning import plan_run
-from stratcli.scenario import load_scenario
-task = load_scenario(sys.argv[1])
-plan_run(task, check=False)
-clock = time.process_time()
-result = plan_run(task, check=False).result
-print(json.dumps([time.process_time() - clock, result.total_energy]))
-"""
-
-
-def _against(names: list[str], other: Path, repeats: int) -> None:
-    """This checkout's constrained plans against `other`'s, alternating fresh processes."""
-    here = Path(__file__).resolve().parents[1]
-    print(f"this checkout vs {other}: CPU s of the constrained plan, median of {repeats} "
-          "pairs of fresh processes (alternating)")  # fmt: skip
-    print(f"{'scenario':26} {'other s':>8} {'this s':>8} {'other/this':>10}  energies")
-    for name in names:
-        times: dict[str, list] = {"other": [], "this": []}
-        for _ in range(repeats):
-            for which, root in (("other", other.resolve()), ("this", here)):
-                out = subprocess.run(
-                    [sys.executable, "-c", CHILD, str(ROOT / f"{name}.toml")],
-                    capture_output=True, text=True, check=True, cwd=root,
-                    env={**os.environ, "PYTHONPATH": str(root)},
-                )  # fmt: skip
-                times[which].append(json.loads(out.stdout.strip().splitlines()[-1]))
-        o, t = (statistics.median(x[0] for x in times[k]) for k in ("other", "this"))
-        e_o, e_t = times["other"][0][1], times["this"][0][1]
-        print(f"{name:26} {o:8.2f} {t:8.2f} {o / t:10.2f}  {e_o:.6f} -> {e_t:.6f}")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--against", type=Path, help="another checkout, timed alternately")
     parser.add_argument("scenarios", nargs="*", default=DEFAULT)
     args = parser.parse_args()
-    if args.against is not None:
-        return _against(args.scenarios, args.against, args.repeats)
+    if args.against is not None:  # one timed plan a process, as many pairs as --repeats
+        paths = [ROOT / f"{name}.toml" for name in args.scenarios]
+        return report(args.scenarios, paths, args.against, args.repeats, plans=1)
     where = platform.processor() or platform.machine()
     print(f"{where}, Python {platform.python_version()}, CPU time (time.process_time), "
           f"median of {args.repeats} runs after a warm-up")  # fmt: skip
