@@ -130,12 +130,9 @@ def compare_decomposition(
 def harmonics_given(task) -> bool:
     """Whether the scenario itself sets `planner.basis.harmonics` (then it is kept, and a
     search that stalls within the limits is not tried again with more)."""
-    import tomllib
+    from ..tomlread import parse_toml  # (the text the task was loaded from: it parses)
 
-    try:
-        basis = tomllib.loads(task.text).get("planner", {}).get("basis", {})
-    except (tomllib.TOMLDecodeError, AttributeError):
-        return True
+    basis = parse_toml(task.text, task.source).get("planner", {}).get("basis", {})
     return not isinstance(basis, dict) or "harmonics" in basis
 
 
