@@ -34,6 +34,24 @@ def test_least_distance_is_the_closest_point_of_the_polyhedron(seed):
     assert np.abs(nu * slack).max() <= 1e-10  # complementarity
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_a_warm_start_gives_the_cold_solution_in_fewer_iterations(seed):
+    """The NNLS started from a passive set (the true one perturbed: columns added, one
+    dropped) ends where it ends from zero, and from the true set at once."""
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(60, 6))
+    b = A @ rng.normal(size=6) - rng.exponential(size=60)  # least distance's NNLS, as used
+    E, f = np.vstack([A.T, b]), np.eye(7)[-1]
+    cold = nnls(E, f)
+    true = cold > 0
+    assert 2 <= true.sum() < 7  # a real active set (not all or none of the columns)
+    guess = true | (rng.random(60) < 0.2)
+    guess[np.flatnonzero(true)[0]] = False
+    assert np.allclose(nnls(E, f, passive=guess), cold, atol=1e-12)
+    assert np.allclose(nnls(E, f, max_iterations=1, passive=true), cold, atol=1e-12)
+    assert not np.allclose(nnls(E, f, max_iterations=1), cold, atol=1e-6)  # cold: one is not
+
+
 def test_least_distance_says_when_no_point_meets_the_constraints():
     A = np.array([[1.0, 0.0], [-1.0, 0.0]])
     assert least_distance(A, np.array([1.0, 1.0])) is None  # x ≥ 1 and x ≤ -1

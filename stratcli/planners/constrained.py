@@ -260,13 +260,13 @@ class _Search(Descent):
         newton = -np.linalg.solve(R, reduced)
         At = np.linalg.solve(L, A.T).T  # A L⁻ᵀ: in w = Lᵀ(p - newton) the QP is least distance
 
-        def qp(low):  # p and the multipliers of A p ≥ low
-            solved = least_distance(At, low - A @ newton)
+        def qp(low, active):  # p and the multipliers of A p ≥ low (`active`: a warm start)
+            solved = least_distance(At, low - A @ newton, active)
             if solved is None:
                 return None, None
             return newton + np.linalg.solve(L.T, solved[0]), solved[1]
 
-        p, nu_rows = qp(-g[rows])
+        p, nu_rows = qp(-g[rows], nu[rows] > 0)
         if p is None:
             return False  # the linearised margins admit no step
         d = Z @ p
@@ -300,7 +300,7 @@ class _Search(Descent):
         if ok:
             return True
         if g_t is not None and scale == 1.0:  # second-order correction
-            p2 = qp(-g[rows] - (g_t[rows] - g[rows] - G[rows] @ d))[0]
+            p2 = qp(-g[rows] - (g_t[rows] - g[rows] - G[rows] @ d), nu_rows > 0)[0]
             if p2 is not None and float(np.linalg.norm(Z @ p2)) * np.sqrt(2.0) <= limit:
                 if accept(self._restore(z + Z @ p2), 1.0)[0]:
                     return True
