@@ -1,6 +1,7 @@
 """Planning CPU time of scenarios in this checkout against another, side by side.
 
-Usage: python benchmarks/bench_against.py DIR [--rounds 5] [--plans 9] [SCENARIO ...]
+Usage: python benchmarks/bench_against.py DIR [--rounds 5] [--plans 9] [SCENARIO ...]  (a shipped
+scenario's name, or a scenario file's path)
 
 DIR is another checkout (e.g. `git archive REV | tar -x -C DIR`). Each round runs one fresh
 process per checkout, alternating; each process plans every scenario once untimed (model
@@ -71,6 +72,12 @@ def report(names: list[str], paths: list[Path], other: Path, rounds: int, plans:
         print(f"{name:26} {1000 * o:9.1f} {1000 * t:9.1f} {o / t:10.2f}  {e_o:.6f} -> {e_t:.6f}")
 
 
+def scenario_path(name: str) -> Path:
+    """A shipped scenario's file by name (`sim4_task_a`), or a scenario file given by path."""
+    given = Path(name)
+    return given.resolve() if given.suffix == ".toml" else ROOT / "scenarios" / f"{name}.toml"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("other", type=Path, help="The other checkout.")
@@ -78,7 +85,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--plans", type=int, default=9)
     args = parser.parse_intermixed_args()
-    paths = [ROOT / "scenarios" / f"{name}.toml" for name in args.scenarios]
+    paths = [scenario_path(name) for name in args.scenarios]
     report(args.scenarios, paths, args.other, args.rounds, args.plans)
 
 

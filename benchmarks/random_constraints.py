@@ -51,7 +51,7 @@ def pre_violation(scenario: dict) -> str:
                 raise
             if "joint limits" in p.message:
                 reasons.add("joint limits")
-            elif "collides with itself" in p.message:
+            elif "with itself" in p.message or "clearance of itself" in p.message:
                 reasons.add("self-collision")
             else:
                 raise
