@@ -246,7 +246,8 @@ def compare(
     [constraints] table): every candidate planned within its joint limits, self-collision and
     obstacles, and failed where it still breaks one (`within_limits.candidate_within_limits`);
     with `more_harmonics` (the scenario leaves the basis to the default) a candidate whose
-    constrained search stalls is planned again with more (`objectives.with_more_harmonics`).
+    constrained search stalls is planned again with more (`objectives.with_more_harmonics`,
+    its first count: `trie._retried`).
     """
     if criterion not in CRITERIA:
         raise ValueError(f"unknown criterion {criterion!r} (known: {', '.join(CRITERIA)})")

@@ -41,7 +41,7 @@ import numpy as np
 from .interrupts import checkpoint, release_signals, signals_held
 from .models.system import System
 from .node_margins import searchable
-from .objectives import plan_sequence, stalled, with_more_harmonics
+from .objectives import MORE_HARMONICS, plan_sequence, stalled, with_more_harmonics
 from .results import LegPlan
 from .sequence import SequencePlan
 from .settings import PlannerSettings
@@ -367,10 +367,12 @@ def _plan_within_limits(unit: tuple[int, list[LegSpec], SequencePlan]) -> tuple:
 
 def _retried(system, start, legs, settings, plan, constraints) -> SequencePlan:
     """`plan` planned again with more harmonics where its constrained search stalled and the
-    scenario left the basis to the default (`objectives.with_more_harmonics`;
-    STATE["more_harmonics"], set by `compare.compare`)."""
+    scenario left the basis to the default (`objectives.with_more_harmonics`, the first
+    count only: a candidate that needs more has others beside it, and each count costs
+    seconds; STATE["more_harmonics"], set by `compare.compare`)."""
     if STATE.get("more_harmonics") and stalled(plan):
-        return with_more_harmonics(system, start, legs, settings, plan, constraints)
+        more = MORE_HARMONICS[:1]
+        return with_more_harmonics(system, start, legs, settings, plan, constraints, more=more)
     return plan
 
 

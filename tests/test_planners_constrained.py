@@ -405,3 +405,45 @@ def test_a_search_that_stalls_in_the_default_basis_is_planned_with_more_harmonic
     kept = plan_run(given, check=False).result
     assert not kept.ok and kept.message.startswith("the constrained search stalled on leg 1")
     assert not any("harmonics" in n for n in kept.notes)
+
+
+LOOPS_IN_LIMITS = """
+name = "loops_in_limits"
+[model]
+kind = "preset"
+name = "one-arm"
+[task]
+start = [-0.7374, 1.1155, 0.4638, -0.1220]
+goal = [-2.2594, 1.1155, -0.3359, -0.4436]
+[planner]
+continuity = "lr-C1"
+tolerance = 1e-3
+[[legs]]
+stratum = "S2"
+[constraints]
+joint_limits = [-2.5, 2.5]
+self_collision = true
+clearance = 0.05
+"""
+
+
+@pytest.mark.slow  # three whole plans (3, 5 and 8 harmonics), each constrained: ~6 s
+def test_a_search_that_stalls_with_5_harmonics_too_is_planned_with_8():
+    """A random task's S2 leg (bench_random seed 595598246) must turn the base by 0.32 rad
+    while q1 ends 0.24 rad from its limit: with 3 and with 5 harmonics the search stalls
+    with a joint past ±2.5 rad; with 8 the loops fit inside. The plan says so and is inside
+    its limits on an independent re-integration."""
+
+    task = load_scenario(LOOPS_IN_LIMITS)
+    outcome = plan_run(task, check=False)
+    plan, doc = outcome.result, outcome.document
+    assert plan.ok, plan.message
+    assert any(
+        n.startswith("planned with 8 harmonics: the search within the limits stalled with 3 and 5")
+        for n in plan.notes
+    )
+    assert {p["basis"]["harmonics"] for leg in doc["legs"] for p in leg["pieces"]} == {8}
+    verify(task, doc)
+    q = _dense(task, doc)
+    assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
+    assert _self_clearance(task.system.robot, q, 0.05).min() >= 0.05 - 1e-6

@@ -18,7 +18,7 @@ from ..constraints import enforce
 from ..decomposition import STRATEGIES
 from ..durations import optimise_durations, timed_as
 from ..errors import IllConditionedWarning, InputError
-from ..objectives import MORE_HARMONICS, plan_sequence, stalled, with_more_harmonics
+from ..objectives import plan_sequence, stalled, with_more_harmonics
 from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
 from ..scenario import Task, load_scenario
@@ -185,8 +185,6 @@ def plan_run(
                 constraints=task.constraints,
             )  # fmt: skip
         if stalled(result) and not harmonics_given(task):
-            h = task.settings.basis.harmonics + MORE_HARMONICS
-            say(f"constrained search: stalled; planning again with {h} harmonics")
             again = with_more_harmonics(
                 task.system, task.start, legs, task.settings, result, task.constraints, progress
             )
