@@ -286,37 +286,40 @@ def stalled(plan) -> bool:
 def with_more_harmonics(
     system, start, legs, settings, plan, constraints, progress=None, more=MORE_HARMONICS
 ):
-    """The legs planned again within the limits in a basis of `more` more harmonics (the same
-    period; each count in turn until one gets inside), for a plan whose search stalled
+    """The legs planned again within the limits with more harmonics (the same period; `more`:
+    how many more, each in turn until one gets inside), for a plan whose search stalled
     (`stalled`): the whole plan again (Newton, the energy search, the constrained search),
     with `plan`'s controls (the plan found without the limits, which the stalled search
     returns) in the larger basis as one more start of the energy search (`controls.embed`:
     the same controls). The plan returned says in a note how many harmonics it took; where
     every count stalls too, the first plan is returned with a note saying so."""
+    if not more:
+        return plan
     h = settings.basis.harmonics
     say = progress or _silent
-    tried = []
+    tried = [h]
     for extra in more:
         n = h + extra
-        say(f"constrained search: stalled; planning again with {n} harmonics")
+        again = "" if len(tried) == 1 else f" with {tried[-1]} too"
+        say(f"constrained search: stalled{again}; planning again with {n} harmonics")
         richer = replace(settings, basis=replace(settings.basis, harmonics=n))
         warm = [np.ravel(embed(leg.coefficients, h, n)) for leg in plan.legs]
-        again = plan_sequence(system, start, legs, richer, warm, progress, constraints)
-        if not again.message and all(leg.converged for leg in again.legs):
+        found = plan_sequence(system, start, legs, richer, warm, progress, constraints)
+        if not found.message and all(leg.converged for leg in found.legs):
             return _noted(
-                again,
+                found,
                 f"planned with {n} harmonics: the search within the limits stalled with "
-                f"{_counts([h, *tried])} (the default; planner.basis.harmonics = {n} asks for "
-                "these from the start)",
+                f"{_counts([f'{h} (the default)', *tried[1:]])}; planner.basis.harmonics = {n} "
+                "asks for these from the start",
             )
         tried.append(n)
     return _noted(
         plan,
-        f"with {_counts(tried)} harmonics the plan did not get inside the limits either",
+        f"with {_counts(tried[1:])} harmonics the plan did not get inside the limits either",
     )
 
 
-def _counts(numbers: list[int]) -> str:
-    """3 / 3 and 5 / 3, 5 and 8."""
+def _counts(numbers: list) -> str:
+    """[3] -> "3", [3, 5] -> "3 and 5", [3, 5, 8] -> "3, 5 and 8"."""
     words = [str(n) for n in numbers]
     return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"

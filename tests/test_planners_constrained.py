@@ -439,7 +439,10 @@ def test_a_search_that_stalls_with_5_harmonics_too_is_planned_with_8():
     plan, doc = outcome.result, outcome.document
     assert plan.ok, plan.message
     assert any(
-        n.startswith("planned with 8 harmonics: the search within the limits stalled with 3 and 5")
+        n.startswith(
+            "planned with 8 harmonics: the search within the limits stalled with 3 (the default) "
+            "and 5; planner.basis.harmonics = 8 asks for these from the start"
+        )
         for n in plan.notes
     )
     assert {p["basis"]["harmonics"] for leg in doc["legs"] for p in leg["pieces"]} == {8}
@@ -447,3 +450,55 @@ def test_a_search_that_stalls_with_5_harmonics_too_is_planned_with_8():
     q = _dense(task, doc)
     assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
     assert _self_clearance(task.system.robot, q, 0.05).min() >= 0.05 - 1e-6
+
+
+def test_more_harmonics_are_tried_in_turn_and_the_notes_say_which(monkeypatch):
+    """`with_more_harmonics` plans with 5, then 8 harmonics (each warm-started from the plan
+    found without the limits, in the larger basis) and keeps the first that gets inside;
+    where none does, the first plan comes back with a note naming the counts tried. Auto
+    mode's first count only: 5. (The plans themselves are stubbed: only the order, the
+    warm starts and the wording are under test.)"""
+    import dataclasses
+
+    from stratcli import objectives
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    plan = plan_run(task, check=False).result
+    stuck = dataclasses.replace(plan, message="the constrained search stalled on leg 1: ...")
+    asked = []
+
+    def planned(inside_with):
+        def fake(system, start, legs, settings, warm, progress, constraints):
+            n = settings.basis.harmonics
+            asked.append(n)
+            assert [w.size for w in warm] == [len(leg.active) * (2 * n + 1) for leg in plan.legs]
+            return plan if n == inside_with else stuck
+
+        return fake
+
+    def more(**kw):
+        return objectives.with_more_harmonics(
+            task.system, task.start, task.legs, task.settings, stuck, None, said.append, **kw
+        )
+
+    said = []
+    monkeypatch.setattr(objectives, "plan_sequence", planned(inside_with=None))
+    out = more()
+    assert asked == [5, 8] and out.message == stuck.message
+    assert out.notes[-1] == "with 5 and 8 harmonics the plan did not get inside the limits either"
+    assert said == [
+        "constrained search: stalled; planning again with 5 harmonics",
+        "constrained search: stalled with 5 too; planning again with 8 harmonics",
+    ]
+    asked.clear()
+    out = more(more=objectives.MORE_HARMONICS[:1])
+    assert asked == [5]
+    assert out.notes[-1] == "with 5 harmonics the plan did not get inside the limits either"
+    asked.clear()
+    monkeypatch.setattr(objectives, "plan_sequence", planned(inside_with=5))
+    out = more()
+    assert asked == [5] and not out.message
+    assert out.notes[-1] == (
+        "planned with 5 harmonics: the search within the limits stalled with 3 (the default); "
+        "planner.basis.harmonics = 5 asks for these from the start"
+    )
