@@ -97,9 +97,9 @@ def stratplan_run(task: Task, repeats: int, search: str | None = None):
     captured: list[Captured] = []
     original = objectives.optimise_energy
 
-    def spy(system, starts, legs, settings, targets, seeds, constraints=None):
+    def spy(system, starts, legs, settings, targets, seeds, *args, **kwargs):
         captured.append(Captured([np.array(s) for s in starts], targets, seeds))
-        return original(system, starts, legs, settings, targets, seeds, constraints)
+        return original(system, starts, legs, settings, targets, seeds, *args, **kwargs)
 
     objectives.optimise_energy = spy
     try:
