@@ -27,6 +27,9 @@ CHILD = r"""
 import json, os, statistics, sys, time
 os.environ["OPENBLAS_NUM_THREADS"] = "1"  # as the stratplan command does
 sys.path.insert(0, sys.argv[1])
+import stratcli
+if not stratcli.__file__.startswith(sys.argv[1]):
+    sys.exit(f"stratcli was imported from {stratcli.__file__}, not from {sys.argv[1]}")
 from stratcli.api.planning import plan_run
 from stratcli.scenario import load_scenario
 out = {}
@@ -85,6 +88,8 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--plans", type=int, default=9)
     args = parser.parse_intermixed_args()
+    if not (args.other / "stratcli" / "__init__.py").is_file():
+        parser.error(f"{args.other} is not a checkout of stratplan (no stratcli/__init__.py)")
     paths = [scenario_path(name) for name in args.scenarios]
     report(args.scenarios, paths, args.other, args.rounds, args.plans)
 
