@@ -22,6 +22,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from casadi_baseline import scenario_paths
+
 ROOT = Path(__file__).resolve().parents[1]
 CHILD = r"""
 import json, os, statistics, sys, time
@@ -75,12 +77,6 @@ def report(names: list[str], paths: list[Path], other: Path, rounds: int, plans:
         print(f"{name:26} {1000 * o:9.1f} {1000 * t:9.1f} {o / t:10.2f}  {e_o:.6f} -> {e_t:.6f}")
 
 
-def scenario_path(name: str) -> Path:
-    """A shipped scenario's file by name (`sim4_task_a`), or a scenario file given by path."""
-    given = Path(name)
-    return given.resolve() if given.suffix == ".toml" else ROOT / "scenarios" / f"{name}.toml"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("other", type=Path, help="The other checkout.")
@@ -90,7 +86,7 @@ def main() -> None:
     args = parser.parse_intermixed_args()
     if not (args.other / "stratcli" / "__init__.py").is_file():
         parser.error(f"{args.other} is not a checkout of stratplan (no stratcli/__init__.py)")
-    paths = [scenario_path(name) for name in args.scenarios]
+    paths = scenario_paths(args.scenarios)
     report(args.scenarios, paths, args.other, args.rounds, args.plans)
 
 

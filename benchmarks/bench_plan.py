@@ -21,6 +21,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from casadi_baseline import scenario_paths
+
 from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
 
@@ -60,10 +62,12 @@ def bench(path: Path, repeats: int) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scenarios", nargs="*", type=Path)
+    parser.add_argument("scenarios", nargs="*", help="names or paths (default: every shipped one)")
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
-    paths = args.scenarios or sorted((ROOT / "scenarios").glob("*.toml"))
+    paths = (
+        scenario_paths(args.scenarios) if args.scenarios else sorted(ROOT.glob("scenarios/*.toml"))
+    )
     print(
         f"{platform.processor() or platform.machine()}, Python {platform.python_version()}, "
         f"median of {args.repeats} timed runs after a warm-up\n"
