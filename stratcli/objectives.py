@@ -306,17 +306,26 @@ def with_more_harmonics(
         warm = [np.ravel(embed(leg.coefficients, h, n)) for leg in plan.legs]
         found = plan_sequence(system, start, legs, richer, warm, progress, constraints)
         if not found.message and all(leg.converged for leg in found.legs):
+            first = f"{h} (the default{_where(plan.message)})"
             return _noted(
                 found,
                 f"planned with {n} harmonics: the search within the limits stalled with "
-                f"{_counts([f'{h} (the default)', *tried[1:]])}; planner.basis.harmonics = {n} "
-                "asks for these from the start",
+                f"{_counts([first, *tried[1:]])}; planner.basis.harmonics = {n} asks for "
+                "these from the start",
             )
         tried.append(n)
+    stalled_too = f" (with {h} harmonics; it stalled with {_counts(tried[1:])} too)"
     return _noted(
-        plan,
+        replace(plan, message=plan.message + stalled_too),  # the advice then asks for more
         f"with {_counts(tried[1:])} harmonics the plan did not get inside the limits either",
     )
+
+
+def _where(message: str) -> str:
+    """'; on leg 2: the joint limits of q1 still violated by 0.2 rad at its nodes' from a
+    stall message (`within_limits.STALLED`), for the note of a retry that got inside."""
+    head = "the constrained search stalled "
+    return f"; {message.removeprefix(head)}" if message.startswith(head) else ""
 
 
 def _counts(numbers: list) -> str:

@@ -130,6 +130,11 @@ def validation_problems(
             msg = f"must be {_BOUNDS[kind]} {limit}"
         if kind == "missing":
             msg = "required field is missing"
+        if kind in ("too_short", "too_long") and "ctx" in err:  # "List should have at least..."
+            ctx = err["ctx"]
+            bound = ctx.get("min_length", ctx.get("max_length"))
+            least = "at least" if kind == "too_short" else "at most"
+            msg = f"must have {least} {bound} entries, not {ctx.get('actual_length')}"
         if kind in ("union_tag_not_found", "union_tag_invalid"):  # a table without a valid tag
             ctx = err.get("ctx", {})
             field = ctx.get("discriminator", "kind").strip("'")

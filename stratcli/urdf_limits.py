@@ -17,6 +17,7 @@ are `[constraints] max_rate`).
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -54,10 +55,17 @@ def violation_advice(plan, violated: str) -> str:
     durations the status' advice without the other objective (refused with them), for a
     URDF's limits the status' advice and wider limits in the table, else the status' own advice."""
     if plan.settings.durations == "optimise":
-        return DURATIONS_ADVICE
-    if URDF_LIMIT in violated:
-        return URDF_ADVICE
-    return Status.CONSTRAINT_VIOLATED.value
+        advice = DURATIONS_ADVICE
+    elif URDF_LIMIT in violated:
+        advice = URDF_ADVICE
+    else:
+        advice = Status.CONSTRAINT_VIOLATED.value
+    tried = re.search(r"it stalled with [\d, and]*?(\d+) too\)", plan.message or "")
+    if tried:  # retried with more harmonics already (`objectives.with_more_harmonics`)
+        advice = advice.replace(
+            "more harmonics", f"more than {tried[1]} harmonics (planner.basis.harmonics)"
+        )
+    return advice
 
 
 def _fmt(x: float) -> str:

@@ -170,6 +170,22 @@ def test_the_terminal_shows_each_legs_smallest_margins(tmp_path):
     (line,) = [x for x in result.output.splitlines() if x.startswith("smallest margins")]
     for i, m in enumerate(legs):
         assert f"leg {i + 1}: joints {m['joint_limit']:.3g} rad, rate {m['rate']:.3g} rad/s" in line
+    assert "clearances beyond" not in line  # no clearance measured: none named
+
+
+def test_the_margins_line_says_clearances_are_beyond_the_clearance_asked(tmp_path):
+    """A self-clearance margin of 0.02 means 0.02 beyond the clearance, not bodies 0.02
+    apart: the line says so, with the clearance the table asked for."""
+    text = TASK_D.read_text() + "\n[constraints]\nself_collision = true\nclearance = 0.01\n"
+    path = tmp_path / "clear.toml"
+    path.write_text(text)
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path), "--no-animation"])
+    assert result.exit_code in (0, 1), result.output
+    (line,) = [x for x in result.output.splitlines() if x.startswith("smallest margins")]
+    assert line.startswith(
+        "smallest margins to the limits (2000 re-integrated samples a leg; clearances beyond "
+        "the 0.01 asked): leg 1: self-clearance "
+    )
 
 
 def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():

@@ -439,10 +439,9 @@ def test_a_search_that_stalls_with_5_harmonics_too_is_planned_with_8():
     plan, doc = outcome.result, outcome.document
     assert plan.ok, plan.message
     assert any(
-        n.startswith(
-            "planned with 8 harmonics: the search within the limits stalled with 3 (the default) "
-            "and 5; planner.basis.harmonics = 8 asks for these from the start"
-        )
+        n.startswith("planned with 8 harmonics: the search within the limits stalled with 3 (the ")
+        and re.search(r"\(the default; on leg 1: the joint limits of q\d still violated by", n)
+        and n.endswith(" and 5; planner.basis.harmonics = 8 asks for these from the start")
         for n in plan.notes
     )
     assert {p["basis"]["harmonics"] for leg in doc["legs"] for p in leg["pieces"]} == {8}
@@ -461,6 +460,7 @@ def test_more_harmonics_are_tried_in_turn_and_the_notes_say_which(monkeypatch):
     import dataclasses
 
     from stratcli import objectives
+    from stratcli.urdf_limits import violation_advice
 
     task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
     plan = plan_run(task, check=False).result
@@ -484,8 +484,12 @@ def test_more_harmonics_are_tried_in_turn_and_the_notes_say_which(monkeypatch):
     said = []
     monkeypatch.setattr(objectives, "plan_sequence", planned(inside_with=None))
     out = more()
-    assert asked == [5, 8] and out.message == stuck.message
+    assert asked == [5, 8]
+    assert out.message == stuck.message + " (with 3 harmonics; it stalled with 5 and 8 too)"
     assert out.notes[-1] == "with 5 and 8 harmonics the plan did not get inside the limits either"
+    advice = violation_advice(out, "leg 1 (S3) violates the joint limits of q1")
+    assert "more than 8 harmonics (planner.basis.harmonics)" in advice  # not what it tried
+    assert "more harmonics" not in advice
     assert said == [
         "constrained search: stalled; planning again with 5 harmonics",
         "constrained search: stalled with 5 too; planning again with 8 harmonics",
@@ -493,12 +497,16 @@ def test_more_harmonics_are_tried_in_turn_and_the_notes_say_which(monkeypatch):
     asked.clear()
     out = more(more=objectives.MORE_HARMONICS[:1])
     assert asked == [5]
+    assert out.message == stuck.message + " (with 3 harmonics; it stalled with 5 too)"
     assert out.notes[-1] == "with 5 harmonics the plan did not get inside the limits either"
+    assert "more than 5 harmonics" in violation_advice(out, "")
     asked.clear()
     monkeypatch.setattr(objectives, "plan_sequence", planned(inside_with=5))
     out = more()
     assert asked == [5] and not out.message
     assert out.notes[-1] == (
-        "planned with 5 harmonics: the search within the limits stalled with 3 (the default); "
-        "planner.basis.harmonics = 5 asks for these from the start"
+        "planned with 5 harmonics: the search within the limits stalled with 3 (the default; "
+        "on leg 1: ...); planner.basis.harmonics = 5 asks for these from the start"
     )
+    assert "try via configurations" in violation_advice(stuck, "")  # not retried: as it was
+    assert "more harmonics" in violation_advice(stuck, "")

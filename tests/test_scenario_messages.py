@@ -117,11 +117,21 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
             'continuity = "lr-C1"\nobjective = "speed"',
             "planner.objective: must be 'energy' or 'newton' (got 'speed')",  # nothing near
         ),
+        (
+            LAST_LEG,
+            LAST_LEG + "[constraints]\njoint_limits = [-2.5]\n",
+            "constraints.joint_limits: must have at least 2 entries, not 1 (got [-2.5])",
+        ),
+        (
+            LAST_LEG,
+            LAST_LEG + "[constraints]\njoint_limits = [-2.5, 0, 2.5]\n",
+            "constraints.joint_limits: must have at most 2 entries, not 3 (got [-2.5, 0, 2.5])",
+        ),
     ],
     ids=[
         "angle name", "single legs table", "name table on a preset", "lie key", "method",
         "single obstacle table", "a choice in another case", "a choice spelled otherwise",
-        "no choice near",
+        "no choice near", "a limit pair too short", "a limit pair too long",
     ],
 )  # fmt: skip
 def test_messages_say_what_to_write(tmp_path, old, new, expected):

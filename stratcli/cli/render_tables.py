@@ -320,9 +320,15 @@ def limit_margins(report: dict | None) -> str:
         ]
         legs.append(f"leg {i + 1}: {', '.join(found) or 'none limited'}")
     samples = report.get("samples_per_leg")
-    return f"smallest margins to the limits ({samples} re-integrated samples a leg): " + "; ".join(
-        legs
+    clearance = (report.get("spec") or {}).get("clearance")
+    measured = any(
+        m.get(k) is not None
+        for m in report["legs"]
+        for k in ("self_clearance", "obstacle_clearance")
     )
+    beyond = f"; clearances beyond the {clearance:g} asked" if measured and clearance else ""
+    head = f"smallest margins to the limits ({samples} re-integrated samples a leg{beyond}): "
+    return head + "; ".join(legs)
 
 
 VIOLATED = -1e-9  # a margin below this breaks its limit (`constraints.VIOLATION_TOL`)
