@@ -18,7 +18,11 @@ __all__ = ["STALLED", "candidate_within_limits", "within_limits"]
 
 CONSTRAINED_SEEDS = 3  # further starts of the constrained search when the plan's own stalls
 AUXILIARY_LIMIT = 2.5  # rad: joint limits of the start for self-collision alone
-STALLED = ("the constrained search stalled", "the constrained search stopped")  # messages
+STALLED = (  # the messages of a search that did not get inside (`objectives.stalled`)
+    "the constrained search stalled",
+    "the constrained search stopped",
+    "the constrained search kept dipping",  # below a margin between its nodes (refinements)
+)
 
 
 def within_limits(system, start, legs, settings, plan, constraints, progress=None):

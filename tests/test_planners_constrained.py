@@ -508,5 +508,10 @@ def test_more_harmonics_are_tried_in_turn_and_the_notes_say_which(monkeypatch):
         "planned with 5 harmonics: the search within the limits stalled with 3 (the default; "
         "on leg 1: ...); planner.basis.harmonics = 5 asks for these from the start"
     )
+    dipping = "the constrained search kept dipping below a margin between its nodes"
+    assert objectives.stalled(stuck) and objectives.stalled(
+        dataclasses.replace(plan, message=dipping)
+    )  # each search that did not get inside is retried
+    assert not objectives.stalled(plan)
     assert "try via configurations" in violation_advice(stuck, "")  # not retried: as it was
     assert "more harmonics" in violation_advice(stuck, "")
