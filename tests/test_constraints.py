@@ -171,6 +171,7 @@ def test_the_terminal_shows_each_legs_smallest_margins(tmp_path):
     for i, m in enumerate(legs):
         assert f"leg {i + 1}: joints {m['joint_limit']:.3g} rad, rate {m['rate']:.3g} rad/s" in line
     assert "clearances beyond" not in line  # no clearance measured: none named
+    assert "limits: joints within [-3, 3] rad; rate at most 0.8 rad/s" in result.output
 
 
 def test_the_margins_line_says_clearances_are_beyond_the_clearance_asked(tmp_path):
@@ -186,6 +187,7 @@ def test_the_margins_line_says_clearances_are_beyond_the_clearance_asked(tmp_pat
         "smallest margins to the limits (2000 re-integrated samples a leg; clearances beyond "
         "the 0.01 asked): leg 1: self-clearance "
     )
+    assert "limits: clearance 0.01 from itself (links as capsules of radius 0.05)" in result.output
 
 
 def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():

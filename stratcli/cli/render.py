@@ -172,7 +172,7 @@ def plan_summary(doc: dict) -> None:
     number_column(legs, "final error")
     number_column(legs, "energy")
     number_column(legs, "status", justify="left")
-    from .render_tables import broken, limit_margins  # (which imports this module)
+    from .render_tables import broken, limit_margins, limits_asked  # (which imports this)
 
     margins = (doc.get("constraints") or {}).get("legs") or []
     for i, leg in enumerate(doc["legs"]):
@@ -242,6 +242,7 @@ def plan_summary(doc: dict) -> None:
         if note not in failure:  # (the failure line below says it: once is enough)
             out_console.print(f"note: {escape(note)}", highlight=False)
     if margins := limit_margins(doc.get("constraints")):
+        out_console.print(limits_asked(doc.get("constraints")), highlight=False)
         out_console.print(margins, highlight=False)
     for i, leg in enumerate((doc.get("attitude") or {}).get("legs") or []):  # URDF robots
         if leg.get("audit"):

@@ -331,6 +331,48 @@ def limit_margins(report: dict | None) -> str:
     return head + "; ".join(legs)
 
 
+def limits_asked(report: dict | None) -> str:
+    """One line of the limits a plan was held to (result.json's `constraints.spec`), so that
+    the margins beside it can be read without the scenario; "" without a [constraints] report."""
+    spec = (report or {}).get("spec")
+    if not spec or not report.get("legs"):
+        return ""
+    parts = []
+    joints = spec.get("joint_limits")
+    if _is_pair(joints):
+        parts.append(f"joints within [{joints[0]:g}, {joints[1]:g}] rad")
+    elif joints or any(m.get("joint_limit") is not None for m in report["legs"]):
+        parts.append("joints within their own limits")  # per joint, or a URDF's
+    bodies = (["itself"] if spec.get("self_collision") else []) + (
+        [f"{len(spec['obstacles'])} obstacle{'s' if len(spec['obstacles']) > 1 else ''}"]
+        if spec.get("obstacles")
+        else []
+    )
+    if bodies:
+        parts.append(
+            f"clearance {spec.get('clearance', 0):g} from {' and '.join(bodies)} (links as "
+            f"capsules of radius {spec.get('link_radius', 0):g})"
+        )
+    for key, what, unit in (
+        ("max_rate", "rate", "rad/s"),
+        ("max_acceleration", "acceleration", "rad/s²"),
+    ):
+        value = spec.get(key)
+        if isinstance(value, int | float):
+            parts.append(f"{what} at most {value:g} {unit}")
+        elif value:
+            parts.append(f"{what} within its per-joint limits")
+    return "limits: " + "; ".join(parts) if parts else ""
+
+
+def _is_pair(value) -> bool:
+    return (
+        isinstance(value, list | tuple)
+        and len(value) == 2
+        and all(isinstance(v, int | float) for v in value)
+    )
+
+
 VIOLATED = -1e-9  # a margin below this breaks its limit (`constraints.VIOLATION_TOL`)
 
 
