@@ -208,6 +208,7 @@ def stop_workers(pool: ProcessPoolExecutor, futures) -> None:
     for future in futures:
         future.cancel()
     workers = list((getattr(pool, "_processes", None) or {}).values())
+    manager = getattr(pool, "_executor_manager_thread", None)
     pool.shutdown(wait=False, cancel_futures=True)
     for worker in workers:
         worker.terminate()
@@ -215,6 +216,8 @@ def stop_workers(pool: ProcessPoolExecutor, futures) -> None:
         worker.join(timeout=2.0)
         if worker.is_alive():  # pragma: no cover - SIGTERM is not ignored by workers
             worker.kill()
+    if manager is not None:  # let it close its wake-up pipe now: on Python 3.11 the exit
+        manager.join(timeout=2.0)  # handler could write to it as it closes (EBADF traceback)
 
 
 def _remote(func: Callable, state: dict[str, Any], unit: Any) -> Any:
