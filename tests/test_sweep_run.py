@@ -99,20 +99,42 @@ def test_a_dask_worker_writes_an_auto_mode_tasks_record(tmp_path):
 
 
 class _DyingWorker(ThreadPoolExecutor):
-    """Task 2's worker dies (its future fails, as with a killed process or KilledWorker)."""
+    """Task 2's worker dies (its future fails, as with a killed process or KilledWorker),
+    each time it is submitted (`deaths`: how many times at most)."""
+
+    deaths = 10**9
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.submitted = []
 
     def submit(self, fn, payload, *args, **kwargs):
-        if payload["index"] == 2:
+        self.submitted.append(payload["index"])
+        if payload["index"] == 2 and self.submitted.count(2) <= self.deaths:
             future: Future = Future()
             future.set_exception(RuntimeError("worker died"))
             return future
         return super().submit(fn, payload, *args, **kwargs)
 
 
+class _DyingOnce(_DyingWorker):
+    deaths = 1
+
+
+def test_a_task_whose_worker_died_is_submitted_once_more(reference, tmp_path):
+    """A Dask worker killed under a task: the task runs again on another worker, and the
+    sweep is complete (as a killed Dask worker's task is, where Dask reschedules it)."""
+    with _DyingOnce(2) as pool:
+        outcome = run_sweep(load_sweep(write(tmp_path, GRID)), tmp_path / "o", executor=pool)
+    assert pool.submitted.count(2) == 2 and outcome.complete and not outcome.missing
+    assert strip(outcome.rows) == strip(reference.rows)
+
+
 def test_a_dead_worker_leaves_its_task_missing_and_resume_plans_it(reference, tmp_path):
     path = write(tmp_path, GRID)
     with _DyingWorker(2) as pool:
         first = run_sweep(load_sweep(path), tmp_path / "o", executor=pool)
+    assert pool.submitted.count(2) == 2  # submitted once more, then left missing
     assert first.missing == [2] and not first.complete and 2 not in first.rows
     assert first.summary["missing"] == 1
     with pytest.raises(InputError, match="already holds a sweep"):

@@ -154,15 +154,20 @@ def test_a_urdf_limit_the_search_cannot_keep_is_named_as_the_urdfs(tmp_path):
     assert not plan.ok and plan.status is stratcli.Status.CONSTRAINT_VIOLATED
     assert plan.message.startswith("the constrained search stalled on leg 1: the joint limits")
     assert "leg 1 (S3) violates the URDF's joint limits of j2 [-0.02, 0.02] by" in plan.message
-    assert plan.message.endswith(
+    assert "at its nodes (with 3 harmonics; it stalled with 5 and 8 too)" in plan.message
+    assert plan.message.endswith(  # retried with 5 and 8 harmonics: more than those
         "try via configurations that keep the joint away from the limit, another stratum "
-        "sequence, more harmonics, the other objective, or wider limits in "
-        "[constraints].joint_limits"
+        "sequence, more than 8 harmonics (planner.basis.harmonics), the other objective, or "
+        "wider limits in [constraints].joint_limits"
     )
     table = "[constraints]\njoint_limits = { j2 = [-0.02, 0.02] }\n"  # the table's own
     plan = stratcli.plan(_scenario(tmp_path, upper_j2=2.0, constraints=table))
     assert "violates the joint limits of j2 by" in plan.message and "URDF's" not in plan.message
-    assert plan.message.endswith(stratcli.Status.CONSTRAINT_VIOLATED.value)
+    assert plan.message.endswith(
+        stratcli.Status.CONSTRAINT_VIOLATED.value.replace(
+            "more harmonics", "more than 8 harmonics (planner.basis.harmonics)"
+        )
+    )
 
 
 def test_compare_sequences_notes_the_best_plans_urdf_limits(tmp_path):

@@ -6,8 +6,10 @@ Each task is a call of `worker.run_task` on the executor: a local process pool
 Rows come back as tasks complete and are appended to rows.jsonl (fsync'd) at once, so a sweep
 killed at any instant loses only the tasks that were running; `resume=True` plans only the
 tasks without a row. A task that fails or raises is a row (its status and message); a task
-whose worker died (a killed process, Dask's `KilledWorker`) gets no row and is counted as
-missing: the sweep says so, and `--resume` plans it again.
+whose worker died (a killed process, Dask's `KilledWorker`, a lost connection) is submitted
+once more where the executor still takes work (a Dask cluster with other workers; not a local
+pool, which a killed worker breaks), else it gets no row and is counted as missing: the sweep
+says so, and `--resume` plans it again.
 
 Results do not depend on the executor: every task is planned in a worker process that does
 nothing else, with single-threaded BLAS (the local pool's processes are forked from a process
@@ -162,6 +164,8 @@ def run_sweep(
     advance = progress or (lambda done, total: None)
     per_task = "all" if records == "all" else "failed" if records == "failed" else "none"
     futures: dict[Future, int] = {}
+    payloads: dict[int, dict[str, Any]] = {}  # of the tasks in flight, to submit again
+    retried: set[int] = set()  # tasks submitted again after their worker died
     written: list[Path] = []
     lost = _lost_before(out, rows) if resume else {}  # task -> why its record was not made
     try:
@@ -169,7 +173,7 @@ def run_sweep(
         with sweepdir.RowLog(out / sweepdir.ROWS) as log:
             todo = sweep.tasks(skip=set(rows))
             window = max(MIN_IN_FLIGHT, IN_FLIGHT_PER_WORKER * max(1, info.workers))
-            accepting = _submit(executor, futures, todo, window, sweep, per_task)
+            accepting = _submit(executor, futures, payloads, todo, window, sweep, per_task)
             # the plots' matplotlib loads while the workers start (0.3 s each), not after
             # the last task, when nothing else runs: 1.3 ms a task off a 200-task sweep
             from .outputs import finish
@@ -181,13 +185,18 @@ def run_sweep(
                     try:
                         result = future.result()
                     except Exception:  # the worker died (not the task: run_task gives rows)
+                        if index in retried:  # died twice: missing (`--resume` plans it)
+                            payloads.pop(index, None)
+                        elif _again(executor, futures, payloads, index):
+                            retried.add(index)
                         continue
+                    payloads.pop(index, None)
                     _take_record(out, result, index, written, lost)  # before the row: a
                     log.append(result["row"])  # row means its record is there
                     rows[index] = result["row"]
                     advance(len(rows), sweep.count)
                 if accepting:
-                    accepting = _submit(executor, futures, todo, window, sweep, per_task)
+                    accepting = _submit(executor, futures, payloads, todo, window, sweep, per_task)
         if records == "best":
             best = _best(rows)
             if best is not None and not (out / "records" / f"task-{best:06d}").exists():
@@ -246,17 +255,29 @@ def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOu
     return SweepOutcome(out, rows, summary, 0, len(rows), [], files)
 
 
-def _submit(executor, futures: dict, todo: Iterator, window: int, sweep: Sweep, records) -> bool:
-    """Submit tasks from `todo` until `window` are in flight (bounded memory and queue);
-    False when the executor refuses work (a broken pool: the rest stays missing)."""
+def _submit(
+    executor, futures: dict, payloads: dict, todo: Iterator, window: int, sweep: Sweep, records
+) -> bool:
+    """Submit tasks from `todo` until `window` are in flight (bounded memory and queue), each
+    payload kept in `payloads` until its row is in; False when the executor refuses work (a
+    broken pool: the rest stays missing)."""
     while len(futures) < window:
         task = next(todo, None)
         if task is None:
             return True
-        try:
-            futures[executor.submit(run_task, _payload(sweep, task, records))] = task.index
-        except Exception:  # e.g. BrokenProcessPool after a worker was killed
+        payloads[task.index] = _payload(sweep, task, records)
+        if not _again(executor, futures, payloads, task.index):
             return False
+    return True
+
+
+def _again(executor, futures: dict, payloads: dict, index: int) -> bool:
+    """Submit task `index` (its kept payload); False if the executor refuses it."""
+    try:
+        futures[executor.submit(run_task, payloads[index])] = index
+    except Exception:  # e.g. BrokenProcessPool after a worker was killed
+        payloads.pop(index, None)
+        return False
     return True
 
 
