@@ -364,7 +364,10 @@ def enforce(plan, c: Constraints):
     if not report.ok and plan.legs and all(leg.converged for leg in plan.legs):
         violated = report.violated
         if plan.message:  # where the search stalled: the plan is the one found without limits
-            violated = f"{plan.message}; the plan found without the limits is kept: {violated}"
+            violated = (  # the stall is the search's; the violation, the kept plan's
+                f"{plan.message}; kept instead: the plan found without the limits, in which "
+                f"{violated}"
+            )
         advice = over[2] if over is not None else violation_advice(plan, report.violated)
         plan = replace(plan, message=f"{violated}; {advice}")
     return plan

@@ -153,7 +153,10 @@ def test_a_urdf_limit_the_search_cannot_keep_is_named_as_the_urdfs(tmp_path):
     plan = stratcli.plan(_scenario(tmp_path, upper_j2=0.02, constraints="[constraints]\n"))
     assert not plan.ok and plan.status is stratcli.Status.CONSTRAINT_VIOLATED
     assert plan.message.startswith("the constrained search stalled on leg 1: the joint limits")
-    assert "leg 1 (S3) violates the URDF's joint limits of j2 [-0.02, 0.02] by" in plan.message
+    assert (
+        "; kept instead: the plan found without the limits, in which leg 1 (S3) violates the "
+        "URDF's joint limits of j2 [-0.02, 0.02] by"
+    ) in plan.message
     assert "at its nodes (with 3 harmonics; it stalled with 5 and 8 too)" in plan.message
     assert plan.message.endswith(  # retried with 5 and 8 harmonics: more than those
         "try via configurations that keep the joint away from the limit, another stratum "
