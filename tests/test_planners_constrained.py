@@ -305,6 +305,10 @@ def test_more_constrained_starts_keep_the_lowest_plan_inside_the_limits():
     assert two.ok, two.result.message
     assert two.result.total_energy < 0.95 * one.result.total_energy
     assert any("lowest of 2 constrained starts" in note for note in two.result.notes)
+    # the one start's plan costs 3.3x the free plan's: its notes say more starts may help
+    hint = "planner.constrained_starts = 2 searches on from a second start"
+    assert any(hint in note for note in one.result.notes)
+    assert not any(hint in note for note in two.result.notes)
     verify(task, two.document)
     q = _dense(task, two.document)
     assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
