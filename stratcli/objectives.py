@@ -25,6 +25,7 @@ from .planners.sqp import FIRST_ORDER_ITERATIONS, LOOSE_ABOVE
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, LegSpec, chain_legs, check_legs
+from .urdf_limits import stalled_too
 from .within_limits import STALLED, within_limits
 
 __all__ = ["plan_sequence", "plan_with_objective", "stalled", "with_more_harmonics"]
@@ -314,9 +315,8 @@ def with_more_harmonics(
                 "these from the start",
             )
         tried.append(n)
-    stalled_too = f" (with {h} harmonics; it stalled with {_counts(tried[1:])} too)"
-    return _noted(
-        replace(plan, message=plan.message + stalled_too),  # the advice then asks for more
+    return _noted(  # (the advice then asks for more than the counts tried: `stalled_too`)
+        replace(plan, message=plan.message + stalled_too(h, _counts(tried[1:]))),
         f"with {_counts(tried[1:])} harmonics the plan did not get inside the limits either",
     )
 
@@ -324,7 +324,7 @@ def with_more_harmonics(
 def _where(message: str) -> str:
     """'; on leg 2: the joint limits of q1 still violated by 0.2 rad at its nodes' from a
     stall message (`within_limits.STALLED`), for the note of a retry that got inside."""
-    head = "the constrained search stalled "
+    head = f"{STALLED[0]} "
     return f"; {message.removeprefix(head)}" if message.startswith(head) else ""
 
 

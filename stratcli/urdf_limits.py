@@ -50,6 +50,16 @@ DURATIONS_ADVICE = (
 )
 
 
+def stalled_too(first: int, tried: str) -> str:
+    """What `objectives.with_more_harmonics` appends to a stall message when the plan was
+    planned again with more harmonics (`tried`, e.g. "5 and 8") and stalled each time;
+    `violation_advice` reads the largest count back (`_STALLED_TOO`) to ask for more."""
+    return f" (with {first} harmonics; it stalled with {tried} too)"
+
+
+_STALLED_TOO = re.compile(r"; it stalled with [\d, and]*?(\d+) too\)")
+
+
 def violation_advice(plan, violated: str) -> str:
     """What to try after `violated` (a `constraints.verify` violation): for optimised
     durations the status' advice without the other objective (refused with them), for a
@@ -60,8 +70,8 @@ def violation_advice(plan, violated: str) -> str:
         advice = URDF_ADVICE
     else:
         advice = Status.CONSTRAINT_VIOLATED.value
-    tried = re.search(r"it stalled with [\d, and]*?(\d+) too\)", plan.message or "")
-    if tried:  # retried with more harmonics already (`objectives.with_more_harmonics`)
+    tried = _STALLED_TOO.search(plan.message or "")
+    if tried:  # retried with more harmonics already (`stalled_too`)
         advice = advice.replace(
             "more harmonics", f"more than {tried[1]} harmonics (planner.basis.harmonics)"
         )
