@@ -77,6 +77,14 @@ def report(names: list[str], paths: list[Path], other: Path, rounds: int, plans:
         print(f"{name:26} {1000 * o:9.1f} {1000 * t:9.1f} {o / t:10.2f}  {e_o:.6f} -> {e_t:.6f}")
 
 
+def not_a_checkout(other: Path) -> str:
+    """Why `other` cannot be compared with (its children would import this checkout's
+    stratcli and compare it with itself), or ""."""
+    if (other / "stratcli" / "__init__.py").is_file():
+        return ""
+    return f"{other} is not a checkout of stratplan (no stratcli/__init__.py)"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("other", type=Path, help="The other checkout.")
@@ -84,8 +92,8 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--plans", type=int, default=9)
     args = parser.parse_intermixed_args()
-    if not (args.other / "stratcli" / "__init__.py").is_file():
-        parser.error(f"{args.other} is not a checkout of stratplan (no stratcli/__init__.py)")
+    if why := not_a_checkout(args.other):
+        parser.error(why)
     paths = scenario_paths(args.scenarios)
     report(args.scenarios, paths, args.other, args.rounds, args.plans)
 

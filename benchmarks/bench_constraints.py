@@ -30,7 +30,7 @@ import time
 import tomllib
 from pathlib import Path
 
-from bench_against import report
+from bench_against import not_a_checkout, report
 
 from stratcli.api.planning import plan_run
 from stratcli.scenario import load_scenario
@@ -62,6 +62,8 @@ def main() -> None:
     parser.add_argument("scenarios", nargs="*", default=DEFAULT)
     args = parser.parse_args()
     if args.against is not None:  # one timed plan a process, as many pairs as --repeats
+        if why := not_a_checkout(args.against):
+            parser.error(why)
         paths = [ROOT / f"{name}.toml" for name in args.scenarios]
         return report(args.scenarios, paths, args.against, args.repeats, plans=1)
     where = platform.processor() or platform.machine()

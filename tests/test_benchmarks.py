@@ -48,13 +48,17 @@ def test_every_benchmark_script_imports_and_parses_its_defaults(name, monkeypatc
     assert stop.value.code in (0, None) and parsers
 
 
-def test_bench_against_refuses_a_directory_that_is_no_checkout(monkeypatch, capsys):
-    """Given a directory without stratcli/, its child processes would import this checkout's
+@pytest.mark.parametrize(
+    ("name", "argv"),
+    [("bench_against", ["/nonexistent"]), ("bench_constraints", ["--against", "/nonexistent"])],
+)
+def test_a_directory_that_is_no_checkout_is_refused(name, argv, monkeypatch, capsys):
+    """Given a directory without stratcli/, the child processes would import this checkout's
     package and compare it with itself: refused with one line, exit 2."""
-    bench_against = importlib.import_module("bench_against")
-    monkeypatch.setattr(sys, "argv", ["bench_against", "/nonexistent"])
+    module = importlib.import_module(name)
+    monkeypatch.setattr(sys, "argv", [name, *argv])
     with pytest.raises(SystemExit) as stop:
-        bench_against.main()
+        module.main()
     assert stop.value.code == 2
     assert "/nonexistent is not a checkout of stratplan" in capsys.readouterr().err
 
