@@ -343,6 +343,41 @@ def test_the_search_note_says_lowered_only_when_the_energy_fell():
     assert "energy 816.052 (at the speed planned" in newton
 
 
+def _barrier_round(values, iterations=50):
+    """`_Search._lower_barrier` on a stub whose barrier steps all succeed with `values`; the
+    steps it took."""
+    from stratcli.planners import constrained
+
+    class Stub(constrained._Search):
+        def __init__(self):  # no problem: only the round's bookkeeping is exercised
+            self.iterations, self.energy, self.taken, self.z = 0, 1.0, 0, None
+            self.problem = type("P", (), {"energy": staticmethod(lambda z: 1.0)})
+
+        def _barrier_step(self, mu):
+            self.taken += 1
+            return True
+
+        def _barrier(self, z, mu, g=None):
+            return values[self.taken - 1]
+
+    stub = Stub()
+    stub._lower_barrier(iterations)
+    return stub.taken
+
+
+def test_a_barrier_round_ends_on_a_plateau_and_not_while_it_descends():
+    """The round only leads the SQP into the basin: it ends once FLAT_STEPS steps together
+    lowered the barrier by less than FLAT (relative), not on one small step."""
+    from stratcli.planners.constrained import FLAT, FLAT_STEPS
+
+    descending = [100.0 * (1 - 1e-3) ** k for k in range(50)]
+    assert _barrier_round(descending) == 50
+    plateau = [100.0] * 3 + [100.0 * (1 - 0.5 * FLAT / FLAT_STEPS) ** k for k in range(47)]
+    assert _barrier_round(plateau) == FLAT_STEPS + 1
+    one_small = [100.0, 99.0, 98.99999, 97.0, *[96.0 - k for k in range(46)]]
+    assert _barrier_round(one_small) == 50
+
+
 COMBINED = """
 name = "combined_limits"
 [model]
