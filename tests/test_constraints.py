@@ -407,8 +407,8 @@ def test_a_length_with_its_unit_is_one_line_saying_to_write_the_number_alone(tmp
     (line,) = result.output.strip().splitlines()
     assert line == (
         f"error: {path}: constraints.clearance: a unit (cm) is not read: write the number "
-        "alone, in rad for an angle (or as '60deg') and in the model's length unit (m) for a "
-        "length (got '5cm')"
+        "alone, in rad for an angle (or as '60deg' or '1.2 rad') and in the model's length unit "
+        "(m) for a length (got '5cm')"
     )
 
 

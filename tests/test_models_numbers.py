@@ -52,8 +52,8 @@ def test_what_is_not_a_number_gets_the_full_parsers_message(text, words):
     ("text", "message"),
     [
         ("5cm", "a unit (cm) is not read: write the number alone, in rad for an angle (or as "
-         "'60deg') and in the model's length unit (m) for a length"),
-        ("-2.5 rad", "a unit (rad) is not read"),
+         "'60deg' or '1.2 rad') and in the model's length unit (m) for a length"),
+        ("-2.5 grad", "a unit (grad) is not read"),
         ("1e-3m", "a unit (m) is not read"),
         ("2pi", "write the product with *: '2*pi'"),
     ],
@@ -65,6 +65,11 @@ def test_a_number_with_a_unit_says_to_write_it_alone(text, message):
 
 
 @pytest.mark.parametrize(("text", "value"), [("60deg", math.pi / 3), ("30 °", math.pi / 6),
-                                            ("2e3", 2000.0), ("2*pi", 2 * math.pi)])  # fmt: skip
-def test_degrees_and_exponents_are_still_numbers(text, value):
+                                            ("2e3", 2000.0), ("2*pi", 2 * math.pi),
+                                            ("-2.5 rad", -2.5), ("pi/2rad", math.pi / 2),
+                                            ("2*pi/3 rad", 2 * math.pi / 3)])  # fmt: skip
+def test_angle_units_and_exponents_are_still_numbers(text, value):
+    """rad is the unit angles are read in, so writing it changes nothing (a user's "-2.5 rad"
+    joint limit was refused while "-143deg" was read)."""
     assert parse_number(text) == pytest.approx(value)
+    assert expressions.parse_number(text) == pytest.approx(value)

@@ -24,7 +24,7 @@ import re
 
 import sympy as sp
 
-from .numbers import ExpressionError
+from .numbers import ExpressionError, angle_unit
 
 FUNCTIONS = {
     "sin": sp.sin,
@@ -203,12 +203,12 @@ def _node(node: ast.AST, rec, symbols: dict[str, sp.Symbol], text: str, allowed:
     )
 
 
-_DEG = re.compile(r"^\s*(.+?)\s*(deg|°)\s*$")
 _UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-zµ]+)\s*$")
 
 
 def parse_number(value: float | int | str) -> float:
-    """A real number from a TOML value: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°"."""
+    """A real number from a TOML value: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°",
+    "2.5 rad"."""
     if isinstance(value, bool):
         raise ExpressionError(f"expected a number (got {value!r})")
     if isinstance(value, int | float):
@@ -218,18 +218,15 @@ def parse_number(value: float | int | str) -> float:
         return number
     if not isinstance(value, str):
         raise ExpressionError(f"expected a number or an expression such as 'pi/3' (got {value!r})")
-    scale = 1.0
-    text = value
-    match = _DEG.match(value)
-    if match:
-        text, scale = match.group(1), math.pi / 180.0
+    text, scale = angle_unit(value)
     unit = _UNIT.match(text)
     if unit and unit.group(2) == "pi":
         raise ExpressionError(f"write the product with *: '{unit.group(1)}*pi'")
     if unit and unit.group(2) not in ("e", "E"):
         raise ExpressionError(
             f"a unit ({unit.group(2)}) is not read: write the number alone, in rad "
-            "for an angle (or as '60deg') and in the model's length unit (m) for a length"
+            "for an angle (or as '60deg' or '1.2 rad') and in the model's length unit (m) for "
+            "a length"
         )
     expr = parse_expression(text)
     if expr.free_symbols:

@@ -1,4 +1,4 @@
-"""Numbers in scenario files: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°".
+"""Numbers in scenario files: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°", "2.5 rad".
 
 Plain arithmetic of literals and the constants pi (π) and E is evaluated here, in decimal
 arithmetic with 40 digits and rounded once to a float, without sympy (a scenario is read on
@@ -14,9 +14,10 @@ import math
 import re
 from decimal import Context, Decimal, DivisionByZero, InvalidOperation, Overflow
 
-__all__ = ["ExpressionError", "parse_number"]
+__all__ = ["ExpressionError", "angle_unit", "parse_number"]
 
-_DEG = re.compile(r"^\s*(.+?)\s*(deg|°)\s*$")
+_ANGLE = re.compile(r"^\s*(.+?)\s*(?<![A-Za-zµ])(deg|°|rad)\s*$")  # a whole word: not "grad"
+_TO_RAD = {"deg": math.pi / 180.0, "°": math.pi / 180.0, "rad": 1.0}
 _CONTEXT = Context(prec=40, Emax=999, Emin=-999, traps=[DivisionByZero, InvalidOperation, Overflow])
 _PI = Decimal("3.141592653589793238462643383279502884197169399375")
 _CONSTANTS = {"pi": _PI, "π": _PI, "E": Decimal("2.718281828459045235360287471352662497757")}
@@ -65,6 +66,13 @@ def _value(node: ast.AST) -> Decimal:
     raise _NotPlain
 
 
+def angle_unit(text: str) -> tuple[str, float]:
+    """`text` without a trailing angle unit, and that unit in rad: ("60", π/180) for "60deg"
+    or "60°", ("2.5", 1.0) for "2.5 rad" (angles are rad; the unit may still be written)."""
+    match = _ANGLE.match(text)
+    return (match.group(1), _TO_RAD[match.group(2)]) if match else (text, 1.0)
+
+
 def _plain(text: str) -> float | None:
     """The value of plain constant arithmetic, or None when it is anything else."""
     if len(text) > _MAX_LENGTH:
@@ -77,7 +85,8 @@ def _plain(text: str) -> float | None:
 
 
 def parse_number(value: float | int | str) -> float:
-    """A real number from a TOML value: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°".
+    """A real number from a TOML value: 1.5, "pi/3", "-pi/12", "2*pi/3", "60deg", "60°",
+    "2.5 rad" (an angle's unit is read, in rad; no other unit is).
 
     Raises
     ------
@@ -93,8 +102,7 @@ def parse_number(value: float | int | str) -> float:
         return number
     if not isinstance(value, str):
         raise ExpressionError(f"expected a number or an expression such as 'pi/3' (got {value!r})")
-    match = _DEG.match(value)
-    text, scale = (match.group(1), math.pi / 180.0) if match else (value, 1.0)
+    text, scale = angle_unit(value)
     number = _plain(text)
     if number is not None:
         return number * scale
