@@ -1,10 +1,17 @@
-"""Words for counts in messages, tables and reprs: one place says "1 leg", "3 legs" (no I/O)."""
+"""Words for counts and legs in messages, tables, figures and reprs: one place says "1 leg",
+"3 legs", "newton (continuation)" (no I/O)."""
 
 from __future__ import annotations
 
-__all__ = ["counted"]
+__all__ = ["counted", "method_words"]
 
 
 def counted(n: int, noun: str) -> str:
     """`n` and `noun`, plural (an "s") unless `n` is 1: "1 task", "0 tasks", "2 tasks"."""
     return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def method_words(method: str, strategy: str | None) -> str:
+    """A leg's method as tables and figures name it: "newton", or "newton (continuation)"
+    where the homotopy reached the leg's goal (`strategy` "continuation")."""
+    return method + (" (continuation)" if strategy == "continuation" else "")

@@ -19,7 +19,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError, NotControllableError, Problem, RecordError
-from ..wording import counted
+from ..wording import counted, method_words
 
 PIPE_WIDTH = 10_000  # not a terminal: lines are as long as their text, never wrapped
 
@@ -181,7 +181,7 @@ def plan_summary(doc: dict) -> None:
         legs.add_row(
             str(i + 1),
             leg["stratum"],
-            leg["method"] + (" (continuation)" if leg.get("strategy") == "continuation" else ""),
+            method_words(leg["method"], leg.get("strategy")),
             leg["evaluator"],
             *((f"{leg['iterations']}{joint}", f"{leg['attempts']}{joint}") if per_leg else ()),
             fmt_error(leg["error"]),

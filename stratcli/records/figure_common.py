@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator
 
 from ..sequence import SequencePlan
+from ..wording import method_words
 
 __all__ = [
     "DPI",
@@ -48,8 +49,7 @@ def leg_method(plan: SequencePlan, k: int) -> str:
     steps = len(leg.pieces)
     if leg.method == "lie":
         return f"{leg.stratum} · lie ({steps} step{'s' if steps != 1 else ''})"
-    reached = " (continuation)" if leg.strategy == "continuation" else ""
-    return f"{leg.stratum} · {leg.method}{reached}"
+    return f"{leg.stratum} · {method_words(leg.method, leg.strategy)}"
 
 
 def fixed_margins(
