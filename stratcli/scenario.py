@@ -35,7 +35,12 @@ from .models.specs import (
 from .models.system import System
 from .planners import PLANNERS
 from .results import none_to_nan
-from .scenario_checks import acceleration_problems, duration_problems, lie_problems
+from .scenario_checks import (
+    acceleration_problems,
+    duration_problems,
+    lie_problems,
+    periodic_problems,
+)
 from .scenario_hints import beside_constraints, hinted
 from .schema_problems import suggested, validation_problems
 from .settings import (
@@ -328,6 +333,7 @@ def _resolve(
         if entry.method != "lie" and entry.lie is not None:
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
     problems.extend(duration_problems(scenario, legs))
+    problems.extend(periodic_problems(scenario, system, legs))
     problems.extend(acceleration_problems(scenario))
     if constraints is not None:
         problems.extend(lie_problems(constraints, legs))

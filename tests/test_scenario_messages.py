@@ -4,6 +4,8 @@ unknown name in an angle, a misspelt Lie key or method (and the `decompose` note
 
 from __future__ import annotations
 
+import tomllib
+
 import pytest
 from conftest import ROOT
 from typer.testing import CliRunner
@@ -279,3 +281,61 @@ def test_the_library_warns_that_a_legs_scenarios_legs_are_not_used():
         warnings.simplefilter("always")
         stratcli.decompose(ROOT / "scenarios" / "sim4_auto.toml", max_length=2)
     assert not [w for w in caught if w.category is stratcli.UnusedLegsWarning]
+
+
+TASK_C = (ROOT / "scenarios" / "sim4_task_c.toml").read_text()  # S3, S2, S1 under lr-C1
+WHOLE_PERIOD = "\n[planner.basis]\nharmonics = 3\nperiod = 1.0\n"  # = the legs' 1 s
+
+
+def test_a_leg_of_whole_basis_periods_that_must_end_otherwise_is_refused(tmp_path):
+    """Each control of a leg lasting whole periods ends as it starts; lr-C1 asks leg 2's u1
+    to continue from leg 1 and to end at 0 (leg 3, on S1, does not use it). Leg by leg,
+    Newton failed there with "a numerical failure (...) boundary conditions are
+    inconsistent; check the model's parameters and expressions"."""
+    path = tmp_path / "s.toml"
+    path.write_text(TASK_C + WHOLE_PERIOD)
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path / "runs")])
+    assert result.exit_code == 2 and not (tmp_path / "runs").exists()
+    (line,) = result.output.strip().splitlines()
+    assert line == (
+        f"error: {path}: planner.basis.period: leg 2 lasts 1 s, 1 whole basis period of 1 s, "
+        "so its controls end as they start; but under lr-C1 u1 continues from leg 1 and must "
+        "end at 0 (leg 3 does not use it); use a period that does not divide the leg's "
+        "duration (the paper's 2.17 s) or another duration"
+    )
+    # a leg's own duration of whole periods is named as that leg's
+    own = TASK_C.replace('stratum = "S2"\n', 'stratum = "S2"\nduration = 2.17\n')
+    line = _problem(tmp_path, own)  # (the default period is 2.17 s)
+    assert line.startswith("legs[1].duration: leg 2 lasts 2.17 s, 1 whole basis period of 2.17 s")
+
+
+@pytest.mark.parametrize(
+    ("planner", "refused"),
+    [
+        ('continuity = "lr-C1"', True),
+        ('continuity = "lr-C0"', True),
+        ('continuity = "l-C1"', False),  # no condition at a middle leg's end
+        ('continuity = "l-C1"\nfull_stop = true', False),  # S1's u3 new on S2: 0 at both ends
+        ('continuity = "lr-C1"\nsoft_start = true\nfull_stop = true', False),
+    ],
+)
+def test_whole_periods_are_refused_exactly_where_newton_cannot_meet_the_conditions(
+    planner, refused, monkeypatch
+):
+    """The check agrees with the planner (bypassed): refused where leg-by-leg Newton finds
+    the boundary conditions inconsistent, planned otherwise."""
+    from stratcli import plan
+    from stratcli import scenario as module  # its reference to the check, bypassed below
+
+    text = TASK_C.replace('continuity = "lr-C1"', planner) + WHOLE_PERIOD
+    text = text.replace("tolerance = 1e-3", 'tolerance = 1e-3\nobjective = "newton"')
+    raw = tomllib.loads(text)
+    if refused:
+        with pytest.raises(InputError, match="whole basis period"):
+            load_scenario(raw)
+    else:
+        load_scenario(raw)
+    monkeypatch.setattr(module, "periodic_problems", lambda *args: [])
+    result = plan(raw, check=False)
+    assert ("boundary conditions are inconsistent" in result.message) == refused
+    assert result.ok != refused
