@@ -158,9 +158,27 @@ def plan_with_objective(
         return newton
     say("energy search: re-chaining the legs from the best start")
     final = chain_legs(system, start, legs, settings, initial=coefficients)
-    final = replace(final, optimisation=search)
+    final = replace(
+        final, optimisation=search, notes=(*final.notes, *_re_planned(final, legs, search))
+    )
     chosen = final if final.ok and final.total_energy <= newton.total_energy else newton
     return _short_of_a_minimum(chosen, search) if exact else _one_start(chosen, settings)
+
+
+def _re_planned(plan: SequencePlan, legs: list[LegSpec], search) -> list[str]:
+    """A note where re-chaining the search's controls re-planned a leg: the search starts
+    each leg at its nominal start, and a via coordinate left free ("*") can end the leg
+    before it elsewhere; the plan's energy then differs from the search's."""
+    again = [str(i + 1) for i, leg in enumerate(plan.legs) if leg.iterations]
+    free = any(np.isnan(leg.goal).any() for leg in legs[:-1])
+    if not again or not free or search.best is None:
+        return []
+    found = search.starts[search.best].energy
+    return [
+        f"re-chaining re-planned {'legs' if len(again) > 1 else 'leg'} {', '.join(again)} "
+        'from where the leg before ends (a via left free, "*", let the search move it): '
+        f"energy {plan.total_energy:.6g} where the search found {found:.6g}"
+    ]
 
 
 def _one_start(plan, settings: PlannerSettings):

@@ -12,7 +12,7 @@ import numpy as np
 from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.constrained import NotSearchable, constrained_search
-from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs
+from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs, held_vias
 
 __all__ = ["STALLED", "candidate_within_limits", "within_limits"]
 
@@ -111,6 +111,12 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     if not final.ok:
         note = "the constrained plan did not re-chain onto the goals; " + final.message
         return replace(plan, message=note, notes=(*plan.notes, note))
+    if any(leg.iterations for leg in final.legs):  # a leg re-planned: a "*" at its via moved
+        say("constrained search: again, with the vias' free coordinates held")
+        final, more, stalled = _rechained_within(system, start, legs, settings, final, constraints)
+        if stalled:
+            return replace(plan, message=stalled, notes=(*plan.notes, stalled))
+        notes, iterations, searched = [*notes, *more[1:]], iterations + more[0], searched + 1
     # The legs are the search's (re-chaining polishes a leg only if it is off by more than the
     # tolerance): their work is its iterations and starts, over all legs together.
     legs_found = tuple(
@@ -129,6 +135,29 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         optimisation=plan.optimisation,
         notes=(*final.notes, *notes, *hint),
     )
+
+
+def _rechained_within(system, start, legs, settings, final, constraints):
+    """`final` (re-chained from the constrained search's controls) within the limits again
+    where re-chaining re-planned a leg: the search starts every leg at its nominal start, so
+    a via coordinate left free ("*") can end leg k elsewhere than where leg k + 1 started,
+    and leg k + 1 is then re-planned from there, possibly outside the limits (a plan the
+    search found inside ended 0.24 rad past a joint limit). The search again from `final`,
+    each via's free coordinates held where `final` puts them (`held_vias`): `final` itself
+    if it is inside already. Returns (plan, [iterations, *notes], stall message or "")."""
+    held, targets, nominal = held_vias(system, start, legs, final)
+    seeds = [("re-chained", np.concatenate([leg.coefficients.ravel() for leg in final.legs]))]
+    try:
+        found, notes, stalled, _, iterations = constrained_search(
+            system, nominal, held, settings, targets, seeds, constraints,
+            lower_energy=settings.objective == "energy", first=True,
+        )  # fmt: skip
+    except (NotSearchable, *NUMERICAL_ERRORS):
+        return final, [0], ""  # (the verification decides)
+    if found is None:
+        return final, [0], stalled  # inside already, or stalled
+    again = chain_legs(system, start, legs, settings, initial=found)
+    return (again, [iterations, *notes], "") if again.ok else (final, [0], "")
 
 
 def _more_starts_hint(settings, free: float, inside: float) -> list[str]:

@@ -199,6 +199,25 @@ def test_limits_by_name_hold_the_base_angle_theta_too(objective):
     assert np.abs(q[:, :3]).max() > 2.5  # the joints are not limited: only theta is named
 
 
+def test_a_via_left_free_keeps_the_re_chained_plan_inside_the_limits():
+    """Task D's via with q2 and theta left free ("*"): the search starts leg 2 at its nominal
+    start, its plan moved leg 1's end in q2, and re-chaining re-planned leg 2 from there,
+    0.044 rad past q2's limit (status constraint_violated after the notes said "within the
+    limits"). Searched again with those coordinates held where leg 1 ends, it is inside."""
+    raw = _raw("sim4_task_d.toml")
+    raw["legs"][0]["goal"] = ["-pi/3", "*", 0, "*"]
+    raw["constraints"] = {"joint_limits": [-2.5, 2.5]}
+    task = load_scenario(raw)
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    assert any(
+        n.startswith("constrained search from the re-chained plan") for n in outcome.result.notes
+    )
+    verify(task, outcome.document)  # goals, continuity, energies; leg 2 starts where leg 1 ends
+    q = _dense(task, outcome.document)
+    assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
+
+
 def test_legs_the_constrained_search_planned_report_its_iterations_not_zero():
     """The legs are re-chained from the search's coefficients (Newton polishes nothing): their
     iterations and starts are the search's, over all legs together, in result.json and the
