@@ -156,6 +156,7 @@ def plan_run(
     """
     if not task.legs:
         raise InputError("the scenario has no legs: plan it in auto mode (plan_auto)", task.source)
+    task = _at_scale(task, time_scale)
     say = progress or (lambda phase: None)
     for sentence in limit_warnings(task) if warn else ():
         warn(sentence)  # before the check and the planning: the limits may be a typo
@@ -193,7 +194,7 @@ def plan_run(
                 again = dataclasses.replace(again, notes=(*chosen, *again.notes))
             result = again
     planning_time = phases["planning"]["wall_s"]
-    scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
+    scale = task.scenario.planner.time_scale
     if task.constraints is not None:  # rate limits by time scaling; every limit verified
         with phase(phases, "constraints"):
             say("verifying the constraints on a dense re-integration")
@@ -246,13 +247,13 @@ def plan_auto(
     InputError
         When no candidate sequence could even be planned.
     """
-    task = as_task(scenario)
+    task = _at_scale(as_task(scenario), time_scale)
     if check:
         controllability_first(task)
     from .sequences import compare_sequences  # (which imports this module)
 
     outcome = compare_sequences(task, jobs=jobs, progress=progress)
-    scale = time_scale if time_scale is not None else task.scenario.planner.time_scale
+    scale = task.scenario.planner.time_scale
     if scale == 1.0:
         return outcome
     chosen = outcome.comparison.best.plan  # re-timed from the plan as compared
@@ -260,6 +261,15 @@ def plan_auto(
     notes = result.notes[len(chosen.notes) :]  # at this speed, not the one compared at
     best = dataclasses.replace(outcome.best, result=result, document=result.to_dict())
     return dataclasses.replace(outcome, best=best, notes=notes)
+
+
+def _at_scale(task: Task, time_scale: float | None) -> Task:
+    """`task` with `planner.time_scale` set to `time_scale` where one is given (the
+    `--time-scale` option): the record then holds the scenario as it was run, and planning
+    its scenario.toml again gives the record's plan (as with `--objective`)."""
+    if time_scale is None or time_scale == task.scenario.planner.time_scale:
+        return task
+    return task.with_changes({"planner": {"time_scale": float(time_scale)}})
 
 
 def chosen_as_run(plan: SequencePlan, task: Task, scale: float = 1.0) -> SequencePlan:

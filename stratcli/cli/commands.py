@@ -68,7 +68,7 @@ def plan(
     ] = True,
     fmt: Format = "png",
     objective: Annotated[
-        str | None,
+        Literal["energy", "newton"] | None,
         typer.Option(
             metavar="energy|newton",
             help="Plan with this objective instead of the scenario's planner.objective: newton "
