@@ -32,7 +32,7 @@ from .body_clearances import check_configuration, clearances, closest_pair
 from .clearance import box_corners
 from .controls import MAX_PERIOD
 from .errors import InputError, Problem
-from .models.numbers import parse_number
+from .models.numbers import parse_length, parse_number
 from .models.specs import STRICT
 from .results import ConstraintReport, LegMargins
 from .simulate import sample
@@ -54,10 +54,12 @@ __all__ = [
 VERIFY_SAMPLES = 2000  # per leg, for the margins
 VIOLATION_TOL = 1e-9  # a margin below -this is a violation (rounding of the geometry)
 MAX_OBSTACLES = 100
-Number = Annotated[float, BeforeValidator(parse_number)]
-Positive = Annotated[float, BeforeValidator(parse_number), Field(gt=0, le=1e6)]
-NonNegative = Annotated[float, BeforeValidator(parse_number), Field(ge=0, le=1e6)]
-Point = Annotated[list[Number], Field(min_length=2, max_length=2)]
+Number = Annotated[float, BeforeValidator(parse_number)]  # an angle: "60deg", "1.2 rad" too
+Positive = Annotated[float, BeforeValidator(parse_number), Field(gt=0, le=1e6)]  # rad/s, rad/s²
+Length = Annotated[float, BeforeValidator(parse_length)]  # no unit read, an angle's neither
+PositiveLength = Annotated[float, BeforeValidator(parse_length), Field(gt=0, le=1e6)]
+NonNegativeLength = Annotated[float, BeforeValidator(parse_length), Field(ge=0, le=1e6)]
+Point = Annotated[list[Length], Field(min_length=2, max_length=2)]
 
 
 class _Strict(BaseModel):
@@ -67,13 +69,13 @@ class _Strict(BaseModel):
 class CircleSpec(_Strict):
     shape: Literal["circle"]
     centre: Point
-    radius: Positive
+    radius: PositiveLength
 
 
 class BoxSpec(_Strict):
     shape: Literal["box"]
     centre: Point
-    size: Annotated[list[Positive], Field(min_length=2, max_length=2)]
+    size: Annotated[list[PositiveLength], Field(min_length=2, max_length=2)]
     rotation: Number = 0.0  # rad
 
 
@@ -87,8 +89,8 @@ class ConstraintsSpec(_Strict):
     max_rate: Positive | list[Positive] | None = None
     max_acceleration: Positive | list[Positive] | None = None
     self_collision: Annotated[bool, Strict()] = False
-    clearance: NonNegative = 0.0
-    link_radius: Positive = 0.05
+    clearance: NonNegativeLength = 0.0
+    link_radius: PositiveLength = 0.05
     obstacles: list[Annotated[CircleSpec | BoxSpec, Field(discriminator="shape")]] = Field(
         default_factory=list, max_length=MAX_OBSTACLES
     )

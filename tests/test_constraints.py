@@ -406,10 +406,38 @@ def test_a_length_with_its_unit_is_one_line_saying_to_write_the_number_alone(tmp
     assert result.exit_code == 2, result.output
     (line,) = result.output.strip().splitlines()
     assert line == (
-        f"error: {path}: constraints.clearance: a unit (cm) is not read: write the number "
-        "alone, in rad for an angle (or as '60deg' or '1.2 rad') and in the model's length unit "
-        "(m) for a length (got '5cm')"
+        f"error: {path}: constraints.clearance: a unit (cm) is not read on a length: write the "
+        "number alone, in the model's length unit (m) (got '5cm')"
     )
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("clearance", '"3deg"'),
+        ("clearance", '"0.05 rad"'),
+        ("link_radius", '"0.05m"'),
+        ("obstacles", '[{ shape = "circle", centre = ["-0.3 rad", 1.3], radius = 0.15 }]'),
+        ("obstacles", '[{ shape = "circle", centre = [-0.3, 1.3], radius = "10deg" }]'),
+        ("obstacles", '[{ shape = "box", centre = [1.9, -0.1], size = [0.3, "30°"] }]'),
+    ],
+)
+def test_a_length_refuses_an_angle_unit_where_an_angle_reads_it(field, value):
+    """An angle's unit on a length was read: a "3deg" clearance became 0.0524, a centre of
+    "90deg" 1.5708. Angles and rates still read theirs."""
+    raw = tomllib.loads(TASK_D.read_text())
+    raw["constraints"] = tomllib.loads(f"{field} = {value}\nself_collision = true")
+    with pytest.raises(InputError, match=r"is not read on a length") as info:
+        load_scenario(raw)
+    assert info.value.problems[0].path.startswith(f"constraints.{field}")
+    raw["constraints"] = {
+        "max_rate": "60deg",
+        "joint_limits": ["-2.5 rad", "2.5rad"],
+        "obstacles": [{"shape": "box", "centre": [1.9, -0.1], "size": [0.3, 0.6],
+                       "rotation": "30deg"}],
+    }  # fmt: skip
+    c = load_scenario(raw).constraints
+    assert c.max_rate[0] == pytest.approx(np.pi / 3) and c.upper[0] == 2.5
 
 
 def test_compare_sequences_and_auto_mode_warn_of_joint_limits_past_a_full_turn(tmp_path):

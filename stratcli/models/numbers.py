@@ -14,10 +14,11 @@ import math
 import re
 from decimal import Context, Decimal, DivisionByZero, InvalidOperation, Overflow
 
-__all__ = ["ExpressionError", "angle_unit", "parse_number"]
+__all__ = ["ExpressionError", "angle_unit", "parse_length", "parse_number"]
 
 _ANGLE = re.compile(r"^\s*(.+?)\s*(?<![A-Za-zµ])(deg|°|rad)\s*$")  # a whole word: not "grad"
 _TO_RAD = {"deg": math.pi / 180.0, "°": math.pi / 180.0, "rad": 1.0}
+_UNIT = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\s*([A-Za-zµ°]+)\s*$")
 _CONTEXT = Context(prec=40, Emax=999, Emin=-999, traps=[DivisionByZero, InvalidOperation, Overflow])
 _PI = Decimal("3.141592653589793238462643383279502884197169399375")
 _CONSTANTS = {"pi": _PI, "π": _PI, "E": Decimal("2.718281828459045235360287471352662497757")}
@@ -109,3 +110,24 @@ def parse_number(value: float | int | str) -> float:
     from .expressions import parse_number as full  # functions, names, and every error message
 
     return full(value)
+
+
+def parse_length(value: float | int | str) -> float:
+    """A length from a TOML value: as `parse_number` ("0.05", "1/20"), but no unit is read,
+    an angle's neither: a clearance of "3deg" was read as 0.0524, a circle's centre
+    ["-0.3 rad", "90deg"] as (-0.3, 1.5708).
+
+    Raises
+    ------
+    ExpressionError
+        A unit written, or not a finite real constant.
+    """
+    if isinstance(value, str):
+        match = _ANGLE.match(value) or _UNIT.match(value)
+        unit = match.group(match.lastindex) if match else None
+        if unit is not None and unit not in ("pi", "π", "e", "E"):
+            raise ExpressionError(
+                f"a unit ({unit}) is not read on a length: write the number alone, in the "
+                "model's length unit (m)"
+            )
+    return parse_number(value)
