@@ -160,6 +160,12 @@ def _nulls_as_free(raw: dict[str, Any]) -> dict[str, Any]:
 def from_raw(
     raw: dict[str, Any], text: str | None, source: str, base_dir: Path | None = None
 ) -> Task:
+    if not raw:  # (each required table would be a line of its own)
+        raise InputError(
+            "the file is empty: a scenario needs a name, a [model] and a [task] table "
+            "(README: Scenarios)",
+            source,
+        )
     raw = _nulls_as_free(raw)
     if non_finite := reject_non_finite(raw):
         raise InputError(non_finite, source)

@@ -53,15 +53,29 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
         elif urdf and model_broken and _CONFIGURATION.match(p.path):
             continue  # by name is right here: read once the model loads (its problem is listed)
         elif p.message.startswith(_LIST) and _CONFIGURATION.match(p.path):
-            hint = (
-                "a configuration by name (a table) is for URDF models only; write a list of "
-                f"the model's coordinates in order {_coordinates(raw.get('model'))}"
-            )
+            order = _coordinates(raw.get("model"))
+            if isinstance(_at(raw, p.path), str):  # "0, pi/4, 0, 0": one string, not a list
+                hint = f"write a list of the model's coordinates in order {order}, not one string"
+            else:
+                hint = (
+                    "a configuration by name (a table) is for URDF models only; write a list "
+                    f"of the model's coordinates in order {order}"
+                )
         if hint is not None:
             head, got, tail = p.message.partition(" (got ")
             p = Problem(p.path, f"{head}: {hint}{got}{tail}")
         out.append(p)
     return out
+
+
+def _at(raw: dict[str, Any], path: str) -> Any:
+    """The value at a problem's path (`task.start`, `legs[1].goal`) in the file, or None."""
+    value: Any = raw
+    for key, index in re.findall(r"([^.\[\]]+)(?:\[(\d+)\])?", path):
+        value = value.get(key) if isinstance(value, dict) else None
+        if index and isinstance(value, list):
+            value = value[int(index)] if int(index) < len(value) else None
+    return value
 
 
 def _coordinates(model: Any) -> str:

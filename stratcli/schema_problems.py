@@ -159,8 +159,33 @@ def validation_problems(
         out.append(problem)
     for found in alternatives.values():
         fitting = [p for kind, p in found if kind not in _WRONG_TYPE]
-        out.extend(dict.fromkeys(fitting or [p for _, p in found]))
-    return out
+        out.extend(dict.fromkeys(fitting) if fitting else _one_of([p for _, p in found]))
+    return _misspelt_not_missing(out)
+
+
+def _one_of(forms: list[Problem]) -> list[Problem]:
+    """A value of none of a field's forms' types in one line: "must be a valid list or a
+    valid dictionary (got 2.5)", where each form said its own ("must be a valid list (got
+    2.5)", then "must be a valid dictionary (got 2.5)")."""
+    forms = list(dict.fromkeys(forms))
+    shapes = [re.fullmatch(r"must be (.+?)( \(got .*\))", p.message) for p in forms]
+    if len(forms) < 2 or not all(shapes) or len({p.path for p in forms}) > 1:
+        return forms
+    wanted = list(dict.fromkeys(m.group(1) for m in shapes))
+    return [Problem(forms[0].path, f"must be {' or '.join(wanted)}{shapes[0].group(2)}")]
+
+
+def _misspelt_not_missing(problems: list[Problem]) -> list[Problem]:
+    """Without the "required field is missing" of a key that an unknown key beside it is a
+    misspelling of (`task.gaol: unknown key: did you mean 'goal'?` says it all)."""
+    meant = set()
+    for p in problems:
+        if match := re.match(r"unknown key: did you mean '([^']+)'\?", p.message):
+            table = p.path.rpartition(".")[0]
+            meant.add(f"{table}.{match.group(1)}" if table else match.group(1))
+    return [
+        p for p in problems if not (p.message == "required field is missing" and p.path in meant)
+    ]
 
 
 def file_location(loc: tuple, models: set[str] | None = None) -> tuple:

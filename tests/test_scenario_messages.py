@@ -129,11 +129,17 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
             LAST_LEG + "[constraints]\njoint_limits = [-2.5, 0, 2.5]\n",
             "constraints.joint_limits: must have at most 2 entries, not 3 (got [-2.5, 0, 2.5])",
         ),
+        (
+            'start = [0, "pi/4", 0, 0]',
+            'start = "0, pi/4, 0, 0"',  # it said "a configuration by name (a table) is for URDF"
+            "task.start: must be a valid list: write a list of the model's coordinates in order "
+            "(q1, q2, q3, theta), not one string (got '0, pi/4, 0, 0')",
+        ),
     ],
     ids=[
         "angle name", "single legs table", "name table on a preset", "lie key", "method",
         "single obstacle table", "a choice in another case", "a choice spelled otherwise",
-        "no choice near", "a limit pair too short", "a limit pair too long",
+        "no choice near", "a limit pair too short", "a limit pair too long", "one string",
     ],
 )  # fmt: skip
 def test_messages_say_what_to_write(tmp_path, old, new, expected):
@@ -339,3 +345,11 @@ def test_whole_periods_are_refused_exactly_where_newton_cannot_meet_the_conditio
     result = plan(raw, check=False)
     assert ("boundary conditions are inconsistent" in result.message) == refused
     assert result.ok != refused
+
+
+def test_an_empty_file_is_one_line_saying_so(tmp_path):
+    """It was three lines, one per required table ("name: required field is missing", ...)."""
+    assert _problem(tmp_path, "") == (
+        "the file is empty: a scenario needs a name, a [model] and a [task] table "
+        "(README: Scenarios)"
+    )

@@ -86,11 +86,11 @@ def test_an_obstacle_without_its_shape_names_the_shapes_not_the_model_kinds():
 
 def test_an_obstacles_keys_are_paths_of_the_file_and_list_the_keys_of_its_shape():
     """`circle` is pydantic's tag of the union, not a key of the file; a misspelt key lists
-    the keys its shape takes (a circle has no rotation)."""
+    the keys its shape takes (a circle has no rotation); the key it is a misspelling of is
+    not also "missing" (one line said that beside the one that says what to write)."""
     raw = {**BASE, "constraints": {"obstacles": [{"shape": "circle", "center": [0, 1]}]}}
     found = {p.path: p.message for p in validation_problems(_errors(raw), root=Scenario)}
     assert found == {
-        "constraints.obstacles[0].centre": "required field is missing",
         "constraints.obstacles[0].radius": "required field is missing",
         "constraints.obstacles[0].center": (
             "unknown key: did you mean 'centre'? (allowed: shape, centre, radius)"
@@ -102,4 +102,15 @@ def test_an_obstacles_keys_are_paths_of_the_file_and_list_the_keys_of_its_shape(
     assert found["constraints.obstacles[0].size[1]"].startswith("must be more than 0")
     assert found["constraints.obstacles[0].angle"] == (
         "unknown key (allowed: shape, centre, size, rotation)"
+    )
+
+
+def test_a_value_of_none_of_a_fields_forms_is_one_line_naming_them_all():
+    """`joint_limits = 2.5` (a pair, pairs, or a table of pairs) said "must be a valid list"
+    and, on a second line, "must be a valid dictionary"."""
+    raw = {**BASE, "constraints": {"joint_limits": 2.5}}
+    (problem,) = validation_problems(_errors(raw), root=Scenario)
+    assert (problem.path, problem.message) == (
+        "constraints.joint_limits",
+        "must be a valid list or a valid dictionary (got 2.5)",
     )
