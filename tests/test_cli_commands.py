@@ -592,6 +592,19 @@ def test_runs_of_a_file_is_bad_input_naming_it(tmp_path):
     result = CliRunner().invoke(app, ["runs", "--out", str(afile)])
     assert result.exit_code == 2
     assert f"--out {afile}: not a directory" in result.stderr
+    given = CliRunner().invoke(app, ["runs", str(afile)])  # the directory as an argument
+    assert given.exit_code == 2 and f"DIR {afile}: not a directory" in given.stderr
+
+
+def test_runs_takes_the_directory_as_an_argument_too(tmp_path):
+    """`stratplan runs DIR` was refused ("unexpected extra argument"): only --out DIR was read."""
+    result, _ = run(tmp_path, TASK_D, "--quiet")
+    assert result.exit_code == 0, result.output
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    by_argument = CliRunner().invoke(app, ["runs", str(tmp_path / "runs")])
+    by_option = CliRunner().invoke(app, ["runs", "--out", str(tmp_path / "runs")])
+    assert by_argument.exit_code == 0 and by_argument.stdout == by_option.stdout
+    assert str(run_dir) in by_argument.stdout
 
 
 def test_a_model_that_overflows_is_bad_input_not_an_uncontrollable_stratum(tmp_path):

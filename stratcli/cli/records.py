@@ -45,6 +45,12 @@ def show(
 
 
 def runs(
+    directory: Annotated[
+        Path | None,
+        typer.Argument(
+            metavar="DIR", help="Directory of run records (as --out).", show_default=False
+        ),
+    ] = None,
     out: Out = Path("runs"),
     json_output: Json = False,
     clean: Annotated[
@@ -57,15 +63,18 @@ def runs(
         ),
     ] = False,
 ) -> None:
-    """List run records, newest first: time, scenario, status, energy.
+    """List run records, newest first: status, energy and the run's directory (named by
+    the time it was planned and its scenario; `stratplan show` it).
 
     A damaged record is skipped with a note on stderr naming the file and what is wrong.
     """
     from .. import api  # start-up speed
     from ..api.runs import clean_runs
 
+    given = "--out" if directory is None else "DIR"
+    out = out if directory is None else directory
     if out.exists() and not out.is_dir():
-        render.error("error", f"--out {out}: not a directory (a folder of run records)")
+        render.error("error", f"{given} {out}: not a directory (a folder of run records)")
         raise typer.Exit(2)
     if clean:
         for path in clean_runs(out):
