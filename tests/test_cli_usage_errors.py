@@ -58,6 +58,14 @@ CASES = {
         ["plan", TASK_D, "--jsno"],
         "error: --jsno: no such option (did you mean --json?)",
     ),
+    "unknown option, not close": (  # click, comparing with the dashes, suggested --out
+        ["plan", TASK_D, "--bogus"],
+        "error: --bogus: no such option (see stratplan plan --help)",
+    ),
+    "objective misspelt": (
+        ["plan", TASK_D, "--objective", "newtn"],
+        "error: --objective: must be energy or newton (got 'newtn')",
+    ),
     "option without its value": (["plan", TASK_D, "--out"], "error: --out: requires an argument"),
     "empty out": (  # an unset shell variable: not the current directory
         ["compare-sequences", AUTO, "--out", ""],

@@ -50,8 +50,8 @@ def describe(exc: UsageError) -> str:
         return f"{_name(exc.param)}: missing{see}"
     if isinstance(exc, _click.BadParameter) and exc.param is not None:
         return _bad_value(exc)
-    if isinstance(exc, _click.NoSuchOption):
-        close = ", ".join(sorted(exc.possibilities or ()))
+    if isinstance(exc, _click.NoSuchOption):  # click compares with the dashes: --bogus, --out
+        close = ", ".join(sorted(p for p in exc.possibilities or () if _near(exc.option_name, p)))
         return f"{exc.option_name}: no such option" + (
             f" (did you mean {close}?)" if close else see
         )
@@ -61,6 +61,13 @@ def describe(exc: UsageError) -> str:
         return f"{exc.option_name}: {message}"
     first, _, then = message.partition(". ")  # "No such command 'x'. Did you mean 'y'?"
     return f"{first} ({_sentence(then)})" if then else f"{message}{see}"
+
+
+def _near(given: str, option: str) -> bool:
+    """Whether `option` is a likely meaning of `given`, compared without their dashes."""
+    from difflib import SequenceMatcher
+
+    return SequenceMatcher(None, given.lstrip("-"), option.lstrip("-")).ratio() >= 0.6
 
 
 def _bad_value(exc: _click.BadParameter) -> str:

@@ -16,8 +16,9 @@ from decimal import Context, Decimal, DivisionByZero, InvalidOperation, Overflow
 
 __all__ = ["ExpressionError", "angle_unit", "parse_length", "parse_number"]
 
-_ANGLE = re.compile(r"^\s*(.+?)\s*(?<![A-Za-zµ])(deg|°|rad)\s*$")  # a whole word: not "grad"
-_TO_RAD = {"deg": math.pi / 180.0, "°": math.pi / 180.0, "rad": 1.0}
+_ANGLE = re.compile(  # a whole word ("grad" is no rad), in any case: 45 DEG, 2.5 radians
+    r"^\s*(.+?)\s*(?<![A-Za-zµ])(degrees?|deg|°|radians?|rad)\s*$", re.IGNORECASE
+)
 _UNIT = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\s*([A-Za-zµ°]+)\s*$")
 _CONTEXT = Context(prec=40, Emax=999, Emin=-999, traps=[DivisionByZero, InvalidOperation, Overflow])
 _PI = Decimal("3.141592653589793238462643383279502884197169399375")
@@ -68,10 +69,13 @@ def _value(node: ast.AST) -> Decimal:
 
 
 def angle_unit(text: str) -> tuple[str, float]:
-    """`text` without a trailing angle unit, and that unit in rad: ("60", π/180) for "60deg"
-    or "60°", ("2.5", 1.0) for "2.5 rad" (angles are rad; the unit may still be written)."""
+    """`text` without a trailing angle unit, and that unit in rad: ("60", π/180) for "60deg",
+    "60°" or "60 degrees", ("2.5", 1.0) for "2.5 rad" or "2.5 radians" (angles are rad; the
+    unit may still be written), in any case."""
     match = _ANGLE.match(text)
-    return (match.group(1), _TO_RAD[match.group(2)]) if match else (text, 1.0)
+    if match is None:
+        return text, 1.0
+    return match.group(1), 1.0 if match.group(2).lower().startswith("rad") else math.pi / 180.0
 
 
 def _plain(text: str) -> float | None:
