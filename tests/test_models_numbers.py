@@ -69,7 +69,8 @@ def test_a_number_with_a_unit_says_to_write_it_alone(text, message):
                                             ("-2.5 rad", -2.5), ("pi/2rad", math.pi / 2),
                                             ("2*pi/3 rad", 2 * math.pi / 3),
                                             ("2.5 radians", 2.5), ("45 DEG", math.pi / 4),
-                                            ("90 degrees", math.pi / 2), ("1 Radian", 1.0)])  # fmt: skip
+                                            ("90 degrees", math.pi / 2),
+                                            ("1 Radian", 1.0)])  # fmt: skip
 def test_angle_units_and_exponents_are_still_numbers(text, value):
     """rad is the unit angles are read in, so writing it changes nothing (a user's "-2.5 rad"
     joint limit was refused while "-143deg" was read)."""
