@@ -49,3 +49,14 @@ def test_a_histogram_of_energies_equal_but_for_rounding():
     assert sweep_figures(_spec(kind="random", axes=()), rows)["energy_hist.png"].startswith(
         b"\x89PNG"
     )
+
+
+def test_the_energy_maps_colour_scale_is_log_only_across_a_decade():
+    """A log colour bar over 68-172 had one labelled tick (10²): energies within a decade get
+    a linear scale, wider ones a log scale."""
+    from matplotlib.colors import LogNorm
+
+    narrow = _rows(6)  # energies 10-15
+    assert not isinstance(energy_map(_spec(), narrow).axes[0].collections[0].norm, LogNorm)
+    wide = {k: {**r, "energy": 10.0**k} for k, r in _rows(6).items()}
+    assert isinstance(energy_map(_spec(), wide).axes[0].collections[0].norm, LogNorm)

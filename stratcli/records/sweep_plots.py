@@ -85,8 +85,8 @@ def energy_map(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     ax = fig.add_subplot()
     ax.set_facecolor(FAILED)
     finite = grid[np.isfinite(grid)]
-    norm = None
-    if finite.size and finite.min() > 0 and finite.max() > finite.min():
+    norm = None  # log where the energies span a decade or more: else one labelled tick (10²)
+    if finite.size and finite.min() > 0 and finite.max() >= 10 * finite.min():
         norm = LogNorm(finite.min(), finite.max())
     mesh = ax.pcolormesh(_edges(xs), _edges(ys), np.ma.masked_invalid(grid), norm=norm,
                          cmap="viridis", shading="flat")  # fmt: skip
