@@ -166,18 +166,18 @@ def plan_with_objective(
 
 
 def _re_planned(plan: SequencePlan, legs: list[LegSpec], search) -> list[str]:
-    """A note where re-chaining the search's controls re-planned a leg: the search starts
-    each leg at its nominal start, and a via coordinate left free ("*") can end the leg
-    before it elsewhere; the plan's energy then differs from the search's."""
+    """Why the plan's energy differs from the search's ("re-chained: ..." beside it) where
+    re-chaining the search's controls re-planned a leg after a via with free coordinates:
+    the search starts each leg where the Newton plan left that via, and the search's legs
+    before it may end elsewhere."""
     again = [str(i + 1) for i, leg in enumerate(plan.legs) if leg.iterations]
     free = any(np.isnan(leg.goal).any() for leg in legs[:-1])
     if not again or not free or search.best is None:
         return []
-    found = search.starts[search.best].energy
     return [
-        f"re-chaining re-planned {'legs' if len(again) > 1 else 'leg'} {', '.join(again)} "
-        'from where the leg before ends (a via left free, "*", let the search move it): '
-        f"energy {plan.total_energy:.6g} where the search found {found:.6g}"
+        f"re-chained: {'legs' if len(again) > 1 else 'leg'} {', '.join(again)} re-planned "
+        'from where the leg before ends; a via leaves coordinates free ("*"), and the energy '
+        "search starts each leg where the Newton plan left them"
     ]
 
 
