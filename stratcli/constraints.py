@@ -40,6 +40,7 @@ from .time_scaling import rate_limited, scale_time
 from .urdf_limits import URDF_LIMIT, violation_advice
 
 __all__ = [
+    "KEPT_FREE",
     "VERIFY_SAMPLES",
     "Constraints",
     "ConstraintsSpec",
@@ -52,6 +53,7 @@ __all__ = [
 ]
 
 VERIFY_SAMPLES = 2000  # per leg, for the margins
+KEPT_FREE = "kept instead: the plan found without the limits"  # a stalled plan's message
 VIOLATION_TOL = 1e-9  # a margin below -this is a violation (rounding of the geometry)
 MAX_OBSTACLES = 100
 Number = Annotated[float, BeforeValidator(parse_number)]  # an angle: "60deg", "1.2 rad" too
@@ -367,8 +369,7 @@ def enforce(plan, c: Constraints):
         violated = report.violated
         if plan.message:  # where the search stalled: the plan is the one found without limits
             violated = (  # the stall is the search's; the violation, the kept plan's
-                f"{plan.message}; kept instead: the plan found without the limits, in which "
-                f"{violated}"
+                f"{plan.message}; {KEPT_FREE}, in which {violated}"
             )
         advice = over[2] if over is not None else violation_advice(plan, report.violated)
         plan = replace(plan, message=f"{violated}; {advice}")

@@ -120,7 +120,11 @@ def eliminate(constraints: Constraints) -> Elimination:
     particular = Vt[:rank].T @ ((U[:, :rank].T @ c) / S[:rank])
     residual = float(np.abs(C @ particular - c).max())
     if residual > 1e-9 * (1.0 + float(np.abs(c).max())):
-        raise ValueError(f"boundary conditions are inconsistent (residual {residual:.2e})")
+        raise ValueError(  # (continuity rows at both ends are dependent: periodic controls)
+            f"boundary conditions are inconsistent (residual {residual:.2e}): over a whole "
+            "number of basis periods a control ends as it starts, so it cannot continue the "
+            "one before and end at 0; use a period that does not divide the leg or Lie step"
+        )
     return Elimination(particular, Vt[rank:].T)
 
 

@@ -26,7 +26,7 @@ from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, LegSpec, chain_legs, check_legs
 from .urdf_limits import stalled_too
-from .within_limits import STALLED, within_limits
+from .within_limits import STALLED, re_planned, within_limits
 
 __all__ = ["plan_sequence", "plan_with_objective", "stalled", "with_more_harmonics"]
 
@@ -170,9 +170,8 @@ def _re_planned(plan: SequencePlan, legs: list[LegSpec], search) -> list[str]:
     re-chaining the search's controls re-planned a leg after a via with free coordinates:
     the search starts each leg where the Newton plan left that via, and the search's legs
     before it may end elsewhere."""
-    again = [str(i + 1) for i, leg in enumerate(plan.legs) if leg.iterations]
-    free = any(np.isnan(leg.goal).any() for leg in legs[:-1])
-    if not again or not free or search.best is None:
+    again = [str(k) for k in re_planned(plan, legs)]
+    if not again or search.best is None:
         return []
     return [
         f"re-chained: {'legs' if len(again) > 1 else 'leg'} {', '.join(again)} re-planned "

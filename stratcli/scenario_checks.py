@@ -7,9 +7,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from .errors import Problem
 from .node_margins import searchable
-from .wording import counted
 
 if TYPE_CHECKING:
     from .constraints import Constraints
@@ -82,50 +83,78 @@ def duration_problems(scenario: Scenario, legs: list[LegSpec]) -> list[Problem]:
 
 
 def periodic_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[Problem]:
-    """A Newton leg that lasts a whole number of basis periods has controls that end as they
-    start (value and slope: every basis function is periodic over it). Continuity then
-    contradicts itself where an input must end at 0 (lr-continuity with the next leg not
-    using it, or `full_stop` on the last leg) but starts where the previous leg left it, not
-    at 0 (at 0 only if it is new on the leg, or at rest from a soft start, or left at 0 by a
-    previous leg of whole periods that started it at 0). Leg by leg, Newton would fail with
-    "boundary conditions are inconsistent"."""
+    """A Newton leg whose continuity conditions contradict each other, as leg-by-leg Newton
+    would find them ("boundary conditions are inconsistent"), the first one named: over a
+    whole number of basis periods (or nearly) every control ends as it starts, so an input
+    that continues from the leg before and must end at 0 (lr-continuity with the next leg
+    not using it, `full_stop` on the last leg) cannot. The conditions are the planner's own
+    (`continuity.leg_constraints`, `eliminate`), leg after leg, with each control's end
+    value where they fix it (at 0, say) and any other value (a stand-in) where they do not.
+    Not checked with Lie legs (their steps are planned where the system is) or with
+    `durations = "optimise"` (the durations are then chosen)."""
     p = scenario.planner
-    if p.continuity == "none" or scenario.legs is None or len(legs) != len(scenario.legs):
+    if (
+        p.continuity == "none"
+        or p.durations == "optimise"
+        or scenario.legs is None
+        or len(legs) != len(scenario.legs)
+        or any(leg.method == "lie" or leg.stratum not in system.strata for leg in legs)
+    ):
         return []
-    if any(leg.stratum not in system.strata for leg in legs):
-        return []  # (named by the strata check)
-    actives = [system.stratum(leg.stratum).active for leg in legs]
-    lr = p.continuity.startswith("lr")
-    problems = []
-    at_rest: set[int] = set(actives[0]) if p.soft_start else set()  # inputs starting at 0
-    free = set() if p.soft_start else set(actives[0])  # (the first leg's start: anything)
+    from .continuity import eliminate, leg_constraints  # (numpy: only where there are legs)
+
+    basis, m = p.basis, len(system.inputs)
+    stand_in = np.random.default_rng(0).uniform(1.0, 2.0, (2, m))  # an end not fixed: any
+    previous = None
     for i, leg in enumerate(legs):
-        periods = leg.duration / p.basis.period
-        whole = round(periods) >= 1 and abs(periods - round(periods)) <= 1e-9 * periods
-        if leg.method == "lie" or (i and legs[i - 1].method == "lie"):
-            whole = False  # (a Lie leg's controls are its steps')
+        active = system.stratum(leg.stratum).active
         last = i == len(legs) - 1
-        if last:
-            ends = list(actives[i]) if p.full_stop else []
-        else:
-            ends = [k for k in actives[i] if lr and k not in actives[i + 1]]
-        stuck = [k for k in ends if k not in at_rest | free] if whole else []
-        if stuck:
-            name = system.inputs[stuck[0]]
-            why = "full_stop ends it at 0" if last else f"leg {i + 2} does not use it"
-            own = scenario.legs[i].duration is not None
-            problems.append(
-                Problem(
-                    f"legs[{i}].duration" if own else "planner.basis.period",
-                    f"leg {i + 1} lasts {leg.duration:g} s, "
-                    f"{counted(round(periods), 'whole basis period')} of {p.basis.period:g} s, "
-                    f"so its controls end as they start; but under {p.continuity} {name} "
-                    f"continues from leg {i} and must end at 0 ({why}); use a period that "
-                    "does not divide the leg's duration (the paper's 2.17 s) or another duration",
-                )
-            )
-        if not last:  # which inputs start leg i + 1 at 0
-            left = (at_rest if whole else set()) | set(ends)
-            at_rest = {k for k in actives[i + 1] if k not in actives[i] or k in left}
-            free = set()
-    return problems
+        after = None if last else system.stratum(legs[i + 1].stratum).active
+        cons = leg_constraints(
+            basis, leg.duration, active, system.inputs, p.continuity, previous=previous,
+            next_active=after, soft_start=p.soft_start, full_stop=p.full_stop,
+        )  # fmt: skip
+        try:
+            elim = eliminate(cons)
+        except ValueError:
+            return [_periodic_problem(scenario, system, legs, i, cons, eliminate)]
+        end = np.zeros((2, m))  # inputs the leg does not use end it at 0
+        size = basis.size
+        for d, phi in enumerate((basis.values(leg.duration), basis.derivatives(leg.duration))):
+            for a, k in enumerate(active):
+                row = np.zeros(len(active) * size)
+                row[a * size : (a + 1) * size] = phi
+                fixed = np.linalg.norm(elim.null.T @ row) <= 1e-8 * np.linalg.norm(row)
+                end[d, k] = row @ elim.particular if fixed else stand_in[d, k]
+        previous = (end[0], end[1])
+    return []
+
+
+def _periodic_problem(scenario, system, legs, i, cons, eliminate) -> Problem:
+    """The problem of leg `i`, whose conditions `cons` contradict each other: named by the
+    first input whose own rows do (each row is on one input's coefficients)."""
+    p, leg = scenario.planner, legs[i]
+    size = p.basis.size
+    active = system.stratum(leg.stratum).active
+    name = system.inputs[active[0]]
+    for a, k in enumerate(active):
+        rows = np.flatnonzero(np.abs(cons.C[:, a * size : (a + 1) * size]).sum(axis=1) > 0)
+        block = type(cons)(cons.C[rows], cons.c[rows], tuple(cons.labels[r] for r in rows))
+        try:
+            eliminate(block)
+        except ValueError:
+            name = system.inputs[k]
+            break
+    last = i == len(legs) - 1
+    why = "full_stop ends it at 0" if last else f"leg {i + 2} does not use it"
+    periods = leg.duration / p.basis.period
+    own = scenario.legs[i].duration is not None
+    return Problem(
+        f"legs[{i}].duration" if own else "planner.basis.period",
+        f"leg {i + 1} lasts {leg.duration:g} s, {periods:.6g} basis "
+        f"period{'' if periods == 1 else 's'} of "
+        f"{p.basis.period:g} s: over a whole number of them (or nearly) its controls end as "
+        f"they start; but under {p.continuity} {name} continues from leg {i} and must end at "
+        f"0 ({why}); use a period that does not divide the leg's duration (the paper's "
+        "2.17 s) or another duration",
+    )

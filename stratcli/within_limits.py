@@ -14,7 +14,7 @@ from .planners import PLANNERS
 from .planners.constrained import NotSearchable, constrained_search
 from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs, held_vias
 
-__all__ = ["STALLED", "candidate_within_limits", "within_limits"]
+__all__ = ["STALLED", "candidate_within_limits", "re_planned", "within_limits"]
 
 CONSTRAINED_SEEDS = 3  # further starts of the constrained search when the plan's own stalls
 AUXILIARY_LIMIT = 2.5  # rad: joint limits of the start for self-collision alone
@@ -111,12 +111,15 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     if not final.ok:
         note = "the constrained plan did not re-chain onto the goals; " + final.message
         return replace(plan, message=note, notes=(*plan.notes, note))
-    if any(leg.iterations for leg in final.legs):  # a leg re-planned: a "*" at its via moved
+    if re_planned(final, legs):  # after a via with free coordinates, which the search held
         say("constrained search: again, with the vias' free coordinates held")
         final, more, stalled = _rechained_within(system, start, legs, settings, final, constraints)
         if stalled:
             return replace(plan, message=stalled, notes=(*plan.notes, stalled))
-        notes, iterations, searched = [*notes, *more[1:]], iterations + more[0], searched + 1
+        if more:  # searched again: its note replaces the first search's (another plan)
+            kept = [n for n in notes if not n.startswith("constrained search from")]
+            notes, iterations = [*more[1:], *kept], iterations + more[0]
+            searched += 1
     # The legs are the search's (re-chaining polishes a leg only if it is off by more than the
     # tolerance): their work is its iterations and starts, over all legs together.
     legs_found = tuple(
@@ -137,14 +140,25 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     )
 
 
+def re_planned(plan, legs) -> list[int]:
+    """The legs (from 1) that re-chaining re-planned after a via with free coordinates ("*"):
+    the stacked searches start each leg where the plan they started from left that via, so
+    the legs before it may end elsewhere (`objectives`' note, `_rechained_within`)."""
+    return [
+        i + 1
+        for i, leg in enumerate(plan.legs)
+        if i and leg.iterations and np.isnan(legs[i - 1].goal).any()
+    ]
+
+
 def _rechained_within(system, start, legs, settings, final, constraints):
     """`final` (re-chained from the constrained search's controls) within the limits again
-    where re-chaining re-planned a leg: the search starts every leg at its nominal start, so
-    a via coordinate left free ("*") can end leg k elsewhere than where leg k + 1 started,
-    and leg k + 1 is then re-planned from there, possibly outside the limits (a plan the
-    search found inside ended 0.24 rad past a joint limit). The search again from `final`,
-    each via's free coordinates held where `final` puts them (`held_vias`): `final` itself
-    if it is inside already. Returns (plan, [iterations, *notes], stall message or "")."""
+    where re-chaining re-planned a leg after a via with free coordinates (`re_planned`),
+    possibly outside the limits (a plan the search found inside ended 0.24 rad past a joint
+    limit): the search again from `final`, each via's free coordinates held where `final`
+    puts them (`held_vias`). Returns (plan, [iterations, *notes] or [] where `final` is
+    inside already, a message or "": the search stalled or stopped, or its plan did not
+    re-chain)."""
     held, targets, nominal = held_vias(system, start, legs, final)
     seeds = [("re-chained", np.concatenate([leg.coefficients.ravel() for leg in final.legs]))]
     try:
@@ -152,12 +166,15 @@ def _rechained_within(system, start, legs, settings, final, constraints):
             system, nominal, held, settings, targets, seeds, constraints,
             lower_energy=settings.objective == "energy", first=True,
         )  # fmt: skip
-    except (NotSearchable, *NUMERICAL_ERRORS):
-        return final, [0], ""  # (the verification decides)
+    except (NotSearchable, *NUMERICAL_ERRORS) as exc:
+        why = type(exc).__name__
+        return final, [], f"the constrained search stopped on a numerical failure ({why})"
     if found is None:
-        return final, [0], stalled  # inside already, or stalled
+        return final, [], stalled  # inside already (""), or stalled
     again = chain_legs(system, start, legs, settings, initial=found)
-    return (again, [iterations, *notes], "") if again.ok else (final, [0], "")
+    if not again.ok:
+        return final, [], "the constrained plan did not re-chain onto the goals; " + again.message
+    return again, [iterations, *notes], ""
 
 
 def _more_starts_hint(settings, free: float, inside: float) -> list[str]:

@@ -594,6 +594,10 @@ def test_runs_of_a_file_is_bad_input_naming_it(tmp_path):
     assert f"--out {afile}: not a directory" in result.stderr
     given = CliRunner().invoke(app, ["runs", str(afile)])  # the directory as an argument
     assert given.exit_code == 2 and f"DIR {afile}: not a directory" in given.stderr
+    empty = CliRunner().invoke(app, ["runs", ""])  # an unset shell variable, as --out ""
+    assert empty.exit_code == 2 and "DIR: empty: give a directory" in empty.stderr
+    both = CliRunner().invoke(app, ["runs", str(tmp_path), "--out", str(tmp_path / "x")])
+    assert both.exit_code == 2 and "give the directory once" in both.stderr
 
 
 def test_runs_takes_the_directory_as_an_argument_too(tmp_path):

@@ -440,6 +440,16 @@ def test_a_length_refuses_an_angle_unit_where_an_angle_reads_it(field, value):
     assert c.max_rate[0] == pytest.approx(np.pi / 3) and c.upper[0] == 2.5
 
 
+def test_an_arms_mount_is_a_length_too():
+    """A mount of "0.3 rad" was read as 0.3 m once rad became an angle's unit."""
+    raw = tomllib.loads((ROOT / "scenarios" / "rods_three_link.toml").read_text())
+    raw["model"]["arms"][0]["mount"] = ["0.3 rad", 0.0]
+    with pytest.raises(
+        InputError, match=r"model\.arms\[0\]\.mount\[0\]: a unit \(rad\) is not read"
+    ):
+        load_scenario(raw)
+
+
 def test_compare_sequences_and_auto_mode_warn_of_joint_limits_past_a_full_turn(tmp_path):
     text = (ROOT / "scenarios" / "sim4_auto.toml").read_text()
     text = text.replace("[planner]\n", '[planner]\nobjective = "newton"\n')

@@ -218,6 +218,33 @@ def test_a_via_left_free_keeps_the_re_chained_plan_inside_the_limits():
     assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
 
 
+def test_a_held_search_that_stops_says_so_where_it_was_silent(monkeypatch):
+    """The search again with the vias held (`_rechained_within`): a numerical failure, or a
+    plan that does not re-chain, is a message (the retry with more harmonics reads a stall),
+    where the first search's "inside them" note was left standing; a plan inside already is
+    kept as it is."""
+    from stratcli import within_limits
+
+    raw = _raw("sim4_task_d.toml")
+    raw["legs"][0]["goal"] = ["-pi/3", "*", 0, "*"]
+    raw["constraints"] = {"joint_limits": [-2.5, 2.5]}
+    task = load_scenario(raw)
+    final = plan_run(load_scenario(_raw("sim4_task_d.toml")), check=False).result
+    args = (task.system, task.start, task.legs, task.settings, final, task.constraints)
+
+    def failing(*a, **k):
+        raise FloatingPointError
+
+    monkeypatch.setattr(within_limits, "constrained_search", failing)
+    plan, more, message = within_limits._rechained_within(*args)
+    assert plan is final and more == []
+    assert message == "the constrained search stopped on a numerical failure (FloatingPointError)"
+    assert message.startswith(within_limits.STALLED)
+    inside = lambda *a, **k: (None, ["inside the limits already"], "", float("nan"), 0)  # noqa: E731
+    monkeypatch.setattr(within_limits, "constrained_search", inside)
+    assert within_limits._rechained_within(*args) == (final, [], "")
+
+
 def test_legs_the_constrained_search_planned_report_its_iterations_not_zero():
     """The legs are re-chained from the search's coefficients (Newton polishes nothing): their
     iterations and starts are the search's, over all legs together, in result.json and the

@@ -18,7 +18,7 @@ Json = Annotated[
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", metavar="", help="Print nothing but errors.")]
 
 
-def _directory(value: str) -> Path:
+def directory_value(value: str) -> Path:
     """An --out value: an empty one (`--out ""`, an unset shell variable) is refused, not
     taken for the current directory."""
     if not str(value).strip():
@@ -27,7 +27,7 @@ def _directory(value: str) -> Path:
 
 
 Out = Annotated[
-    Path, typer.Option(help="Directory of run records.", parser=_directory, metavar="<path>")
+    Path, typer.Option(help="Directory of run records.", parser=directory_value, metavar="<path>")
 ]
 Animation = Annotated[
     bool,

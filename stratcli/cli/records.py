@@ -12,7 +12,7 @@ import typer
 
 from ..errors import InputError
 from . import render, render_tables
-from .options import Json, Out
+from .options import Json, Out, directory_value
 
 
 def show(
@@ -48,7 +48,10 @@ def runs(
     directory: Annotated[
         Path | None,
         typer.Argument(
-            metavar="DIR", help="Directory of run records (as --out).", show_default=False
+            metavar="DIR",
+            help="Directory of run records (as --out).",
+            show_default=False,
+            parser=directory_value,
         ),
     ] = None,
     out: Out = Path("runs"),
@@ -72,6 +75,9 @@ def runs(
     from ..api.runs import clean_runs
 
     given = "--out" if directory is None else "DIR"
+    if directory is not None and out != Path("runs"):
+        render.error("error", f"DIR {directory} and --out {out}: give the directory once")
+        raise typer.Exit(2)
     out = out if directory is None else directory
     if out.exists() and not out.is_dir():
         render.error("error", f"{given} {out}: not a directory (a folder of run records)")

@@ -224,7 +224,9 @@ def plan_summary(doc: dict) -> None:
         total = doc["total_energy"]  # the starts' energies are before any time scaling
         free = None if total is None else total / doc.get("time_scale", 1.0)
         moved = free is not None and not _close(best["energy"], free)
-        kept = doc["status"] != "ok"  # a failed constrained plan keeps the free one
+        from ..constraints import KEPT_FREE  # (after planning: numpy is loaded)
+
+        kept = KEPT_FREE in (doc.get("message") or "")  # a stalled search keeps the free plan
         head = "without the constraints, " if (moved or kept) and doc.get("constraints") else ""
         # else the final pass re-chained the legs from the configurations they reach (a leg
         # off by more than the tolerance is polished by Newton): the plan's own energy

@@ -16,7 +16,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter,
 
 from ..errors import InputError, Problem
 from .manipulator import ManipulatorSystem
-from .numbers import ExpressionError, parse_number
+from .numbers import ExpressionError, parse_length, parse_number
 from .planar import Arm, Base, Link, PlanarManipulator
 from .presets import PRESETS, preset
 from .system import Stratum, System
@@ -80,7 +80,7 @@ MOUNT = {"ge": -1e3, "le": 1e3}  # m, base frame
 MAX_LINKS = 24
 MAX_ARMS = 8
 
-MountCoordinate = Annotated[Number, Field(**MOUNT)]
+MountCoordinate = Annotated[float, BeforeValidator(parse_length), Field(**MOUNT)]  # no unit
 
 
 class LinkSpec(_Strict):
