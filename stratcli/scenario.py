@@ -162,7 +162,7 @@ def from_raw(
 ) -> Task:
     if not raw:  # (each required table would be a line of its own)
         raise InputError(
-            "the file is empty: a scenario needs a name, a [model] and a [task] table "
+            "the scenario is empty: it needs a name, a [model] and a [task] table "
             "(README: Scenarios)",
             source,
         )

@@ -401,10 +401,8 @@ def _barrier_round(values, iterations=50):
 
         def _barrier_step(self, mu):
             self.taken += 1
+            self.barrier_value = values[self.taken - 1]  # (the accepted trial's)
             return True
-
-        def _barrier(self, z, mu, g=None):
-            return values[self.taken - 1]
 
     stub = Stub()
     stub._lower_barrier(iterations)

@@ -360,6 +360,5 @@ def test_whole_periods_are_refused_exactly_where_newton_cannot_meet_the_conditio
 def test_an_empty_file_is_one_line_saying_so(tmp_path):
     """It was three lines, one per required table ("name: required field is missing", ...)."""
     assert _problem(tmp_path, "") == (
-        "the file is empty: a scenario needs a name, a [model] and a [task] table "
-        "(README: Scenarios)"
+        "the scenario is empty: it needs a name, a [model] and a [task] table (README: Scenarios)"
     )

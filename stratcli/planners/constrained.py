@@ -158,7 +158,7 @@ class _Search(Descent):
             self.iterations += 1
             if not self._barrier_step(mu):
                 break
-            values.append(self._barrier(self.z, mu))
+            values.append(self.barrier_value)  # (the accepted trial's)
             if len(values) > FLAT_STEPS and values[-FLAT_STEPS - 1] - values[-1] <= FLAT * abs(
                 values[-1]
             ):
@@ -205,6 +205,7 @@ class _Search(Descent):
                     m = value + float(lagrange @ problem.constraint(trial))
                     if m <= merit + 1e-4 * alpha * slope:
                         self.z, self.energy = trial, problem.energy(trial)
+                        self.barrier_value = value
                         return True
             alpha *= 0.5
         return False
