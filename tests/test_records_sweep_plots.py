@@ -60,3 +60,20 @@ def test_the_energy_maps_colour_scale_is_log_only_across_a_decade():
     assert not isinstance(energy_map(_spec(), narrow).axes[0].collections[0].norm, LogNorm)
     wide = {k: {**r, "energy": 10.0**k} for k, r in _rows(6).items()}
     assert isinstance(energy_map(_spec(), wide).axes[0].collections[0].norm, LogNorm)
+
+
+def test_axes_are_labelled_with_the_units_the_sweep_knows():
+    """The axes said goal.q3 and goal.theta, without units (the record's plots have them); a
+    spec.json of an older sweep has no units and keeps the bare keys."""
+    from stratcli.sweep.keys import unit_of
+
+    spec = {**_spec(), "units": ["rad", "rad"]}
+    ax = energy_map(spec, _rows(6)).axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("goal.q1 (rad)", "goal.theta (rad)")
+    assert energy_map(_spec(), _rows(6)).axes[0].get_xlabel() == "goal.q1"
+    assert [unit_of(k, "preset") for k in ("legs[0].goal.q2", "planner.leg_duration")] == [
+        "rad",
+        "s",
+    ]
+    assert unit_of("constraints.obstacles[0].centre[1]", "planar-manipulator") == "m"
+    assert unit_of("goal.x", "custom") == "" and unit_of("planner.tolerance", "preset") == ""

@@ -69,11 +69,18 @@ def _failed_marks(ax, spec, rows) -> None:
         ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
 
 
+def _label(spec: dict[str, Any], i: int) -> str:
+    """Axis `i`'s key with its unit where the sweep knows it: "goal.q1 (rad)"."""
+    units = spec.get("units") or []  # (spec.json of older sweeps has none)
+    unit = units[i] if i < len(units) else ""
+    return f"{spec['keys'][i]} ({unit})" if unit else spec["keys"][i]
+
+
 def _finish_map(ax, spec: dict[str, Any], rows: dict[int, dict]) -> None:
     """What both 2-D maps end with: failed tasks marked, axes named, the sweep's title."""
     _failed_marks(ax, spec, rows)
-    ax.set_xlabel(spec["keys"][0])
-    ax.set_ylabel(spec["keys"][1])
+    ax.set_xlabel(_label(spec, 0))
+    ax.set_ylabel(_label(spec, 1))
     ax.set_title(_title(spec, rows), fontsize=9)
 
 
@@ -132,7 +139,7 @@ def energy_line(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     for x in bad:
         ax.axvline(x, color="0.6", lw=0.7, ls=":")
     ax.set_yscale("log" if any(v > 0 for v in e if v == v) else "linear")
-    ax.set_xlabel(spec["keys"][0])
+    ax.set_xlabel(_label(spec, 0))
     ax.set_ylabel("energy ∫|u|² dt")
     ax.set_title(_title(spec, rows), fontsize=9)
     return fig

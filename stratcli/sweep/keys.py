@@ -197,3 +197,24 @@ def check_scenario(scenario: dict[str, Any], field: str, problems: list[Problem]
             problem = Problem(field, f"{p.path}: {p.message}" if p.path else p.message)
             if problem not in problems:
                 problems.append(problem)
+
+
+_ANGLES = ("preset", "planar-manipulator", "urdf")  # model kinds whose coordinates are angles
+_UNIT_OF = (  # the last part of a key that is no coordinate -> its unit
+    (("duration", "leg_duration", "total_duration", "period", "step_duration"), "s"),
+    (("clearance", "link_radius", "centre", "radius", "size", "mount"), "m"),
+    (("joint_limits", "rotation"), "rad"),
+    (("max_rate",), "rad/s"),
+    (("max_acceleration",), "rad/s²"),
+)
+
+
+def unit_of(key: str, model_kind: str | None) -> str:
+    """The unit of the values at `key` for an axis label ("rad", "s", "m"), or "" where it is
+    not known (a custom model's coordinates, a dimensionless setting)."""
+    robot = model_kind in _ANGLES  # else the model's own units, unknown here
+    if is_coordinate(key):
+        return "rad" if robot else ""
+    last = next(p for p in reversed(_parts(key)) if isinstance(p, str))
+    unit = next((unit for names, unit in _UNIT_OF if last in names), "")
+    return unit if unit == "s" or robot else ""

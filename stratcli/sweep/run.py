@@ -32,6 +32,7 @@ from ..errors import InputError, Problem
 from ..records import sweepdir
 from ..records.rundir import write_run
 from .executors import ExecutorInfo, local_executor
+from .keys import unit_of
 from .spec import Sweep
 from .worker import own_planners, run_task
 
@@ -81,6 +82,7 @@ def spec_document(sweep: Sweep) -> dict[str, Any]:
         "mode": sweep.mode,
         "kind": sweep.kind,
         "keys": list(sweep.keys),
+        "units": [unit_of(key, (sweep.base.get("model") or {}).get("kind")) for key in sweep.keys],
         "axes": [list(a) for a in sweep.axes],
         "count": sweep.count,
         "random": sweep.random.model_dump() if sweep.random else None,
