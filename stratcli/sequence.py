@@ -62,7 +62,7 @@ class SequencePlan:
     scenario_text: str = field(default="", repr=False)  # the scenario it was planned from
     timings: Timings = Timings()
     constraints: ConstraintReport | None = None  # the [constraints] table and the margins
-    _system: Any = field(default=None, repr=False, compare=False)  # not pickled
+    _system: Any = field(default=None, repr=False, compare=False)  # pickled for URDF only
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "start", frozen_array(self.start))
@@ -83,7 +83,11 @@ class SequencePlan:
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
-        state["_system"] = None  # the model is referenced, never pickled
+        system = state.get("_system")
+        if getattr(system, "spatial", None) is None:
+            state["_system"] = None  # rebuilt from the [model] table it references, exactly
+        # a URDF model pickles as its URDF text (`SpatialRobot`, a few kB): its [model] table
+        # names only a file, which may have changed or gone where the plan is unpickled
         return state
 
     def __setstate__(self, state: dict) -> None:

@@ -238,3 +238,35 @@ def test_plan_command_prints_the_audit_per_leg(tmp_path):
     assert "leg 1 on SO(3): attitude error (partly free)" in result.output
     (run,) = tmp_path.iterdir()
     assert {"run.mcap", "stroboscope.png", "result.json"} <= {p.name for p in run.iterdir()}
+
+
+def test_a_pickled_urdf_plan_keeps_its_robot_when_the_file_changes(tmp_path):
+    """Unpickled in another process, a URDF plan was rebuilt from the file its [model] table
+    names: after the URDF's base mass changed, `sample()` gave another motion, still
+    SUCCESS (and a deleted file a traceback). It pickles with its URDF text now."""
+    import pickle
+    import subprocess
+    import sys
+    import tomllib
+
+    from stratcli import plan
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text((ROOT / "robots" / "arm3.urdf").read_text())
+    raw = tomllib.loads((ROOT / "scenarios" / "spatial" / "arm3_reorient.toml").read_text())
+    raw["model"]["path"] = str(urdf)
+    planned = plan(raw, check=False)
+    (tmp_path / "plan.pkl").write_bytes(pickle.dumps(planned))
+    text = urdf.read_text()
+    assert '<mass value="10' in text
+    urdf.write_text(text.replace('<mass value="10', '<mass value="3', 1))  # another robot
+    code = (
+        "import pickle, sys; p = pickle.load(open(sys.argv[1], 'rb')); "
+        "print(repr(p.sample(50).q[-1].tolist()))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "plan.pkl")],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    again = np.array(eval(out.stdout))
+    np.testing.assert_allclose(again, planned.sample(50).q[-1], rtol=0, atol=1e-12)
