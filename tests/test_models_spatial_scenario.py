@@ -174,6 +174,10 @@ def test_energy_objective_lowers_the_energy_and_still_verifies():
     doc = out.document
     verify_spatial(doc, task.system.spatial)
     assert doc["total_energy"] <= doc["optimisation"]["newton_energy"]
+    # (its record named the planar legs' method, an exact Hessian, which URDF legs have not)
+    assert doc["optimisation"]["method"] == (
+        "feasible SQP, the goals' curvature by symmetric-rank-one updates"
+    )
 
 
 def test_models_lists_joints_limits_and_strata():
