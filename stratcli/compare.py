@@ -340,6 +340,18 @@ def _bounded(k, cand, bound) -> Outcome:
     return Outcome(k, cand, None, "bounded", reason, message, duration=duration, screened=True)
 
 
+def first_clause(message: str) -> str:
+    """`message` up to its first ";" outside parentheses: the reason, without the advice
+    ("... violated by 0.484 rad at its nodes (with 3 harmonics; it stalled with 5 and 8 too)"
+    was cut inside its parenthesis)."""
+    depth = 0
+    for i, c in enumerate(message):
+        depth += (c == "(") - (c == ")")
+        if c == ";" and depth <= 0:
+            return message[:i]
+    return message
+
+
 def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
     if isinstance(plan, str):  # an exception while planning
         return Outcome(k, cand, None, "failed", plan, plan, planning_time=seconds)
@@ -351,7 +363,7 @@ def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
             f"leg {last.index + 1} on {last.stratum}: error {last.error:.2g} > "
             f"tolerance {settings.tolerance:g}"
             if last is not None and not last.converged
-            else plan.message.split(";")[0]
+            else first_clause(plan.message)
         )
     return Outcome(
         k,

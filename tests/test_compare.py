@@ -121,3 +121,19 @@ def test_energies_are_compared_at_equal_total_duration(sim4):
     assert at[1].energy_equal_time == pytest.approx(120.0)
     assert rank(at, "energy") == [0, 1]
     assert rank([short, long], "energy") == [1, 0]  # raw energies would favour the slow one
+
+
+def test_a_failed_candidates_reason_is_its_message_up_to_the_advice_not_inside_a_parenthesis():
+    """The reason was the message up to its first ";", which cut a stalled search's
+    "(with 3 harmonics; it stalled with 5 and 8 too)" open."""
+    from stratcli.compare import first_clause
+
+    stall = (
+        "the constrained search stalled on leg 1: the joint limits of q3 still violated by "
+        "0.484 rad at its nodes (with 3 harmonics; it stalled with 5 and 8 too)"
+    )
+    assert first_clause(f"{stall}; kept instead: the plan found without the limits; try") == stall
+    assert first_clause("leg 2 did not reach its goal; try more harmonics") == (
+        "leg 2 did not reach its goal"
+    )
+    assert first_clause("no advice") == "no advice"
