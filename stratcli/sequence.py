@@ -178,6 +178,8 @@ class SequencePlan:
         """
         try:
             single = np.ndim(t) == 0
+            if isinstance(t, str | bytes) or np.asarray(t).dtype.kind not in "iuf":
+                raise TypeError  # ("1" converted to 1.0 before: no string is a time)
             t = np.atleast_1d(np.asarray(t, dtype=float))
         except (TypeError, ValueError):
             raise wrong_type("t", "a time or an array of times (s)", t) from None

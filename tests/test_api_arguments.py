@@ -144,6 +144,12 @@ def test_controls_refuse_times_outside_the_plan_but_not_rounding(plan):
     np.testing.assert_allclose(inside[3], end, rtol=0, atol=1e-12)
     assert plan.controls(T / 2).shape == (len(plan.inputs),)  # one time: one vector
     np.testing.assert_allclose(plan.controls(np.float64(T / 2)), inside[2], rtol=0, atol=1e-12)
+    for t in ("1", ["0.5", "1"], True, None):  # a string was read as the number it spells
+        _raises(
+            TypeError,
+            r"^t: must be a time or an array of times \(s\)",
+            lambda t=t: plan.controls(t),
+        )
 
 
 def test_controls_name_t_for_a_table_of_times_and_show_digits_that_differ(plan):
