@@ -28,6 +28,11 @@ def test_a_grid_is_the_product_of_its_axes_first_axis_slowest(tmp_path):
         assert loaded.goal[0] == q1[i] and loaded.goal[3] == task.inputs["goal.theta"]
         assert loaded.settings.objective == "newton"  # `set` applies to every task
     assert [t.index for t in sweep.tasks(skip={0, 3})] == [1, 2, 4, 5]
+    # another goal is another task: the paper's reference energy (task A's) is not its own
+    # (a task's record printed "paper: 542.36, ratio ..." for it)
+    assert "reference" in sweep.base and all("reference" not in t.scenario for t in tasks)
+    tolerance = load_sweep(write(tmp_path, '[sweep.grid]\n"planner.tolerance" = [1e-3, 1e-4]\n'))
+    assert all(t.scenario["reference"] == sweep.base["reference"] for t in tolerance.tasks())
 
 
 def test_random_tasks_draw_from_per_task_seed_sequences(tmp_path):

@@ -49,6 +49,12 @@ def is_coordinate(key: str) -> bool:
     )
 
 
+def changes_task(key: str) -> bool:
+    """Whether `key` changes the task itself (its start, goal, legs or model), so that the
+    base scenario's [reference] energy (the paper's, for its task) is not this task's."""
+    return _parts(key)[0] in ("task", "legs", "model")
+
+
 def assign(scenario: dict[str, Any], key: str, value: Any, states: tuple[str, ...]) -> None:
     """Put `value` at `key` in `scenario` (a coordinate name indexes its vector)."""
     parts = _parts(key)

@@ -46,7 +46,7 @@ from ..scenario import load_scenario
 from ..schema_problems import file_location, validation_problems
 from ..settings import Bool, Int
 from ..tomlread import parse_toml, read_scenario_text, read_source, reject_non_finite
-from .keys import MAX_TASKS, assign, check_scenario, check_value, value_of
+from .keys import MAX_TASKS, assign, changes_task, check_scenario, check_value, value_of
 from .tables import Base, base_states, grid_axes, random_ranges, task_rows
 
 MODES = ("legs", "auto", "compare")
@@ -156,6 +156,8 @@ class Sweep:
                 scenario.setdefault("planner", {})["seed"] = seed
             for key, value in inputs.items():
                 assign(scenario, key, value, self.states)
+            if any(changes_task(key) for key in inputs):  # another task: not the paper's
+                scenario.pop("reference", None)
             seed = int(scenario.get("planner", {}).get("seed", 0))
             yield SweepTask(index, inputs, seed, scenario)
 
