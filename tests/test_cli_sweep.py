@@ -66,12 +66,21 @@ def test_show_of_an_unfinished_sweep_counts_its_rows(tmp_path):
     path = write(tmp_path, GRID)
     out = tmp_path / "o"
     assert runner.invoke(app, ["sweep", str(path), "--out", str(out), "-q"]).exit_code == 0
+    summary = json.loads((out / "sweep.json").read_text())
+    (out / "sweep.json").write_text(json.dumps({**summary, "missing": 2}))  # interrupted
+    shown = " ".join(runner.invoke(app, ["show", str(out)]).output.split())
+    # the sweep file to resume with is named (it said "stratplan sweep FILE ...")
+    assert f"missing 2 tasks (stratplan sweep {path} --out {out} --resume)" in shown
     (out / "sweep.json").unlink()  # as if killed before the end
     lines = (out / "rows.jsonl").read_text().splitlines()
     (out / "rows.jsonl").write_text("\n".join(lines[:4]) + "\n")
     shown = runner.invoke(app, ["show", str(out)])
     assert shown.exit_code == 0 and "4 of 6 tasks done" in shown.output
     assert "not finished" in shown.output
+    resumed = runner.invoke(app, ["sweep", str(path), "--out", str(out), "--resume"])
+    assert resumed.exit_code == 0, resumed.output
+    text = " ".join(resumed.output.split())
+    assert "2 tasks in" in text and "; 4 more from an earlier run (--resume)" in text
 
 
 def test_a_finished_sweep_is_not_run_again_and_resume_only_reprints_it(tmp_path):

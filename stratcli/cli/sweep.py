@@ -135,6 +135,17 @@ def sweep(
     raise typer.Exit(1 if outcome.missing else 0)
 
 
+def _sweep_file(path: Path) -> str:
+    """The sweep file a sweep directory was made from, as it was given (spec.json), or ""."""
+    import json
+
+    try:
+        source = json.loads((Path(path) / "spec.json").read_text()).get("source", "")
+    except (OSError, ValueError, AttributeError):
+        return ""
+    return source if isinstance(source, str) and not source.startswith("<") else ""
+
+
 def summary(doc: dict[str, Any], path: Path) -> None:
     """A sweep's summary (sweep.json, or computed from the rows of an unfinished one)."""
     say = render.say
@@ -161,10 +172,14 @@ def summary(doc: dict[str, Any], path: Path) -> None:
         wall = doc.get("wall_time_s") or 0.0
         speed = doc.get("tasks_per_s")
         workers = counted(ex["workers"], "worker")
-        say(f"  ran on   {ex['kind']}, {workers}: {doc.get('planned_this_run')} "
-            f"tasks in {wall:.1f} s" + (f" ({speed:.2f} tasks/s)" if speed else ""))  # fmt: skip
+        now, done = doc.get("planned_this_run"), doc.get("done")
+        earlier = done - now if isinstance(now, int) and isinstance(done, int) else 0
+        rate = f" ({speed:.2f} tasks/s)" if speed else ""
+        before = f"; {earlier} more from an earlier run (--resume)" if earlier > 0 else ""
+        say(f"  ran on   {ex['kind']}, {workers}: {now} tasks in {wall:.1f} s{rate}{before}")
     if doc.get("missing"):
-        say(f"  missing  {doc['missing']} tasks (stratplan sweep FILE --out {path} --resume)")
+        file = _sweep_file(path) or "FILE"  # FILE: a sweep given as a dict in Python
+        say(f"  missing  {doc['missing']} tasks (stratplan sweep {file} --out {path} --resume)")
     for name in ("results.csv", *doc.get("plots", [])):
         if (Path(path) / name).exists():
             say(f"  file     {escape(str(Path(path) / name))}")
