@@ -49,7 +49,7 @@ def test_a_command_given_a_urdf_says_a_scenario_names_it(tmp_path, command):
     assert result.exit_code == 2, result.output
     (line,) = result.output.strip().splitlines()
     if command == "check":
-        assert line.startswith(f"error: {robot}: {robot}: joint 'j1' is continuous")
+        assert line.startswith(f"error: {robot}: joint 'j1' is continuous")  # named once
         return
     assert line == (
         f"error: {robot}: XML, not a scenario file (TOML); a URDF robot is named in a "
@@ -58,3 +58,19 @@ def test_a_command_given_a_urdf_says_a_scenario_names_it(tmp_path, command):
     )
     with pytest.raises(InputError, match="XML, not a scenario file"):
         stratcli.load_scenario(robot)
+
+
+def test_an_empty_or_broken_urdf_file_is_one_line_about_the_urdf():
+    """`models empty.urdf` said "the scenario is empty ..."; a truncated URDF named its path
+    twice ("trunc.urdf: /tmp/.../trunc.urdf: not valid XML")."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as where:
+        empty, cut = Path(where) / "empty.urdf", Path(where) / "cut.urdf"
+        empty.write_text("")
+        cut.write_text(ARM3.read_text()[:300])
+        for path in (empty, cut):
+            result = CliRunner().invoke(app, ["models", str(path)])
+            assert result.exit_code == 2
+            (line,) = result.output.strip().splitlines()
+            assert line.startswith(f"error: {path}: not valid XML ("), line

@@ -204,8 +204,9 @@ def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | T
         if str(target) in PRESETS:
             return str(target)
         raise InputError(f"not a preset ({', '.join(PRESETS)}) or a scenario file", str(target))
-    if isinstance(target, str | Path) and not text and _is_xml_file(Path(target)):
-        return urdf_system(target)
+    urdf = isinstance(target, str | Path) and not text and Path(target).suffix.lower() == ".urdf"
+    if urdf or (isinstance(target, str | Path) and not text and _is_xml_file(Path(target))):
+        return urdf_system(target)  # (an empty or broken .urdf: its own message, not a scenario's)
     return load_scenario(target)
 
 
@@ -223,11 +224,13 @@ def urdf_system(path: str | Path) -> System:
     `InputError` naming the file for anything `[model] kind = "urdf"` would refuse."""
     from ..models.specs import UrdfModel, build_system  # Pinocchio only for URDF models
 
-    spec = UrdfModel(kind="urdf", path=str(Path(path).expanduser().resolve()))
+    resolved = str(Path(path).expanduser().resolve())
+    spec = UrdfModel(kind="urdf", path=resolved)
     try:
         return build_system(spec)
-    except InputError as exc:  # its field is the scenario's model.path: none here
-        raise InputError([Problem("", p.message) for p in exc.problems], str(path)) from None
+    except InputError as exc:  # its field is the scenario's model.path: none here, nor the
+        problems = [Problem("", p.message.removeprefix(f"{resolved}: ")) for p in exc.problems]
+        raise InputError(problems, str(path)) from None  # file named twice
 
 
 def configuration(system: System, at: str | Sequence[float], option: str = "at") -> list:
