@@ -63,7 +63,8 @@ def _manipulator_cross_basis(
     union = Stratum("+".join(strata), (), tuple(first))  # in the order the strata give them
     basis = lie_basis(system, union, degree)  # closed form (liealgebra._manipulator_basis)
     names = [f"{system.inputs[j]}@{first[j]}" for j in union.active]
-    return CrossBasis([element_label(h, names) for h in basis.elements], basis.evaluate)
+    # (n, r) rows as every CrossBasis has them: a URDF stratum's own rows are its free ones
+    return CrossBasis([element_label(h, names) for h in basis.elements], basis.full)
 
 
 def _cached_cross_basis(system: System, strata: tuple[str, ...], degree: int) -> CrossBasis:

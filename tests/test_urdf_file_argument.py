@@ -74,3 +74,16 @@ def test_an_empty_or_broken_urdf_file_is_one_line_about_the_urdf():
             assert result.exit_code == 2
             (line,) = result.output.strip().splitlines()
             assert line.startswith(f"error: {path}: not valid XML ("), line
+
+
+def test_across_strata_the_rank_is_never_below_a_strata_own_closure():
+    """arm3 on S3 alone needs degree-3 brackets (its closure spans 5 of 6); across strata
+    at degree 2 the check said rank 3, below that: the cross closure now holds each stratum's
+    own closure too, in the full coordinates a URDF stratum's fields are padded to."""
+    from stratcli.controllability import sequence_report
+    from stratcli.models.specs import UrdfModel, build_system
+
+    system = build_system(UrdfModel(kind="urdf", path=str(ARM3)))
+    report = sequence_report(system, ["S3"], [[0.0] * system.n])
+    assert not report.eq2 and report.cross_rank is not None
+    assert report.cross_rank.min() >= report.sum_rank.min() == 5
