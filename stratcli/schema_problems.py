@@ -87,6 +87,10 @@ def _tags(cls: Any, field: str | None = None) -> tuple[str, ...]:
     )
 
 
+_PATTERNS = {  # the schema's patterns, in words
+    r"^[A-Za-z0-9_.-]+$": "must be letters, digits, '_', '.' and '-' only, no spaces (it names "
+    "the run records and files)",
+}
 _BOUNDS = {  # pydantic's bound errors, in words
     "greater_than": "more than",
     "greater_than_equal": "at least",
@@ -130,6 +134,9 @@ def validation_problems(
             msg = f"must be {_BOUNDS[kind]} {limit}"
         if kind == "missing":
             msg = "required field is missing"
+        if kind == "string_pattern_mismatch":  # pydantic: "String should match pattern '^[...'"
+            pattern = str(err.get("ctx", {}).get("pattern", ""))
+            msg = _PATTERNS.get(pattern, f"must match the pattern {pattern}")
         if kind in ("too_short", "too_long") and "ctx" in err:  # "List should have at least..."
             ctx = err["ctx"]
             bound = ctx.get("min_length", ctx.get("max_length"))

@@ -114,3 +114,14 @@ def test_a_value_of_none_of_a_fields_forms_is_one_line_naming_them_all():
         "constraints.joint_limits",
         "must be a valid list or a valid dictionary (got 2.5)",
     )
+
+
+def test_a_name_with_a_space_says_which_characters_a_name_takes():
+    """It was pydantic's "String should match pattern '^[A-Za-z0-9_.-]+$'"."""
+    raw = {**BASE, "name": "my task"}
+    (problem,) = validation_problems(_errors(raw), root=Scenario)
+    assert (problem.path, problem.message) == (
+        "name",
+        "must be letters, digits, '_', '.' and '-' only, no spaces (it names the run records "
+        "and files) (got 'my task')",
+    )
