@@ -250,7 +250,8 @@ def decompose(
             [
                 Problem(
                     "max_length",
-                    f"no sequence of at most {max_length} strata moves every essential "
+                    f"no sequence of at most {max_length} "
+                    f"{'stratum' if max_length == 1 else 'strata'} moves every essential "
                     f"coordinate ({', '.join(names)}); the shortest needs {shortest} "
                     f"(got {max_length})",
                 )

@@ -396,6 +396,12 @@ def test_decompose_command_lists_the_papers_sequences(tmp_path):
         ).stdout
     )
     assert len(both["sequences"]) == 12 and both["strategies"] == ["conservative", "postponed"]
+    # its hint ranks the candidates listed: with the options asked (they were dropped)
+    listed = runner.invoke(
+        cli.app, ["decompose", str(AUTO), "--strategy", "both", "--max-length", "2"]
+    )
+    hint = " ".join(listed.output.split())
+    assert f"stratplan compare-sequences {AUTO} --max-length 2 --strategy both" in hint
 
 
 def test_compare_sequences_writes_the_record_and_jobs_do_not_matter(tmp_path, newton):
@@ -507,7 +513,7 @@ BAD_DECOMPOSE = {
     "too short": (
         "max_length = 3",
         "max_length = 1",
-        "decompose.max_length: no sequence of at most 1 strata",
+        "decompose.max_length: no sequence of at most 1 stratum",
     ),
     "strata move too little": (
         "max_length = 3",
@@ -539,7 +545,7 @@ def test_bad_options_exit_2_naming_the_option():
         result.output
     )
     result = runner.invoke(cli.app, ["decompose", str(AUTO), "--max-length", "1"])
-    assert result.exit_code == 2 and "--max-length: no sequence of at most 1 strata" in (
+    assert result.exit_code == 2 and "--max-length: no sequence of at most 1 stratum" in (
         result.output
     )
 

@@ -258,8 +258,9 @@ def decompose(
     render.notes(outcome.settings.notes)
     if json_output:
         render.print_json(outcome.document)
-    else:
-        decomposition(outcome, file)
+    else:  # the options asked, so that its hint ranks these candidates
+        given = (("--max-length", max_length), ("--strategy", strategy))
+        decomposition(outcome, file, tuple(f"{o} {v}" for o, v in given if v is not None))
 
 
 def check(

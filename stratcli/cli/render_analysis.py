@@ -19,7 +19,7 @@ def _via_cell(goal) -> str:
     return exact if exact == plain else f"{exact}\n[dim]{plain}[/]"
 
 
-def decomposition(outcome, file: Path) -> None:
+def decomposition(outcome, file: Path, options: tuple[str, ...] = ()) -> None:
     """`decompose`: task, essential coordinates, candidate strata and one row per candidate."""
     from ..decomposition import format_configuration  # start-up speed
 
@@ -59,10 +59,12 @@ def decomposition(outcome, file: Path) -> None:
         )
     render.out_console.print(listing)
     n, k = len(dec.sequences), len(dec.candidates)
+    most = counted(dec.max_length, "stratum").replace("stratums", "strata")
+    command = " ".join(["stratplan compare-sequences", str(file), *options])
     render.out_console.print(
-        f"{counted(n, 'sequence')} of at most {dec.max_length} strata × "
-        f"{' and '.join(dec.strategies)} = {counted(k, 'candidate')}; a loop leg's goal "
-        f"is its start. Plan and rank them: stratplan compare-sequences {file}",
+        f"{counted(n, 'sequence')} of at most {most} × {' and '.join(dec.strategies)} = "
+        f"{counted(k, 'candidate')}; a loop leg's goal is its start. Plan and rank them: "
+        f"{command}",
         highlight=False,
     )
 
