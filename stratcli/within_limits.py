@@ -41,7 +41,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     targets = [np.array(leg.targets, dtype=int) for leg in plan.legs]
     seeds = [
         (
-            "planned" if settings.objective == "newton" else "minimum-energy",
+            "Newton" if settings.objective == "newton" else "minimum-energy",
             np.concatenate([leg.coefficients.ravel() for leg in plan.legs]),
         )
     ]

@@ -385,7 +385,7 @@ def test_the_search_note_says_lowered_only_when_the_energy_fell():
     assert "energy 816.052, lowered to 797.5 inside them" in down
     up = search_note("minimum-energy", 288, 261, 816.052, 1016.03, True)
     assert "lowered" not in up and "816.052 when first within them, raised to 1016.03" in up
-    newton = search_note("planned", 288, 261, 816.052, 1016.03, False)
+    newton = search_note("Newton", 288, 261, 816.052, 1016.03, False)
     assert "energy 816.052 (at the speed planned" in newton
 
 

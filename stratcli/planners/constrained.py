@@ -354,7 +354,7 @@ def constrained_search(
     Returns (per-leg coefficients or None, notes, the stall message of the last start tried,
     the plan's energy or NaN, the iterations of the search that found it over all legs
     together, or 0); (None, notes, "", NaN, 0) when the first seed is inside the limits
-    already and `first` (the planned plan: then it is the constrained minimum as well).
+    already and `first` (the plan as planned: then it is the constrained minimum as well).
     With `lower_energy` (the energy objective) the feasible plan's energy is then lowered
     inside the limits (`_Search.lower`).
     """
