@@ -140,7 +140,8 @@ def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> li
                 Problem(
                     where,
                     f"{name} = {q[i]:.4g} is outside its joint limits "
-                    f"[{c.lower[i]:g}, {c.upper[i]:g}]",
+                    f"[{c.lower[i]:g}, {c.upper[i]:g}]"
+                    + (" (the URDF's)" if i in c.from_urdf else ""),
                 )
             )
     robot = getattr(system, "robot", None)

@@ -274,3 +274,28 @@ def test_a_pickled_urdf_plan_keeps_its_robot_when_the_file_changes(tmp_path):
     )  # fmt: skip
     again = np.array(eval(out.stdout))
     np.testing.assert_allclose(again, planned.sample(50).q[-1], rtol=0, atol=1e-12)
+
+
+def test_a_urdf_plans_limits_say_which_are_the_tables_and_which_the_urdfs():
+    """`joint_limits = { j2 = [...] }` printed "limits: joints within their own limits", and
+    a start past the URDF's limit did not say the limit was the URDF's."""
+    from stratcli.cli.render_tables import limits_asked
+
+    legs = [{"joint_limit": 0.1}]
+    table = {"spec": {"joint_limits": {"j2": [-0.02, 0.02]}}, "legs": legs}
+    assert limits_asked(table, urdf=True) == (
+        "limits: j2 within [-0.02, 0.02] rad (the table), the other joints within the URDF's"
+    )
+    assert limits_asked({"spec": {"self_collision": False}, "legs": legs}, urdf=True) == (
+        "limits: joints within the URDF's limits"
+    )
+    import tomllib
+
+    raw = tomllib.loads((ROOT / "scenarios" / "spatial" / "arm3_reorient.toml").read_text())
+    raw["model"]["path"] = str(ROOT / "robots" / "arm3.urdf")
+    raw["task"]["start"]["j3"] = 2.7  # the URDF limits j3 to [-2.5, 2.5]
+    raw["constraints"] = {}
+    with pytest.raises(
+        InputError, match=r"j3 = 2\.7 is outside its joint limits \[-2\.5, 2\.5\] \(the URDF's\)"
+    ):
+        load_scenario(raw)

@@ -245,7 +245,8 @@ def plan_summary(doc: dict) -> None:
         if note not in failure:  # (the failure line below says it: once is enough)
             out_console.print(f"note: {escape(note)}", highlight=False)
     if margins := limit_margins(doc.get("constraints")):
-        out_console.print(limits_asked(doc.get("constraints")), highlight=False)
+        urdf = doc.get("model") == "urdf"
+        out_console.print(limits_asked(doc.get("constraints"), urdf), highlight=False)
         out_console.print(margins, highlight=False)
     for i, leg in enumerate((doc.get("attitude") or {}).get("legs") or []):  # URDF robots
         if leg.get("audit"):

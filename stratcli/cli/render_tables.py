@@ -331,18 +331,27 @@ def limit_margins(report: dict | None) -> str:
     return head + "; ".join(legs)
 
 
-def limits_asked(report: dict | None) -> str:
+def limits_asked(report: dict | None, urdf: bool = False) -> str:
     """One line of the limits a plan was held to (result.json's `constraints.spec`), so that
-    the margins beside it can be read without the scenario; "" without a [constraints] report."""
+    the margins beside it can be read without the scenario; "" without a [constraints] report.
+    `urdf`: a URDF robot's, whose joints the table does not name keep the URDF's limits."""
     spec = (report or {}).get("spec")
     if not spec or not report.get("legs"):
         return ""
     parts = []
     joints = spec.get("joint_limits")
+    others = "the other joints within the URDF's" if urdf else ""
     if _is_pair(joints):
         parts.append(f"joints within [{joints[0]:g}, {joints[1]:g}] rad")
-    elif joints or any(m.get("joint_limit") is not None for m in report["legs"]):
-        parts.append("joints within their own limits")  # per joint, or a URDF's
+    elif isinstance(joints, dict) and all(_is_pair(v) for v in joints.values()):
+        named = ", ".join(f"{k} within [{v[0]:g}, {v[1]:g}] rad" for k, v in joints.items())
+        parts.append(f"{named}{' (the table), ' + others if others else ''}")
+    elif joints:
+        parts.append("joints within their own limits (the table's, per joint)")
+    elif urdf and any(m.get("joint_limit") is not None for m in report["legs"]):
+        parts.append("joints within the URDF's limits")
+    elif any(m.get("joint_limit") is not None for m in report["legs"]):
+        parts.append("joints within their own limits")
     bodies = (["itself"] if spec.get("self_collision") else []) + (
         [f"{len(spec['obstacles'])} obstacle{'s' if len(spec['obstacles']) > 1 else ''}"]
         if spec.get("obstacles")
