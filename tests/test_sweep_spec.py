@@ -381,6 +381,14 @@ def test_a_urdf_configuration_by_name_takes_its_attitude_components_as_keys(tmp_
             via = loaded.legs[1].goal
             assert np.isnan(via[3]) and via[4] == pytest.approx(0.17408920232346858)
             assert via[5] == 0.05
+    # a name the model has not is named with the keys it takes (it listed the scenario's
+    # names, "attitude" and "rpy" among them, which are no keys)
+    bad = write(tmp_path, '[sweep.grid]\n"goal.q9" = [1.0]\n', scenario=reorient, name="bad")
+    with pytest.raises(InputError) as info:
+        load_sweep(bad)
+    assert info.value.problems[0].message == (
+        "unknown coordinate 'q9' (this model has: j1, j2, j3, rx, ry, rz)"
+    )
 
 
 def test_a_grid_over_one_entry_of_a_list_setting_moves_an_obstacle(tmp_path):

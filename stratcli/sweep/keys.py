@@ -87,6 +87,10 @@ def assign(scenario: dict[str, Any], key: str, value: Any, states: tuple[str, ..
         if last not in states:
             raise ValueError(f"unknown coordinate {last!r} (this model has: {', '.join(states)})")
         node[states.index(last)] = value
+    elif isinstance(node, dict) and is_coordinate(key) and states and last not in states:
+        # a URDF configuration by name: its keys are the joints and rx, ry, rz (the names
+        # the scenario takes, attitude and rpy, are vectors, no key of a sweep)
+        raise ValueError(f"unknown coordinate {last!r} (this model has: {', '.join(states)})")
     elif isinstance(node, dict) and not isinstance(last, int):
         node[last] = value
     else:
