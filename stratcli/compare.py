@@ -135,6 +135,7 @@ class Comparison:
     shared: bool  # prefix sharing used (Newton objective)
     reference_duration: float = math.nan  # total duration the energies are compared at
     screen: Screen | None = None  # the screen's bounds and what it searched (None: exhaustive)
+    on: str = ""  # where it ran, when not on `jobs` local processes: "a Dask cluster"
 
     @property
     def equal_durations(self) -> bool:
@@ -318,6 +319,7 @@ def compare(
         ranking=ranking,
         criterion=criterion,
         jobs=jobs,
+        on=_where(executor),
         legs_requested=requested,
         legs_planned=planned,
         wall_time=wall,
@@ -338,6 +340,14 @@ def _bounded(k, cand, bound) -> Outcome:
         "cannot beat the best sequence"
     )
     return Outcome(k, cand, None, "bounded", reason, message, duration=duration, screened=True)
+
+
+def _where(executor) -> str:
+    """Where a comparison given an executor ran (`Comparison.on`); "" for local processes."""
+    if executor is None:
+        return ""
+    module = type(executor).__module__.split(".")[0]
+    return "a Dask cluster" if module in ("distributed", "dask") else "the executor given"
 
 
 def first_clause(message: str) -> str:

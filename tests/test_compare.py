@@ -137,3 +137,15 @@ def test_a_failed_candidates_reason_is_its_message_up_to_the_advice_not_inside_a
         "leg 2 did not reach its goal"
     )
     assert first_clause("no advice") == "no advice"
+
+
+def test_a_comparison_on_a_dask_cluster_says_so_not_local_processes():
+    """`compare-sequences --dask` said "... in 0.32 s on 2 processes"."""
+    from stratcli.compare import _where
+
+    class Client:  # as distributed's, by its module
+        pass
+
+    Client.__module__ = "distributed.client"
+    assert _where(None) == "" and _where(Client()) == "a Dask cluster"
+    assert _where(object()) == "the executor given"

@@ -127,10 +127,12 @@ def comparison_footer(outcome, run_dir: Path) -> None:
     )
     if comparison.screen is not None:  # the screen planned legs alone for its bounds too
         saved += f" (and {comparison.screen.legs} alone for the screen's bounds)"
+    jobs = comparison.jobs
+    where = comparison.on or f"{jobs} process{'es' if jobs > 1 else ''}"  # or a Dask cluster
     say(
         f"{saved} · {len(comparison.outcomes)} sequences in {comparison.wall_time:.2f} s on "
-        f"{comparison.jobs} process{'es' if comparison.jobs > 1 else ''} (model compiled in "
-        f"{outcome.best.compile_time * 1e3:.0f} ms) · {render.record(run_dir)}"
+        f"{where} (model compiled in {outcome.best.compile_time * 1e3:.0f} ms) · "
+        f"{render.record(run_dir)}"
     )
 
 
