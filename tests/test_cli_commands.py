@@ -251,6 +251,21 @@ def test_models_describes_a_scenario_model():
     assert "S12" in result.output and "asks for the ode evaluator" in result.output
 
 
+def test_models_describes_a_scenarios_model_though_its_legs_are_wrong(tmp_path):
+    """The strata's names are what legs must use: `models` refused to show them while a leg
+    named one the model has not. The model is described, then the problems (exit 2)."""
+    path = tmp_path / "badleg.toml"
+    path.write_text(TASK_D.replace('stratum = "S1"', 'stratum = "S9"'))
+    result = runner.invoke(app, ["models", str(path)])
+    assert result.exit_code == 2
+    assert result.stdout.startswith("one-arm model of badleg.toml") and "S3" in result.stdout
+    assert "legs[1].stratum: unknown stratum 'S9'" in result.stderr
+    broken = tmp_path / "badmodel.toml"  # a wrong [model] table: only its problem
+    broken.write_text(TASK_D.replace('name = "one-arm"', 'name = "one-arms"'))
+    result = runner.invoke(app, ["models", str(broken)])
+    assert result.exit_code == 2 and result.stdout == ""
+
+
 EXP_EXP = """
 name = "exp_exp"
 [model]

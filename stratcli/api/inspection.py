@@ -210,6 +210,27 @@ def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | T
     return load_scenario(target)
 
 
+def scenario_model(path: str | Path) -> System | None:
+    """The model of a scenario file's [model] table alone, or None where the file or the
+    table is wrong too: `models FILE` describes it although the scenario's other tables have
+    problems (the strata's names, say, are what its legs must use)."""
+    import tomllib
+    from copy import deepcopy
+
+    from pydantic import TypeAdapter
+
+    from ..models.specs import ModelSpec, build_system
+
+    try:
+        model = deepcopy(tomllib.loads(Path(path).read_text(encoding="utf-8"))["model"])
+        where = model.get("path") if model.get("kind") == "urdf" else None
+        if isinstance(where, str) and where and not Path(where).expanduser().is_absolute():
+            model["path"] = str((Path(path).parent / where).resolve())  # as the scenario reads it
+        return build_system(TypeAdapter(ModelSpec).validate_python(model))
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError):
+        return None  # (tomllib's, pydantic's and stratplan's errors are ValueErrors)
+
+
 def _is_xml_file(path: Path) -> bool:
     try:
         with open(path, "rb") as fh:

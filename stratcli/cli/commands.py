@@ -339,10 +339,21 @@ def models(
         render_tables.presets_table(PRESET_TABLE)
         return
     from .. import api  # start-up speed
-    from ..api.inspection import preset_or_scenario
+    from ..api.inspection import preset_or_scenario, scenario_model
+    from ..errors import InputError
 
-    with render.reported():
+    try:
         found = preset_or_scenario(target)
+    except InputError as exc:  # the model itself may be fine: described, then the problems
+        model_ok = not any(p.path == "model" or p.path.startswith("model.") for p in exc.problems)
+        system = scenario_model(target) if model_ok and Path(target).is_file() else None
+        if system is not None:
+            kind = getattr(system.spec, "kind", "")
+            name = system.name if kind == "preset" else kind  # (as Task.model_name)
+            render_tables.model(name, system, api.strata_table(system), of=Path(target).name)
+        with render.reported():
+            raise
+    with render.reported():
         if isinstance(found, str):
             from ..models.presets import preset  # start-up speed
 
