@@ -98,12 +98,14 @@ def test_ctrl_c_at_any_moment_prints_one_line_and_exits_130(tmp_path):
         _wait_for_handlers(proc)
         return proc
 
-    for _ in range(2):  # the second run is timed: the first may fill the model cache
+    lengths = []
+    for _ in range(3):  # the first may fill the model cache; the shortest of the others
         proc = start()
         began = time.monotonic()
         proc.communicate(timeout=120)
         assert proc.returncode == 0
-    length = time.monotonic() - began  # from main's handlers to the end, warm
+        lengths.append(time.monotonic() - began)  # from main's handlers to the end
+    length = min(lengths[1:])  # (a run slowed by the machine would put the signals late)
     interrupted = 0
     for fraction in (0.0, 0.25, 0.5, 0.7):
         proc = start()
@@ -112,11 +114,11 @@ def test_ctrl_c_at_any_moment_prints_one_line_and_exits_130(tmp_path):
             continue
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
-        if (proc.returncode, err) == (0, "") and fraction == 0.7:
-            continue  # it ended between poll() and the signal (a CI run under load): as above
+        if (proc.returncode, err) == (0, "") and fraction >= 0.5:
+            continue  # it ended between poll() and the signal (a CI run, once at 0.5): as above
         assert (proc.returncode, err) == (130, "interrupted\n"), (fraction, err)
         interrupted += 1
-    assert interrupted >= 3
+    assert interrupted >= 2
 
 
 def _run_with_signal_after_record(tmp_path, sig: signal.Signals) -> subprocess.CompletedProcess:
@@ -227,7 +229,11 @@ def _alive(pid: int) -> bool:
     "sig", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT], ids=lambda s: s.name
 )
 def test_killing_compare_sequences_leaves_no_worker_alive(tmp_path, sig):
+    # --exhaustive: all 36 searched (about 1 s on 2 workers), so that the signal 0.3 s after
+    # the workers started lands while they work (the screened search, 0.45 s on a fast
+    # machine, had ended before it once: exit 0)
     cmd = [sys.executable, "-m", "stratcli", "compare-sequences", str(AUTO), "--jobs", "2"]
+    cmd.append("--exhaustive")
     proc = subprocess.Popen(
         [*cmd, "--out", str(tmp_path), "-q"],
         env=ENV,
