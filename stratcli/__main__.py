@@ -132,8 +132,26 @@ def main() -> None:
         _finish_interrupted(exc.signum)
     except KeyboardInterrupt:  # raised by hand somewhere (or a handler reset by a library)
         _finish_interrupted(signal.SIGINT)
+    except Exception as exc:  # an Interrupted that Python wrapped on its way
+        signum = _wrapped_interrupt(exc)
+        if signum is None:
+            raise
+        _finish_interrupted(signum)
     finally:
         _state["done"] = True
+
+
+def _wrapped_interrupt(exc: BaseException) -> int | None:
+    """The signal of an `Interrupted` that caused `exc`, or None: Python 3.11 turns an
+    exception raised while a class is made (a pydantic model's `__set_name__`, during an
+    import) into "RuntimeError: Error calling __set_name__ ...", a Ctrl-C there a traceback."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, Interrupted):
+            return exc.signum
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def entry() -> None:

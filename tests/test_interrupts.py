@@ -456,3 +456,36 @@ def test_a_reader_leaving_early_ends_the_output_not_the_command(tmp_path, comman
     if command[0] == "plan":
         (run,) = out.iterdir()
         assert json.loads((run / "result.json").read_text())["status"] == "ok"
+
+
+def test_an_interrupt_python_wrapped_in_another_error_is_still_one_line_and_130():
+    """A Ctrl-C while a pydantic model class was being made (an import) reached the entry
+    point as Python 3.11's "RuntimeError: Error calling __set_name__ ...", its cause our
+    Interrupted: a traceback and exit 1 (a CI run). Other errors still propagate."""
+    code = (
+        "import stratcli.__main__ as m, stratcli.cli as cli\n"
+        "from stratcli.interrupts import Interrupted\n"
+        "def app(**kw):\n"
+        "    try:\n"
+        "        raise Interrupted({signum})\n"
+        "    except Interrupted as e:\n"
+        "        raise RuntimeError('Error calling __set_name__') from e\n"
+        "def plain(**kw):\n"
+        "    raise RuntimeError('not an interrupt')\n"
+        "cli.app = {which}\n"
+        "m.main()\n"
+    )
+    for signum, which, expected in (
+        (2, "app", (130, "interrupted\n")),
+        (15, "app", (143, "terminated\n")),
+    ):
+        run = subprocess.run(
+            [sys.executable, "-c", code.format(signum=signum, which=which)],
+            env=ENV, capture_output=True, text=True, timeout=60,
+        )  # fmt: skip
+        assert (run.returncode, run.stderr) == expected
+    plain = subprocess.run(
+        [sys.executable, "-c", code.format(signum=2, which="plain")],
+        env=ENV, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert plain.returncode == 1 and "not an interrupt" in plain.stderr
