@@ -111,6 +111,7 @@ def validation_problems(
     name); they are left out of the path, and a form the value is not even of the type of is
     not reported beside one it is."""
     out, alternatives, models = [], {}, _model_names()
+    meant, missing = set(), []  # keys an unknown key is a misspelling of; missing keys
     for err in exc.errors():
         raw = prefix + tuple(err["loc"])
         loc = file_location(raw, models)
@@ -123,6 +124,9 @@ def validation_problems(
             hint = f" (allowed: {', '.join(allowed)})" if allowed else ""
             near = difflib.get_close_matches(str(loc[-1]), allowed, n=1, cutoff=0.75)
             typo = f": did you mean {near[0]!r}?" if near else ""  # tolerence, tolerance
+            if near:
+                table = where.rpartition(".")[0]
+                meant.add(f"{table}.{near[0]}" if table else near[0])
             out.append(Problem(where, f"unknown key{typo}{hint}"))
             continue
         msg = err["msg"].removeprefix("Value error, ")
@@ -161,38 +165,32 @@ def validation_problems(
         problem = Problem(where, suggested(f"{msg}{shown}", err.get("input")))
         if loc != raw:  # one form of several: grouped by the value they are forms of
             value = raw[: next(i for i, item in enumerate(raw) if _form(item, models))]
-            alternatives.setdefault(value, []).append((kind, problem))
+            alternatives.setdefault(value, []).append((kind, problem, msg, shown))
             continue
+        if kind == "missing":
+            missing.append(problem)
         out.append(problem)
     for found in alternatives.values():
-        fitting = [p for kind, p in found if kind not in _WRONG_TYPE]
-        out.extend(dict.fromkeys(fitting) if fitting else _one_of([p for _, p in found]))
-    return _misspelt_not_missing(out)
+        fitting = [p for kind, p, _, _ in found if kind not in _WRONG_TYPE]
+        out.extend(dict.fromkeys(fitting) if fitting else _one_of(found))
+    # a key misspelt is not also missing: `task.gaol: unknown key: did you mean 'goal'?`
+    # says it all, without `task.goal: required field is missing` beside it
+    dropped = {p for p in missing if p.path in meant}
+    return [p for p in out if p not in dropped]
 
 
-def _one_of(forms: list[Problem]) -> list[Problem]:
+def _one_of(forms: list[tuple]) -> list[Problem]:
     """A value of none of a field's forms' types in one line: "must be a valid list or a
     valid dictionary (got 2.5)", where each form said its own ("must be a valid list (got
-    2.5)", then "must be a valid dictionary (got 2.5)")."""
-    forms = list(dict.fromkeys(forms))
-    shapes = [re.fullmatch(r"must be (.+?)( \(got .*\))", p.message) for p in forms]
-    if len(forms) < 2 or not all(shapes) or len({p.path for p in forms}) > 1:
-        return forms
-    wanted = list(dict.fromkeys(m.group(1) for m in shapes))
-    return [Problem(forms[0].path, f"must be {' or '.join(wanted)}{shapes[0].group(2)}")]
-
-
-def _misspelt_not_missing(problems: list[Problem]) -> list[Problem]:
-    """Without the "required field is missing" of a key that an unknown key beside it is a
-    misspelling of (`task.gaol: unknown key: did you mean 'goal'?` says it all)."""
-    meant = set()
-    for p in problems:
-        if match := re.match(r"unknown key: did you mean '([^']+)'\?", p.message):
-            table = p.path.rpartition(".")[0]
-            meant.add(f"{table}.{match.group(1)}" if table else match.group(1))
-    return [
-        p for p in problems if not (p.message == "required field is missing" and p.path in meant)
-    ]
+    2.5)", then "must be a valid dictionary (got 2.5)"). `forms`: (kind, problem, its message
+    without the value shown, the value shown) of each."""
+    problems = list(dict.fromkeys(p for _, p, _, _ in forms))
+    wanted = list(dict.fromkeys(msg.removeprefix("must be ") for _, _, msg, _ in forms))
+    shown = {s for _, _, _, s in forms}
+    one = len({p.path for p in problems}) == 1 and len(shown) == 1 and "" not in shown
+    if len(problems) < 2 or not one or not all(m.startswith("must be ") for _, _, m, _ in forms):
+        return problems
+    return [Problem(problems[0].path, f"must be {' or '.join(wanted)}{shown.pop()}")]
 
 
 def file_location(loc: tuple, models: set[str] | None = None) -> tuple:
