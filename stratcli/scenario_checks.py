@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .continuity import eliminate, leg_constraints
 from .errors import Problem
 from .node_margins import searchable
 
@@ -101,9 +102,7 @@ def periodic_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
         or any(leg.method == "lie" or leg.stratum not in system.strata for leg in legs)
     ):
         return []
-    from .continuity import eliminate, leg_constraints  # (numpy: only where there are legs)
-
-    basis, m = p.basis, len(system.inputs)
+    basis, m, size = p.basis, len(system.inputs), p.basis.size
     stand_in = np.random.default_rng(0).uniform(1.0, 2.0, (2, m))  # an end not fixed: any
     previous = None
     for i, leg in enumerate(legs):
@@ -117,9 +116,8 @@ def periodic_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
         try:
             elim = eliminate(cons)
         except ValueError:
-            return [_periodic_problem(scenario, system, legs, i, cons, eliminate)]
+            return [_periodic_problem(scenario, system, legs, i, cons)]
         end = np.zeros((2, m))  # inputs the leg does not use end it at 0
-        size = basis.size
         for d, phi in enumerate((basis.values(leg.duration), basis.derivatives(leg.duration))):
             for a, k in enumerate(active):
                 row = np.zeros(len(active) * size)
@@ -130,7 +128,7 @@ def periodic_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
     return []
 
 
-def _periodic_problem(scenario, system, legs, i, cons, eliminate) -> Problem:
+def _periodic_problem(scenario, system, legs, i, cons) -> Problem:
     """The problem of leg `i`, whose conditions `cons` contradict each other: named by the
     first input whose own rows do (each row is on one input's coefficients)."""
     p, leg = scenario.planner, legs[i]
