@@ -24,7 +24,14 @@ from .planners.energy import optimise_energy
 from .planners.sqp import FIRST_ORDER_ITERATIONS, LOOSE_ABOVE
 from .sequence import SequencePlan
 from .settings import PlannerSettings
-from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, LegSpec, chain_legs, check_legs
+from .stratified import (
+    NUMERICAL_ERRORS,
+    SEED_RESTARTS,
+    LegSpec,
+    chain_legs,
+    check_legs,
+    nominal_starts,
+)
 from .urdf_limits import stalled_too
 from .within_limits import STALLED, re_planned, within_limits
 
@@ -132,9 +139,7 @@ def plan_with_objective(
         # away (ENERGY_RUNAWAY x the first start's): skip it
         if other.ok and other.total_energy <= ENERGY_RUNAWAY * newton.total_energy:
             seeds.append(other)
-    nominal = [start]
-    for leg, planned in zip(legs[:-1], newton.legs[:-1], strict=True):
-        nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
+    nominal = nominal_starts(start, legs, newton)
     targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
     stacked = [
         ("newton", np.concatenate([leg.coefficients.ravel() for leg in p.legs])) for p in seeds
@@ -158,20 +163,18 @@ def plan_with_objective(
         return newton
     say("energy search: re-chaining the legs from the best start")
     final = chain_legs(system, start, legs, settings, initial=coefficients)
-    final = replace(
-        final, optimisation=search, notes=(*final.notes, *_re_planned(final, legs, search))
-    )
+    final = replace(final, optimisation=search, notes=(*final.notes, *_re_planned(final, legs)))
     chosen = final if final.ok and final.total_energy <= newton.total_energy else newton
     return _short_of_a_minimum(chosen, search) if exact else _one_start(chosen, settings)
 
 
-def _re_planned(plan: SequencePlan, legs: list[LegSpec], search) -> list[str]:
+def _re_planned(plan: SequencePlan, legs: list[LegSpec]) -> list[str]:
     """Why the plan's energy differs from the search's ("re-chained: ..." beside it) where
     re-chaining the search's controls re-planned a leg after a via with free coordinates:
     the search starts each leg where the Newton plan left that via, and the search's legs
     before it may end elsewhere."""
     again = [str(k) for k in re_planned(plan, legs)]
-    if not again or search.best is None:
+    if not again:
         return []
     return [
         f"re-chained: {'legs' if len(again) > 1 else 'leg'} {', '.join(again)} re-planned "

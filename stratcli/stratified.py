@@ -34,6 +34,7 @@ __all__ = [
     "check_legs",
     "held_vias",
     "leg_problem",
+    "nominal_starts",
     "plan_next_leg",
 ]
 
@@ -287,22 +288,31 @@ def assemble(
     return plan.with_system(system)
 
 
+def nominal_starts(start, legs: list[LegSpec], planned: SequencePlan) -> list[np.ndarray]:
+    """Each leg's start as the stacked searches take it: `start`, then each via with its
+    free ("*") coordinates where `planned` (a plan of `legs` reaching every goal) put them."""
+    return [
+        np.asarray(start, dtype=float),
+        *(
+            np.where(np.isnan(leg.goal), done.end, leg.goal)
+            for leg, done in zip(legs[:-1], planned.legs[:-1], strict=True)
+        ),
+    ]
+
+
 def held_vias(system: System, start, legs: list[LegSpec], planned: SequencePlan):
     """What the stacked searches (the energy objective's, the constrained one) plan: `legs`
     with each via's "*" coordinates held where `planned` (a plan of `legs` reaching every
     goal) put them, their targets (every coordinate a leg moves, but on the last leg) and
-    each leg's start. A stacked problem starts every leg at its nominal start: left free at
-    a via, a coordinate could end leg k elsewhere than where leg k + 1 starts, and the plan
-    re-chained from the search's controls would re-plan leg k + 1 from there (a plan found
-    inside the limits then ended outside them)."""
-    held = [
-        replace(leg, goal=np.where(np.isnan(leg.goal), done.end, leg.goal))
-        for leg, done in zip(legs[:-1], planned.legs[:-1], strict=True)
-    ]
+    each leg's start (`nominal_starts`). A stacked problem starts every leg at its nominal
+    start: left free at a via, a coordinate could end leg k elsewhere than where leg k + 1
+    starts, and the plan re-chained from the search's controls would re-plan leg k + 1 from
+    there (a plan found inside the limits then ended outside them)."""
+    nominal = nominal_starts(start, legs, planned)
+    held = [replace(leg, goal=via) for leg, via in zip(legs[:-1], nominal[1:], strict=True)]
     held.append(legs[-1])
     targets = [np.array(_targets(system, leg), dtype=int) for leg in held[:-1]]
     targets.append(np.array(planned.legs[-1].targets, dtype=int))
-    nominal = [np.asarray(start, dtype=float), *(leg.goal for leg in held[:-1])]
     return held, targets, nominal
 
 

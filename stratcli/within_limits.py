@@ -12,12 +12,13 @@ import numpy as np
 from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.constrained import NotSearchable, constrained_search
-from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs, held_vias
+from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs, held_vias, nominal_starts
 
 __all__ = ["STALLED", "candidate_within_limits", "re_planned", "within_limits"]
 
 CONSTRAINED_SEEDS = 3  # further starts of the constrained search when the plan's own stalls
 AUXILIARY_LIMIT = 2.5  # rad: joint limits of the start for self-collision alone
+NOT_RECHAINED = "the constrained plan did not re-chain onto the goals; "  # + chain's message
 MORE_STARTS_ABOVE = 3.0  # energy inside the limits / without them that suggests more starts
 STALLED = (  # the messages of a search that did not get inside (`objectives.stalled`)
     "the constrained search stalled",
@@ -35,9 +36,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     say = progress or (lambda phase: None)
     if not all(PLANNERS[leg.method].joint_optimisation for leg in legs):
         return plan  # Lie legs are refused with [constraints] limits (scenario loading)
-    nominal = [np.asarray(start, dtype=float)]
-    for leg, planned in zip(legs[:-1], plan.legs[:-1], strict=True):
-        nominal.append(np.where(np.isnan(leg.goal), planned.end, leg.goal))
+    nominal = nominal_starts(start, legs, plan)
     targets = [np.array(leg.targets, dtype=int) for leg in plan.legs]
     seeds = [
         (
@@ -109,17 +108,18 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         return replace(plan, message=stalled, notes=(*plan.notes, stalled))
     final = chain_legs(system, start, legs, settings, initial=coefficients)
     if not final.ok:
-        note = "the constrained plan did not re-chain onto the goals; " + final.message
+        note = NOT_RECHAINED + final.message
         return replace(plan, message=note, notes=(*plan.notes, note))
     if re_planned(final, legs):  # after a via with free coordinates, which the search held
         say("constrained search: again, with the vias' free coordinates held")
-        final, more, stalled = _rechained_within(system, start, legs, settings, final, constraints)
+        final, again, more, stalled = _rechained_within(
+            system, start, legs, settings, final, constraints
+        )
         if stalled:
             return replace(plan, message=stalled, notes=(*plan.notes, stalled))
-        if more:  # searched again: its note replaces the first search's (another plan)
+        if again:  # searched again: its note replaces the first search's (another plan)
             kept = [n for n in notes if not n.startswith("constrained search from")]
-            notes, iterations = [*more[1:], *kept], iterations + more[0]
-            searched += 1
+            notes, iterations, searched = [*again, *kept], iterations + more, searched + 1
     # The legs are the search's (re-chaining polishes a leg only if it is off by more than the
     # tolerance): their work is its iterations and starts, over all legs together.
     legs_found = tuple(
@@ -156,9 +156,9 @@ def _rechained_within(system, start, legs, settings, final, constraints):
     where re-chaining re-planned a leg after a via with free coordinates (`re_planned`),
     possibly outside the limits (a plan the search found inside ended 0.24 rad past a joint
     limit): the search again from `final`, each via's free coordinates held where `final`
-    puts them (`held_vias`). Returns (plan, [iterations, *notes] or [] where `final` is
-    inside already, a message or "": the search stalled or stopped, or its plan did not
-    re-chain)."""
+    puts them (`held_vias`). Returns the plan, the search's notes and iterations (none where
+    `final` is inside already) and a message where the search stalled or stopped or its plan
+    did not re-chain (else "")."""
     held, targets, nominal = held_vias(system, start, legs, final)
     seeds = [("re-chained", np.concatenate([leg.coefficients.ravel() for leg in final.legs]))]
     try:
@@ -168,13 +168,13 @@ def _rechained_within(system, start, legs, settings, final, constraints):
         )  # fmt: skip
     except (NotSearchable, *NUMERICAL_ERRORS) as exc:
         why = type(exc).__name__
-        return final, [], f"the constrained search stopped on a numerical failure ({why})"
+        return final, [], 0, f"the constrained search stopped on a numerical failure ({why})"
     if found is None:
-        return final, [], stalled  # inside already (""), or stalled
+        return final, [], 0, stalled  # inside already (""), or stalled
     again = chain_legs(system, start, legs, settings, initial=found)
     if not again.ok:
-        return final, [], "the constrained plan did not re-chain onto the goals; " + again.message
-    return again, [iterations, *notes], ""
+        return final, [], 0, NOT_RECHAINED + again.message
+    return again, notes, iterations, ""
 
 
 def _more_starts_hint(settings, free: float, inside: float) -> list[str]:

@@ -236,13 +236,13 @@ def test_a_held_search_that_stops_says_so_where_it_was_silent(monkeypatch):
         raise FloatingPointError
 
     monkeypatch.setattr(within_limits, "constrained_search", failing)
-    plan, more, message = within_limits._rechained_within(*args)
-    assert plan is final and more == []
+    plan, notes, iterations, message = within_limits._rechained_within(*args)
+    assert plan is final and (notes, iterations) == ([], 0)
     assert message == "the constrained search stopped on a numerical failure (FloatingPointError)"
     assert message.startswith(within_limits.STALLED)
     inside = lambda *a, **k: (None, ["inside the limits already"], "", float("nan"), 0)  # noqa: E731
     monkeypatch.setattr(within_limits, "constrained_search", inside)
-    assert within_limits._rechained_within(*args) == (final, [], "")
+    assert within_limits._rechained_within(*args) == (final, [], 0, "")
 
 
 def test_legs_the_constrained_search_planned_report_its_iterations_not_zero():
