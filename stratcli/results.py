@@ -29,7 +29,9 @@ from .status import Status
 from .wording import counted
 
 __all__ = [
+    "EXACT_HESSIAN",
     "SCHEMA",
+    "SR1_UPDATES",
     "ConstraintReport",
     "LegMargins",
     "LegPlan",
@@ -216,6 +218,10 @@ class StartOutcome:
     feasible: bool = True  # it ends on the goals (a candidate for the plan)
 
 
+EXACT_HESSIAN = "feasible SQP, exact Hessian of the Lagrangian"  # `Optimisation.method`
+SR1_UPDATES = "feasible SQP, the goals' curvature by symmetric-rank-one updates"
+
+
 @dataclass(frozen=True)
 class Optimisation:
     """The energy objective's search: every start, which won, and plain Newton's energy."""
@@ -223,7 +229,7 @@ class Optimisation:
     starts: tuple[StartOutcome, ...]
     best: int | None
     newton_energy: float | None
-    method: str = "feasible SQP, exact Hessian of the Lagrangian"
+    method: str = EXACT_HESSIAN  # or SR1_UPDATES (legs without second derivatives)
 
 
 @dataclass(frozen=True)

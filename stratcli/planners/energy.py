@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..models.system import System
-from ..results import Optimisation, StartOutcome
+from ..results import EXACT_HESSIAN, SR1_UPDATES, Optimisation, StartOutcome
 from ..wording import counted
 from .base import (
     ENERGY_RUNAWAY,
@@ -28,7 +28,6 @@ from .stacked import StackedProblem
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 MODEL_ABOVE = 1.05  # ... or whose Newton model's minimum is this far above it
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
-EXACT = "feasible SQP, exact Hessian of the Lagrangian"  # (`Optimisation.method`'s default)
 SAME_ENERGY = 1e-9  # relative: the legwise start wins only if lower than this (`legwise`)
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
@@ -124,11 +123,7 @@ def optimise_energy(
             best_energy = energy
             best_index = k
             coefficients = problem.split(problem.coefficients(z))
-    method = (  # what `sqp.Descent` uses on these legs' end-point maps
-        EXACT
-        if problem.exact_hessians
-        else "feasible SQP, the goals' curvature by symmetric-rank-one updates"
-    )
+    method = EXACT_HESSIAN if problem.exact_hessians else SR1_UPDATES  # (`sqp.Descent`'s)
     return coefficients, Optimisation(tuple(outcomes), best_index, None, method)
 
 
