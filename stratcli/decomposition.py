@@ -38,6 +38,7 @@ import numpy as np
 from .errors import InputError, Problem
 from .models.system import Stratum, System
 from .stratified import LegSpec
+from .wording import counted
 
 STRATEGIES = ("conservative", "postponed")
 ESSENTIAL_TOLERANCE = 1e-9  # the same slack check_legs allows on a locked coordinate
@@ -250,9 +251,9 @@ def decompose(
             [
                 Problem(
                     "max_length",
-                    f"no sequence of at most {max_length} "
-                    f"{'stratum' if max_length == 1 else 'strata'} moves every essential "
-                    f"coordinate ({', '.join(names)}); the shortest needs {shortest} "
+                    f"no sequence of at most {counted(max_length, 'stratum', 'strata')} moves "
+                    f"every essential coordinate ({', '.join(names)}); the shortest needs "
+                    f"{shortest} "
                     f"(got {max_length})",
                 )
             ]

@@ -6,9 +6,10 @@ from __future__ import annotations
 __all__ = ["counted", "method_words"]
 
 
-def counted(n: int, noun: str) -> str:
-    """`n` and `noun`, plural (an "s") unless `n` is 1: "1 task", "0 tasks", "2 tasks"."""
-    return f"{n} {noun}" + ("" if n == 1 else "s")
+def counted(n: int, noun: str, plural: str | None = None) -> str:
+    """`n` and `noun`, plural unless `n` is 1: "1 task", "0 tasks", "2 tasks"; `plural` where
+    it is not `noun` + "s" ("stratum", "strata"; "process", "processes")."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"
 
 
 def method_words(method: str, strategy: str | None) -> str:

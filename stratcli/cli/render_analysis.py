@@ -59,7 +59,7 @@ def decomposition(outcome, file: Path, options: tuple[str, ...] = ()) -> None:
         )
     render.out_console.print(listing)
     n, k = len(dec.sequences), len(dec.candidates)
-    most = counted(dec.max_length, "stratum").replace("stratums", "strata")
+    most = counted(dec.max_length, "stratum", "strata")
     command = " ".join(["stratplan compare-sequences", str(file), *options])
     render.out_console.print(
         f"{counted(n, 'sequence')} of at most {most} × {' and '.join(dec.strategies)} = "

@@ -127,8 +127,7 @@ def comparison_footer(outcome, run_dir: Path) -> None:
     )
     if comparison.screen is not None:  # the screen planned legs alone for its bounds too
         saved += f" (and {comparison.screen.legs} alone for the screen's bounds)"
-    jobs = comparison.jobs
-    where = comparison.on or f"{jobs} process{'es' if jobs > 1 else ''}"  # or a Dask cluster
+    where = comparison.on or counted(comparison.jobs, "process", "processes")  # or Dask
     say(
         f"{saved} · {len(comparison.outcomes)} sequences in {comparison.wall_time:.2f} s on "
         f"{where} (model compiled in {outcome.best.compile_time * 1e3:.0f} ms) · "
@@ -355,9 +354,7 @@ def limits_asked(report: dict | None, urdf: bool = False) -> str:
     elif any(m.get("joint_limit") is not None for m in report["legs"]):
         parts.append("joints within their own limits")
     bodies = (["itself"] if spec.get("self_collision") else []) + (
-        [f"{len(spec['obstacles'])} obstacle{'s' if len(spec['obstacles']) > 1 else ''}"]
-        if spec.get("obstacles")
-        else []
+        [counted(len(spec["obstacles"]), "obstacle")] if spec.get("obstacles") else []
     )
     if bodies:
         parts.append(
