@@ -22,7 +22,13 @@ if TYPE_CHECKING:
     from .settings import PlannerSettings
     from .stratified import LegSpec
 
-__all__ = ["Task"]
+__all__ = ["Task", "model_name"]
+
+
+def model_name(spec) -> str:
+    """A [model] table's name in records: the preset's, else its kind ("planar-manipulator",
+    "custom", "urdf")."""
+    return spec.name if spec.kind == "preset" else spec.kind
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,8 +99,7 @@ class Task:
     @property
     def model_name(self) -> str:
         """Preset name, "planar-manipulator" or "custom" (the result.json `model` key)."""
-        model = self.scenario.model
-        return model.name if model.kind == "preset" else model.kind
+        return model_name(self.scenario.model)
 
     def with_changes(self, changes: Mapping[str, Any]) -> Task:
         """This scenario with `changes`, validated and resolved again (as `load_scenario`).

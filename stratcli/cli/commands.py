@@ -341,6 +341,7 @@ def models(
     from .. import api  # start-up speed
     from ..api.inspection import preset_or_scenario, scenario_model
     from ..errors import InputError
+    from ..task import model_name
 
     try:
         found = preset_or_scenario(target)
@@ -348,8 +349,7 @@ def models(
         model_ok = not any(p.path == "model" or p.path.startswith("model.") for p in exc.problems)
         system = scenario_model(target) if model_ok and Path(target).is_file() else None
         if system is not None:
-            kind = getattr(system.spec, "kind", "")
-            name = system.name if kind == "preset" else kind  # (as Task.model_name)
+            name = model_name(system.spec)
             render_tables.model(name, system, api.strata_table(system), of=Path(target).name)
         with render.reported():
             raise
