@@ -125,7 +125,7 @@ def sweep(
     if json_output:
         render.print_json(outcome.summary)
     elif not quiet:
-        summary(outcome.summary, outcome.out)
+        summary(outcome.summary, outcome.out, loaded.source)
     if outcome.missing:
         render.error(
             "incomplete",
@@ -135,19 +135,9 @@ def sweep(
     raise typer.Exit(1 if outcome.missing else 0)
 
 
-def _sweep_file(path: Path) -> str:
-    """The sweep file a sweep directory was made from, as it was given (spec.json), or ""."""
-    import json
-
-    try:
-        source = json.loads((Path(path) / "spec.json").read_text()).get("source", "")
-    except (OSError, ValueError, AttributeError):
-        return ""
-    return source if isinstance(source, str) and not source.startswith("<") else ""
-
-
-def summary(doc: dict[str, Any], path: Path) -> None:
-    """A sweep's summary (sweep.json, or computed from the rows of an unfinished one)."""
+def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
+    """A sweep's summary (sweep.json, or computed from the rows of an unfinished one);
+    `source`: the sweep file it was made from, as given (spec.json's), for the resume hint."""
     say = render.say
     fmt = render.fmt
     say(f"[bold]sweep {escape(str(doc['name']))}[/] ({doc['mode']} mode, {doc['kind']}): "
@@ -178,7 +168,7 @@ def summary(doc: dict[str, Any], path: Path) -> None:
         before = f"; {earlier} more from an earlier run (--resume)" if earlier > 0 else ""
         say(f"  ran on   {ex['kind']}, {workers}: {now} tasks in {wall:.1f} s{rate}{before}")
     if doc.get("missing"):
-        file = _sweep_file(path) or "FILE"  # FILE: a sweep given as a dict in Python
+        file = "FILE" if not source or source.startswith("<") else source  # "<dict>": Python
         say(f"  missing  {doc['missing']} tasks (stratplan sweep {file} --out {path} --resume)")
     for name in ("results.csv", *doc.get("plots", [])):
         if (Path(path) / name).exists():
@@ -202,7 +192,7 @@ def show_sweep(path: Path, json_output: bool) -> None:
     if json_output:
         render.print_json(report.summary)
         return
-    summary(report.summary, path)
+    summary(report.summary, path, report.spec.get("source", ""))
     if not report.finished:
         say = render.say
         say("  (not finished: the counts are of the rows written so far)")
