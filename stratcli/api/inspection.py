@@ -215,17 +215,17 @@ def scenario_model(path: str | Path) -> System | None:
     table is wrong too: `models FILE` describes it although the scenario's other tables have
     problems (the strata's names, say, are what its legs must use)."""
     import tomllib
-    from copy import deepcopy
 
     from pydantic import TypeAdapter
 
     from ..models.specs import ModelSpec, build_system
 
     try:
-        model = deepcopy(tomllib.loads(Path(path).read_text(encoding="utf-8"))["model"])
-        where = model.get("path") if model.get("kind") == "urdf" else None
-        if isinstance(where, str) and where and not Path(where).expanduser().is_absolute():
-            model["path"] = str((Path(path).parent / where).resolve())  # as the scenario reads it
+        model = tomllib.loads(Path(path).read_text(encoding="utf-8"))["model"]
+        if isinstance(model, dict) and model.get("kind") == "urdf":  # its path as a scenario's
+            from ..models.spatial_scenario import prepare_urdf
+
+            return prepare_urdf({"model": model}, Path(path).parent)[1]
         return build_system(TypeAdapter(ModelSpec).validate_python(model))
     except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError):
         return None  # (tomllib's, pydantic's and stratplan's errors are ValueErrors)
