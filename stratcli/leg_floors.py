@@ -33,6 +33,8 @@ from functools import cache
 
 import numpy as np
 
+from .curvature import curvature, driven
+
 __all__ = ["leg_floor"]
 
 GRID = 64  # points per driven joint on the torus where |F| is maximised
@@ -76,21 +78,12 @@ def leg_floor(
     return SAFETY * floor
 
 
-def _along(cs) -> tuple[int, ...]:
-    """The explicit rows (indices into `cs.explicit`) the connection's derivatives are
-    taken along: a compiled stratum's moving ones, a planar manipulator's all of them."""
-    along = getattr(cs, "derivatives_along", None)
-    return tuple(range(len(cs.explicit))) if along is None else tuple(along)
-
-
 def _base_floor(cs, start, goal, w, T: float, peaks, slack: float) -> float:
     """The Stokes / Banchoff-Pohl bound of the module docstring, over the base rows. A plan
     that ends within `slack` of the goal is closed by one more segment of at most `slack`
     to it: the loop is that much longer and encloses up to `slack (1 + max|A|)` less."""
-    along = _along(cs)
-    C = cs.C_explicit[list(along)]  # driven joints x 2 inputs
-    driven = _driven(C, [cs.explicit[r] for r in along])
-    if driven is None:
+    inputs = driven(cs)
+    if inputs is None:
         return 0.0
     best = 0.0
     for row, i in enumerate(cs.quadrature):
@@ -99,11 +92,11 @@ def _base_floor(cs, start, goal, w, T: float, peaks, slack: float) -> float:
         residual = abs(goal[i] - start[i] - _segment(cs, start, w, row))
         if not residual > slack:
             continue
-        fixed = np.delete(start, [j for j, _ in driven]).tobytes()
+        fixed = np.delete(start, [j for j, _ in inputs]).tobytes()
         key = (cs.stratum.name, row, fixed)
         found = peaks.get(key) if peaks is not None else None
         if found is None:
-            found = _peak_curvature(cs, start, driven, row, along)
+            found = _peak_curvature(cs, start, inputs, row)
             if peaks is not None:
                 peaks[key] = found
         peak, most = found
@@ -115,20 +108,6 @@ def _base_floor(cs, start, goal, w, T: float, peaks, slack: float) -> float:
         length = math.sqrt(4.0 * math.pi * enclosed / peak) - float(np.linalg.norm(w)) - slack
         best = max(best, max(length, 0.0) ** 2 / T)
     return best
-
-
-def _driven(C: np.ndarray, joints: list[int]) -> tuple[tuple[int, float], ...] | None:
-    """Per input, (the joint it drives, the sign) when each drives one joint at unit rate
-    (the connection is then periodic in the inputs' integrals), else None."""
-    out = []
-    for a in range(C.shape[1]):
-        rows = np.flatnonzero(C[:, a])
-        if len(rows) != 1 or abs(abs(C[rows[0], a]) - 1.0) > 1e-12:
-            return None
-        out.append((joints[rows[0]], float(np.sign(C[rows[0], a]))))
-    if out[0][0] == out[1][0]:
-        return None
-    return tuple(out)
 
 
 def _segment(cs, start: np.ndarray, w: np.ndarray, row: int) -> float:
@@ -147,26 +126,23 @@ def _nodes() -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (s + 1.0), 0.5 * weights
 
 
-def _peak_curvature(cs, start: np.ndarray, driven, row: int, along) -> tuple[float, float]:
+def _peak_curvature(cs, start: np.ndarray, inputs, row: int) -> tuple[float, float]:
     """(max |F|, max |A|) over the torus of the two driven joints (the others where `start`
     has them), |F| with a margin of half the grid's diagonal times the largest |∇F| at the
     grid's points, by central differences (|∇F| between them is not bounded: a margin, not
     a proof); (NaN, NaN) when the connection is not 2π-periodic in a driven joint or not
     finite there."""
-    (j0, s0), (j1, s1) = driven
-    explicit = list(cs.explicit)
-    e0, e1 = along.index(explicit.index(j0)), along.index(explicit.index(j1))
+    (j0, _), (j1, _) = inputs
     h = 2.0 * math.pi / GRID
     g0, g1 = np.meshgrid(np.arange(GRID) * h, np.arange(GRID) * h, indexing="ij")
     q = np.repeat(start[None, :], GRID * GRID, axis=0)
     q[:, j0] += g0.ravel()
     q[:, j1] += g1.ravel()
-    A, dA = cs.quadrature_terms(q, 1)  # (second derivatives cost O(k²) a point on a chain)
+    F, A = curvature(cs, q, inputs, row)
     if not _periodic(cs, q[::PERIOD_STRIDE], A[::PERIOD_STRIDE], (j0, j1)):
         return math.nan, math.nan
-    # along the inputs' integrals: ∂/∂w_a = s_a ∂/∂q_{j_a}; |∇F| by central differences on
-    # the periodic grid (the same in w as in q: the signs only reflect the axes)
-    F = s0 * dA[:, row, 1, e0] - s1 * dA[:, row, 0, e1]
+    # |∇F| by central differences on the periodic grid (the same in w as in q: the signs
+    # only reflect the axes)
     if not (np.isfinite(F).all() and np.isfinite(A).all()):
         return math.nan, math.nan
     grid = F.reshape(GRID, GRID)
