@@ -206,8 +206,9 @@ class StartOutcome:
 
     index: int
     kind: str  # where the start came from: "pulled" (the Newton plan pulled toward least
-    # energy), "newton" (a Newton plan, seeded or not), "warm start" or "legwise" (the legs'
-    # own minima joined, `planners.legwise`)
+    # energy), "newton" (a Newton plan, seeded or not), "warm start", "loop" (a leg's loop
+    # moved onto a curvature peak, `planners.loops`) or "legwise" (the legs' own minima
+    # joined, `planners.legwise`)
     energy: float
     goal_error: float
     projected_gradient: float

@@ -10,7 +10,7 @@ the planner hang or overflow.
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 from pydantic import Field, Strict
 from pydantic.dataclasses import dataclass
@@ -64,6 +64,10 @@ class LieSettings:
     rest: Bool = True
 
 
+Search = Literal["starts", "loops", "legwise"]  # the energy search (`PlannerSettings.search`)
+SEARCHES = get_args(Search)
+
+
 @dataclass(frozen=True, config=CONFIG)
 class PlannerSettings:
     """How every leg is planned (scenario table ``[planner]``).
@@ -84,9 +88,12 @@ class PlannerSettings:
         paper's method, leg by leg).
     starts : deterministic starts of the energy search: the Newton plan pulled toward least
         energy, the Newton plan, then Newton plans from seeded starts.
-    search : "starts" (only those) or "legwise": one more start, made from each leg's lowest
-        minimum on its own, joined by continuation in the switch conditions and raced after
-        the others (`planners.legwise`; a global strategy, at several times the cost).
+    search : "loops" (the default): after those starts, *loop starts* where a leg's loop could
+        run round a nearer peak of the base's curvature, raced on their own (`planners.loops`;
+        a few milliseconds a leg where none qualifies); "starts": those starts only (the
+        search of records made before loop starts); "legwise": the loop starts and one more,
+        made from each leg's lowest minimum on its own, joined by continuation in the switch
+        conditions (`planners.legwise`; a global strategy, at several times the cost).
     constrained_starts : with [constraints] limits the search needs, how many starts must get
         inside them before the lowest energy is kept: 1, the first that does (the plan
         itself, then Newton plans from seeds); more, further seeded Newton plans, each a
@@ -110,7 +117,7 @@ class PlannerSettings:
     evaluator: Literal["auto", "quadrature", "ode", "magnus"] = "auto"
     objective: Literal["energy", "newton"] = "energy"
     starts: Annotated[Int, Field(ge=1, le=64)] = 2
-    search: Literal["starts", "legwise"] = "starts"
+    search: Search = "loops"
     constrained_starts: Annotated[Int, Field(ge=1, le=16)] = 1
     time_scale: Annotated[Float, Field(ge=1.0 / MAX_TIME_SCALE, le=MAX_TIME_SCALE)] = 1.0
     lie: LieSettings = LieSettings()

@@ -233,7 +233,8 @@ def test_progress_is_silent_in_a_pipe(tmp_path):
 )
 def test_plan_run_reports_its_phases_and_the_starts_it_races(tmp_path, planner):
     """The phases name the starts the energy search races: as many as the final line's
-    "start k of N" counts (the pulled start is one of them, the legwise start one more)."""
+    "start k of N" counts (the pulled start is one of them; loop starts and the legwise start
+    are more)."""
     path = tmp_path / "task.toml"
     path.write_text(TASK_D.read_text().replace("[planner]", f"[planner]\n{planner}", 1))
     phases: list[str] = []
@@ -244,6 +245,9 @@ def test_plan_run_reports_its_phases_and_the_starts_it_races(tmp_path, planner):
     (racing,) = [p for p in phases if p.startswith("energy search: minimum energy from ")]
     said = int(racing.split("from ")[1].split()[0])
     said += sum(p.endswith("made leg by leg (legwise)") for p in phases)
+    said += sum(
+        int(p.split()[2]) for p in phases if p.startswith("energy search: ") and "loop" in p
+    )
     raced = outcome.document["optimisation"]["starts"]
     assert said == len(raced) >= 2
     kinds = racing.split("(")[1].rstrip(")")

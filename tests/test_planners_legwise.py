@@ -98,23 +98,26 @@ IPOPT_BEST = {"sim1_l_c1": 367.30, "sim4_task_a": 448.04}
 
 
 @pytest.mark.parametrize("name", ["sim1_l_c1", "sim4_task_a"])
-def test_the_legwise_search_reaches_a_lower_minimum_than_the_plain_starts(name):
-    """On Sim 1 (l-C1) and Sim 4 A the plain starts end in one basin; the legwise start finds
-    a lower minimum, at or below the best IPOPT found on the same Fourier problem, which the
-    plan keeps, and that plan re-integrates independently onto every via with continuous
-    controls at the switches (its energy recomputed from the re-integrated controls)."""
+def test_the_legwise_start_reaches_a_lower_minimum_than_the_plain_starts(name):
+    """On Sim 1 (l-C1) and Sim 4 A the plain starts end in one basin; the legwise start,
+    raced on its own after the default search's starts (its loop starts too), finds a lower
+    minimum at or below the best IPOPT found on the same Fourier problem (the loop start's:
+    the plan keeps the one found first), and the plan re-integrates independently onto
+    every via with continuous controls at the switches."""
     task = load_scenario(SCENARIOS / f"{name}.toml")
     plain = energy_plan(task, "starts")
+    default = energy_plan(task, "loops")
     task = task.with_changes({"planner": {"search": "legwise"}})
     wide = energy_plan(task, "legwise")
     assert wide.ok and plain.ok
     opt = wide.optimisation
-    best = opt.starts[opt.best]
-    assert best.kind == "legwise" and best.projected_gradient <= 1e-8  # a true minimum
+    own = opt.starts[-1]
+    assert own.kind == "legwise" and own.projected_gradient <= 1e-8  # a true minimum
+    assert own.energy < 0.95 * plain.total_energy  # another, lower basin
+    assert own.energy <= IPOPT_BEST[name]
     # the other starts are the default search's, raced as without the legwise one
-    assert [s.energy for s in opt.starts[:-1]] == [s.energy for s in plain.optimisation.starts]
-    assert wide.total_energy < 0.95 * plain.total_energy  # another, lower basin
-    assert wide.total_energy <= IPOPT_BEST[name]
+    assert [s.energy for s in opt.starts[:-1]] == [s.energy for s in default.optimisation.starts]
+    assert wide.total_energy <= min(own.energy, default.total_energy) * (1 + 1e-9)
     verify(task, result_document(wide, task.scenario.name, task.model_name))
 
 
@@ -132,7 +135,7 @@ def test_the_search_is_a_planner_setting_and_a_bad_value_names_the_field():
     text = (SCENARIOS / "sim4_task_d.toml").read_text()
     chosen = parse_scenario(text.replace("[planner]", '[planner]\nsearch = "legwise"'))
     assert chosen.settings.search == "legwise"
-    assert load_scenario(SCENARIOS / "sim4_task_d.toml").settings.search == "starts"
+    assert load_scenario(SCENARIOS / "sim4_task_d.toml").settings.search == "loops"
     with pytest.raises(InputError, match=r"planner\.search"):
         parse_scenario(text.replace("[planner]", '[planner]\nsearch = "everywhere"'))
 

@@ -5,7 +5,9 @@ the stacked coefficients and eliminated once (`λ = λp + N z`, N whitened so th
 `e0 + b·z + |z|²`); the goals are nonlinear equality constraints with exact Jacobians and
 Hessians (the legs' quadrature end-point maps). The problem `min λᵀMλ s.t. k_i(λ_i) = goal_i`
 is solved by a feasible-point SQP with the exact Hessian of the Lagrangian (`Descent`), from
-several deterministic starts that are raced (`optimise_energy`).
+several deterministic starts that are raced (`optimise_energy`), then from starts that move a
+leg's loop onto a peak of the base's curvature (`loops`, by default) and, if asked, from the
+legs' own minima joined (`legwise`).
 """
 
 from __future__ import annotations
@@ -22,13 +24,15 @@ from .base import (
     onto_goals,
 )
 from .legwise import legwise_start
+from .loops import loop_starts
 from .sqp import KEPT, MINIMUM, PG_TOL, Descent
 from .stacked import StackedProblem
 
 ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best so far
 MODEL_ABOVE = 1.05  # ... or whose Newton model's minimum is this far above it
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
-SAME_ENERGY = 1e-9  # relative: the legwise start wins only if lower than this (`legwise`)
+SAME_ENERGY = 1e-9  # relative: a later start wins only if lower than this (`LATER`)
+LATER = ("loop", "legwise")  # starts raced after the others (`loops`, `legwise`)
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
 # back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
@@ -67,9 +71,9 @@ def optimise_energy(
     relaxation of them (`stratcli.screen`).
 
     `progress(phase)` is told the starts that are raced, once they are known (the pulled
-    start is made here), and the legwise start; default: silent. `pg_tol`: the relative
-    projected gradient at which a start has converged (`sqp.PG_TOL`; a leg bound of the
-    screen without exact Hessians needs less, `leg_bounds.BOUND_PG_TOL`).
+    start is made here), then the loop starts and the legwise start; default: silent.
+    `pg_tol`: the relative projected gradient at which a start has converged (`sqp.PG_TOL`;
+    a leg bound of the screen without exact Hessians needs less, `leg_bounds.BOUND_PG_TOL`).
     """
     say = progress or (lambda phase: None)
     problem = StackedProblem(system, starts, legs, settings, targets, constraints)
@@ -83,9 +87,16 @@ def optimise_energy(
         say(f"energy search: minimum energy from {_starts(seeds)}")
         zs = [problem.project(lam) for _, lam in seeds]
         runs = race(problem, zs, settings.tolerance, pg_tol)
+    # the later starts are raced on their own, after the others: the others' race (which
+    # abandons a start that an earlier low one outruns) is the same with or without them, so
+    # the result is never higher
+    if problem.exact_hessians and settings.search != "starts":
+        loops = _loop_starts(problem, system, legs, runs)
+        if loops:
+            say(f"energy search: {counted(len(loops), 'loop start')}, a loop on a curvature peak")
+            seeds = [*seeds, *(("loop", problem.coefficients(z)) for z in loops)]
+            runs += race(problem, loops, settings.tolerance, pg_tol)
     if problem.exact_hessians and settings.search == "legwise":
-        # raced on its own, after the others: their race (which abandons a start that an
-        # earlier low one outruns) is the default search's, so the result is never higher
         say(f"energy search: start {len(seeds) + 1}, made leg by leg (legwise)")
         z = legwise_start(problem, system, legs, settings, *_newton_part(seeds))
         if z is not None:
@@ -116,9 +127,9 @@ def optimise_energy(
             )
         )
         # a start stopped next to a minimum another start reached is not a candidate: its
-        # energy can undercut that converged one only by rounding; nor is the legwise start
-        # at the default starts' minimum (it changes a plan only where it finds a lower one)
-        below = best_energy * (1.0 - SAME_ENERGY) if seeds[k][0] == "legwise" else best_energy
+        # energy can undercut that converged one only by rounding; nor is a later start at
+        # the others' minimum (it changes a plan only where it finds a lower one)
+        below = best_energy * (1.0 - SAME_ENERGY) if seeds[k][0] in LATER else best_energy
         if ok and run.reason != "same minimum" and energy < below:
             best_energy = energy
             best_index = k
@@ -162,6 +173,14 @@ def race(
     for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
         finish(run, None)
     return runs
+
+
+def _loop_starts(problem: StackedProblem, system, legs, runs: list[Descent]) -> list:
+    """The loop starts (`loops.loop_starts`) from the lowest minimum that `runs` reached;
+    none if no run reached one."""
+    minima = (run for run in runs if run.feasible and run.reason in MINIMUM)
+    lowest = min(minima, key=lambda run: run.energy, default=None)
+    return [] if lowest is None else loop_starts(problem, system, legs, lowest.z)
 
 
 def _first_kept(
