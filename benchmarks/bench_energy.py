@@ -1,7 +1,7 @@
 """Energy and planning time of stratplan against the free-control lower bound (CasADi/IPOPT).
 
 Usage: python benchmarks/bench_energy.py [--repeats N] [--starts K] [--no-bound]
-       [--search starts|legwise] [SCENARIO ...]
+       [--search starts|loops|legwise] [SCENARIO ...]
 
 One table, every row from the same run, for the paper's scenarios: the paper's energy; the
 plain Newton plan's; the energy-optimal plan's with H = 3 harmonics (the default) and with
@@ -49,6 +49,7 @@ from stratcli import endpoint
 from stratcli.controls import FourierBasis, embed
 from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
+from stratcli.settings import SEARCHES
 
 MORE_HARMONICS = 8
 MORE_STARTS = 12  # the richer basis has more minima: twice the default starts
@@ -167,7 +168,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--no-bound", action="store_true", help="skip the CasADi bound")
     parser.add_argument(
         "--search",
-        choices=("starts", "legwise"),
+        choices=SEARCHES,
         default=None,
         help="stratplan's energy search (default: the scenario's)",
     )

@@ -1,7 +1,7 @@
 """The honest peer: CasADi/IPOPT on exactly stratplan's energy problem, against stratplan.
 
 Usage: python benchmarks/bench_peer.py [--seeded N] [--first-seed S] [--repeats R]
-       [--search starts|legwise] [SCENARIO ...]
+       [--search starts|loops|legwise] [SCENARIO ...]
        (needs the optional extra: pip install -e '.[bench]')
 
 For each paper scenario, the problem the energy objective solves (`stratcli.planners.energy`),
@@ -61,6 +61,7 @@ import stratcli.objectives as objectives
 from stratcli.continuity import sequence_constraints
 from stratcli.endpoint import PANEL, gauss_legendre, make_endpoint, node_count
 from stratcli.scenario import Task, load_scenario
+from stratcli.settings import SEARCHES
 
 SEEDED = 24
 SCALES = (0.1, 0.5, 1.0, 2.0, 4.0, 8.0)
@@ -271,7 +272,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeats", type=int, default=5, help="stratplan runs timed")
     parser.add_argument(
         "--search",
-        choices=("starts", "legwise"),
+        choices=SEARCHES,
         default=None,
         help="stratplan's energy search (default: the scenario's)",
     )
