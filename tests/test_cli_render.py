@@ -254,6 +254,18 @@ def test_plan_run_reports_its_phases_and_the_starts_it_races(tmp_path, planner):
     assert kinds.startswith(f"{raced[0]['from']}, {raced[1]['from']}")
 
 
+def test_the_search_line_names_the_start_that_won(monkeypatch, planned):
+    """ "start 3 of 3 (loop: 8 SQP iterations, ...)": where the winning start came from, as
+    result.json's `from` says it."""
+    doc = copy.deepcopy(planned.document)
+    opt = doc["optimisation"]
+    for kind in ("pulled", "loop"):
+        opt["starts"][opt["best"]]["from"] = kind
+        text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+        k, n = opt["best"] + 1, len(opt["starts"])
+        assert f"energy-optimal over all legs together: start {k} of {n} ({kind}: " in text
+
+
 def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monkeypatch, planned):
     """With [constraints] that moved the plan off the free optimum, the energy search's line
     describes the plan without them: it says so, before the note of the constrained search."""
