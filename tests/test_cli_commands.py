@@ -98,6 +98,35 @@ def test_objective_option_plans_with_it_and_records_the_changed_scenario(tmp_pat
     assert bad.output.strip() == "error: --objective: must be energy or newton (got 'newtn')"
 
 
+def test_search_option_plans_with_it_and_records_the_changed_scenario(tmp_path):
+    """--search starts plans Sim 4 task A without loop starts (the plain search's energy, no
+    start from a loop), and the record's scenario.toml says so; the default search's plan
+    has the loop start. The option's choices are the settings' (`settings.SEARCHES`)."""
+    from typing import get_args
+
+    from stratcli.cli.commands import SearchChoice
+    from stratcli.settings import SEARCHES
+
+    assert sorted(get_args(SearchChoice)) == sorted(SEARCHES)
+    task_a = (ROOT / "scenarios" / "sim4_task_a.toml").read_text()
+    result, path = run(tmp_path, task_a, "--search", "starts", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert "loop" not in [s["from"] for s in doc["optimisation"]["starts"]]
+    task = load_scenario(path)
+    plain = plan_sequence(
+        task.system, task.start, task.legs, replace(task.settings, search="starts")
+    )
+    assert doc["total_energy"] == pytest.approx(plain.total_energy, rel=1e-12)
+    recorded = tomllib.loads((Path(doc["record"]) / "scenario.toml").read_text())
+    assert recorded["planner"]["search"] == "starts"
+    default = plan_sequence(task.system, task.start, task.legs, task.settings)
+    assert default.total_energy < doc["total_energy"]
+    bad, _ = run(tmp_path, task_a, "--search", "loop")
+    assert bad.exit_code == 2
+    assert bad.output.strip() == ("error: --search: must be loops, starts or legwise (got 'loop')")
+
+
 def test_json_output_is_the_result_document(tmp_path):
     result, _ = run(tmp_path, TASK_D, "--json")
     assert result.exit_code == 0

@@ -264,6 +264,11 @@ def test_the_search_line_names_the_start_that_won(monkeypatch, planned):
         text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
         k, n = opt["best"] + 1, len(opt["starts"])
         assert f"energy-optimal over all legs together: start {k} of {n} ({kind}: " in text
+    # each start's energy after where it began, and why it stopped when not at a minimum
+    first = opt["starts"][0]
+    first["stopped"] = "abandoned"
+    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    assert f"the starts ended at {first['from']} {first['energy']:,.2f} (abandoned)" in text
 
 
 def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monkeypatch, planned):

@@ -22,6 +22,9 @@ from . import render, render_tables
 from .options import Animation, Json, MaxLength, Out, Quiet, Scenario, Strategy, TaskScenario
 from .render_analysis import check_report, decomposition
 
+# `settings.Search`, spelt here for start-up speed (--help imports no settings); a test keeps
+# the two the same
+SearchChoice = Literal["loops", "starts", "legwise"]
 Format = Annotated[
     Literal["png", "svg", "pdf"],
     typer.Option("--format", help="Format of the plots (motion.gif stays a GIF)."),
@@ -75,6 +78,15 @@ def plan(
             "(the paper's method, leg by leg) or energy (least energy over all legs).",
         ),
     ] = None,
+    search: Annotated[
+        SearchChoice | None,
+        typer.Option(
+            metavar="loops|starts|legwise",
+            help="The energy objective's search instead of the scenario's planner.search: loops "
+            "(its starts, then loop starts on the base's curvature peaks; the default), starts "
+            "(without loop starts) or legwise (also each leg's own minimum, joined; slower).",
+        ),
+    ] = None,
 ) -> None:
     """Plan a scenario: every leg to tolerance, controls continuous across switches.
 
@@ -94,9 +106,10 @@ def plan(
     from .. import api  # start-up speed
 
     task = _load(file)
-    if objective is not None:  # the record holds the scenario as changed
-        with render.reported():
-            task = task.with_changes({"planner": {"objective": objective}})
+    changed = {"objective": objective, "search": search}
+    if changed := {key: value for key, value in changed.items() if value is not None}:
+        with render.reported():  # the record holds the scenario as changed
+            task = task.with_changes({"planner": changed})
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     # matplotlib loads while the plan is made; niced only beside a comparison's workers

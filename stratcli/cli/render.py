@@ -219,7 +219,7 @@ def plan_summary(doc: dict) -> None:
     opt = doc.get("optimisation")
     if opt and opt.get("best") is not None:
         best = opt["starts"][opt["best"]]
-        energies = ", ".join(fmt(s["energy"]) for s in opt["starts"])
+        energies = ", ".join(_start_energy(s) for s in opt["starts"])
         # a constrained search went on from the free optimum: say that this line is before it
         total = doc["total_energy"]  # the starts' energies are before any time scaling
         free = None if total is None else total / doc.get("time_scale", 1.0)
@@ -270,6 +270,14 @@ def plan_summary(doc: dict) -> None:
             f"{leg['duration']:g} s in all",
             highlight=False,
         )
+
+
+def _start_energy(start: dict) -> str:
+    """`loop 404.03`, `newton 549.89 (abandoned)`: where a start began and where it ended,
+    and why its search stopped there when not at a minimum of its own."""
+    stopped = start.get("stopped")
+    why = f" ({stopped})" if stopped and stopped not in ("converged", "noise floor") else ""
+    return f"{start['from']} {fmt(start['energy'])}{why}"
 
 
 def _close(a: float | None, b: float | None) -> bool:
