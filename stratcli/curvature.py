@@ -3,7 +3,9 @@
 On a stratum whose two inputs each drive one joint at unit rate (`q̇_j = ±u`), the base
 turns by the line integral of the connection `A(q)` along the joints' path; closed by a
 segment, that is the integral of its curvature `F = ∂A_2/∂w_1 - ∂A_1/∂w_2` over the area
-the path encloses, counted with its winding number (Stokes; `w` the inputs' integrals). The
+the path encloses, counted with its winding number (Stokes; `w` the inputs' integrals: area
+and winding are those in the plane of w, which an input driving its joint backwards mirrors
+against the joints' plane). The
 leg floors bound a leg's energy with the largest |F| (`leg_floors`); the energy search's
 loop starts put a leg's loop on a peak of |F| (`planners.loops`).
 """

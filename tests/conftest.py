@@ -40,6 +40,18 @@ def scenarios_dir() -> Path:
     return ROOT / "scenarios"
 
 
+# the best minimum CasADi/IPOPT found on the same Fourier problem (issue 15, item 1)
+IPOPT_BEST = {"sim1_l_c1": 367.30, "sim4_task_a": 448.04}
+
+
+def energy_plan(task, search: str):
+    """`task` planned with the energy objective and the energy search `search`."""
+    from stratcli.objectives import plan_sequence
+
+    settings = dataclasses.replace(task.settings, objective="energy", search=search)
+    return plan_sequence(task.system, task.start, task.legs, settings)
+
+
 def newton_objective(settings):
     """The paper's Newton method (fast); a no-op before planner settings had an objective."""
     if "objective" in {f.name for f in dataclasses.fields(settings)}:

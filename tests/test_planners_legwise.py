@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import itertools
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import IPOPT_BEST, energy_plan
 from reintegrate import verify
 
 from stratcli.planners import energy, legwise, stacked
@@ -93,10 +93,6 @@ def test_a_pulled_start_is_each_legs_start_as_it_is_and_a_newton_plan_is_pulled(
         assert float(own @ M @ own) <= float(part @ M @ part) * (1 + 1e-9)
 
 
-# the best minimum CasADi/IPOPT found on the same Fourier problem (issue 15, item 1)
-IPOPT_BEST = {"sim1_l_c1": 367.30, "sim4_task_a": 448.04}
-
-
 @pytest.mark.parametrize("name", ["sim1_l_c1", "sim4_task_a"])
 def test_the_legwise_start_reaches_a_lower_minimum_than_the_plain_starts(name):
     """On Sim 1 (l-C1) and Sim 4 A the plain starts end in one basin; the legwise start,
@@ -119,13 +115,6 @@ def test_the_legwise_start_reaches_a_lower_minimum_than_the_plain_starts(name):
     assert [s.energy for s in opt.starts[:-1]] == [s.energy for s in default.optimisation.starts]
     assert wide.total_energy <= min(own.energy, default.total_energy) * (1 + 1e-9)
     verify(task, result_document(wide, task.scenario.name, task.model_name))
-
-
-def energy_plan(task, search):
-    from stratcli.objectives import plan_sequence
-
-    settings = replace(task.settings, objective="energy", search=search)
-    return plan_sequence(task.system, task.start, task.legs, settings)
 
 
 def test_the_search_is_a_planner_setting_and_a_bad_value_names_the_field():

@@ -91,11 +91,16 @@ def optimise_energy(
     # abandons a start that an earlier low one outruns) is the same with or without them, so
     # the result is never higher
     if problem.exact_hessians and settings.search != "starts":
-        loops = _loop_starts(problem, system, legs, runs)
+        loops = _loop_starts(problem, runs)
         if loops:
-            say(f"energy search: {counted(len(loops), 'loop start')}, a loop on a curvature peak")
+            say(
+                f"energy search: {counted(len(loops), 'loop start')} (a leg's loop moved onto a "
+                "peak of the base's curvature)"
+            )
             seeds = [*seeds, *(("loop", problem.coefficients(z)) for z in loops)]
-            runs += race(problem, loops, settings.tolerance, pg_tol)
+            # against the minima the other starts reached: a loop start well above them after
+            # a few iterations is dropped, one heading for one of them stops there
+            runs += race(problem, loops, settings.tolerance, pg_tol, _known(runs))
     if problem.exact_hessians and settings.search == "legwise":
         say(f"energy search: start {len(seeds) + 1}, made leg by leg (legwise)")
         z = legwise_start(problem, system, legs, settings, *_newton_part(seeds))
@@ -139,13 +144,18 @@ def optimise_energy(
 
 
 def race(
-    problem: StackedProblem, zs: list[np.ndarray], tolerance: float, pg_tol: float = PG_TOL
+    problem: StackedProblem,
+    zs: list[np.ndarray],
+    tolerance: float,
+    pg_tol: float = PG_TOL,
+    known: tuple[float, list[np.ndarray]] = (np.inf, []),
 ) -> list[Descent]:
     """The feasible SQP from each start `zs` (whitened), raced (`optimise_energy`); the runs,
-    in the order of `zs`."""
+    in the order of `zs`. `known`: the lowest energy and the minima an earlier race reached,
+    which this one abandons against and stops at as the minima it finds itself."""
     runs = [Descent(problem, z, tolerance, pg_tol) for z in zs]
-    found: list[np.ndarray] = []  # minima reached by finished starts
-    best = [np.inf]
+    found: list[np.ndarray] = list(known[1])  # minima reached by finished starts
+    best = [known[0]]
 
     first = next((run.energy for run in runs if run.feasible), np.inf)
 
@@ -175,12 +185,18 @@ def race(
     return runs
 
 
-def _loop_starts(problem: StackedProblem, system, legs, runs: list[Descent]) -> list:
+def _known(runs: list[Descent]) -> tuple[float, list[np.ndarray]]:
+    """The lowest energy and the minima `runs` reached, for a later race (`race`)."""
+    minima = [run for run in runs if run.feasible and run.reason in MINIMUM]
+    return min((run.energy for run in minima), default=np.inf), [run.z for run in minima]
+
+
+def _loop_starts(problem: StackedProblem, runs: list[Descent]) -> list:
     """The loop starts (`loops.loop_starts`) from the lowest minimum that `runs` reached;
     none if no run reached one."""
-    minima = (run for run in runs if run.feasible and run.reason in MINIMUM)
+    minima = [run for run in runs if run.feasible and run.reason in MINIMUM]
     lowest = min(minima, key=lambda run: run.energy, default=None)
-    return [] if lowest is None else loop_starts(problem, system, legs, lowest.z)
+    return [] if lowest is None else loop_starts(problem, lowest.z)
 
 
 def _first_kept(

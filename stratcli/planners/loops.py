@@ -20,8 +20,9 @@ for each leg on such a stratum whose goal fixes the base (`loop_starts`):
 3. **Starts**: paths whose energy is below `SCREEN` times the leg's energy at the minimum
    are fitted by the leg's controls (least squares on the path at `FIT_NODES` times, every
    other coefficient held near the minimum) and brought onto the goals, lowest path energy
-   first; the first `MAX_STARTS` that get there are the starts. The energy search races them
-   after its own starts (`energy.optimise_energy`, kind "loop") and keeps one only if it
+   first; each leg's first that gets there is a start (a leg whose loop is dear is not
+   crowded out by a cheap leg's). The energy search races them after its own starts, against
+   the minima those reached (`energy.optimise_energy`, kind "loop"), and keeps one only if it
    ends lower.
 
 Steps 1-2 cost a few milliseconds a leg and most legs offer no path below the screen, so
@@ -37,6 +38,7 @@ import numpy as np
 
 from ..curvature import curvature, driven
 from .base import onto_goals
+from .legwise import BROKE_DOWN  # numbers that break down make no loop start either
 
 GRID = 40  # points per driven joint in the peaks' window
 WINDOW = 1.25 * math.pi  # half-width of that window, rad (a little over a period of a joint)
@@ -51,35 +53,34 @@ PATH_NODES = 64  # points along a path for its turn of the base and its length
 # a loose bound of a random task (`bench_screen.py`, seed 9) missed the lower minimum that a
 # path at 1.27x the leg's energy leads to.
 SCREEN = 1.5
-MAX_STARTS = 1
 FIT_NODES = 48  # times at which the leg's controls are fitted to the path
 HOLD = 1e-3  # weight (relative) holding the other coefficients at the minimum in the fit
 RESTORED, RESTORE_ITERATIONS = 1e-6, 10  # loosely: the race restores to rounding
-# numbers that break down make no loop start (as `legwise.BROKE_DOWN`)
-BROKE_DOWN = (ArithmeticError, np.linalg.LinAlgError, ValueError, RuntimeError)
 
 
-def loop_starts(problem, system, legs, z: np.ndarray) -> list[np.ndarray]:
+def loop_starts(problem, z: np.ndarray) -> list[np.ndarray]:
     """Loop starts (whitened z of `problem`) from its minimum `z` (module docstring); none
     where no leg qualifies or every path is dearer than the screen allows."""
     try:
         with np.errstate(all="ignore"):
-            paths = sorted(_paths(problem, system, legs, z), key=lambda p: p[0])
-            starts = (_fitted(problem, z, *p[1:]) for p in paths)
-            return list(itertools.islice((s for s in starts if s is not None), MAX_STARTS))
+            paths = sorted(_paths(problem, z), key=lambda p: p[0])
+            out = []
+            for i in sorted({p[1] for p in paths}):  # per leg: its cheapest path that restores
+                starts = (_fitted(problem, z, *p[1:]) for p in paths if p[1] == i)
+                out += itertools.islice((s for s in starts if s is not None), 1)
+            return out
     except BROKE_DOWN:
         return []
 
 
-def _paths(problem, system, legs, z: np.ndarray):
+def _paths(problem, z: np.ndarray):
     """(energy, leg index, joints, path as a function of s) of every path under the screen."""
     parts = problem.split(problem.coefficients(z))
-    for i, leg in enumerate(legs):
-        cs = system.compiled(leg.stratum)
-        inputs = driven(cs) if hasattr(cs, "quadrature_terms") else None
+    for i, ep in enumerate(problem.endpoints):
+        cs = ep.cs
+        inputs = driven(cs) if getattr(cs, "quadrature_terms", None) is not None else None
         if inputs is None or len(cs.quadrature) != 1 or cs.quadrature[0] not in problem.targets[i]:
             continue
-        ep = problem.endpoints[i]
         a, b = problem.offsets[i], problem.offsets[i + 1]
         energy = float(parts[i] @ problem.M[a:b, a:b] @ parts[i])
         q_s, q_e = ep.q0, ep(parts[i], False)[0]
