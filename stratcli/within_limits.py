@@ -1,6 +1,7 @@
 """Plans moved inside the joint limits, clear of themselves and of the obstacles, along every
 leg (issue 17): the constrained search (`planners.constrained`) from the plan found without
-them, then from further seeded Newton plans; for auto mode, a candidate's plan so moved and
+them (and, where its energy search kept a loop or legwise start, from the minimum of its own
+starts), then from further seeded Newton plans; for auto mode, a candidate's plan so moved and
 verified (no I/O)."""
 
 from __future__ import annotations
@@ -12,11 +13,13 @@ import numpy as np
 from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.constrained import NotSearchable, constrained_search
+from .planners.energy import LATER
 from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs, held_vias, nominal_starts
 
 __all__ = ["STALLED", "candidate_within_limits", "re_planned", "within_limits"]
 
 CONSTRAINED_SEEDS = 3  # further starts of the constrained search when the plan's own stalls
+PLAIN = "plain"  # the start from the minimum of the energy search's own starts
 AUXILIARY_LIMIT = 2.5  # rad: joint limits of the start for self-collision alone
 NOT_RECHAINED = "the constrained plan did not re-chain onto the goals; "  # + chain's message
 MORE_STARTS_ABOVE = 3.0  # energy inside the limits / without them that suggests more starts
@@ -49,8 +52,15 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     coefficients, notes, stalled, iterations, searched = None, [], "", 0, 0
     inside = []  # (energy, coefficients, notes, iterations) of each start that got inside
     wanted = settings.constrained_starts
-    for k in range(CONSTRAINED_SEEDS + wanted):
-        if k:  # another start: a Newton plan from a seed, as the energy search's starts
+    plain = [PLAIN] if _from_a_later_start(plan) else []
+    for k in [0, *plain, *range(1, CONSTRAINED_SEEDS + wanted)]:
+        if k == PLAIN:  # the minimum of the search's own starts (`_plain_minimum`)
+            say("constrained search: from the minimum the energy search's own starts reach")
+            lam = _plain_minimum(system, start, legs, settings)
+            if lam is None:
+                continue
+            seeds = [("minimum-energy (without loop starts)", lam)]
+        elif k:  # another start: a Newton plan from a seed, as the energy search's starts
             say(f"constrained search: start {k + 1} (a Newton plan from a seed)")
             other = chain_legs(
                 system, start, legs, settings, restarts=min(settings.restarts, SEED_RESTARTS),
@@ -138,6 +148,23 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         optimisation=plan.optimisation,
         notes=(*final.notes, *notes, *hint),
     )
+
+
+def _from_a_later_start(plan) -> bool:
+    """The plan's energy search kept a loop or legwise start (`planners.energy.LATER`)."""
+    opt = plan.optimisation
+    return bool(opt and opt.best is not None and opt.starts[opt.best].kind in LATER)
+
+
+def _plain_minimum(system, start, legs, settings) -> np.ndarray | None:
+    """The stacked coefficients of the plan the energy search's own starts reach (without
+    loop or legwise starts), or None if it fails. A later start's loop, cheaper without the
+    limits, can run farther outside them than the loop it replaced: the constrained search
+    tries that one too before seeded Newton plans."""
+    from .objectives import plan_with_objective  # (which the objectives call this module from)
+
+    plain = plan_with_objective(system, start, legs, replace(settings, search="starts"))
+    return np.concatenate([leg.coefficients.ravel() for leg in plain.legs]) if plain.ok else None
 
 
 def re_planned(plan, legs) -> list[int]:

@@ -598,3 +598,57 @@ def test_more_harmonics_are_tried_in_turn_and_the_notes_say_which(monkeypatch):
     assert not objectives.stalled(plan)
     assert "try via configurations" in violation_advice(stuck, "")  # not retried: as it was
     assert "more harmonics" in violation_advice(stuck, "")
+
+
+# Random task 1853662621 of benchmarks/bench_random.py --constraints: its free minimum is a
+# loop start's, whose loops the constrained search cannot bring inside ±2.5 rad.
+LOOPED = {
+    "name": "random_1853662621",
+    "model": {"kind": "preset", "name": "one-arm"},
+    "task": {
+        "start": [
+            -0.8389390171205248,
+            0.8287341304145612,
+            -0.27921182074360074,
+            0.6159815589981124,
+        ],
+        "goal": [
+            -0.15260295727241002,
+            -0.24885225971392533,
+            -2.4198293698901074,
+            0.671392552721757,
+        ],
+    },
+    "planner": {"continuity": "lr-C1", "tolerance": 0.001},
+    "legs": [
+        {"stratum": s, "goal": [x, -0.24885225971392533, -2.4198293698901074, 0.671392552721757]}
+        for s, x in [
+            ("S1", -0.8389390171205248),
+            ("S2", -0.15260295727241002),
+            ("S3", -0.15260295727241002),
+            ("S2", -0.15260295727241002),
+        ]
+    ],
+    "constraints": {"joint_limits": [-2.5, 2.5], "self_collision": True, "clearance": 0.05},
+}
+
+
+@pytest.mark.slow  # a stalled constrained search, then one that gets inside: ~5 s
+def test_where_the_free_minimum_is_a_loop_starts_the_search_also_starts_from_the_plain_one():
+    """The constrained search starts from the plan itself, and where its energy search kept a
+    loop start, from the minimum of the search's own starts before seeded Newton plans: here
+    that one gets inside (without it the loop start's and the seeded ones stalled), and it keeps
+    its limits on an independent re-integration."""
+    task = load_scenario(LOOPED)
+    free = load_scenario({k: v for k, v in LOOPED.items() if k != "constraints"})
+    free_plan = plan_run(free, check=False).result
+    assert free_plan.optimisation.starts[free_plan.optimisation.best].kind == "loop"
+    outcome = plan_run(task, check=False)
+    assert outcome.ok, outcome.result.message
+    assert any(
+        "from the minimum-energy (without loop starts) plan" in n for n in outcome.result.notes
+    )
+    verify(task, outcome.document)
+    q = _dense(task, outcome.document)
+    assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
+    assert _self_clearance(task.system.robot, q, 0.05).min() >= 0.05 - 1e-6
