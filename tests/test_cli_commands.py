@@ -77,54 +77,60 @@ def test_time_scaled_plan_is_compared_with_the_paper_at_its_own_speed(tmp_path):
     assert json.loads((run_dir / "resolved.json").read_text())["planner"]["time_scale"] == 2.0
 
 
-def test_objective_option_plans_with_it_and_records_the_changed_scenario(tmp_path):
+TASK_A = (ROOT / "scenarios" / "sim4_task_a.toml").read_text()
+
+
+@pytest.mark.parametrize(
+    ("text", "key", "value", "misspelt", "choices"),
+    [
+        (TASK_D, "objective", "newton", "newtn", "energy or newton"),
+        (TASK_A, "search", "starts", "loop", "loops, starts or legwise"),
+    ],
+)
+def test_a_planner_option_plans_with_it_and_records_the_changed_scenario(
+    tmp_path, text, key, value, misspelt, choices
+):
     """--objective newton plans sim4_task_d.toml (energy objective by default) by the paper's
-    method: the plain Newton plan's energy, result.json and the recorded scenario say newton;
-    a misspelt value is one line naming the option, as --format's, exit 2 (it named
-    planner.objective, the field it sets, which a user did not write)."""
-    result, path = run(tmp_path, TASK_D, "--objective", "newton", "--json")
+    method, --search starts plans Sim 4 task A without loop starts: the energy of the plan
+    with that setting, and the recorded scenario says it; a misspelt value is one line naming
+    the option, as --format's, exit 2 (it named the planner field it sets, which a user did
+    not write)."""
+    result, path = run(tmp_path, text, f"--{key}", value, "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.output)
-    assert doc["objective"] == "newton" and doc["optimisation"] is None
     task = load_scenario(path)
-    newton = plan_sequence(
-        task.system, task.start, task.legs, replace(task.settings, objective="newton")
+    expected = plan_sequence(
+        task.system, task.start, task.legs, replace(task.settings, **{key: value})
     )
-    assert doc["total_energy"] == pytest.approx(newton.total_energy, rel=1e-12)
+    assert doc["total_energy"] == pytest.approx(expected.total_energy, rel=1e-12)
     recorded = tomllib.loads((Path(doc["record"]) / "scenario.toml").read_text())
-    assert recorded["planner"]["objective"] == "newton"
-    bad, _ = run(tmp_path, TASK_D, "--objective", "newtn")
+    assert recorded["planner"][key] == value
+    bad, _ = run(tmp_path, text, f"--{key}", misspelt)
     assert bad.exit_code == 2
-    assert bad.output.strip() == "error: --objective: must be energy or newton (got 'newtn')"
+    assert bad.output.strip() == f"error: --{key}: must be {choices} (got '{misspelt}')"
 
 
-def test_search_option_plans_with_it_and_records_the_changed_scenario(tmp_path):
-    """--search starts plans Sim 4 task A without loop starts (the plain search's energy, no
-    start from a loop), and the record's scenario.toml says so; the default search's plan
-    has the loop start. The option's choices are the settings' (`settings.SEARCHES`)."""
+def test_the_objective_option_plans_by_newton_and_the_search_option_without_loop_starts(
+    tmp_path,
+):
+    """What the two options change: no energy search with newton; no loop start with
+    starts (task A's default plan has one, lower). The --search choices are the settings'."""
     from typing import get_args
 
     from stratcli.cli.commands import SearchChoice
     from stratcli.settings import SEARCHES
 
     assert sorted(get_args(SearchChoice)) == sorted(SEARCHES)
-    task_a = (ROOT / "scenarios" / "sim4_task_a.toml").read_text()
-    result, path = run(tmp_path, task_a, "--search", "starts", "--json")
-    assert result.exit_code == 0, result.output
+    result, _ = run(tmp_path, TASK_D, "--objective", "newton", "--json")
+    doc = json.loads(result.output)
+    assert doc["objective"] == "newton" and doc["optimisation"] is None
+    result, path = run(tmp_path, TASK_A, "--search", "starts", "--json")
     doc = json.loads(result.output)
     assert "loop" not in [s["from"] for s in doc["optimisation"]["starts"]]
     task = load_scenario(path)
-    plain = plan_sequence(
-        task.system, task.start, task.legs, replace(task.settings, search="starts")
-    )
-    assert doc["total_energy"] == pytest.approx(plain.total_energy, rel=1e-12)
-    recorded = tomllib.loads((Path(doc["record"]) / "scenario.toml").read_text())
-    assert recorded["planner"]["search"] == "starts"
     default = plan_sequence(task.system, task.start, task.legs, task.settings)
+    assert "loop" in [s.kind for s in default.optimisation.starts]
     assert default.total_energy < doc["total_energy"]
-    bad, _ = run(tmp_path, task_a, "--search", "loop")
-    assert bad.exit_code == 2
-    assert bad.output.strip() == ("error: --search: must be loops, starts or legwise (got 'loop')")
 
 
 def test_json_output_is_the_result_document(tmp_path):
