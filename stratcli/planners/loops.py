@@ -105,7 +105,9 @@ def _paths(problem, z: np.ndarray):
         base = cs.quadrature[0]
         miss = _turns(cs, q_s, inputs, paths) - (q_e[base] - q_s[base])  # (shapes, radii)
         for shape, row in zip(shapes, miss, strict=True):
-            crossing = np.flatnonzero(np.sign(row[:-1]) != np.sign(row[1:]))
+            # (a radius where the connection is not finite is no crossing)
+            finite = np.isfinite(row[:-1]) & np.isfinite(row[1:])
+            crossing = np.flatnonzero(finite & (np.sign(row[:-1]) != np.sign(row[1:])))
             if crossing.size == 0:
                 continue
             k = crossing[0]  # the smallest radius that turns the base far enough
