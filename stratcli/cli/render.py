@@ -275,8 +275,10 @@ def plan_summary(doc: dict) -> None:
 def _start_energy(start: dict) -> str:
     """`loop 404.03`, `newton 549.89 (abandoned)`: where a start began and where it ended,
     and why its search stopped there when not at a minimum of its own."""
+    from ..planners.sqp import MINIMUM  # (after planning, or reading a record: numpy is loaded)
+
     stopped = start.get("stopped")
-    why = f" ({stopped})" if stopped and stopped not in ("converged", "noise floor") else ""
+    why = f" ({stopped})" if stopped and stopped not in MINIMUM else ""
     return f"{start['from']} {fmt(start['energy'])}{why}"
 
 

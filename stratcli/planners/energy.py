@@ -91,7 +91,9 @@ def optimise_energy(
     # abandons a start that an earlier low one outruns) is the same with or without them, so
     # the result is never higher
     if problem.exact_hessians and settings.search != "starts":
-        loops = _loop_starts(problem, runs)
+        minima = [run for run in runs if run.feasible and run.reason in MINIMUM]
+        lowest = min(minima, key=lambda run: run.energy, default=None)
+        loops = [] if lowest is None else loop_starts(problem, lowest.z)  # from the lowest
         if loops:
             say(
                 f"energy search: {counted(len(loops), 'loop start')} (a leg's loop moved onto a "
@@ -100,7 +102,8 @@ def optimise_energy(
             seeds = [*seeds, *(("loop", problem.coefficients(z)) for z in loops)]
             # against the minima the other starts reached: a loop start well above them after
             # a few iterations is dropped, one heading for one of them stops there
-            runs += race(problem, loops, settings.tolerance, pg_tol, _known(runs))
+            known = (lowest.energy, [run.z for run in minima])
+            runs += race(problem, loops, settings.tolerance, pg_tol, known)
     if problem.exact_hessians and settings.search == "legwise":
         say(f"energy search: start {len(seeds) + 1}, made leg by leg (legwise)")
         z = legwise_start(problem, system, legs, settings, *_newton_part(seeds))
@@ -183,20 +186,6 @@ def race(
     for run in sorted(runs, key=lambda r: r.energy if np.isfinite(r.energy) else np.inf):
         finish(run, None)
     return runs
-
-
-def _known(runs: list[Descent]) -> tuple[float, list[np.ndarray]]:
-    """The lowest energy and the minima `runs` reached, for a later race (`race`)."""
-    minima = [run for run in runs if run.feasible and run.reason in MINIMUM]
-    return min((run.energy for run in minima), default=np.inf), [run.z for run in minima]
-
-
-def _loop_starts(problem: StackedProblem, runs: list[Descent]) -> list:
-    """The loop starts (`loops.loop_starts`) from the lowest minimum that `runs` reached;
-    none if no run reached one."""
-    minima = [run for run in runs if run.feasible and run.reason in MINIMUM]
-    lowest = min(minima, key=lambda run: run.energy, default=None)
-    return [] if lowest is None else loop_starts(problem, lowest.z)
 
 
 def _first_kept(
