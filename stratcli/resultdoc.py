@@ -54,6 +54,8 @@ def _optimisation(opt: Optimisation | None) -> dict[str, Any] | None:
         "method": opt.method,
         "best": opt.best,
         "newton_energy": opt.newton_energy,
+        "search": opt.search,
+        "loop_starts": opt.loop_starts,
         "starts": [{k: getattr(s, a) for k, a in _START_KEYS.items()} for s in opt.starts],
     }
 
@@ -227,7 +229,14 @@ def plan_from_document(
             StartOutcome(**{a: s[k] for k, a in _START_KEYS.items()})
             for s in ({"feasible": s["converged"], **s} for s in opt["starts"])
         )
-        optimisation = Optimisation(starts, opt["best"], opt["newton_energy"], opt["method"])
+        optimisation = Optimisation(
+            starts,
+            opt["best"],
+            opt["newton_energy"],
+            opt["method"],
+            opt.get("search", ""),  # (records before these two keys)
+            opt.get("loop_starts", ""),
+        )
     switches = tuple(
         Switch(
             sw["time"],

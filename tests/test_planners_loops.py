@@ -13,6 +13,7 @@ from reintegrate import verify
 from stratcli.curvature import curvature, driven
 from stratcli.planners import loops
 from stratcli.records.result import result_document
+from stratcli.resultdoc import plan_document
 from stratcli.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
@@ -67,12 +68,38 @@ def test_a_loop_start_at_the_plain_minimum_does_not_change_the_plan(monkeypatch)
 
     task = load_scenario(SCENARIOS / "sim4_task_d.toml")
     plain = energy_plan(task, "starts")
-    monkeypatch.setattr(energy, "loop_starts", lambda problem, z: [z.copy()])
+    monkeypatch.setattr(energy, "loop_starts", lambda problem, z: ([z.copy()], ""))
     looped = energy_plan(task, "loops")
     opt = looped.optimisation
     assert [s.kind for s in opt.starts][-1] == "loop"
     assert opt.best == plain.optimisation.best
     assert looped.total_energy == plain.total_energy
+
+
+@pytest.mark.parametrize(
+    ("name", "search", "why"),
+    [
+        ("sim4_task_d", "loops", loops.NO_PATH),
+        ("unicycle", "loops", loops.NO_LEG),
+        ("sim4_task_a", "loops", ""),
+        ("sim4_task_d", "starts", ""),
+    ],
+    ids=["D", "unicycle", "A", "D starts"],
+)
+def test_the_record_says_which_search_ran_and_why_it_made_no_loop_start(name, search, why):
+    """result.json's optimisation holds the search as run and why the loop search made no
+    loop start: Sim 4 D's loops all cost more than the screen allows, the unicycle has no
+    leg whose two inputs each drive one joint; task A made one, and with `search = "starts"`
+    none was looked for (both empty). The record reads back the same."""
+    task = load_scenario(SCENARIOS / f"{name}.toml")
+    found = energy_plan(task, search)
+    opt = found.optimisation
+    assert (opt.search, opt.loop_starts) == (search, why)
+    assert any(s.kind == "loop" for s in opt.starts) == (name == "sim4_task_a")
+    doc = plan_document(found)
+    assert (doc["optimisation"]["search"], doc["optimisation"]["loop_starts"]) == (search, why)
+    again = type(found).from_dict(doc).optimisation
+    assert (again.search, again.loop_starts) == (search, why)
 
 
 # A custom model whose first input drives its joint backwards (q̇_a = -u1): the curvature is

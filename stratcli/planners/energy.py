@@ -33,6 +33,7 @@ MODEL_ABOVE = 1.05  # ... or whose Newton model's minimum is this far above it
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 SAME_ENERGY = 1e-9  # relative: a later start wins only if lower than this (`LATER`)
 LATER = ("loop", "legwise")  # starts raced after the others (`loops`, `legwise`)
+NO_MINIMUM = "no start reached a minimum to begin them from"  # (`Optimisation.loop_starts`)
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
 # back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
@@ -90,10 +91,13 @@ def optimise_energy(
     # the later starts are raced on their own, after the others: the others' race (which
     # abandons a start that an earlier low one outruns) is the same with or without them, so
     # the result is never higher
+    no_loops = ""  # why the loop starts made none (result.json optimisation.loop_starts)
     if problem.exact_hessians and settings.search != "starts":
         minima = [run for run in runs if run.feasible and run.reason in MINIMUM]
         lowest = min(minima, key=lambda run: run.energy, default=None)
-        loops = [] if lowest is None else loop_starts(problem, lowest.z)  # from the lowest
+        loops, no_loops = [], NO_MINIMUM
+        if lowest is not None:  # from the lowest
+            loops, no_loops = loop_starts(problem, lowest.z)
         if loops:
             say(
                 f"energy search: {counted(len(loops), 'loop start')} (a leg's loop moved onto a "
@@ -143,7 +147,9 @@ def optimise_energy(
             best_index = k
             coefficients = problem.split(problem.coefficients(z))
     method = EXACT_HESSIAN if problem.exact_hessians else SR1_UPDATES  # (`sqp.Descent`'s)
-    return coefficients, Optimisation(tuple(outcomes), best_index, None, method)
+    search = settings.search if problem.exact_hessians else "starts"  # (as run)
+    optimisation = Optimisation(tuple(outcomes), best_index, None, method, search, no_loops)
+    return coefficients, optimisation
 
 
 def race(

@@ -58,29 +58,51 @@ HOLD = 1e-3  # weight (relative) holding the other coefficients at the minimum i
 RESTORED, RESTORE_ITERATIONS = 1e-6, 10  # loosely: the race restores to rounding
 
 
-def loop_starts(problem, z: np.ndarray) -> list[np.ndarray]:
-    """Loop starts (whitened z of `problem`) from its minimum `z` (module docstring); none
-    where no leg qualifies or every path is dearer than the screen allows."""
+# why a search made no loop start (`loop_starts`; result.json `optimisation.loop_starts`)
+NO_LEG = "no leg has two inputs that each drive one joint and a goal that fixes the base"
+NO_PATH = f"every loop round a peak of the base's curvature costs over {SCREEN:g}x its leg's energy"
+NOT_FITTED = "no loop path under the screen could be fitted onto the goals"
+NOT_NUMBERS = "the loop geometry broke down numerically"
+
+
+def loop_starts(problem, z: np.ndarray) -> tuple[list[np.ndarray], str]:
+    """Loop starts (whitened z of `problem`) from its minimum `z` (module docstring), and
+    why there are none ("" where there are): no leg qualifies (`NO_LEG`), every path is
+    dearer than the screen allows (`NO_PATH`), none was fitted onto the goals (`NOT_FITTED`)
+    or the numbers broke down (`NOT_NUMBERS`)."""
     try:
         with np.errstate(all="ignore"):
-            paths = sorted(_paths(problem, z), key=lambda p: p[0])
+            legs = list(_legs(problem))
+            if not legs:
+                return [], NO_LEG
+            paths = sorted(_paths(problem, z, legs), key=lambda p: p[0])
             out = []
             for i in sorted({p[1] for p in paths}):  # per leg: its cheapest path that restores
                 starts = (_fitted(problem, z, *p[1:]) for p in paths if p[1] == i)
                 out += itertools.islice((s for s in starts if s is not None), 1)
-            return out
+            return out, "" if out else (NOT_FITTED if paths else NO_PATH)
     except BROKE_DOWN:
-        return []
+        return [], NOT_NUMBERS
 
 
-def _paths(problem, z: np.ndarray):
-    """(energy, leg index, joints, path as a function of s) of every path under the screen."""
-    parts = problem.split(problem.coefficients(z))
+def _legs(problem):
+    """(index, end-point map, driven inputs) of each leg a loop start applies to: its
+    stratum's two inputs each drive one joint and its goal fixes the base's one quadrature
+    coordinate."""
     for i, ep in enumerate(problem.endpoints):
         cs = ep.cs
         inputs = driven(cs) if getattr(cs, "quadrature_terms", None) is not None else None
         if inputs is None or len(cs.quadrature) != 1 or cs.quadrature[0] not in problem.targets[i]:
             continue
+        yield i, ep, inputs
+
+
+def _paths(problem, z: np.ndarray, legs):
+    """(energy, leg index, joints, path as a function of s) of every path under the screen,
+    on `legs` (`_legs`)."""
+    parts = problem.split(problem.coefficients(z))
+    for i, ep, inputs in legs:
+        cs = ep.cs
         a, b = problem.offsets[i], problem.offsets[i + 1]
         energy = float(parts[i] @ problem.M[a:b, a:b] @ parts[i])
         q_s, q_e = ep.q0, ep(parts[i], False)[0]
