@@ -1,6 +1,7 @@
 """Planning time under constraints: each constrained Sim 4 task against the same task without.
 
-Usage: python benchmarks/bench_constraints.py [--repeats N] [--against DIR] [SCENARIO ...]
+Usage: python benchmarks/bench_constraints.py [--repeats N] [--phases | --against DIR]
+                                                [SCENARIO ...]
 
 For scenarios/sim4_task_{a,b,c,d}_constrained.toml (joints within ±2.5 rad, self-collision
 with clearance 0.05) and sim4_task_d_obstacles.toml, with the energy objective: the median CPU
@@ -9,6 +10,11 @@ dense verification of the [constraints] table) and of the same scenario with its
 [constraints] table removed, over --repeats runs after a warm-up run that compiles the model;
 their ratio (issue 17 asks ≤ 3x); the energies with and without the constraints, and the
 status. A failed constrained plan is timed too (its search ran to its stall).
+
+`--phases` times instead where each constrained plan's CPU goes (medians over --repeats):
+the search's feasibility phases (Gauss-Newton steps onto the margins), barrier rounds and SQP
+steps, the dense checks between the nodes and the dense verification, each with its count of
+steps; the rest of the plan is the free plan it starts from and the re-chaining.
 
 `--against DIR` (another checkout, e.g. `git archive REV | tar -x -C DIR`) times instead the
 constrained plan of each scenario with this checkout and with DIR's code, in fresh processes
@@ -59,8 +65,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--against", type=Path, help="another checkout, timed alternately")
+    parser.add_argument("--phases", action="store_true", help="where the constrained CPU goes")
     parser.add_argument("scenarios", nargs="*", default=DEFAULT)
     args = parser.parse_args()
+    if args.phases:
+        return phases(args.scenarios, args.repeats)
     if args.against is not None:  # one timed plan a process, as many pairs as --repeats
         if why := not_a_checkout(args.against):
             parser.error(why)
@@ -80,6 +89,66 @@ def main() -> None:
             f"{name:26} {t_free:8.3f} {t_con:10.3f} {t_con / t_free:6.1f} "
             f"{free.total_energy:9.2f} {con.total_energy:10.2f}  {con.status.name.lower()}"
         )
+
+
+PHASES = {  # (object, method): column; the search's own phases, its checks, the verification
+    "feasibility": ("_Search", "reach_feasible"),
+    "barrier": ("_Search", "_lower_barrier"),
+    "SQP": ("_Search", "_sqp_step"),
+    "checks": ("NodeMargins", "refined"),
+    "verification": ("constraints", "verify"),
+}
+
+
+def phases(names: list[str], repeats: int) -> None:
+    """`--phases`: per scenario, the median CPU of each phase of its constrained plan (its
+    methods wrapped and timed) and its steps (search iterations; SQP steps; passes)."""
+    from stratcli import constraints
+    from stratcli.node_margins import NodeMargins
+    from stratcli.planners import constrained
+
+    owners = {"_Search": constrained._Search, "NodeMargins": NodeMargins}
+    owners["constraints"] = constraints
+    spent: dict[str, float] = {}
+    steps: dict[str, int] = {}
+
+    def timed(column, owner, method):
+        inner = getattr(owner, method)
+
+        def wrapper(*args, **kwargs):
+            search = args[0] if isinstance(args[0], constrained._Search) else None
+            before = search.iterations if search is not None else 0
+            clock = time.process_time()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                spent[column] = spent.get(column, 0.0) + time.process_time() - clock
+                done = search.iterations - before if search is not None else 1
+                steps[column] = steps.get(column, 0) + (1 if column == "SQP" else done)
+
+        setattr(owner, method, wrapper)
+
+    for column, (owner, method) in PHASES.items():
+        timed(column, owners[owner], method)
+    print(f"CPU ms (time.process_time), median of {repeats} plans after a warm-up; (steps)")
+    print(f"{'scenario':26} {'plan':>6} " + " ".join(f"{c:>16}" for c in PHASES))
+    for name in names:
+        task = load_scenario(ROOT / f"{name}.toml")
+        plan_run(task, check=False)
+        rows = []
+        for _ in range(repeats):
+            spent.clear()
+            steps.clear()
+            clock = time.process_time()
+            plan_run(task, check=False)
+            rows.append((time.process_time() - clock, dict(spent), dict(steps)))
+        total = statistics.median(r[0] for r in rows)
+        cells = [
+            f"{1e3 * statistics.median(r[1].get(c, 0.0) for r in rows):9.0f} "
+            f"({statistics.median(r[2].get(c, 0) for r in rows):4.0f})"
+            for c in PHASES
+        ]
+        print(f"{name:26} {1e3 * total:6.0f} " + " ".join(f"{c:>16}" for c in cells))
 
 
 if __name__ == "__main__":
