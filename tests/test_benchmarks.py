@@ -86,3 +86,21 @@ def test_random_constrained_tasks_are_redrawn_for_every_configuration_problem():
     with pytest.raises(stratcli.InputError, match="comes within the clearance of itself"):
         stratcli.load_scenario({**task, "constraints": {"self_collision": True, "clearance": 0.05}})
     assert pre_violation(task) == "self-collision"
+
+
+def test_the_phases_of_a_constrained_plan_add_up_to_less_than_the_plan(capsys):
+    """`bench_constraints.py --phases`: each phase of Sim 4 C's constrained plan has steps and
+    CPU time, together less than the whole plan's (which also plans the free plan), and the
+    methods it wrapped are unwrapped afterwards."""
+    from stratcli.planners import constrained
+
+    module = importlib.import_module("bench_constraints")
+    before = constrained._Search.reach_feasible
+    module.phases(["sim4_task_c_constrained"], 1)
+    assert constrained._Search.reach_feasible is before
+    row = capsys.readouterr().out.splitlines()[-1].split()
+    assert row[0] == "sim4_task_c_constrained"
+    total, cells = float(row[1]), " ".join(row[2:]).replace("(", " ").replace(")", " ").split()
+    times, steps = [float(c) for c in cells[0::2]], [int(c) for c in cells[1::2]]
+    assert len(times) == len(module.PHASES) and sum(times) < total
+    assert all(n >= 1 for n in steps) and steps[-1] == 1  # one verification
