@@ -24,7 +24,7 @@ from .render_analysis import check_report, decomposition
 
 # `settings.Search`, spelt here for start-up speed (--help imports no settings); a test keeps
 # the two the same
-SearchChoice = Literal["loops", "starts", "legwise"]
+SearchChoice = Literal["starts", "loops", "legwise"]
 Format = Annotated[
     Literal["png", "svg", "pdf"],
     typer.Option("--format", help="Format of the plots (motion.gif stays a GIF)."),

@@ -402,15 +402,15 @@ def search_note(kind: str, nodes: int, iterations: int, found: float, final: flo
     """The plan's note on its constrained search: from which plan, at how many nodes, the
     energy of the first plan within the limits and (the energy objective: `lowered`) the
     final one, which is higher where nodes added between dips cost more than the SQP won."""
-    energy = f"energy {found:.6g}"
+    energy = f"energy {found:.6g} when {'first ' if lowered else ''}within the limits"
     if lowered and final <= found:
         energy += f", lowered to {final:.6g} inside them"
     elif lowered:
         energy += (
-            f" when first within them, raised to {final:.6g} by the nodes added where a plan "
-            "dipped below a limit between them"
+            f", raised to {final:.6g} by the nodes added where a plan dipped below a limit "
+            "between them"
         )
     return (
-        f"constrained search from the {kind} plan: within the limits at {nodes} nodes after "
-        f"{iterations} iterations, {energy} (at the speed planned, before any time scaling)"
+        f"constrained search from the {kind} plan ({iterations} iterations in all, the limits "
+        f"checked at {nodes} nodes): {energy} (at the speed planned, before any time scaling)"
     )

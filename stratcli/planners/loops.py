@@ -60,15 +60,18 @@ RESTORED, RESTORE_ITERATIONS = 1e-6, 10  # loosely: the race restores to roundin
 
 # why a search made no loop start (`loop_starts`; result.json `optimisation.loop_starts`)
 NO_LEG = "no leg has two inputs that each drive one joint and a goal that fixes the base"
-NO_PATH = f"every loop round a peak of the base's curvature costs over {SCREEN:g}x its leg's energy"
-NOT_FITTED = "no loop path under the screen could be fitted onto the goals"
+NO_PATH = (  # (none turns it far enough at a scanned radius, or those that do are too dear)
+    "no loop round a spot where the base turns fastest turns it far enough for under "
+    f"{SCREEN:g}x its leg's energy"
+)
+NOT_FITTED = "no loop cheap enough could be fitted onto the goals"
 NOT_NUMBERS = "the loop geometry broke down numerically"
 
 
 def loop_starts(problem, z: np.ndarray) -> tuple[list[np.ndarray], str]:
     """Loop starts (whitened z of `problem`) from its minimum `z` (module docstring), and
-    why there are none ("" where there are): no leg qualifies (`NO_LEG`), every path is
-    dearer than the screen allows (`NO_PATH`), none was fitted onto the goals (`NOT_FITTED`)
+    why there are none ("" where there are): no leg qualifies (`NO_LEG`), no path passes the
+    screen (`NO_PATH`), none was fitted onto the goals (`NOT_FITTED`)
     or the numbers broke down (`NOT_NUMBERS`)."""
     try:
         with np.errstate(all="ignore"):
