@@ -100,15 +100,22 @@ PHASES = {  # (object, method): column; the search's own phases, its checks, the
 }
 
 
-def phases(names: list[str], repeats: int) -> None:
-    """`--phases`: per scenario, the median CPU of each phase of its constrained plan (its
-    methods wrapped and timed) and its steps (search iterations; SQP steps; passes)."""
+def owners_of_phases() -> dict:
+    """The objects whose methods `PHASES` names."""
     from stratcli import constraints
     from stratcli.node_margins import NodeMargins
     from stratcli.planners import constrained
 
-    owners = {"_Search": constrained._Search, "NodeMargins": NodeMargins}
-    owners["constraints"] = constraints
+    return {"_Search": constrained._Search, "NodeMargins": NodeMargins, "constraints": constraints}
+
+
+def phases(names: list[str], repeats: int) -> None:
+    """`--phases`: per scenario, the median CPU of each phase of its constrained plan (its
+    methods wrapped and timed) and its steps (search iterations; SQP steps; passes). Each
+    column is its own median over the plans, so the columns need not add up to the plan's."""
+    from stratcli.planners import constrained
+
+    owners = owners_of_phases()
     spent: dict[str, float] = {}
     steps: dict[str, int] = {}
 
@@ -118,7 +125,7 @@ def phases(names: list[str], repeats: int) -> None:
         inner = getattr(owner, method)
 
         def wrapper(*args, **kwargs):
-            search = args[0] if isinstance(args[0], constrained._Search) else None
+            search = args[0] if args and isinstance(args[0], constrained._Search) else None
             before = search.iterations if search is not None else 0
             clock = time.process_time()
             try:

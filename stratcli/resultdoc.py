@@ -55,7 +55,7 @@ def _optimisation(opt: Optimisation | None) -> dict[str, Any] | None:
         "best": opt.best,
         "newton_energy": opt.newton_energy,
         "search": opt.search,
-        "loop_starts": opt.loop_starts,
+        "no_loop_start": opt.no_loop_start,
         "starts": [{k: getattr(s, a) for k, a in _START_KEYS.items()} for s in opt.starts],
     }
 
@@ -235,7 +235,7 @@ def plan_from_document(
             opt["newton_energy"],
             opt["method"],
             opt.get("search", ""),  # (records before these two keys)
-            opt.get("loop_starts", ""),
+            opt.get("no_loop_start", ""),
         )
     switches = tuple(
         Switch(

@@ -232,7 +232,7 @@ class Optimisation:
     newton_energy: float | None
     method: str = EXACT_HESSIAN  # or SR1_UPDATES (legs without second derivatives)
     search: str = ""  # as run: "starts", "loops" or "legwise" ("": a record made before it)
-    loop_starts: str = ""  # why the loop search made no loop start ("" where it made some)
+    no_loop_start: str = ""  # why the loop search made no loop start ("" where it made some)
 
 
 @dataclass(frozen=True)

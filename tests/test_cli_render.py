@@ -271,6 +271,20 @@ def test_the_search_line_names_the_start_that_won(monkeypatch, planned):
     assert f"the starts ended at {first['from']} {first['energy']:,.2f} (abandoned)" in text
 
 
+def test_the_search_line_ends_with_why_no_loop_start_was_made(monkeypatch, planned):
+    """The record's `no_loop_start` ends the search line (after the time-scaling remark,
+    which is about the energies before it); an empty one adds nothing."""
+    doc = copy.deepcopy(planned.document)
+    doc["optimisation"]["no_loop_start"] = ""
+    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    assert "no loop start" not in text
+    doc["optimisation"]["no_loop_start"] = "why not"
+    doc["time_scale"] = 2.0
+    doc["total_energy"] = 2.0 * doc["total_energy"]
+    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    assert "(energies before time scaling); no loop start: why not" in text
+
+
 def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monkeypatch, planned):
     """With [constraints] that moved the plan off the free optimum, the energy search's line
     describes the plan without them: it says so, before the note of the constrained search."""

@@ -65,6 +65,13 @@ def test_without_second_derivatives_the_search_still_converges(name, monkeypatch
     assert start.kind == "newton" and start.stopped == "converged"
     assert start.projected_gradient <= 1e-8
     assert estimated.ok and estimated.total_energy == pytest.approx(exact.total_energy, rel=1e-7)
+    # the record says so: the plain starts ran, and why no loop start was looked for
+    from stratcli.planners.energy import NO_HESSIANS
+
+    assert (estimated.optimisation.search, estimated.optimisation.no_loop_start) == (
+        "starts",
+        NO_HESSIANS,
+    )
 
 
 def test_energy_optimum_is_a_local_minimum_on_the_constraint_set(task_d):

@@ -94,12 +94,36 @@ def test_the_record_says_which_search_ran_and_why_it_made_no_loop_start(name, se
     task = load_scenario(SCENARIOS / f"{name}.toml")
     found = energy_plan(task, search)
     opt = found.optimisation
-    assert (opt.search, opt.loop_starts) == (search, why)
+    assert (opt.search, opt.no_loop_start) == (search, why)
     assert any(s.kind == "loop" for s in opt.starts) == (name == "sim4_task_a")
     doc = plan_document(found)
-    assert (doc["optimisation"]["search"], doc["optimisation"]["loop_starts"]) == (search, why)
+    assert (doc["optimisation"]["search"], doc["optimisation"]["no_loop_start"]) == (search, why)
     again = type(found).from_dict(doc).optimisation
-    assert (again.search, again.loop_starts) == (search, why)
+    assert (again.search, again.no_loop_start) == (search, why)
+
+
+@pytest.mark.parametrize("why", ["not fitted", "not numbers", "no minimum"])
+def test_a_search_whose_loop_starts_fail_says_why(why, monkeypatch):
+    """Task A makes a loop start; where no loop path is fitted onto the goals, where the
+    geometry breaks down, or where no start reached a minimum to begin from, the plan is the
+    plain search's and the record names that reason."""
+    from stratcli.planners import energy
+
+    expected = {
+        "not fitted": loops.NOT_FITTED,
+        "not numbers": loops.NOT_NUMBERS,
+        "no minimum": energy.NO_MINIMUM,
+    }[why]
+    if why == "not fitted":
+        monkeypatch.setattr(loops, "_fitted", lambda *args: None)
+    elif why == "not numbers":
+        monkeypatch.setattr(loops, "_peaks", lambda *args: 1 / 0)
+    else:
+        monkeypatch.setattr(energy, "MINIMUM", ())
+    task = load_scenario(SCENARIOS / "sim4_task_a.toml")
+    found = energy_plan(task, "loops")
+    opt = found.optimisation
+    assert opt.no_loop_start == expected and "loop" not in [s.kind for s in opt.starts]
 
 
 # A custom model whose first input drives its joint backwards (q̇_a = -u1): the curvature is

@@ -237,8 +237,8 @@ def plan_summary(doc: dict) -> None:
             f"{', ' + best['stopped'] if best.get('stopped') else ''}, "
             f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
             f"{energies}{rechained}; plain Newton: {fmt(opt['newton_energy'])}"
-            + (f"; no loop start: {opt['loop_starts']}" if opt.get("loop_starts") else "")
-            + (" (energies before time scaling)" if scale != 1.0 else ""),
+            + (" (energies before time scaling)" if scale != 1.0 else "")
+            + (f"; no loop start: {opt['no_loop_start']}" if opt.get("no_loop_start") else ""),
             highlight=False,
         )
     failure = (doc.get("message") or "") if doc["status"] != "ok" else ""

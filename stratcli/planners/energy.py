@@ -33,7 +33,9 @@ MODEL_ABOVE = 1.05  # ... or whose Newton model's minimum is this far above it
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 SAME_ENERGY = 1e-9  # relative: a later start wins only if lower than this (`LATER`)
 LATER = ("loop", "legwise")  # starts raced after the others (`loops`, `legwise`)
-NO_MINIMUM = "no start reached a minimum to begin them from"  # (`Optimisation.loop_starts`)
+# why no loop start (`Optimisation.no_loop_start`), besides `loops.loop_starts`' reasons
+NO_MINIMUM = "no start reached a minimum to begin them from"
+NO_HESSIANS = "the legs have no exact second derivatives (URDF robots, ODE-path legs)"
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
 # back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
@@ -91,7 +93,9 @@ def optimise_energy(
     # the later starts are raced on their own, after the others: the others' race (which
     # abandons a start that an earlier low one outruns) is the same with or without them, so
     # the result is never higher
-    no_loops = ""  # why the loop starts made none (result.json optimisation.loop_starts)
+    no_loops = ""  # why the loop starts made none (result.json optimisation.no_loop_start)
+    if not problem.exact_hessians and settings.search != "starts":
+        no_loops = NO_HESSIANS
     if problem.exact_hessians and settings.search != "starts":
         minima = [run for run in runs if run.feasible and run.reason in MINIMUM]
         lowest = min(minima, key=lambda run: run.energy, default=None)

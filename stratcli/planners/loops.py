@@ -58,7 +58,7 @@ HOLD = 1e-3  # weight (relative) holding the other coefficients at the minimum i
 RESTORED, RESTORE_ITERATIONS = 1e-6, 10  # loosely: the race restores to rounding
 
 
-# why a search made no loop start (`loop_starts`; result.json `optimisation.loop_starts`)
+# why a search made no loop start (`loop_starts`; result.json `optimisation.no_loop_start`)
 NO_LEG = "no leg has two inputs that each drive one joint and a goal that fixes the base"
 NO_PATH = (  # (none turns it far enough at a scanned radius, or those that do are too dear)
     "no loop round a spot where the base turns fastest turns it far enough for under "
