@@ -94,9 +94,9 @@ def optimise_energy(
     # abandons a start that an earlier low one outruns) is the same with or without them, so
     # the result is never higher
     no_loops = ""  # why the loop starts made none (result.json optimisation.no_loop_start)
-    if not problem.exact_hessians and settings.search != "starts":
+    if settings.search != "starts" and not problem.exact_hessians:
         no_loops = NO_HESSIANS
-    if problem.exact_hessians and settings.search != "starts":
+    elif settings.search != "starts":
         minima = [run for run in runs if run.feasible and run.reason in MINIMUM]
         lowest = min(minima, key=lambda run: run.energy, default=None)
         loops, no_loops = [], NO_MINIMUM

@@ -71,8 +71,8 @@ NOT_NUMBERS = "the loop geometry broke down numerically"
 def loop_starts(problem, z: np.ndarray) -> tuple[list[np.ndarray], str]:
     """Loop starts (whitened z of `problem`) from its minimum `z` (module docstring), and
     why there are none ("" where there are): no leg qualifies (`NO_LEG`), no path passes the
-    screen (`NO_PATH`), none was fitted onto the goals (`NOT_FITTED`)
-    or the numbers broke down (`NOT_NUMBERS`)."""
+    screen (`NO_PATH`), none was fitted onto the goals (`NOT_FITTED`) or the numbers broke
+    down (`NOT_NUMBERS`)."""
     try:
         with np.errstate(all="ignore"):
             legs = list(_legs(problem))
