@@ -64,8 +64,9 @@ def _timed(task, repeats: int):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--against", type=Path, help="another checkout, timed alternately")
-    parser.add_argument("--phases", action="store_true", help="where the constrained CPU goes")
+    either = parser.add_mutually_exclusive_group()  # each is its own report
+    either.add_argument("--against", type=Path, help="another checkout, timed alternately")
+    either.add_argument("--phases", action="store_true", help="where the constrained CPU goes")
     parser.add_argument("scenarios", nargs="*", default=DEFAULT)
     args = parser.parse_args()
     if args.phases:

@@ -13,6 +13,7 @@ def counted(n: int, noun: str, plural: str | None = None) -> str:
 
 
 def method_words(method: str, strategy: str | None) -> str:
-    """A leg's method as tables and figures name it: "newton", or "newton (continuation)"
-    where the homotopy reached the leg's goal (`strategy` "continuation")."""
-    return method + (" (continuation)" if strategy == "continuation" else "")
+    """A leg's method as tables and figures name it: "newton"; "newton (continuation)" where
+    the homotopy reached the leg's goal (`strategy` "continuation"), "newton (constrained)"
+    where the constrained search over all legs planned it (`strategy` "constrained")."""
+    return method + (f" ({strategy})" if strategy in ("continuation", "constrained") else "")

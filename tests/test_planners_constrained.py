@@ -266,6 +266,13 @@ def test_legs_the_constrained_search_planned_report_its_iterations_not_zero():
     text = console.export_text()
     assert text.count(f" {searched}* ") == 2  # each leg: the search's, not 0
     assert "* the constrained search's iterations and starts, over all legs together" in text
+    # the method column and the plots' leg labels say which search planned the legs (under
+    # the energy objective, without these columns, it was the only sign)
+    rows = [line for line in text.splitlines() if f" {searched}* " in line]
+    assert all("newton (constrained)" in row for row in rows)
+    from stratcli.records.figure_common import leg_method
+
+    assert leg_method(outcome.result, 0).endswith(" · newton (constrained)")
 
 
 @pytest.mark.slow

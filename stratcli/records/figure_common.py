@@ -44,7 +44,8 @@ def locked_names(plan: SequencePlan, k: int) -> list[str]:
 
 def leg_method(plan: SequencePlan, k: int) -> str:
     """Stratum and method of leg `k`: "S1 · newton", "S2 · newton (continuation)" (the
-    homotopy reached its goal), "S1 · lie (8 steps)"."""
+    homotopy reached its goal), "S1 · newton (constrained)" (the constrained search planned
+    it), "S1 · lie (8 steps)"."""
     leg = plan.legs[k]
     steps = len(leg.pieces)
     if leg.method == "lie":
