@@ -400,15 +400,17 @@ def constrained_search(
 
 def search_note(kind: str, nodes: int, iterations: int, found: float, final: float, lowered: bool):
     """The plan's note on its constrained search: from which plan, at how many nodes, the
-    energy of the first plan within the limits and (the energy objective: `lowered`) the
-    final one, which is higher where nodes added between dips cost more than the SQP won."""
-    energy = f"energy {found:.6g} when {'first ' if lowered else ''}within the limits"
+    energy of the first plan within the limits and the final one: lowered inside them (the
+    energy objective: `lowered`), or higher where nodes added between dips cost more than the
+    SQP won, or (the Newton objective) moved by the search again from those nodes."""
+    moved = abs(final - found) > 1e-9 * max(abs(found), 1.0)
+    energy = f"energy {found:.6g} when {'first ' if lowered or moved else ''}within the limits"
     if lowered and final <= found:
         energy += f", lowered to {final:.6g} inside them"
-    elif lowered:
+    elif lowered or moved:
         energy += (
-            f", raised to {final:.6g} by the nodes added where a plan dipped below a limit "
-            "between them"
+            f", {'raised' if final > found else 'moved'} to {final:.6g} by the nodes added "
+            "where a plan dipped below a limit between them"
         )
     return (
         f"constrained search from the {kind} plan ({iterations} iterations in all, the limits "
