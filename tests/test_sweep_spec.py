@@ -52,6 +52,34 @@ def test_random_tasks_draw_from_per_task_seed_sequences(tmp_path):
     assert len({t.seed for t in tasks}) == len(tasks)
 
 
+def test_random_ranges_draw_settings_too_integers_where_both_bounds_are(tmp_path):
+    """A range may name any value a grid may (an obstacle's centre, the tolerance): drawn
+    uniformly, an integer setting's from low to high inclusive; a new user's obstacle range
+    was refused as "random ranges are for coordinates"."""
+    body = (
+        '[sweep.random]\ncount = 12\nseed = 3\nranges = { "goal.q1" = [-1, 0], '
+        '"planner.tolerance" = [1e-4, 1e-3], "planner.restarts" = [1, 3] }\n'
+    )
+    tasks = list(load_sweep(write(tmp_path, body)).tasks())
+    for k, task in enumerate(tasks):
+        rng = np.random.default_rng(np.random.SeedSequence(3, spawn_key=(k,)))
+        expected = (rng.uniform(-1, 0), rng.uniform(1e-4, 1e-3), rng.integers(1, 3, endpoint=True))
+        assert tuple(task.inputs.values()) == expected
+        assert isinstance(task.inputs["goal.q1"], float)  # a coordinate: a float all the same
+        settings = load_scenario(task.scenario).settings
+        assert settings.tolerance == task.inputs["planner.tolerance"]
+        assert settings.restarts == task.inputs["planner.restarts"]
+    assert {t.inputs["planner.restarts"] for t in tasks} == {1, 2, 3}
+    obstacle = ROOT / "scenarios" / "sim4_task_d_obstacles.toml"
+    x_range = '"constraints.obstacles[0].centre[0]" = [-0.35, -0.25]'
+    body = f"[sweep.random]\ncount = 3\nranges = {{ {x_range} }}\n"
+    for task in load_sweep(write(tmp_path, body, scenario=obstacle, name="o")).tasks():
+        x = task.inputs["constraints.obstacles[0].centre[0]"]
+        assert (
+            -0.35 <= x <= -0.25 and task.scenario["constraints"]["obstacles"][0]["centre"][0] == x
+        )
+
+
 def test_a_task_table_and_an_inline_scenario(tmp_path):
     base = TASK_A.read_text().replace("[model]", "[scenario.model]")
     for table in ("task", "planner", "legs", "reference"):
@@ -89,7 +117,10 @@ BAD = [
      "ranges = { \"goal.q1\" = [0, 1] }\n", "sweep: give only one of"),
     ("[sweep.random]\ncount = 2\nranges = { \"goal.q1\" = [1, 0] }\n", "low must be below high"),
     ("[sweep.random]\ncount = 0\nranges = { \"goal.q1\" = [0, 1] }\n", "sweep.random.count"),
-    ("[sweep.random]\ncount = 2\nranges = { \"planner.seed\" = [0, 1] }\n", "are for coordinates"),
+    (  # an integer setting's range with a bound that is not an integer
+        "[sweep.random]\ncount = 2\nranges = { \"planner.restarts\" = [0, 2.5] }\n",
+        'sweep.random.ranges."planner.restarts"[1]: ',
+    ),
     (
         "[[sweep.task]]\n\"goal.q1\" = 1\n[[sweep.task]]\n\"goal.q2\" = 1\n",
         "sweep.task[0]: misses goal.q2 (set by sweep.task[1]): every [[sweep.task]] sets the same",
@@ -199,10 +230,12 @@ STAGES = [
         ['sweep.random.ranges."goal.q9": unknown coordinate \'q9\'',
          'sweep.random.ranges."goal.q9"[0]: in \'-pi/zz\''],
     ),
-    (  # a range of a setting: its values are not checked as the setting's (0.0 no integer)
-        '[sweep.random]\ncount = 2\nranges = { "planner.seed" = [0, 1] }\n',
+    (  # a range of a setting the scenario does not have, and a tolerance's bound below 0
+        '[sweep.random]\ncount = 2\nranges = { "planner.harmonic" = [1, 3], '
+        '"planner.tolerance" = [-1e-3, 1e-3] }\n',
         "auto", AUTO,
-        ['sweep.random.ranges."planner.seed": random ranges are for coordinates'],
+        ['sweep.random.ranges."planner.harmonic": ',
+         'sweep.random.ranges."planner.tolerance"[0]: '],
     ),
 ]  # fmt: skip
 

@@ -13,6 +13,7 @@ A sweep file is a base scenario (a path, or an inline ``[scenario]`` table) plus
     "goal.theta" = [-0.5, 0.0, 0.5]
 
 or ``[sweep.random]`` (``count``, ``seed``, ``ranges = { "goal.q1" = [lo, hi] }``, uniform;
+integers from lo to hi for a setting whose bounds are integers;
 task k draws from ``SeedSequence(seed, spawn_key=(k,))`` and plans with a seed drawn from it),
 or an explicit ``[[sweep.task]]`` table of ``key = value`` rows.
 
@@ -161,9 +162,16 @@ class Sweep:
             seed = int(scenario.get("planner", {}).get("seed", 0))
             yield SweepTask(index, inputs, seed, scenario)
 
-    def _draw(self, k: int) -> tuple[float, ...]:
+    def _draw(self, k: int) -> tuple[float | int, ...]:
+        """Task k's values: uniform on [lo, hi], integers from lo to hi where both bounds
+        are (an integer setting's, `tables.random_ranges`), in the order of the keys."""
         rng = np.random.default_rng(self._sequence(k))
-        return tuple(float(rng.uniform(lo, hi)) for lo, hi in self.random.ranges.values())
+        return tuple(
+            int(rng.integers(lo, hi, endpoint=True))
+            if isinstance(lo, int) and isinstance(hi, int)
+            else float(rng.uniform(lo, hi))
+            for lo, hi in self.random.ranges.values()
+        )
 
     def _sequence(self, k: int) -> np.random.SeedSequence:
         return np.random.SeedSequence(self.random.seed, spawn_key=(k,))

@@ -96,7 +96,7 @@ def grid_axes(grid: dict[str, Any], base: Base) -> list[tuple[Any, ...]]:
     return axes
 
 
-def _once(found: list[list[Problem]], where: str) -> list[Problem]:
+def _once(found: list[list[Problem]], where: str, every: str = "every value") -> list[Problem]:
     """The problems of an axis's values, one line at the axis for a problem every value has
     (an unknown setting such as "planner.harmonics" is not a problem of each value)."""
     if len(found) > 1 and found[0]:
@@ -105,7 +105,7 @@ def _once(found: list[list[Problem]], where: str) -> list[Problem]:
             shared &= {p.message for p in problems}
         if shared:
             kept = [p for problems in found for p in problems if p.message not in shared]
-            common = [Problem(where, f"{m} (every value)") for m in sorted(shared)]
+            common = [Problem(where, f"{m} ({every})") for m in sorted(shared)]
             return common + kept
     return _first(found, where)
 
@@ -120,26 +120,30 @@ def _first(found: list[list[Problem]], where: str) -> list[Problem]:
     return [p for problems in bad[:LISTED] for p in problems] + [Problem(where, more)]
 
 
-def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[float | None]]:
-    """The [low, high] of each coordinate of [sweep.random], checked."""
+def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[Any]]:
+    """The [low, high] of each key of [sweep.random], checked: a coordinate's and a real
+    setting's as floats (drawn uniformly), an integer setting's (both bounds integers, as
+    `planner.seed` or `decompose.max_length`) as integers (drawn from low to high inclusive,
+    as a grid's integer `linspace` gives integers)."""
     out = {}
     for key, pair in ranges.items():
         where = f'sweep.random.ranges."{key}"'
         if ("sweep", "random", "ranges", key) in base.pruned:
             continue
-        if valid_key(key) and not is_coordinate(key):  # its values are for no coordinate
-            base.problems.append(Problem(where, "random ranges are for coordinates (goal.q1, ...)"))
-            known = False
-        else:  # whatever the bounds are: every problem in one run
-            known = not base.key_problem(key, where)
+        known = not base.key_problem(key, where)  # whatever the bounds are: every problem
         bounds = [number(v, f"{where}[{i}]", base.problems) for i, v in enumerate(pair)]
+        whole = all(isinstance(v, int) and not isinstance(v, bool) for v in pair)
+        if whole and not (valid_key(key) and is_coordinate(key)):
+            bounds = [int(v) for v in pair]
         if len(pair) != 2:
             base.problems.append(Problem(where, f"needs [low, high] (got {len(pair)} values)"))
         elif None not in bounds and not bounds[0] < bounds[1]:
             base.problems.append(Problem(where, f"low must be below high (got {pair})"))
-        elif None not in bounds and known:
+        elif None not in bounds and known and base.loads:  # a problem of both: once
+            found: list[list[Problem]] = [[], []]
             for i, b in enumerate(bounds):
-                base.check({key: b}, f"{where}[{i}]")
+                check_value(base.scenario, key, b, base.states, f"{where}[{i}]", found[i])
+            base.problems += _once(found, where, "both bounds")
         out[key] = bounds
     return out
 
