@@ -203,3 +203,44 @@ def test_a_file_with_hundreds_of_problems_prints_the_first_fifty(tmp_path):
     assert result.exit_code == 2 and len(lines) == 51
     assert lines[49].startswith(f"error: {path}: sweep.task[49].")
     assert lines[50] == f"error: {path}: and 70 more problems (the first 50 shown)"
+
+
+def test_failure_reasons_count_alike_messages_together_most_common_first():
+    """Messages that differ only in their numbers are one kind, with its first task."""
+    from stratcli.sweep.outputs import MAX_REASONS, failure_reasons
+
+    rows = {
+        0: {"status": "failed", "message": "leg 1 did not reach its goal (error 0.25)"},
+        1: {"status": "ok", "message": ""},
+        2: {"status": "invalid", "message": "goal.q1: must be a number"},
+        3: {"status": "failed", "message": "leg 2 did not reach its goal (error 1.5e-2)"},
+        4: {"status": "error", "message": "leg 2 did not reach its goal (error 0.3)"},
+    }
+    kinds = failure_reasons(rows)
+    assert kinds[0] == {
+        "status": "failed", "tasks": 2, "first": 0, "message": rows[0]["message"]
+    }  # fmt: skip
+    assert [(k["status"], k["first"]) for k in kinds[1:]] == [("invalid", 2), ("error", 4)]
+    many = {k: {"status": "failed", "message": f"reason {'abcdefg'[k]}"} for k in range(7)}
+    assert len(failure_reasons(many)) == MAX_REASONS
+    assert failure_reasons({1: rows[1]}) == []
+
+
+def test_a_sweep_whose_tasks_fail_says_why_in_its_summary_and_sweep_json(tmp_path):
+    """A new user's sweep whose every task failed printed only "status 2 failed"; the
+    reasons were in results.csv alone. Newton with one iteration and no restart cannot reach
+    the goals."""
+    path = write(tmp_path, '[sweep.grid]\n"goal.q1" = [-0.5, -0.4]\n')
+    one = '"planner.objective" = "newton", "planner.max_iterations" = 1, "planner.restarts" = 0'
+    path.write_text(path.read_text().replace('"planner.objective" = "newton"', one))
+    out = tmp_path / "failing"
+    result = runner.invoke(app, ["sweep", str(path), "--out", str(out), "--jobs", "1"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "sweep.json").read_text())
+    assert summary["counts"]["failed"] == 2 and summary["failures"][0]["tasks"] == 2
+    message = summary["failures"][0]["message"]
+    with open(out / "results.csv") as fh:
+        assert message == next(csv.DictReader(fh))["message"]  # task 0's
+    shown = runner.invoke(app, ["show", str(out)], terminal_width=400)
+    line = next(line for line in shown.output.splitlines() if line.strip().startswith("why"))
+    assert "2 failed (task 0 and alike): " in line and message[:60] in line

@@ -24,6 +24,8 @@ from ..wording import counted
 from . import progress, render
 from .options import Quiet
 
+REASON_WIDTH = 240  # characters of a failure's message in a sweep's summary (all: results.csv)
+
 
 class _Rate(ProgressColumn):
     """Tasks per second over the last half minute."""
@@ -154,6 +156,8 @@ def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
                            for k, v in best["inputs"].items())  # fmt: skip
         seq = f" ({best['sequence']})" if best.get("sequence") else ""
         say(f"  best     task {best['index']}{seq}: energy {fmt(best['energy'])} at {inputs}")
+    for kind in doc.get("failures") or []:  # (absent in sweeps written before it)
+        say(f"  {'why' if kind is doc['failures'][0] else '':8} {_failure(kind)}")
     if doc.get("sequences") and doc["mode"] != "legs":
         shown = ", ".join(f"({k}) {n}" for k, n in doc["sequences"].items())
         say(f"  chosen   {shown}")
@@ -181,6 +185,16 @@ def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
         why = escape(first["reason"])
         say(f"  records  {lost} asked for could not be made (task {first['task']}: {why}; "
             "all in sweep.json records_lost)")  # fmt: skip
+
+
+def _failure(kind: dict[str, Any], width: int = REASON_WIDTH) -> str:
+    """One kind of failure of `summary`: how many tasks, the first one's message (cut at
+    `width` characters: each task's is in results.csv)."""
+    message = kind["message"] or "(no message)"
+    if len(message) > width:
+        message = message[: width - 1].rstrip() + "…"
+    first = f"task {kind['first']}" + (" and alike" if kind["tasks"] > 1 else "")
+    return f"{kind['tasks']} {kind['status']} ({first}): {escape(message)}"
 
 
 def show_sweep(path: Path, json_output: bool) -> None:

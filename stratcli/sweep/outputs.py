@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import statistics
 from datetime import UTC, datetime
 from pathlib import Path
@@ -13,6 +14,26 @@ from .spec import Sweep
 from .worker import STATUSES
 
 MAX_LISTED = 1000  # missing task indices listed in sweep.json
+MAX_REASONS = 5  # kinds of failure listed in sweep.json (the most common)
+_NUMBER = re.compile(r"\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def failure_reasons(rows: dict[int, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Why the tasks not ok ended so, most common first (at most `MAX_REASONS`): tasks whose
+    status and message differ only in their numbers (a leg, a violation) are counted
+    together, each kind with its first task and that task's message."""
+    kinds: dict[tuple[str, str], dict[str, Any]] = {}
+    for k in sorted(rows):
+        row = rows[k]
+        if row["status"] == "ok":
+            continue
+        message = str(row.get("message") or "")
+        kind = kinds.setdefault(
+            (row["status"], _NUMBER.sub("#", message)),
+            {"status": row["status"], "tasks": 0, "first": k, "message": message},
+        )
+        kind["tasks"] += 1
+    return sorted(kinds.values(), key=lambda kind: (-kind["tasks"], kind["first"]))[:MAX_REASONS]
 
 
 def summarise(
@@ -57,6 +78,7 @@ def summarise(
         },
         "sequences": dict(sorted(sequences.items(), key=lambda kv: (-kv[1], kv[0]))),
         "planning_time_s": sum(r.get("planning_time_s") or 0.0 for r in rows.values()),
+        "failures": failure_reasons(rows),
     }
 
 
