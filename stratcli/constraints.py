@@ -55,6 +55,7 @@ __all__ = [
 VERIFY_SAMPLES = 2000  # per leg, for the margins
 KEPT_FREE = "kept instead: the plan found without the limits"  # a stalled plan's message
 VIOLATION_TOL = 1e-9  # a margin below -this is a violation (rounding of the geometry)
+ROUNDING = 1e-12  # relative: what advice rounded to 3 digits forgives (`_three_digits`)
 MAX_OBSTACLES = 100
 Number = Annotated[float, BeforeValidator(parse_number)]  # an angle: "60deg", "1.2 rad" too
 Positive = Annotated[float, BeforeValidator(parse_number), Field(gt=0, le=1e6)]  # rad/s, rad/s²
@@ -317,7 +318,10 @@ def verified_again(plan):
 
 
 def _three_digits(x: float, up: bool) -> float:
-    """`x` to 3 significant digits, rounded up (or down): advice that still holds."""
+    """`x` to 3 significant digits, rounded up (or down): advice that still holds. Rounding
+    error is forgiven first (1e-12 relative, far inside `VIOLATION_TOL`): an exact 0.5
+    computed as 0.49999999999999994 read "0.499 or less" to a new user."""
+    x *= 1.0 - ROUNDING if up else 1.0 + ROUNDING
     k = 10.0 ** (2 - math.floor(math.log10(x)))
     return (math.ceil(x * k) if up else math.floor(x * k)) / k
 
