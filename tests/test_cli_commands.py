@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import tomllib
 from csv import DictReader
 from dataclasses import replace
@@ -335,7 +336,7 @@ def test_numerical_failure_is_a_failed_leg_with_a_record_not_a_traceback(tmp_pat
     assert doc["message"].startswith("leg 1 on S") and "try" in doc["message"]
 
 
-def test_show_reads_the_record_back(tmp_path):
+def test_show_reads_the_record_back(tmp_path, monkeypatch):
     run = plan_record(tmp_path)
     shown = runner.invoke(app, ["show", str(run)])
     assert shown.exit_code == 0
@@ -346,6 +347,15 @@ def test_show_reads_the_record_back(tmp_path):
     assert "run.mcap:" in shown.output
     listed = json.loads(runner.invoke(app, ["runs", "--out", str(tmp_path), "--json"]).stdout)
     assert [r["run"] for r in listed] == [run.name]
+    # by its name as `runs` lists it, where the record is under ./runs (the default --out)
+    runs = tmp_path / "here" / "runs"
+    runs.mkdir(parents=True)
+    shutil.copytree(run, runs / run.name)
+    monkeypatch.chdir(tmp_path / "here")
+    by_name = runner.invoke(app, ["show", run.name])
+    assert by_name.exit_code == 0 and by_name.output == shown.output.replace(
+        str(run), f"runs/{run.name}"
+    )
 
 
 def test_show_refuses_missing_and_incomplete_records(tmp_path):

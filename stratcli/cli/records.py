@@ -17,13 +17,21 @@ from .options import Json, Out, directory_value
 
 def show(
     run: Annotated[
-        Path, typer.Argument(help="Run directory (as printed by plan), or a sweep directory.")
+        Path,
+        typer.Argument(
+            help="Run directory (as printed by plan; or its name, under ./runs), or a sweep "
+            "directory."
+        ),
     ],
     json_output: Json = False,
 ) -> None:
     """Show a run record (read back from its files, not re-planned), or a sweep directory."""
     from .. import api  # start-up speed
     from ..records.sweepdir import is_sweep_dir
+
+    default = Path("runs") / run  # a name as `runs` lists it, under the default --out
+    if not run.exists() and len(run.parts) == 1 and default.is_dir():
+        run = default
 
     if is_sweep_dir(run):
         from .sweep import show_sweep
