@@ -468,3 +468,21 @@ def test_a_leg_the_continuation_reached_says_so_in_the_plan_table(monkeypatch):
     text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
     rows = [line for line in text.splitlines() if " S1 " in line or " S2 " in line]
     assert "newton (continuation)" in rows[1] and "(continuation)" not in rows[0]
+
+
+def test_a_start_stopped_on_its_way_to_another_starts_minimum_names_that_start(
+    monkeypatch, planned
+):
+    """Task D: newton is stopped heading for pulled's minimum. "(same minimum)" after the
+    first of two starts read as if it meant the second; the line numbers the start now."""
+    doc = copy.deepcopy(planned.document)
+    starts = doc["optimisation"]["starts"]
+    assert [s["stopped"] for s in starts] == ["converged", "same minimum"]
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    assert "pulled 84.04, newton 84.04 (heading for start 1's minimum);" in text
+    starts.reverse()  # the other way round: the first listed was stopped
+    for k, start in enumerate(starts):
+        start["index"] = k
+    doc["optimisation"]["best"] = 1
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    assert "newton 84.04 (heading for start 2's minimum), pulled 84.04;" in text
