@@ -73,10 +73,11 @@ class Task:
 
     def __repr__(self) -> str:  # the dataclass's runs to many kB (the model's fields, text)
         legs = ", ".join(leg.stratum for leg in self.legs)
-        return (
+        limits = ", [constraints]" if self.constraints is not None else ""
+        return (  # the objective: a task changed to the other one read as the same
             f"Task({self.scenario.name!r}: {self.system.name} model, "
-            f"{f'legs ({legs})' if legs else 'auto mode'}, "
-            f"start {_vector(self.start)}, goal {_vector(self.goal)})"
+            f"{f'legs ({legs})' if legs else 'auto mode'}, {self.settings.objective} "
+            f"objective{limits}, start {_vector(self.start)}, goal {_vector(self.goal)})"
         )
 
     def __eq__(self, other: object) -> bool:

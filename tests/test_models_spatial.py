@@ -86,7 +86,7 @@ def test_a_spatial_system_and_its_task_have_a_repr():
         repr(task.system)
         == "SpatialSystem('ff_arm3': coordinates j1, j2, j3, rx, ry, rz; strata S1, S2, S3)"
     )
-    assert repr(task).startswith("Task('arm3_reorient': urdf model, legs (S3, S1, S3), start ")
+    assert repr(task).startswith("Task('arm3_reorient': urdf model, legs (S3, S1, S3), energy ")
 
 
 def test_system_pickles_and_rebuilds(arm3):

@@ -32,9 +32,13 @@ def test_a_task_and_its_model_say_name_model_legs_start_and_goal(task):
     text = repr(task)
     assert len(text) < SHORT, text
     assert text == (
-        "Task('sim4_task_d': one-arm model, legs (S3, S1), start [0, 0.7854, 0, 0], "
-        "goal [-1.047, 1.047, 0.7854, -0.2618])"
+        "Task('sim4_task_d': one-arm model, legs (S3, S1), energy objective, "
+        "start [0, 0.7854, 0, 0], goal [-1.047, 1.047, 0.7854, -0.2618])"
     )
+    newton = task.with_changes({"planner": {"objective": "newton"}})  # told apart
+    assert repr(newton).startswith("Task('sim4_task_d': one-arm model, legs (S3, S1), newton ")
+    limited = task.with_changes({"constraints": {"joint_limits": [-2.5, 2.5]}})
+    assert ", energy objective, [constraints], start [0, " in repr(limited)
     assert repr(task.system) == (
         "PresetSystem('one-arm': coordinates q1, q2, q3, theta; inputs u1, u2, u3; "
         "strata S1, S2, S3)"
@@ -42,7 +46,7 @@ def test_a_task_and_its_model_say_name_model_legs_start_and_goal(task):
     auto = task.with_changes(
         {"legs": None, "decompose": {"max_length": 2}, "task": {"goal": [-1, 1, "*", 0]}}
     )
-    assert repr(auto).startswith("Task('sim4_task_d': one-arm model, auto mode, ")
+    assert repr(auto).startswith("Task('sim4_task_d': one-arm model, auto mode, energy ")
     assert repr(auto).endswith("goal [-1, 1, *, 0])")  # "*": any value will do
 
 
