@@ -144,8 +144,9 @@ def _plan_auto(
         outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale)
     with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
-    if json_output:
-        render.print_json({**outcome.best.document, "record": str(run_dir)})
+    if json_output:  # the best plan's result.json, and the choice (as `show --json` has it)
+        doc = {**outcome.best.document, "record": str(run_dir), "comparison": outcome.document}
+        render.print_json(doc)
     elif not quiet:
         render_tables.auto_mode(outcome, run_dir)
     if not outcome.ok:
