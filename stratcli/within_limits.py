@@ -12,7 +12,7 @@ import numpy as np
 
 from .node_margins import searchable
 from .planners import PLANNERS
-from .planners.constrained import NotSearchable, constrained_search
+from .planners.constrained import NotSearchable, constrained_search, kept_after_dips
 from .planners.energy import LATER
 from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs, held_vias, nominal_starts
 
@@ -91,11 +91,11 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
             )
         if coefficients is None and not stalled:
             break  # (k = 0) inside the limits already
-        if coefficients is not None:
-            inside.append((energy, coefficients, notes, iterations))
-            if len(inside) >= wanted:
+        if coefficients is not None:  # (a start kept after dips between the nodes: one
+            inside.append((energy, coefficients, notes, iterations))  # more, not counted)
+            if sum(not kept_after_dips(found[2]) for found in inside) >= wanted:
                 break
-    if inside:  # the lowest of the starts that got inside (`constrained_starts`)
+    if inside:  # the lowest of the starts that got inside (`constrained_starts`, and any kept)
         _, coefficients, notes, iterations = min(inside, key=lambda found: found[0])
         if wanted > 1:
             energies = ", ".join(f"{e:.6g}" for e, _, _, _ in inside)

@@ -31,7 +31,9 @@ searched alike, the goals' curvature estimated (`sqp.Descent.goal_curvature`).
    last time without lowering the energy again: lowering leaves the contacts on the limits
    at the nodes, and on a random task they slid to new dips between the nodes pass after
    pass (the start was dropped after 6.6 s, the next one got inside at 1346.20; its plan of
-   the last pass, moved inside by phase 1 only, is kept at 999.10).
+   the last pass, moved inside by phase 1 only, is 999.10). Such a plan is kept beside the
+   other starts' (`kept_after_dips`), which often end lower (auto mode's (S1, S3) under
+   ±2.5 rad: 247.96 so, 146.90 from the next start).
 
 A search that cannot make every margin positive says which limit on which leg it stalled on
 (`_Search.stalled`).
@@ -48,7 +50,7 @@ from .active_set import convexified, least_distance
 from .sqp import CURVATURE_FLOOR, STEP_LIMIT, Descent
 from .stacked import StackedProblem
 
-__all__ = ["NotSearchable", "constrained_search"]
+__all__ = ["NotSearchable", "constrained_search", "kept_after_dips"]
 
 PUSH = 1e-3  # the feasibility phase ends with every node margin at least this
 FEASIBILITY_ITERATIONS = 60
@@ -326,6 +328,12 @@ class _Search(Descent):
                 return True
             alpha *= 0.5
         return False
+
+
+def kept_after_dips(notes) -> bool:
+    """Whether a search's plan is its last pass's, kept inside without lowering (`LAST_PASS`):
+    `within_limits` goes on to its other starts, which often end lower."""
+    return LAST_PASS.format(REFINEMENTS) in notes
 
 
 def _violation(g: np.ndarray) -> float:
