@@ -41,7 +41,7 @@ from .scenario_checks import (
     lie_problems,
     periodic_problems,
 )
-from .scenario_hints import beside_constraints, hinted
+from .scenario_hints import beside_refused, hinted
 from .schema_problems import suggested, validation_problems
 from .settings import (
     MAX_DURATION,
@@ -186,7 +186,7 @@ def from_raw(
         def recheck(kept: dict[str, Any]) -> None:
             _resolve(Scenario.model_validate(kept), "", "", system, base_dir)
 
-        problems += beside_constraints(raw, exc, problems, recheck)
+        problems += beside_refused(raw, exc, problems, recheck)
         raise InputError(problems, source) from None
     if text is None:  # a dict: record it as the TOML file it stands for
         try:

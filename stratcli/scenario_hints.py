@@ -3,11 +3,12 @@ and that pydantic's own words do not explain: a single `[legs]` table, a single 
 table for the list of obstacles, a configuration written as a table of names on a model that
 is not a URDF robot (on a URDF robot whose
 `[model]` table is invalid, that table cannot be read yet: only the model's problems stand),
-and a model object (a `System`) given from Python instead of its table; and the problems of
-[constraints] that only its model shows, beside its schema's."""
+and a model object (a `System`) given from Python instead of its table; and the problems that
+only the model shows (a locked joint, a coordinate a limit names), beside the schema's."""
 
 from __future__ import annotations
 
+import copy
 import re
 from typing import Any
 
@@ -16,7 +17,7 @@ from pydantic import ValidationError
 from .errors import InputError, Problem
 from .schema_problems import file_location
 
-__all__ = ["beside_constraints", "hinted"]
+__all__ = ["beside_refused", "hinted"]
 
 _LIST = "must be a valid list"
 _MODEL_OBJECT = (
@@ -99,19 +100,27 @@ def _coordinates(model: Any) -> str:
     return f"(fix the model first: {first.render()})"
 
 
-def beside_constraints(raw, exc: ValidationError, reported, recheck) -> list[Problem]:
-    """What else a scenario whose only schema problems are in [constraints] has: its other
-    values checked against the model (a coordinate a limit names, a count of rates), as one
-    run reports (they came only once the schema's were fixed). The refused keys are left out,
-    and nothing that names one of them is added (their absence is not a second problem).
+def beside_refused(raw, exc: ValidationError, reported, recheck) -> list[Problem]:
+    """What else a scenario whose schema refused some values has: the scenario without them
+    validated and resolved against its model (a leg's goal on a locked joint, a coordinate a
+    limit names), as one run reports every problem (they came only once the schema's were
+    fixed: `soft_start = "yes"` hid a locked joint). Each refused key is left out (a value in
+    a list: the list's key); where that leaves a required key missing, nothing more can be
+    checked. Nothing that names a refused key is added (its absence is no second problem).
     `recheck(raw)` validates and resolves a scenario, raising `InputError`."""
-    locs = [file_location(tuple(e["loc"])) for e in exc.errors()]
-    table = raw.get("constraints")
-    inside = all(len(loc) > 1 and loc[0] == "constraints" for loc in locs)
-    if not isinstance(table, dict) or not inside:
-        return []
-    refused = {str(loc[1]) for loc in locs}
-    kept = {**raw, "constraints": {k: v for k, v in table.items() if k not in refused}}
+    kept, refused = copy.deepcopy(raw), set()
+    for error in exc.errors():
+        loc = file_location(tuple(error["loc"]))
+        while loc and isinstance(loc[-1], int):  # a value in a list: the list's key
+            loc = loc[:-1]
+        if not loc or error["type"] == "missing":
+            return []  # the whole scenario, or a key it needs: nothing more to check
+        node: Any = kept
+        for part in loc[:-1]:
+            node = node[part] if _holds(node, part) else None
+        if isinstance(node, dict):
+            node.pop(loc[-1], None)
+        refused.add(str(loc[-1]))
     try:
         recheck(kept)  # the scenario loaded as far as its model and values
     except InputError as more:
@@ -124,4 +133,12 @@ def beside_constraints(raw, exc: ValidationError, reported, recheck) -> list[Pro
         return [p for p in more.problems if new(p)]
     except (ValidationError, ValueError, TypeError):  # not checkable without the refused keys
         return []
+    return []
+
+
+def _holds(node: Any, part: Any) -> bool:
+    """Whether `node[part]` is there: a dict's key, a list's index."""
+    if isinstance(node, dict):
+        return part in node
+    return isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)
     return []
