@@ -56,6 +56,7 @@ CRITERION_LABELS = {
     "duration": "total duration",
 }
 SCREEN_TOP = 1  # candidates fully searched (lowest bounds) before any is pruned
+TIE = 1e-9  # relative: values that differ by less are a tie but for rounding (`_tie`)
 
 
 @dataclass(frozen=True)
@@ -188,8 +189,7 @@ class Comparison:
                 f"; next {runner.candidate.label} {runner.candidate.strategy} at "
                 f"{_show(runner.value(self.criterion), self.criterion)}"
             )
-            if runner.value(self.criterion) == best.value(self.criterion):
-                text += " (a tie, broken by total energy)"
+            text += _tie(best, runner, self.criterion)
         if bounded:
             text += (
                 f"; {bounded} more not searched: each one's lower bound is at least the best's "
@@ -388,6 +388,21 @@ def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
         duration=plan.duration,
         planning_time=seconds,
     )
+
+
+def _tie(best: Outcome, runner: Outcome, criterion: str) -> str:
+    """What broke a tie of the best and the next by `criterion` (`rank`'s keys in turn), or
+    that they differ by rounding only (a symmetric robot's mirrored sequences: a new user
+    read "chose (S2, S1) (81.83); next (S4, S3) at 81.83" with no word of how)."""
+    a, b = best.value(criterion), runner.value(criterion)
+    if a != b:
+        close = abs(a - b) <= TIE * max(1.0, abs(b))
+        return f" (a tie but for {abs(a - b):.0e})" if close else ""
+    if best.energy != runner.energy:
+        return " (a tie, broken by total energy)"
+    if len(best.candidate.legs) != len(runner.candidate.legs):
+        return " (a tie, broken by fewer legs)"
+    return " (a tie, broken by the order of the candidates)"
 
 
 def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:

@@ -149,3 +149,30 @@ def test_a_comparison_on_a_dask_cluster_says_so_not_local_processes():
     Client.__module__ = "distributed.client"
     assert _where(None) == "" and _where(Client()) == "a Dask cluster"
     assert _where(object()) == "the executor given"
+
+
+def test_a_tie_with_the_next_sequence_says_what_broke_it_or_that_rounding_did():
+    """A symmetric two-arm task chose (S2, S1) at 81.83 with (S4, S3) next at 81.83 and no
+    word of how; the values differed by 7e-13."""
+    from types import SimpleNamespace
+
+    from stratcli.compare import _tie
+
+    def outcome(value, energy, legs):
+        return SimpleNamespace(
+            value=lambda criterion: value, energy=energy, candidate=SimpleNamespace(legs=legs)
+        )
+
+    best = outcome(81.83, 81.83, (1, 2))
+    assert _tie(best, outcome(81.83 + 7e-13, 81.83, (1, 2)), "energy") == " (a tie but for 7e-13)"
+    assert _tie(best, outcome(81.9, 81.9, (1, 2)), "energy") == ""  # no tie
+    # an exact tie: the keys `rank` breaks it by, in turn
+    assert _tie(best, outcome(81.83, 82.0, (1, 2)), "duration") == (
+        " (a tie, broken by total energy)"
+    )
+    assert _tie(best, outcome(81.83, 81.83, (1, 2, 3)), "energy") == (
+        " (a tie, broken by fewer legs)"
+    )
+    assert _tie(best, outcome(81.83, 81.83, (1, 2)), "energy") == (
+        " (a tie, broken by the order of the candidates)"
+    )
