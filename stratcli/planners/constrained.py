@@ -330,12 +330,6 @@ class _Search(Descent):
         return False
 
 
-def kept_after_dips(notes) -> bool:
-    """Whether a search's plan is its last pass's, kept inside without lowering (`LAST_PASS`):
-    `within_limits` goes on to its other starts, which often end lower."""
-    return LAST_PASS.format(REFINEMENTS) in notes
-
-
 def _violation(g: np.ndarray) -> float:
     r = np.minimum(g - 2 * PUSH, 0.0)
     return 0.5 * float(r @ r)
@@ -347,6 +341,12 @@ LAST_PASS = (  # the note of a plan whose last pass kept it inside without lower
     "nodes; the next and last kept its plan moved inside them, without lowering its energy"
 )
 DENSE = 1000  # samples a leg of that check
+
+
+def kept_after_dips(notes) -> bool:
+    """Whether a search's plan is its last pass's, kept inside without lowering (`LAST_PASS`):
+    `within_limits` goes on to its other starts, which often end lower."""
+    return LAST_PASS.format(REFINEMENTS) in notes
 
 
 def _searchable(problem: StackedProblem, constraints) -> bool:
