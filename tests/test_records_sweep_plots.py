@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
-from stratcli.records.sweep_plots import energy_hist, energy_map, sequence_map, sweep_figures
+from stratcli.records.sweep_plots import (
+    energy_hist,
+    energy_line,
+    energy_map,
+    sequence_map,
+    sweep_figures,
+)
 
 
 def _spec(kind="grid", axes=((0.0, 1.0, 2.0), (-1.0, 1.0)), mode="auto"):
@@ -77,3 +83,22 @@ def test_axes_are_labelled_with_the_units_the_sweep_knows():
     ]
     assert unit_of("constraints.obstacles[0].centre[1]", "planar-manipulator") == "m"
     assert unit_of("goal.x", "custom") == "" and unit_of("planner.tolerance", "preset") == ""
+
+
+def test_a_1d_grids_energy_axis_is_log_only_across_a_decade_and_keeps_its_label():
+    """Energies 101-124 on a log axis had minor labels (1.05×10²) so wide that the axis'
+    label was drawn off the figure: within a decade the axis is linear; wider, log in plain
+    numbers."""
+    spec = _spec(axes=((0.0, 1, 2, 3, 4, 5),))
+    narrow = energy_line(spec, _rows(6))  # energies 10-15
+    assert narrow.axes[0].get_yscale() == "linear"
+    wide = energy_line(spec, {k: {**r, "energy": 10.0**k} for k, r in _rows(6).items()})
+    ax = wide.axes[0]
+    assert ax.get_yscale() == "log" and ax.get_ylabel() == "energy ∫|u|² dt"
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    for figure in (narrow, wide):  # the axis' label inside the figure, as saved
+        canvas = FigureCanvasAgg(figure)
+        canvas.draw()
+        assert figure.axes[0].yaxis.label.get_window_extent(canvas.get_renderer()).x0 >= 0
+    assert "×" not in " ".join(t.get_text() for t in ax.get_yticklabels(minor=True))

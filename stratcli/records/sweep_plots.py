@@ -140,7 +140,12 @@ def energy_line(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     bad = [xs[k] for k, r in rows.items() if r["status"] != "ok"]
     for x in bad:
         ax.axvline(x, color="0.6", lw=0.7, ls=":")
-    ax.set_yscale("log" if any(v > 0 for v in e if v == v) else "linear")
+    # a log axis only where the energies span more than LOG_RATIO (its labels 10^k, the
+    # minor ones unlabelled): a narrow span on a log axis was labelled at its minor ticks
+    # (1.05×10²), so wide that the axis' own label fell off the figure
+    positive = [v for v in e if v == v and v > 0]
+    if positive and max(positive) > LOG_RATIO * min(positive):
+        ax.set_yscale("log")
     if not any(v == v for v in e):  # an empty plot otherwise, its y-axis ±0.04
         ax.set_yticks([])
         ax.text(0.5, 0.5, "no task ok: sweep.json's failures say why", transform=ax.transAxes,
