@@ -171,18 +171,22 @@ def test_resume_refuses_another_sweep(reference, tmp_path):
         run_sweep(load_sweep(other), reference.out, jobs=1, resume=True)
 
 
-def _kill_after(command, out, rows: int, signum: int) -> int:
-    """Run the sweep command until `rows` rows are written, then send it `signum`."""
+def _kill_after(command, out, rows: int, signum: int) -> tuple[int, str]:
+    """Run the sweep command until `rows` rows are written, then send it `signum`; its exit
+    code and what it printed on stderr."""
     # SIGINT as a terminal's Ctrl-C delivers it, even where this test was started ignoring it
     proc = subprocess.Popen(
-        command, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)
+        command,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        stderr=subprocess.PIPE,
+        text=True,
     )
     deadline = time.monotonic() + 120
     while len(read_rows(out / ROWS)) < rows and time.monotonic() < deadline:
         assert proc.poll() is None, "the sweep ended before it could be killed"
         time.sleep(0.01)
     proc.send_signal(signum)
-    return proc.wait()
+    return proc.wait(), proc.stderr.read()
 
 
 @pytest.mark.slow
@@ -191,9 +195,12 @@ def test_a_sweep_killed_mid_way_resumes_to_the_same_table(tmp_path):
     whole = run_sweep(load_sweep(path), tmp_path / "whole", jobs=2)
     out = tmp_path / "killed"
     command = [sys.executable, "-m", "stratcli", "sweep", str(path), "--out", str(out)]
-    assert _kill_after([*command, "--jobs", "1", "-q"], out, 2, signal.SIGINT) == 130
+    code, err = _kill_after([*command, "--jobs", "1", "-q"], out, 2, signal.SIGINT)
     first = read_rows(out / ROWS)
-    code = _kill_after(
+    # how many rows it keeps and how to go on, before the one word (it stood alone)
+    assert code == 130 and err.endswith("interrupted\n"), err
+    assert f"sweep: {len(first)} tasks kept in {out}; stratplan sweep {path} --out {out} " in err
+    code, _ = _kill_after(
         [*command, "--jobs", "1", "-q", "--resume"], out, len(first) + 2, signal.SIGKILL
     )
     assert code == -signal.SIGKILL

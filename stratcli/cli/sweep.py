@@ -120,10 +120,12 @@ def sweep(
 
         loaded = load_sweep(file)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
-    with render.reported(), progress_bar(progress.shown(quiet, json_output), waiting) as bar:
-        outcome = api.run_sweep(
-            loaded, out, jobs=jobs, dask=dask, resume=resume, records=records, progress=bar
-        )
+    target = out if out is not None else Path("sweeps") / loaded.name  # (as run_sweep's)
+    with _resume_hint(file, target), render.reported():
+        with progress_bar(progress.shown(quiet, json_output), waiting) as bar:
+            outcome = api.run_sweep(
+                loaded, out, jobs=jobs, dask=dask, resume=resume, records=records, progress=bar
+            )
     if json_output:
         render.print_json(outcome.summary)
     elif not quiet:
@@ -135,6 +137,25 @@ def sweep(
             f"stratplan sweep {file} --out {outcome.out} --resume plans them",
         )
     raise typer.Exit(1 if outcome.missing else 0)
+
+
+@contextmanager
+def _resume_hint(file: Path, out: Path) -> Iterator[None]:
+    """On Ctrl-C (or SIGTERM) during a sweep: how many rows it keeps and how to go on, before
+    the `interrupted` line (a new user saw that word alone)."""
+    from ..interrupts import Interrupted
+
+    try:
+        yield
+    except Interrupted:
+        from ..records.sweepdir import ROWS, read_rows
+
+        done = len(read_rows(out / ROWS))  # (a torn last row is planned again)
+        render.notes(
+            [f"sweep: {counted(done, 'task')} kept in {out}; stratplan sweep {file} --out {out} "
+             "--resume plans the rest"]
+        )  # fmt: skip
+        raise
 
 
 def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
