@@ -99,6 +99,12 @@ def test_a_finished_sweep_is_not_run_again_and_resume_only_reprints_it(tmp_path)
     assert resumed.exit_code == 0, resumed.output
     assert "6 of 6 tasks done" in resumed.stdout and "6 tasks in" in resumed.stdout
     assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == written
+    assert resumed.stderr == ""
+    # --records asked of a finished sweep makes nothing: it says so (it was silent)
+    best = runner.invoke(app, ["sweep", str(path), "--out", str(out), "--resume", "--records",
+                               "best"])  # fmt: skip
+    assert best.exit_code == 0 and not (out / "records").exists()
+    assert best.stderr.startswith("note: --records best made no record: the sweep was finished")
 
 
 def test_python_callers_read_the_arguments_where_the_command_line_reads_flags(tmp_path):

@@ -93,9 +93,13 @@ def sweep(
         typer.Option(help="Sweep directory (default: sweeps/NAME, NAME from the sweep file)."),
     ] = None,
     records: Annotated[
-        Literal["best", "failed", "all", "none"],
-        typer.Option(help="Full run records written under OUT/records for these tasks."),
-    ] = "failed",
+        Literal["best", "failed", "all", "none"] | None,
+        typer.Option(
+            help="Full run records written under OUT/records for these tasks, as they are "
+            "planned.  [default: failed]",
+            show_default=False,
+        ),
+    ] = None,
     json_output: Annotated[
         bool, typer.Option("--json", metavar="", help="Print sweep.json instead of the summary.")
     ] = False,
@@ -124,8 +128,15 @@ def sweep(
     with _resume_hint(file, target), render.reported():
         with progress_bar(progress.shown(quiet, json_output), waiting) as bar:
             outcome = api.run_sweep(
-                loaded, out, jobs=jobs, dask=dask, resume=resume, records=records, progress=bar
-            )
+                loaded, out, jobs=jobs, dask=dask, resume=resume, records=records or "failed",
+                progress=bar,
+            )  # fmt: skip
+    if records is not None and resume and not outcome.planned:  # finished before: no record
+        render.notes([
+            f"--records {records} made no record: the sweep was finished, and records are "
+            "written as tasks are planned (stratplan plan a task's scenario for its record: "
+            "its row in results.csv gives its values)"
+        ])  # fmt: skip
     if json_output:
         render.print_json(outcome.summary)
     elif not quiet:
