@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from stratcli.records.sweep_plots import (
     energy_hist,
     energy_line,
@@ -102,3 +104,14 @@ def test_a_1d_grids_energy_axis_is_log_only_across_a_decade_and_keeps_its_label(
         canvas.draw()
         assert figure.axes[0].yaxis.label.get_window_extent(canvas.get_renderer()).x0 >= 0
     assert "×" not in " ".join(t.get_text() for t in ax.get_yticklabels(minor=True))
+
+
+def test_a_map_over_a_decade_of_a_setting_has_a_log_axis_of_equal_cells():
+    """A grid over planner.tolerance = [1e-3, 1e-4] drew cells of unequal size on a linear
+    axis, one reaching below 0: positive values a decade apart or more get a log axis."""
+    spec = _spec(axes=((1e-3, 1e-4), (-0.5, 0.0, 0.5)))
+    ax = energy_map(spec, _rows(6)).axes[0]
+    assert (ax.get_xscale(), ax.get_yscale()) == ("log", "linear")
+    edges = ax.collections[0].get_coordinates()[0, :, 0]  # x of the first row of corners
+    assert np.all(edges > 0) and np.allclose(np.diff(np.log(edges)), np.log(0.1))
+    assert energy_map(_spec(), _rows(6)).axes[0].get_xscale() == "linear"  # 0, 1, 2

@@ -439,3 +439,10 @@ def test_a_grid_over_one_entry_of_a_list_setting_moves_an_obstacle(tmp_path):
         load_sweep(write(tmp_path, body, scenario=obstacles, name="past"))
     (problem,) = info.value.problems
     assert problem.message == "the scenario has no constraints.obstacles[0].centre[2]"
+
+
+def test_a_linspace_point_that_is_zero_but_for_rounding_is_zero(tmp_path):
+    """-pi/4 to pi/12 in 5 steps wrote goal.theta = 1.1102230246251565e-16 into results.csv."""
+    body = '[sweep.grid]\n"goal.theta" = { linspace = ["-pi/4", "pi/12", 5] }\n'
+    values = [t.inputs["goal.theta"] for t in load_sweep(write(tmp_path, body)).tasks()]
+    assert values[3] == 0.0 and values == pytest.approx(np.linspace(-np.pi / 4, np.pi / 12, 5))

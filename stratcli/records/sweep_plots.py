@@ -53,8 +53,18 @@ def _grid(spec: dict[str, Any], rows: dict[int, dict], value) -> np.ndarray:
     return out
 
 
-def _edges(values: list[float]) -> np.ndarray:
+def _log_axis(values: list[float]) -> bool:
+    """Whether a map's axis is logarithmic: positive values spanning LOG_RATIO or more (a
+    tolerance's 1e-3 and 1e-4 had cells of unequal size reaching below 0 on a linear axis)."""
     v = np.asarray(values, dtype=float)
+    return len(v) > 1 and bool(np.all(v > 0)) and v.max() >= LOG_RATIO * v.min()
+
+
+def _edges(values: list[float]) -> np.ndarray:
+    """The cells' edges about `values`: halfway between neighbours (in log on a log axis)."""
+    v = np.asarray(values, dtype=float)
+    if _log_axis(values):
+        return np.exp(_edges(np.log(v).tolist()))
     if len(v) == 1:
         return np.array([v[0] - 0.5, v[0] + 0.5])
     mid = (v[1:] + v[:-1]) / 2
@@ -79,7 +89,13 @@ def _label(spec: dict[str, Any], i: int) -> str:
 
 
 def _finish_map(ax, spec: dict[str, Any], rows: dict[int, dict]) -> None:
-    """What both 2-D maps end with: failed tasks marked, axes named, the sweep's title."""
+    """What both 2-D maps end with: failed tasks marked, axes named (log where `_log_axis`),
+    the sweep's title."""
+    xs, ys = spec["axes"]
+    if _log_axis(xs):
+        ax.set_xscale("log")
+    if _log_axis(ys):
+        ax.set_yscale("log")
     _failed_marks(ax, spec, rows)
     ax.set_xlabel(_label(spec, 0))
     ax.set_ylabel(_label(spec, 1))

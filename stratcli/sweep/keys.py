@@ -171,6 +171,8 @@ def axis_values(key: str, axis: Any, field: str, problems: list[Problem]) -> tup
         if lo is None or hi is None:
             return ()
         points = np.linspace(lo, hi, n)
+        # a point that is 0 but for rounding is 0 (-pi/4 to pi/12 in 5 wrote 1.1e-16)
+        points[np.abs(points) <= 1e-12 * max(abs(lo), abs(hi))] = 0.0
         ints = all(isinstance(v, int) and not isinstance(v, bool) for v in (a, b))
         if ints and not is_coordinate(key) and np.all(points == np.round(points)):
             return tuple(int(x) for x in np.round(points))  # an integer setting: seed, restarts
