@@ -250,3 +250,17 @@ def test_a_sweep_whose_tasks_fail_says_why_in_its_summary_and_sweep_json(tmp_pat
     shown = runner.invoke(app, ["show", str(out)], terminal_width=400)
     line = next(line for line in shown.output.splitlines() if line.strip().startswith("why"))
     assert "2 failed (task 0 and alike): " in line and message[:60] in line
+
+
+def test_a_compare_mode_row_ranks_the_searched_sequences_and_lists_the_bounded_apart(tmp_path):
+    """The row's ranking listed all 18 of Sim 4's sequences as "a > b > ...", though the
+    screen searched one; those it bounded are not ranked among themselves."""
+    body = '[sweep.grid]\n"goal.q1" = [-1.0]\n'
+    path = write(tmp_path, body, scenario=AUTO, mode="compare", objective="energy")
+    out = tmp_path / "c"
+    assert runner.invoke(app, ["sweep", str(path), "--out", str(out), "--jobs", "1"]).exit_code == 0
+    with open(out / "results.csv") as fh:
+        (row,) = csv.DictReader(fh)
+    ranked, bounded = row["ranking"].split("; bounded: ")
+    assert len(ranked.split(" > ")) == int(row["reached"])
+    assert len(ranked.split(" > ")) + len(bounded.split("), (")) == int(row["candidates"])

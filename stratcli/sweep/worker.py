@@ -26,6 +26,21 @@ STATUSES = ("ok", "failed", "invalid", "not-controllable", "error")
 TIMING_COLUMNS = ("planning_time_s", "task_time_s", "worker")
 
 
+def ranking_text(comparison) -> str:
+    """A compare-mode row's `ranking`: the sequences that reached the goal, best first, then
+    those the screen bounded (not searched: not ranked among themselves) and those that
+    failed: "(S1, S3) > (S3, S1); bounded: (S2, S1), ...; failed: ..." (a new user read the
+    18 of one row, one searched, as 18 ranked)."""
+    groups: dict[str, list[str]] = {"ok": [], "bounded": [], "failed": []}
+    for k in comparison.ranking:
+        o = comparison.outcomes[k]
+        kind = "ok" if o.ok else "bounded" if o.status == "bounded" else "failed"
+        groups[kind].append(o.candidate.label)
+    parts = [" > ".join(groups.pop("ok"))] if groups["ok"] else []
+    parts += [f"{kind}: {', '.join(labels)}" for kind, labels in groups.items() if labels]
+    return "; ".join(parts)
+
+
 def _finite(x: Any) -> float | None:
     return float(x) if x is not None and math.isfinite(float(x)) else None
 
@@ -92,9 +107,7 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
                 reached=sum(o.ok for o in comparison.outcomes),
             )
             if mode == "compare":
-                row["ranking"] = " > ".join(
-                    comparison.outcomes[k].candidate.label for k in comparison.ranking
-                )
+                row["ranking"] = ranking_text(comparison)
             planning = comparison.wall_time
         # the plan as run: re-timed (planner.time_scale) and slowed to its rate limits, its
         # own basis (the task's has the period before re-timing); in auto and compare mode
