@@ -395,6 +395,8 @@ def _tie(best: Outcome, runner: Outcome, criterion: str) -> str:
     that they differ by rounding only (a symmetric robot's mirrored sequences: a new user
     read "chose (S2, S1) (81.83); next (S4, S3) at 81.83" with no word of how)."""
     a, b = best.value(criterion), runner.value(criterion)
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return ""
     if a != b:
         close = abs(a - b) <= TIE * max(1.0, abs(b))
         return f" (a tie but for {abs(a - b):.0e})" if close else ""

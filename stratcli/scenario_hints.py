@@ -141,4 +141,3 @@ def _holds(node: Any, part: Any) -> bool:
     if isinstance(node, dict):
         return part in node
     return isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)
-    return []

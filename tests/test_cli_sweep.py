@@ -105,6 +105,9 @@ def test_a_finished_sweep_is_not_run_again_and_resume_only_reprints_it(tmp_path)
                                "best"])  # fmt: skip
     assert best.exit_code == 0 and not (out / "records").exists()
     assert best.stderr.startswith("note: --records best made no record: the sweep was finished")
+    none = runner.invoke(app, ["sweep", str(path), "--out", str(out), "--resume", "--records",
+                               "none"])  # fmt: skip
+    assert none.exit_code == 0 and none.stderr == ""  # none asked, none made: nothing to say
 
 
 def test_python_callers_read_the_arguments_where_the_command_line_reads_flags(tmp_path):

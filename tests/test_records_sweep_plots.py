@@ -115,3 +115,10 @@ def test_a_map_over_a_decade_of_a_setting_has_a_log_axis_of_equal_cells():
     edges = ax.collections[0].get_coordinates()[0, :, 0]  # x of the first row of corners
     assert np.all(edges > 0) and np.allclose(np.diff(np.log(edges)), np.log(0.1))
     assert energy_map(_spec(), _rows(6)).axes[0].get_xscale() == "linear"  # 0, 1, 2
+    from stratcli.records.sweep_plots import _edges
+
+    # values above 1 whose logs are a decade apart too (the log rule applied twice drew
+    # [1.13, 3.92, 5.5e6] about 1.5 and 100)
+    assert np.allclose(
+        _edges([1.5, 100]), [1.5**1.5 / 100**0.5, (1.5 * 100) ** 0.5, 100**1.5 / 1.5**0.5]
+    )

@@ -54,8 +54,9 @@ def test_random_tasks_draw_from_per_task_seed_sequences(tmp_path):
 
 def test_random_ranges_draw_settings_too_integers_where_both_bounds_are(tmp_path):
     """A range may name any value a grid may (an obstacle's centre, the tolerance): drawn
-    uniformly, an integer setting's from low to high inclusive; a new user's obstacle range
-    was refused as "random ranges are for coordinates"."""
+    uniformly, an integer setting's (the scenario refuses a value between integers) from low
+    to high inclusive; a new user's obstacle range was refused as "random ranges are for
+    coordinates"."""
     body = (
         '[sweep.random]\ncount = 12\nseed = 3\nranges = { "goal.q1" = [-1, 0], '
         '"planner.tolerance" = [1e-4, 1e-3], "planner.restarts" = [1, 3] }\n'
@@ -70,6 +71,12 @@ def test_random_ranges_draw_settings_too_integers_where_both_bounds_are(tmp_path
         assert settings.tolerance == task.inputs["planner.tolerance"]
         assert settings.restarts == task.inputs["planner.restarts"]
     assert {t.inputs["planner.restarts"] for t in tasks} == {1, 2, 3}
+    # integer bounds of a real setting: drawn from the reals all the same (a new user's
+    # obstacle range [-1, 1] was drawn at -1, 0 and 1 alone)
+    body = '[sweep.random]\ncount = 6\nranges = { "planner.leg_duration" = [1, 3] }\n'
+    drawn = [t.inputs["planner.leg_duration"] for t in load_sweep(write(tmp_path, body)).tasks()]
+    assert all(isinstance(x, float) and 1 <= x <= 3 for x in drawn)
+    assert len(set(drawn)) == 6
     obstacle = ROOT / "scenarios" / "sim4_task_d_obstacles.toml"
     x_range = '"constraints.obstacles[0].centre[0]" = [-0.35, -0.25]'
     body = f"[sweep.random]\ncount = 3\nranges = {{ {x_range} }}\n"

@@ -276,16 +276,22 @@ def plan_summary(doc: dict) -> None:
 def _start_energy(start: dict, starts: list[dict]) -> str:
     """`loop 404.03`, `newton 549.89 (abandoned)`: where a start began and where it ended,
     and why its search stopped there when not at a minimum of its own; one stopped on its way
-    to a minimum another start reached names that start, the one at the nearest energy
-    by its number on the line (`pulled 124.07 (heading for start 2's minimum), newton 124.07`:
-    "(same minimum)" after the first of two starts read as if it were the second's)."""
+    to a minimum another start reached names that start (the nearest below its energy: the
+    energy only falls on the way) by its number on the line (`pulled 124.07 (heading for
+    start 2's minimum), newton 124.07`: "(same minimum)" after the first of two starts read
+    as if it were the second's)."""
     from ..planners.sqp import MINIMUM  # (after planning, or reading a record: numpy is loaded)
 
     stopped = start.get("stopped")
     why = f" ({stopped})" if stopped and stopped not in MINIMUM else ""
-    ends = [s for s in starts if s.get("stopped") in MINIMUM and s.get("energy") is not None]
-    if stopped == "same minimum" and ends and start.get("energy") is not None:
-        other = min(ends, key=lambda s: abs(s["energy"] - start["energy"]))
+    energy = start.get("energy")
+    ends = [  # minima it may have been descending to: at its energy or below
+        s for s in starts
+        if s.get("stopped") in MINIMUM and s.get("energy") is not None
+        and energy is not None and s["energy"] <= energy * (1 + 1e-9)
+    ]  # fmt: skip
+    if stopped == "same minimum" and ends:
+        other = min(ends, key=lambda s: energy - s["energy"])
         why = f" (heading for start {other['index'] + 1}'s minimum)"
     return f"{start['from']} {fmt(start['energy'])}{why}"
 

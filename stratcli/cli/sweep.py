@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shlex
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -125,13 +126,14 @@ def sweep(
         loaded = load_sweep(file)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     target = out if out is not None else Path("sweeps") / loaded.name  # (as run_sweep's)
-    with _resume_hint(file, target), render.reported():
+    again = _again_command(file, target, jobs, dask, records)  # how to go on after a stop
+    with _resume_hint(again, target), render.reported():
         with progress_bar(progress.shown(quiet, json_output), waiting) as bar:
             outcome = api.run_sweep(
                 loaded, out, jobs=jobs, dask=dask, resume=resume, records=records or "failed",
                 progress=bar,
             )  # fmt: skip
-    if records is not None and resume and not outcome.planned:  # finished before: no record
+    if records not in (None, "none") and outcome.reprinted:  # finished before: no record
         render.notes([
             f"--records {records} made no record: the sweep was finished, and records are "
             "written as tasks are planned (stratplan plan a task's scenario for its record: "
@@ -144,16 +146,25 @@ def sweep(
     if outcome.missing:
         render.error(
             "incomplete",
-            f"{len(outcome.missing)} tasks have no row (their worker died); "
-            f"stratplan sweep {file} --out {outcome.out} --resume plans them",
+            f"{len(outcome.missing)} tasks have no row (their worker died); {again} plans them",
         )
     raise typer.Exit(1 if outcome.missing else 0)
 
 
+def _again_command(file: Path, out: Path, jobs, dask, records) -> str:
+    """The command that resumes this sweep with the options it was given (quoted for a
+    shell): --records too, or a resumed sweep would write the default records."""
+    words = ["stratplan", "sweep", str(file), "--out", str(out), "--resume"]
+    for flag, value in (("--jobs", jobs), ("--dask", dask), ("--records", records)):
+        if value is not None:
+            words += [flag, str(value)]
+    return shlex.join(words)
+
+
 @contextmanager
-def _resume_hint(file: Path, out: Path) -> Iterator[None]:
-    """On Ctrl-C (or SIGTERM) during a sweep: how many rows it keeps and how to go on, before
-    the `interrupted` line (a new user saw that word alone)."""
+def _resume_hint(again: str, out: Path) -> Iterator[None]:
+    """On Ctrl-C (or SIGTERM) during a sweep: how many rows it keeps and how to go on
+    (`again`), before the `interrupted` line (a new user saw that word alone)."""
     from ..interrupts import Interrupted
 
     try:
@@ -162,10 +173,7 @@ def _resume_hint(file: Path, out: Path) -> Iterator[None]:
         from ..records.sweepdir import ROWS, read_rows
 
         done = len(read_rows(out / ROWS))  # (a torn last row is planned again)
-        render.notes(
-            [f"sweep: {counted(done, 'task')} kept in {out}; stratplan sweep {file} --out {out} "
-             "--resume plans the rest"]
-        )  # fmt: skip
+        render.notes([f"sweep: {counted(done, 'task')} kept in {out}; {again} plans the rest"])
         raise
 
 
@@ -222,7 +230,7 @@ def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
 def _failure(kind: dict[str, Any], width: int = REASON_WIDTH) -> str:
     """One kind of failure of `summary`: how many tasks, the first one's message (cut at
     `width` characters: each task's is in results.csv)."""
-    message = kind["message"] or "(no message)"
+    message = " ".join((kind["message"] or "(no message)").split())  # one line (a traceback's)
     if len(message) > width:
         message = message[: width - 1].rstrip() + "…"
     first = f"task {kind['first']}" + (" and alike" if kind["tasks"] > 1 else "")

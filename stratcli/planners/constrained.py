@@ -32,8 +32,8 @@ searched alike, the goals' curvature estimated (`sqp.Descent.goal_curvature`).
    at the nodes, and on a random task they slid to new dips between the nodes pass after
    pass (the start was dropped after 6.6 s, the next one got inside at 1346.20; its plan of
    the last pass, moved inside by phase 1 only, is 999.10). Such a plan is kept beside the
-   other starts' (`kept_after_dips`), which often end lower (auto mode's (S1, S3) under
-   ±2.5 rad: 247.96 so, 146.90 from the next start).
+   other starts' (`kept_after_dips`), which often end lower: auto mode's (S1, S3) under
+   ±2.5 rad keeps 247.96 from its first start that way, and the next start ends at 146.90.
 
 A search that cannot make every margin positive says which limit on which leg it stalled on
 (`_Search.stalled`).

@@ -55,7 +55,8 @@ def _grid(spec: dict[str, Any], rows: dict[int, dict], value) -> np.ndarray:
 
 def _log_axis(values: list[float]) -> bool:
     """Whether a map's axis is logarithmic: positive values spanning LOG_RATIO or more (a
-    tolerance's 1e-3 and 1e-4 had cells of unequal size reaching below 0 on a linear axis)."""
+    tolerance's 1e-3 and 1e-4 had cells of unequal size reaching below 0 on a linear axis;
+    a grid's values a decade apart are log already, where a colour scale asks for more)."""
     v = np.asarray(values, dtype=float)
     return len(v) > 1 and bool(np.all(v > 0)) and v.max() >= LOG_RATIO * v.min()
 
@@ -63,8 +64,11 @@ def _log_axis(values: list[float]) -> bool:
 def _edges(values: list[float]) -> np.ndarray:
     """The cells' edges about `values`: halfway between neighbours (in log on a log axis)."""
     v = np.asarray(values, dtype=float)
-    if _log_axis(values):
-        return np.exp(_edges(np.log(v).tolist()))
+    return np.exp(_halfway(np.log(v))) if _log_axis(values) else _halfway(v)
+
+
+def _halfway(v: np.ndarray) -> np.ndarray:
+    """Edges halfway between neighbours, the outer ones as far out (±0.5 about one value)."""
     if len(v) == 1:
         return np.array([v[0] - 0.5, v[0] + 0.5])
     mid = (v[1:] + v[:-1]) / 2

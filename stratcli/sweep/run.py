@@ -55,6 +55,7 @@ class SweepOutcome:
     resumed: int  # rows that were already there (--resume)
     missing: list[int]  # tasks still without a row (their worker died)
     files: list[Path] = field(default_factory=list)
+    reprinted: bool = False  # finished before this call (`--resume`): nothing run or written
 
     @property
     def complete(self) -> bool:
@@ -254,7 +255,7 @@ def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOu
         return None
     names = (sweepdir.TABLE, *summary.get("plots", ()))
     files = [out / name for name in names if (out / name).is_file()]
-    return SweepOutcome(out, rows, summary, 0, len(rows), [], files)
+    return SweepOutcome(out, rows, summary, 0, len(rows), [], files, reprinted=True)
 
 
 def _submit(

@@ -13,7 +13,7 @@ A sweep file is a base scenario (a path, or an inline ``[scenario]`` table) plus
     "goal.theta" = [-0.5, 0.0, 0.5]
 
 or ``[sweep.random]`` (``count``, ``seed``, ``ranges = { "goal.q1" = [lo, hi] }``, uniform;
-integers from lo to hi for a setting whose bounds are integers;
+integers from lo to hi for an integer setting;
 task k draws from ``SeedSequence(seed, spawn_key=(k,))`` and plans with a seed drawn from it),
 or an explicit ``[[sweep.task]]`` table of ``key = value`` rows.
 
@@ -163,8 +163,8 @@ class Sweep:
             yield SweepTask(index, inputs, seed, scenario)
 
     def _draw(self, k: int) -> tuple[float | int, ...]:
-        """Task k's values: uniform on [lo, hi], integers from lo to hi where both bounds
-        are (an integer setting's, `tables.random_ranges`), in the order of the keys."""
+        """Task k's values: uniform on [lo, hi], integers from lo to hi for an integer
+        setting (its bounds kept as integers by `tables.random_ranges`), in key order."""
         rng = np.random.default_rng(self._sequence(k))
         return tuple(
             int(rng.integers(lo, hi, endpoint=True))

@@ -122,9 +122,9 @@ def _first(found: list[list[Problem]], where: str) -> list[Problem]:
 
 def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[Any]]:
     """The [low, high] of each key of [sweep.random], checked: a coordinate's and a real
-    setting's as floats (drawn uniformly), an integer setting's (both bounds integers, as
-    `planner.seed` or `decompose.max_length`) as integers (drawn from low to high inclusive,
-    as a grid's integer `linspace` gives integers)."""
+    setting's as floats (drawn uniformly, whatever the bounds are written as), an integer
+    setting's (`planner.seed`, `decompose.max_length`: the scenario refuses a value between
+    integers) as integers, drawn from low to high inclusive."""
     out = {}
     for key, pair in ranges.items():
         where = f'sweep.random.ranges."{key}"'
@@ -132,8 +132,7 @@ def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[An
             continue
         known = not base.key_problem(key, where)  # whatever the bounds are: every problem
         bounds = [number(v, f"{where}[{i}]", base.problems) for i, v in enumerate(pair)]
-        whole = all(isinstance(v, int) and not isinstance(v, bool) for v in pair)
-        if whole and not (valid_key(key) and is_coordinate(key)):
+        if known and len(pair) == 2 and _integer_setting(base, key, pair):
             bounds = [int(v) for v in pair]
         if len(pair) != 2:
             base.problems.append(Problem(where, f"needs [low, high] (got {len(pair)} values)"))
@@ -146,6 +145,18 @@ def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[An
             base.problems += _once(found, where, "both bounds")
         out[key] = bounds
     return out
+
+
+def _integer_setting(base: Base, key: str, pair: list[Any]) -> bool:
+    """Whether a range with integer bounds is of an integer setting: the scenario refuses the
+    value halfway between them as no integer (an obstacle's centre [-1, 1] is drawn from the
+    reals; a new user's obstacles were drawn at -1, 0 and 1 alone)."""
+    whole = all(isinstance(v, int) and not isinstance(v, bool) for v in pair)
+    if not whole or (valid_key(key) and is_coordinate(key)) or not base.loads:
+        return False
+    refused: list[Problem] = []
+    check_value(base.scenario, key, (pair[0] + pair[1]) / 2 + 0.25, base.states, "", refused)
+    return any("integer" in p.message for p in refused)
 
 
 def task_rows(rows: list[dict[str, Any]], base: Base) -> tuple[tuple[str, ...], list[dict]]:
