@@ -215,7 +215,7 @@ def _more_starts_hint(settings, free: float, inside: float) -> list[str]:
         return []
     return [
         f"inside the limits the plan costs {ratio:.3g}x the energy of the plan without them "
-        f"({inside:.6g} against {free:.6g}); with planner.constrained_starts = 2 the search "
+        f"({inside:.2f} against {free:.2f}); with planner.constrained_starts = 2 the search "
         "goes on to a second start that gets inside and keeps the lower (at least twice the "
         "search's time)"
     ]

@@ -252,7 +252,10 @@ def test_a_sweep_whose_tasks_fail_says_why_in_its_summary_and_sweep_json(tmp_pat
         assert message == next(csv.DictReader(fh))["message"]  # task 0's
     shown = runner.invoke(app, ["show", str(out)], terminal_width=400)
     line = next(line for line in shown.output.splitlines() if line.strip().startswith("why"))
-    assert "2 failed (task 0 and alike): " in line and message[:60] in line
+    assert "2 failed (task 0 and 1 more like it): " in line and message[:60] in line
+    # cut at a word, saying where the whole message is (it was cut mid-word, its advice lost)
+    if len(message) > 240:
+        assert line.endswith(" … (in full: results.csv)")
 
 
 def test_a_compare_mode_row_ranks_the_searched_sequences_and_lists_the_bounded_apart(tmp_path):

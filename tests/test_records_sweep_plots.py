@@ -122,3 +122,16 @@ def test_a_map_over_a_decade_of_a_setting_has_a_log_axis_of_equal_cells():
     assert np.allclose(
         _edges([1.5, 100]), [1.5**1.5 / 100**0.5, (1.5 * 100) ** 0.5, 100**1.5 / 1.5**0.5]
     )
+
+
+def test_plots_of_a_sweep_with_no_task_ok_say_so_instead_of_empty_axes():
+    """A sweep whose every task failed drew an empty histogram over "energy / median energy
+    (1)" and an empty line plot with a y axis of ±0.04."""
+    from stratcli.records.sweep_plots import NO_TASK_OK
+
+    rows = {k: {"index": k, "status": "failed", "energy": 84.0} for k in range(2)}
+    hist = energy_hist(_spec(kind="random", axes=()), rows).axes[0]
+    assert hist.get_xlabel() == "energy / median energy" and not hist.patches
+    line = energy_line(_spec(axes=((0.0, 1.0),)), rows).axes[0]
+    for ax in (hist, line):
+        assert [t.get_text() for t in ax.texts] == [NO_TASK_OK]

@@ -200,7 +200,7 @@ def test_a_sweep_killed_mid_way_resumes_to_the_same_table(tmp_path):
     # how many rows it keeps and how to go on, before the one word (it stood alone)
     assert code == 130 and err.endswith("interrupted\n"), err
     again = f"stratplan sweep {path} --out {out} --resume --jobs 1 plans the rest"  # as given
-    assert f"sweep: {len(first)} tasks kept in {out}; {again}" in err
+    assert f"sweep: {len(first)} of 15 tasks kept in {out}; {again}" in err
     code, _ = _kill_after(
         [*command, "--jobs", "1", "-q", "--resume"], out, len(first) + 2, signal.SIGKILL
     )

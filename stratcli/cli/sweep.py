@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shlex
+import textwrap
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -127,7 +128,7 @@ def sweep(
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     target = out if out is not None else Path("sweeps") / loaded.name  # (as run_sweep's)
     again = _again_command(file, target, jobs, dask, records)  # how to go on after a stop
-    with _resume_hint(again, target), render.reported():
+    with _resume_hint(again, target, loaded.count), render.reported():
         with progress_bar(progress.shown(quiet, json_output), waiting) as bar:
             outcome = api.run_sweep(
                 loaded, out, jobs=jobs, dask=dask, resume=resume, records=records or "failed",
@@ -162,7 +163,7 @@ def _again_command(file: Path, out: Path, jobs, dask, records) -> str:
 
 
 @contextmanager
-def _resume_hint(again: str, out: Path) -> Iterator[None]:
+def _resume_hint(again: str, out: Path, count: int) -> Iterator[None]:
     """On Ctrl-C (or SIGTERM) during a sweep: how many rows it keeps and how to go on
     (`again`), before the `interrupted` line (a new user saw that word alone)."""
     from ..interrupts import Interrupted
@@ -173,7 +174,8 @@ def _resume_hint(again: str, out: Path) -> Iterator[None]:
         from ..records.sweepdir import ROWS, read_rows
 
         done = len(read_rows(out / ROWS))  # (a torn last row is planned again)
-        render.notes([f"sweep: {counted(done, 'task')} kept in {out}; {again} plans the rest"])
+        render.notes([f"sweep: {done} of {counted(count, 'task')} kept in {out}; {again} plans "
+                      "the rest"])  # fmt: skip
         raise
 
 
@@ -228,13 +230,14 @@ def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
 
 
 def _failure(kind: dict[str, Any], width: int = REASON_WIDTH) -> str:
-    """One kind of failure of `summary`: how many tasks, the first one's message (cut at
-    `width` characters: each task's is in results.csv)."""
+    """One kind of failure of `summary`: how many tasks, the first one's message (on one
+    line, cut at a word after `width` characters: each task's whole message is in
+    results.csv, which it then says)."""
+    more = kind["tasks"] - 1
+    first = f"task {kind['first']}" + (f" and {more} more like it" if more else "")
     message = " ".join((kind["message"] or "(no message)").split())  # one line (a traceback's)
-    if len(message) > width:
-        message = message[: width - 1].rstrip() + "…"
-    first = f"task {kind['first']}" + (" and alike" if kind["tasks"] > 1 else "")
-    return f"{kind['tasks']} {kind['status']} ({first}): {escape(message)}"
+    cut = textwrap.shorten(message, width, placeholder=" … (in full: results.csv)")
+    return f"{kind['tasks']} {kind['status']} ({first}): {escape(cut)}"
 
 
 def show_sweep(path: Path, json_output: bool) -> None:

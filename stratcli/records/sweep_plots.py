@@ -23,6 +23,7 @@ from matplotlib.ticker import MaxNLocator
 from .figure_common import LOG_RATIO, fixed_margins, plain_log_labels, save_figure
 
 FAILED = "0.8"
+NO_TASK_OK = "no task ok: sweep.json's failures say why"  # on a plot with no energy to draw
 PALETTE = (
     "#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3",
     "#937860", "#da8bc3", "#17becf", "#ccb974", "#64b5cd",
@@ -168,8 +169,8 @@ def energy_line(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
         ax.set_yscale("log")
     if not any(v == v for v in e):  # an empty plot otherwise, its y-axis ±0.04
         ax.set_yticks([])
-        ax.text(0.5, 0.5, "no task ok: sweep.json's failures say why", transform=ax.transAxes,
-                ha="center", va="center", fontsize=9, color="0.3")  # fmt: skip
+        ax.text(0.5, 0.5, NO_TASK_OK, transform=ax.transAxes, ha="center", va="center",
+                fontsize=9, color="0.3")  # fmt: skip
     ax.set_xlabel(_label(spec, 0))
     ax.set_ylabel("energy ∫|u|² dt")
     ax.set_title(_title(spec, rows), fontsize=9)
@@ -206,7 +207,13 @@ def energy_hist(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     for r in rows.values():
         counts[r["status"]] = counts.get(r["status"], 0) + 1
     scale = " — log scale" if e.size and log else ""
-    ax.set_xlabel(f"energy / {label} ({ref:.4g}){scale}")
+    if e.size:
+        ax.set_xlabel(f"energy / {label} ({ref:.4g}){scale}")
+    else:  # no energy to divide: no ratio, no median of 1
+        ax.set_xlabel(f"energy / {label}")
+        ax.set_xticks([])
+        ax.text(0.5, 0.5, NO_TASK_OK, transform=ax.transAxes, ha="center", va="center",
+                fontsize=9, color="0.3")  # fmt: skip
     ax.set_ylabel("tasks")
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts are whole tasks
     detail = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
