@@ -545,11 +545,12 @@ def test_plan_in_auto_mode_chooses_and_says_why(tmp_path, newton):
     assert doc["total_energy"] == min(ok)
     assert [leg["stratum"] for leg in doc["legs"]] == comparison["rows"][0]["sequence"]
     # --json: the best plan's result.json and the choice (a script had to open the record's
-    # comparison.json to learn which sequence won)
-    args = ["plan", str(newton), "--out", str(tmp_path / "j"), "--no-animation", "--json"]
+    # comparison.json to learn which sequence won); --jobs as compare-sequences has it
+    args = ["plan", str(newton), "--out", str(tmp_path / "j"), "--json", "--jobs", "1"]
     printed = json.loads(runner.invoke(cli.app, args).stdout)
     assert printed["comparison"]["rows"][0]["sequence"] == comparison["rows"][0]["sequence"]
     assert printed["total_energy"] == doc["total_energy"] and printed["record"]
+    assert printed["comparison"]["jobs"] == 1
 
 
 BAD_DECOMPOSE = {

@@ -87,6 +87,13 @@ def plan(
             "(without loop starts) or legwise (also each leg's own minimum, joined; slower).",
         ),
     ] = None,
+    jobs: Annotated[
+        int | None,
+        typer.Option(
+            help="Auto mode: worker processes comparing the sequences (default: all cores).",
+            min=1,
+        ),
+    ] = None,
 ) -> None:
     """Plan a scenario: every leg to tolerance, controls continuous across switches.
 
@@ -115,7 +122,10 @@ def plan(
     # matplotlib loads while the plan is made; niced only beside a comparison's workers
     api.draw_ahead(yielding=not task.legs)
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
-        _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale)
+        _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale, jobs)
+    if jobs is not None:  # (a flag that does nothing says so)
+        render.notes(["--jobs is for auto mode (a scenario without [[legs]]): its legs are "
+                      "planned in this process"])  # fmt: skip
     with bars.phases(bars.shown(quiet, json_output), log=True) as progress:
         with render.reported(file):
             outcome = api.plan_run(
@@ -133,15 +143,16 @@ def plan(
 
 
 def _plan_auto(
-    task, file: Path, out: Path, json_output, quiet, animation, check, fmt, time_scale=None
-) -> None:
+    task, file: Path, out: Path, json_output, quiet, animation, check, fmt, time_scale=None,
+    jobs=None,
+) -> None:  # fmt: skip
     """`plan` on a scenario without legs: compare the candidates, record and show the best."""
     from .. import api  # start-up speed
 
     for sentence in api.limit_warnings(task):  # (plan_run warns of them itself)
         _warning(sentence)
     with render.reported(file), bars.progress_bar(bars.shown(quiet, json_output)) as bar:
-        outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale)
+        outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale, jobs=jobs)
     with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:  # the best plan's result.json, and the choice (as `show --json` has it)
