@@ -279,7 +279,8 @@ def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
                 f"objective {objective!r} applied to the Newton legs only: leg(s) {which} use "
                 f"{how if lie else named}; the Newton legs come from the minimum-energy plan "
                 f"with a Newton stand-in for each {'Lie leg' if lie else 'of them'}, then the "
-                "sequence was planned leg by leg",
+                "sequence was planned leg by leg (a Newton leg's iterations are its polish from "
+                "there: 0 where it reached its goal as it was)",
             )
     plain = chain_legs(system, start, legs, settings)
     return _noted(
