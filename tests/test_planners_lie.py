@@ -144,3 +144,15 @@ def test_a_failed_lie_leg_names_the_free_coordinate_that_drifted():
     assert "give them values in the leg's goal, or try a smaller lie.gamma" in plan.message
     given = stratcli.plan(CRAB.replace('"pi/6", "*", "-pi/24"', '"pi/6", "pi/6", "-pi/24"'))
     assert given.ok and "drifted" not in given.message
+
+
+def test_a_hybrid_plans_note_says_what_its_newton_legs_iterations_count(scenarios_dir):
+    """Sim 3 under the energy objective: its Newton legs come from the energy plan and need
+    no polish, so the table shows 0 iterations, which a new user read as unexplained."""
+    from stratcli.api import plan_run
+
+    plan = plan_run(load_scenario(scenarios_dir / "sim3_hybrid.toml"), check=False).result
+    (note,) = [n for n in plan.notes if "applied to the Newton legs only" in n]
+    assert note.endswith("(a Newton leg's iterations are its polish from there: 0 where it "
+                         "reached its goal as it was)")  # fmt: skip
+    assert [leg.iterations for leg in plan.legs if leg.method == "newton"] == [0, 0]
