@@ -689,3 +689,18 @@ def test_where_the_free_minimum_is_a_loop_starts_the_search_also_starts_from_the
     q = _dense(task, outcome.document)
     assert np.abs(q[:, :3]).max() <= 2.5 + 1e-6
     assert _self_clearance(task.system.robot, q, 0.05).min() >= 0.05 - 1e-6
+
+
+def test_a_plan_inside_its_limits_below_the_free_minimum_says_the_free_search_stopped_higher():
+    """A URDF task's free energy search ended at 687.34 (a joint swung two turns); inside
+    the limits the plan cost 58.88, a plan of the free problem too, and nothing said so."""
+    from stratcli.settings import PlannerSettings
+    from stratcli.within_limits import _below_free
+
+    energy = PlannerSettings(objective="energy")
+    (note,) = _below_free(energy, 687.34, 58.8837)
+    assert note.startswith("inside the limits the plan costs less than the minimum found")
+    assert "(58.88 against 687.34)" in note and "stopped in a higher minimum" in note
+    assert _below_free(energy, 84.04, 280.92) == []  # the usual: the limits cost energy
+    assert _below_free(energy, 84.04, 84.04) == []  # inside already
+    assert _below_free(PlannerSettings(objective="newton"), 687.34, 58.88) == []  # no minimum
