@@ -86,6 +86,15 @@ def test_bad_configurations_name_the_field(start, words):
     assert words in str(err.value)
 
 
+def test_a_misspelt_joint_is_one_line_that_names_the_joint_meant():
+    """`j22` for j2 gave two lines: the unknown name, and j2 "missing" as its knock-on."""
+    with pytest.raises(InputError) as err:
+        parse_scenario(_text(start="{ j1 = 0, j22 = 0, j3 = 0 }"))
+    (problem,) = err.value.problems
+    assert problem.path == "task.start"
+    assert problem.message.startswith("unknown names j22 (did you mean j2?) (allowed: j1, j2")
+
+
 def test_unsupported_joint_and_missing_pinocchio_exit_2(tmp_path, monkeypatch):
     text = (
         (ROOT / "robots" / "arm3.urdf")

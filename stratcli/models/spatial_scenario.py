@@ -5,6 +5,7 @@ into lists in coordinate order (`spatial.configuration_list`)."""
 from __future__ import annotations
 
 import copy
+from difflib import get_close_matches
 from pathlib import Path
 from typing import Any
 
@@ -77,11 +78,13 @@ def configuration_list(table: dict, system: System, where: str) -> list:
     joints = system.spatial.joint_names
     allowed = (*joints, "attitude", "rpy")
     unknown = [key for key in table if key not in allowed]
-    if unknown:
-        problems.append(
-            Problem(where, f"unknown names {', '.join(unknown)} (allowed: {', '.join(allowed)})")
-        )
     missing = [j for j in joints if j not in table]
+    # a misspelt joint: the missing joint it is closest to (then not reported missing too)
+    meant = {k: close[0] for k in unknown if (close := get_close_matches(k, missing, n=1))}
+    if unknown:
+        names = ", ".join(f"{k} (did you mean {meant[k]}?)" if k in meant else k for k in unknown)
+        problems.append(Problem(where, f"unknown names {names} (allowed: {', '.join(allowed)})"))
+    missing = [j for j in missing if j not in meant.values()]
     if missing:
         problems.append(Problem(where, f'missing joints {", ".join(missing)} ("*" if free)'))
     if "attitude" in table and "rpy" in table:
