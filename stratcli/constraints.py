@@ -200,15 +200,19 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
         # a radius other than the default (resolved.json writes the default out)
         if spec.link_radius != ConstraintsSpec.model_fields["link_radius"].default:
             problems.append(Problem("constraints.link_radius", message))
-    if (spec.self_collision or spec.obstacles) and robot is None:
-        problems.append(
-            Problem(
-                "constraints",
-                "self_collision and obstacles need a planar robot (a preset or a planar "
-                "manipulator); for custom and URDF models only joint, rate and acceleration "
-                "limits are supported",
+    geometric = (
+        ("self_collision", spec.self_collision, "needs"),
+        ("obstacles", spec.obstacles, "need"),
+    )
+    for key, asked, verb in geometric:
+        if asked and robot is None:  # the key a user wrote, by name
+            problems.append(
+                Problem(
+                    f"constraints.{key}",
+                    f"{key} {verb} a planar robot (a preset or a planar manipulator); for custom "
+                    "and URDF models only joint, rate and acceleration limits are supported",
+                )
             )
-        )
     if problems:
         raise InputError(problems)
     circles = tuple(

@@ -312,7 +312,14 @@ def test_urdf_models_take_their_joint_limits_from_the_urdf_unless_overridden():
     assert (c.lower[1], c.upper[1]) == (-1.0, 1.0)
     assert c.upper[0] == robot.upper[0]
     raw["constraints"] = {"self_collision": True}
-    assert any("need a planar robot" in p for p in _problems(raw))
+    assert _problems(raw) == [
+        "constraints.self_collision: self_collision needs a planar robot (a preset or a planar "
+        "manipulator); for custom and URDF models only joint, rate and acceleration limits are "
+        "supported"
+    ]
+    raw["constraints"] = {"obstacles": [{"shape": "circle", "centre": [1, 0], "radius": 0.1}]}
+    (line,) = _problems(raw)  # the key written, not the table (a new user read `constraints`)
+    assert line.startswith("constraints.obstacles: obstacles need a planar robot")
 
 
 def test_the_schemas_and_the_models_problems_of_constraints_come_in_one_run():
