@@ -139,9 +139,14 @@ def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> li
             problems.append(
                 Problem(
                     where,
-                    f"{name} = {q[i]:.4g} is outside its joint limits "
-                    f"[{c.lower[i]:g}, {c.upper[i]:g}]"
-                    + (" (the URDF's)" if i in c.from_urdf else ""),
+                    f"{name} = {q[i]:.4g} is outside its limits [{c.lower[i]:g}, "
+                    f"{c.upper[i]:g}] ("  # where they come from (an attitude is no joint)
+                    + (
+                        "the URDF's joint limits"
+                        if i in c.from_urdf
+                        else "constraints.joint_limits"
+                    )
+                    + ")",
                 )
             )
     robot = getattr(system, "robot", None)

@@ -304,7 +304,9 @@ def test_a_urdf_plans_limits_say_which_are_the_tables_and_which_the_urdfs():
     raw["model"]["path"] = str(ROOT / "robots" / "arm3.urdf")
     raw["task"]["start"]["j3"] = 2.7  # the URDF limits j3 to [-2.5, 2.5]
     raw["constraints"] = {}
-    with pytest.raises(
-        InputError, match=r"j3 = 2\.7 is outside its joint limits \[-2\.5, 2\.5\] \(the URDF's\)"
-    ):
+    outside = r"j3 = 2\.7 is outside its limits \[-2\.5, 2\.5\] \(the URDF's joint limits\)"
+    with pytest.raises(InputError, match=outside):
+        load_scenario(raw)
+    raw["constraints"] = {"joint_limits": {"j3": [-2.0, 2.0]}}  # the table's: it says so
+    with pytest.raises(InputError, match=r"j3 = 2\.7 is outside its limits \[-2, 2\] \(constr"):
         load_scenario(raw)
