@@ -195,6 +195,14 @@ def test_models_lists_joints_limits_and_strata():
     out = result.output
     assert "joint_1 [-2.97, 2.97]" in out and "rotation vector" in out
     assert "S12" in out and "magnus" in out  # pair locks from four joints on
+    # the URDF's velocity limits as a line to copy (the README says to copy them to
+    # max_rate; a new user found them nowhere), exactly as the URDF has them
+    import re
+
+    urdf = (ROOT / "robots" / "bus_arm7.urdf").read_text()
+    speeds = [float(v) for v in re.findall(r'velocity="([^"]+)"', urdf)]
+    line = " ".join(out.split())  # (the console wraps)
+    assert f"max_rate = [{', '.join(f'{v:g}' for v in speeds)}] (rad/s)" in line
 
 
 @pytest.mark.slow

@@ -98,6 +98,9 @@ class SpatialRobot:
         self.iv = np.array([model.joints[j].idx_v for j in range(2, model.njoints)])
         self.lower = np.asarray(model.lowerPositionLimit)[self.iq].copy()
         self.upper = np.asarray(model.upperPositionLimit)[self.iq].copy()
+        # the URDF's <limit velocity>, rad/s (not used: `[constraints] max_rate` is; shown by
+        # `stratplan models` so that it can be copied there)
+        self.velocity = np.asarray(model.velocityLimit)[self.iv].copy()
         self.mass = float(sum(inertia.mass for inertia in model.inertias))
         if not self.mass > 0:
             raise InputError([Problem("model.path", "the robot has no mass")])
@@ -347,10 +350,17 @@ class SpatialSystem(System):
             f"{name} [{lo:.3g}, {hi:.3g}]"
             for name, lo, hi in zip(robot.joint_names, robot.lower, robot.upper, strict=True)
         )
+        v = robot.velocity  # (a URDF without them: Pinocchio's placeholder, no limit)
+        speeds = (
+            f"; the URDF's velocity limits, not used unless copied to [constraints]: max_rate "
+            f"= [{', '.join(f'{x:g}' for x in v)}] (rad/s)"
+            if np.all(np.isfinite(v) & (v > 0) & (v < 1e6))
+            else ""
+        )
         description = (
             f"URDF robot {robot.summary.name!r}, {robot.mass:.4g} kg: {k} revolute joints "
             f"(limits, rad: {limits}) on a free-flying base {robot.base!r}; attitude rx, ry, rz "
-            "= rotation vector log(R), rad, world frame"
+            f"= rotation vector log(R), rad, world frame{speeds}"
         )
         super().__init__(name, states, inputs, None, strata, description=description)
         self.spatial = robot
