@@ -52,6 +52,9 @@ def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
         from .constraints import verified_again  # (imports this module)
 
         out = verified_again(out)
+        if plan.constraints.duration_set_by:  # its "slowed ...x to meet ..." note is history
+            note = f"then time-scaled by {s:g}: its duration is this call's, not a limit's"
+            out = replace(out, notes=(*out.notes, note))
     else:  # a note of when the legs leave a URDF's joint limits: at the new times
         from .urdf_limits import with_legs_noted_again
 

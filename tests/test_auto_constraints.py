@@ -97,6 +97,9 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     slower = stratcli.time_scaled(plan, 0.5)
     assert slower.ok and slower.constraints.legs[0].rate > 0.2  # half the speed: room
     assert plan.constraints.duration_set_by and not slower.constraints.duration_set_by
+    # its "slowed ...x to meet ..." note is history now: a note says what set the duration
+    assert slower.notes == (*plan.notes, "then time-scaled by 0.5: its duration is this "
+                            "call's, not a limit's")  # fmt: skip
     faster = stratcli.time_scaled(plan, 10)
     assert not faster.ok
     assert faster.status is stratcli.Status.CONSTRAINT_VIOLATED
