@@ -38,6 +38,7 @@ from .results import ConstraintReport, LegMargins
 from .simulate import sample
 from .time_scaling import rate_limited, scale_time
 from .urdf_limits import URDF_LIMIT, violation_advice
+from .wording import counted
 
 __all__ = [
     "KEPT_FREE",
@@ -244,6 +245,7 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
     trajectory = sample(plan, samples)
     robot = getattr(plan.system, "robot", None)
     margins, violated, violation = [], "", None
+    others: list[str] = []  # the violations after the first
     for leg in plan.legs:
         sel = trajectory.leg == leg.index
         t, q, u, du = trajectory.t[sel], trajectory.q[sel], trajectory.u[sel], trajectory.du[sel]
@@ -284,18 +286,28 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
                 found[key] = (value, when, what)
         margins.append(LegMargins(**{k: v[0] for k, v in found.items()}))
         for key, (value, when, what) in found.items():
-            if not violated and value < -VIOLATION_TOL:
-                unit = UNITS.get(key, "")  # clearances: in the model's own length unit
-                violated = (
-                    f"leg {leg.index + 1} ({leg.stratum}) violates {what} by "
-                    f"{-value:.3g}{unit} at t = {when:.3f} s"
-                )
-                violation = {"leg": leg.index + 1, "limit": key, "what": what}
-                violation.update(by=-value, t=when)
+            if value >= -VIOLATION_TOL:
+                continue
+            if violated:  # the first is named; the others counted (a worse one came later)
+                others.append(f"leg {leg.index + 1}'s {WORDS[key]}")
+                continue
+            unit = UNITS.get(key, "")  # clearances: in the model's own length unit
+            violated = (
+                f"leg {leg.index + 1} ({leg.stratum}) violates {what} by "
+                f"{-value:.3g}{unit} at t = {when:.3f} s"
+            )
+            violation = {"leg": leg.index + 1, "limit": key, "what": what}
+            violation.update(by=-value, t=when)
+    if others:
+        violated += f" (and {counted(len(others), 'more limit')}: {', '.join(others)})"
     return ConstraintReport(c.spec, tuple(margins), samples, violated, violation=violation)
 
 
 UNITS = {"joint_limit": " rad", "rate": " rad/s", "acceleration": " rad/s²"}  # of a violation
+WORDS = {  # a violation after the first, in the message's count of them
+    "joint_limit": "joint limits", "rate": "rate limit", "acceleration": "acceleration limit",
+    "self_clearance": "self-collision", "obstacle_clearance": "obstacles",
+}  # fmt: skip
 
 
 def verified_again(plan):

@@ -105,6 +105,10 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     assert faster.status is stratcli.Status.CONSTRAINT_VIOLATED
     assert "violates the rate limit of" in faster.message
     assert re.search(r"rad/s\) by [0-9.e+-]+ rad/s at t = ", faster.message)  # with its unit
+    # the first violation named, the others counted (a worse one on a later leg went unsaid)
+    # (10x faster: every leg's rates 10x and accelerations 100x, over both limits)
+    more = "leg 1's acceleration limit, leg 2's rate limit, leg 2's acceleration limit"
+    assert re.search(rf"at t = [0-9.]+ s \(and 3 more limits: {more}\)", faster.message)
     assert "this plan time_scaled by" in faster.message  # the factor for this plan
     # the advice is to run it slower, by how much (not the vias or harmonics of a plan that
     # was planned off its limits: joint limits and clearances do not change with the speed)
