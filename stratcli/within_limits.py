@@ -12,7 +12,7 @@ import numpy as np
 
 from .node_margins import searchable
 from .planners import PLANNERS
-from .planners.constrained import NotSearchable, constrained_search, kept_after_dips
+from .planners.constrained import NotSearchable, constrained_search
 from .planners.energy import LATER
 from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs, held_vias, nominal_starts
 
@@ -51,6 +51,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     tried = []  # every start, for `_folding_start`
     coefficients, notes, stalled, iterations, searched = None, [], "", 0, 0
     inside = []  # (energy, coefficients, notes, iterations) of each start that got inside
+    settled = 0  # of those, the ones not kept after dips (`Searched.kept`): what `wanted` counts
     wanted = settings.constrained_starts
     plain = [PLAIN] if _from_a_later_start(plan) else []
     for k in [0, *plain, *range(1, CONSTRAINED_SEEDS + wanted)]:
@@ -75,7 +76,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         coefficients = None
         searched += 1
         try:
-            coefficients, notes, stalled, energy, iterations = constrained_search(
+            coefficients, notes, stalled, energy, iterations, kept = constrained_search(
                 system, nominal, legs, settings, targets, seeds, constraints,
                 lower_energy=settings.objective == "energy", first=k == 0,
             )  # fmt: skip
@@ -93,7 +94,8 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
             break  # (k = 0) inside the limits already
         if coefficients is not None:  # (a start kept after dips between the nodes: one
             inside.append((energy, coefficients, notes, iterations))  # more, not counted)
-            if sum(not kept_after_dips(found[2]) for found in inside) >= wanted:
+            settled += not kept
+            if settled >= wanted:
                 break
     if inside:  # the lowest of the starts that got inside (`constrained_starts`, and any kept)
         _, coefficients, notes, iterations = min(inside, key=lambda found: found[0])
@@ -110,7 +112,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
         if found is not None:
             say("constrained search: from a plan within auxiliary joint limits")
             searched += 1
-            coefficients, notes, _, _, iterations = constrained_search(
+            coefficients, notes, _, _, iterations, _ = constrained_search(
                 system, nominal, legs, settings, targets, found, constraints,
                 lower_energy=settings.objective == "energy", first=False,
             )  # fmt: skip
@@ -190,7 +192,7 @@ def _rechained_within(system, start, legs, settings, final, constraints):
     held, targets, nominal = held_vias(system, start, legs, final)
     seeds = [("re-chained", np.concatenate([leg.coefficients.ravel() for leg in final.legs]))]
     try:
-        found, notes, stalled, _, iterations = constrained_search(
+        found, notes, stalled, _, iterations, _ = constrained_search(
             system, nominal, held, settings, targets, seeds, constraints,
             lower_energy=settings.objective == "energy", first=True,
         )  # fmt: skip
@@ -253,10 +255,10 @@ def _folding_start(system, nominal, legs, settings, targets, seeds, constraints)
     lower[joints], upper[joints] = -AUXILIARY_LIMIT, AUXILIARY_LIMIT
     auxiliary = replace(constraints, lower=lower, upper=upper)
     try:
-        coefficients, _, _, _, _ = constrained_search(
+        coefficients = constrained_search(
             system, nominal, legs, settings, targets, seeds, auxiliary, lower_energy=False,
             first=False,
-        )  # fmt: skip
+        ).coefficients  # fmt: skip
     except NUMERICAL_ERRORS:
         return None
     if coefficients is None:

@@ -266,7 +266,9 @@ def test_a_held_search_that_stops_says_so_where_it_was_silent(monkeypatch):
     assert plan is final and (notes, iterations) == ([], 0)
     assert message == "the constrained search stopped on a numerical failure (FloatingPointError)"
     assert message.startswith(within_limits.STALLED)
-    inside = lambda *a, **k: (None, ["inside the limits already"], "", float("nan"), 0)  # noqa: E731
+    from stratcli.planners.constrained import Searched
+
+    inside = lambda *a, **k: Searched(None, ["inside the limits already"], "", float("nan"), 0)  # noqa: E731
     monkeypatch.setattr(within_limits, "constrained_search", inside)
     assert within_limits._rechained_within(*args) == (final, [], 0, "")
 

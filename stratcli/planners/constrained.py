@@ -32,7 +32,7 @@ searched alike, the goals' curvature estimated (`sqp.Descent.goal_curvature`).
    at the nodes, and on a random task they slid to new dips between the nodes pass after
    pass (the start was dropped after 6.6 s, the next one got inside at 1346.20; its plan of
    the last pass, moved inside by phase 1 only, is 999.10). Such a plan is kept beside the
-   other starts' (`kept_after_dips`), which often end lower: auto mode's (S1, S3) under
+   other starts' (`Searched.kept`), which often end lower: auto mode's (S1, S3) under
    ±2.5 rad keeps 247.96 from its first start that way, and the next start ends at 146.90.
 
 A search that cannot make every margin positive says which limit on which leg it stalled on
@@ -40,6 +40,8 @@ A search that cannot make every margin positive says which limit on which leg it
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -50,7 +52,7 @@ from .active_set import convexified, least_distance
 from .sqp import CURVATURE_FLOOR, STEP_LIMIT, Descent
 from .stacked import StackedProblem
 
-__all__ = ["NotSearchable", "constrained_search", "kept_after_dips"]
+__all__ = ["NotSearchable", "Searched", "constrained_search"]
 
 PUSH = 1e-3  # the feasibility phase ends with every node margin at least this
 FEASIBILITY_ITERATIONS = 60
@@ -343,12 +345,6 @@ LAST_PASS = (  # the note of a plan whose last pass kept it inside without lower
 DENSE = 1000  # samples a leg of that check
 
 
-def kept_after_dips(notes) -> bool:
-    """Whether a search's plan is its last pass's, kept inside without lowering (`LAST_PASS`):
-    `within_limits` goes on to its other starts, which often end lower."""
-    return LAST_PASS.format(REFINEMENTS) in notes
-
-
 def _searchable(problem: StackedProblem, constraints) -> bool:
     """Whether the search applies: quadrature legs (joints in closed form, θ by quadrature),
     or legs whose joints are closed-form and the only limits (URDF robots, `MagnusEndpoint`:
@@ -361,18 +357,26 @@ def _searchable(problem: StackedProblem, constraints) -> bool:
     )
 
 
+class Searched(NamedTuple):
+    """What `constrained_search` found."""
+
+    coefficients: list | None  # per leg; None where no start got inside, or none was needed
+    notes: list[str]
+    stalled: str  # the stall message of the last start tried ("" where one got inside)
+    energy: float  # the plan's, or NaN
+    iterations: int  # of the search that found it, over all legs together, or 0
+    kept: bool = False  # its last pass's plan, kept inside without lowering (`LAST_PASS`)
+
+
 def constrained_search(
     system, starts, legs, settings, targets, seeds, constraints, lower_energy: bool, first=True
-):
+) -> Searched:
     """Coefficients within the limits at every node, from the first of `seeds` (stacked
-    coefficients reaching the goals) that leads to a feasible plan.
-
-    Returns (per-leg coefficients or None, notes, the stall message of the last start tried,
-    the plan's energy or NaN, the iterations of the search that found it over all legs
-    together, or 0); (None, notes, "", NaN, 0) when the first seed is inside the limits
-    already and `first` (the plan as planned: then it is the constrained minimum as well).
-    With `lower_energy` (the energy objective) the feasible plan's energy is then lowered
-    inside the limits (`_Search.lower`).
+    coefficients reaching the goals) that leads to a feasible plan (`Searched`); no
+    coefficients and no stall when the first seed is inside the limits already and `first`
+    (the plan as planned: then it is the constrained minimum as well). With `lower_energy`
+    (the energy objective) the feasible plan's energy is then lowered inside the limits
+    (`_Search.lower`).
     """
     problem = StackedProblem(system, starts, legs, settings, targets)
     if not _searchable(problem, constraints):
@@ -382,7 +386,9 @@ def constrained_search(
     z = problem.project(seeds[0][1])
     g = margins(z, jacobian=False)[0]
     if first and (g.size == 0 or g.min() >= 0) and margins.refined(z, DENSE) is None:
-        return None, ["inside the limits already: no constrained search needed"], "", np.nan, 0
+        return Searched(
+            None, ["inside the limits already: no constrained search needed"], "", np.nan, 0
+        )
     for kind, lam in seeds:
         with np.errstate(all="ignore"):
             search = _Search(problem, margins, problem.project(lam), settings.tolerance)
@@ -413,8 +419,8 @@ def constrained_search(
         if kept:
             notes.append(LAST_PASS.format(REFINEMENTS))
         coefficients = problem.split(problem.coefficients(search.z))
-        return coefficients, notes, "", search.energy, search.iterations
-    return None, [], stalled, np.nan, 0
+        return Searched(coefficients, notes, "", search.energy, search.iterations, kept)
+    return Searched(None, [], stalled, np.nan, 0)
 
 
 def search_note(kind: str, nodes: int, iterations: int, found: float, final: float, lowered: bool):
