@@ -89,7 +89,7 @@ def run_sweep(
         writing into, too), or `resume` on a directory of another sweep.
     """
     loaded = file if isinstance(file, Sweep) else load_sweep(file)
-    target = Path(out) if out is not None else Path("sweeps") / loaded.name
+    target = loaded.out_dir(out)
     context = (
         dask_executor(os.fspath(dask))
         if dask and executor is None

@@ -126,7 +126,7 @@ def sweep(
 
         loaded = load_sweep(file)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
-    target = out if out is not None else Path("sweeps") / loaded.name  # (as run_sweep's)
+    target = loaded.out_dir(out)
     again = _again_command(file, target, jobs, dask, records)  # how to go on after a stop
     with _resume_hint(again, target, loaded.count), render.reported():
         with progress_bar(progress.shown(quiet, json_output), waiting) as bar:

@@ -162,6 +162,10 @@ class Sweep:
             seed = int(scenario.get("planner", {}).get("seed", 0))
             yield SweepTask(index, inputs, seed, scenario)
 
+    def out_dir(self, out: str | Path | None = None) -> Path:
+        """The directory the sweep writes: `out`, else sweeps/NAME."""
+        return Path(out) if out is not None else Path("sweeps") / self.name
+
     def _draw(self, k: int) -> tuple[float | int, ...]:
         """Task k's values: uniform on [lo, hi], integers from lo to hi for an integer
         setting (its bounds kept as integers by `tables.random_ranges`), in key order."""
