@@ -168,13 +168,18 @@ def energy_line(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     if positive and max(positive) > LOG_RATIO * min(positive):
         ax.set_yscale("log")
     if not any(v == v for v in e):  # an empty plot otherwise, its y-axis ±0.04
-        ax.set_yticks([])
-        ax.text(0.5, 0.5, NO_TASK_OK, transform=ax.transAxes, ha="center", va="center",
-                fontsize=9, color="0.3")  # fmt: skip
+        _no_task_ok(ax, ax.set_yticks)
     ax.set_xlabel(_label(spec, 0))
     ax.set_ylabel("energy ∫|u|² dt")
     ax.set_title(_title(spec, rows), fontsize=9)
     return fig
+
+
+def _no_task_ok(ax, clear_ticks) -> None:
+    """A plot with no energy to draw says so (`NO_TASK_OK`), its energy axis unticked."""
+    clear_ticks([])
+    ax.text(0.5, 0.5, NO_TASK_OK, transform=ax.transAxes, ha="center", va="center",
+            fontsize=9, color="0.3")  # fmt: skip
 
 
 def energy_hist(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
@@ -211,9 +216,7 @@ def energy_hist(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
         ax.set_xlabel(f"energy / {label} ({ref:.4g}){scale}")
     else:  # no energy to divide: no ratio, no median of 1
         ax.set_xlabel(f"energy / {label}")
-        ax.set_xticks([])
-        ax.text(0.5, 0.5, NO_TASK_OK, transform=ax.transAxes, ha="center", va="center",
-                fontsize=9, color="0.3")  # fmt: skip
+        _no_task_ok(ax, ax.set_xticks)
     ax.set_ylabel("tasks")
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts are whole tasks
     detail = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
