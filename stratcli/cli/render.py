@@ -282,18 +282,18 @@ def _start_energy(start: dict, starts: list[dict]) -> str:
     as if it were the second's)."""
     from ..planners.sqp import MINIMUM  # (after planning, or reading a record: numpy is loaded)
 
-    stopped = start.get("stopped")
+    stopped, energy = start.get("stopped"), start.get("energy")
     why = f" ({stopped})" if stopped and stopped not in MINIMUM else ""
-    energy = start.get("energy")
-    ends = [  # minima it may have been descending to: at its energy or below
-        s for s in starts
-        if s.get("stopped") in MINIMUM and s.get("energy") is not None
-        and energy is not None and s["energy"] <= energy * (1 + 1e-9)
-    ]  # fmt: skip
-    if stopped == "same minimum" and ends:
-        other = min(ends, key=lambda s: energy - s["energy"])
-        why = f" (heading for start {other['index'] + 1}'s minimum)"
-    return f"{start['from']} {fmt(start['energy'])}{why}"
+    if stopped == "same minimum" and energy is not None:
+        ends = [  # minima it may have been descending to: at its energy or below
+            s for s in starts
+            if s.get("stopped") in MINIMUM and s.get("energy") is not None
+            and s["energy"] <= energy * (1 + 1e-9)
+        ]  # fmt: skip
+        if ends:
+            other = min(ends, key=lambda s: energy - s["energy"])
+            why = f" (heading for start {other['index'] + 1}'s minimum)"
+    return f"{start['from']} {fmt(energy)}{why}"
 
 
 def _close(a: float | None, b: float | None) -> bool:
