@@ -145,7 +145,8 @@ def validation_problems(
             ctx = err["ctx"]
             bound = ctx.get("min_length", ctx.get("max_length"))
             least = "at least" if kind == "too_short" else "at most"
-            msg = f"must have {least} {bound} entries, not {ctx.get('actual_length')}"
+            entries = "entry" if bound == 1 else "entries"
+            msg = f"must have {least} {bound} {entries}, not {ctx.get('actual_length')}"
         if kind in ("union_tag_not_found", "union_tag_invalid"):  # a table without a valid tag
             ctx = err.get("ctx", {})
             field = ctx.get("discriminator", "kind").strip("'")

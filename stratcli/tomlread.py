@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import stat
 import tomllib
 from collections.abc import Mapping
@@ -186,7 +187,8 @@ def read_source(
     -------
     tuple
         Its tables; its TOML text (None for a dict); how messages name it (`name`, else the
-        path, "<text>" or "<dict>"); the folder its relative paths are relative to (None:
+        path, "<text>" or "<dict>", those two with the source's own name where it has one:
+        "<dict 'mine'>"); the folder its relative paths are relative to (None:
         the working directory).
 
     Raises
@@ -199,7 +201,7 @@ def read_source(
     from .arguments import wrong_type  # (stdlib only)
 
     if isinstance(source, Mapping):
-        where = name or "<dict>"
+        where = name or _anonymous("<dict>", source, kind)
         try:  # numpy values as Python's, here for every caller (sweeps' tasks too)
             return plain(source), None, where, None
         except InputError as exc:
@@ -207,8 +209,8 @@ def read_source(
     if not isinstance(source, str | os.PathLike):
         raise wrong_type("source", f"a {kind} path, TOML text or a dict", source)
     if isinstance(source, str) and is_toml_text(source):
-        where = name or "<text>"
-        return parse_toml(source, where), source, where, None
+        tables = parse_toml(source, name or "<text>")
+        return tables, source, name or _anonymous("<text>", tables, kind), None
     path = Path(source)
     where = name or str(path)
     try:
@@ -223,6 +225,16 @@ def read_source(
             where,
         )
     return parse_toml(text, where), text, where, path.parent
+
+
+def _anonymous(what: str, tables: Mapping, kind: str) -> str:
+    """How messages name a scenario or sweep given as a dict or text: by its own `name` where
+    it has one (`<dict 'mine'>`; a notebook may build several), else `what`."""
+    named = tables.get("sweep") if kind == "sweep" else tables
+    name = named.get("name") if isinstance(named, Mapping) else None
+    if isinstance(name, str) and re.fullmatch(r"[A-Za-z0-9_.-]{1,100}", name):  # a valid name
+        return f"{what[:-1]} {name!r}>"
+    return what
 
 
 def is_xml_text(text: str) -> bool:

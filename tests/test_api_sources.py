@@ -60,8 +60,20 @@ def test_a_bad_value_is_shown_once(goal, expected):
     with pytest.raises(InputError) as caught:
         stratcli.load_scenario(source)
     lines = str(caught.value).splitlines()
-    assert lines == [f"<dict>: {line}" for line in expected]
+    assert lines == [f"<dict 'unicycle'>: {line}" for line in expected]  # its own name
     assert all(line.count("(got ") == 1 for line in lines)
+
+
+def test_an_unnamed_dict_or_text_is_named_for_what_it_is():
+    source = copy.deepcopy(UNICYCLE)
+    del source["name"]
+    with pytest.raises(InputError, match=r"^<dict>: name: required field is missing"):
+        stratcli.load_scenario(source)
+    source["name"] = ["not", "a", "name"]
+    with pytest.raises(InputError, match=r"^<dict>: name: "):
+        stratcli.load_scenario(source)
+    with pytest.raises(InputError, match=r"^<text>: name: required field is missing"):
+        stratcli.load_scenario('[model]\nkind = "preset"\nname = "unicycle"\n')
 
 
 def test_a_sweep_is_a_path_toml_text_or_a_dict_with_numpy_axes(tmp_path):
@@ -71,7 +83,7 @@ def test_a_sweep_is_a_path_toml_text_or_a_dict_with_numpy_axes(tmp_path):
     as_dict = tomllib.loads(text)
     as_dict["sweep"]["grid"] = {"goal.q1": np.linspace(-1.0, 0.0, 3), "goal.theta": [-0.2, 0.0]}
     from_dict = load_sweep(as_dict)
-    assert from_text.source == "<text>" and from_dict.source == "<dict>"
+    assert from_text.source == "<text 'small'>" and from_dict.source == "<dict 'small'>"
     assert from_path.digest == from_text.digest  # the same tasks
     assert from_dict.count == 6 and [t.inputs for t in from_dict.tasks()][1] == {
         "goal.q1": -1.0,
@@ -86,7 +98,7 @@ def test_a_missing_sweep_file_is_named_a_sweep_file(tmp_path):
     missing = tmp_path / "nope.toml"
     with pytest.raises(InputError, match=r"nope\.toml: cannot read sweep file: No such file"):
         stratcli.run_sweep(missing)
-    with pytest.raises(InputError, match=r"^<text>: sweep\.scenario: give a base scenario"):
+    with pytest.raises(InputError, match=r"^<text 'd'>: sweep\.scenario: give a base scenario"):
         stratcli.run_sweep('[sweep]\nname = "d"\n[sweep.grid]\n"goal.y" = [0]\n')
 
 
@@ -106,7 +118,7 @@ def test_a_path_with_an_equals_sign_is_a_path(tmp_path):
     assert task.source == str(folder / "s.toml")
     assert stratcli.check_controllability(str(folder / "s.toml"), samples=0).controllable
     assert load_sweep(str(write(folder, GRID))).count == 6
-    with pytest.raises(InputError, match=r"^<text>: "):
+    with pytest.raises(InputError, match=r"^<text>: name: must be letters"):  # not a name
         stratcli.load_scenario('name = "one line"')
 
 
