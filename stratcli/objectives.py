@@ -122,7 +122,9 @@ def plan_with_objective(
     # widely perturbed seeded starts (feasible, and in different basins).
     seeds = [newton]
     exact = _exact_hessians(system, legs, settings)
-    seeded = settings.starts - 2 if exact else 0  # the pulled start and the plan come first
+    # the pulled start and the plan come first (without exact second derivatives the search
+    # makes no pulled start: `starts` then counts one start more than it races)
+    seeded = settings.starts - 2
     for k in range(1, seeded + 1):
         say(f"energy search: a start from a seeded Newton plan ({k} of {seeded})")
         other = chain_legs(
@@ -184,19 +186,19 @@ def _re_planned(plan: SequencePlan, legs: list[LegSpec]) -> list[str]:
 
 
 def _one_start(plan, settings: PlannerSettings):
-    """`plan` with a note when the scenario asks for more starts or the legwise search, which
-    a search without exact second derivatives does not make (`optimise_energy`): said, not
-    silently ignored."""
-    asked = [f"starts = {settings.starts}"] if settings.starts > 2 else []
-    asked += ['search = "legwise"'] if settings.search == "legwise" else []
-    if not asked:
+    """`plan` with a note when the scenario asks for the legwise search, which a search
+    without exact second derivatives does not make (`optimise_energy`): said, not silently
+    ignored. (`starts` above 2 it does make: seeded Newton plans raced after the Newton
+    plan's own search.)"""
+    if settings.search != "legwise":
         return plan
     return _noted(
         plan,
-        f"planner.{' and '.join(asked)} made no difference here: these legs' end-point maps "
+        'planner.search = "legwise" made no difference here: these legs\' end-point maps '
         "have no second derivatives (URDF models, ODE-path legs), so the energy search runs "
-        f"from one start (at most {FIRST_ORDER_ITERATIONS} steps, the goals' curvature "
-        "estimated from their Jacobians)",
+        f"from the Newton plan and planner.starts - 2 seeded Newton plans (at most "
+        f"{FIRST_ORDER_ITERATIONS} steps each, the goals' curvature estimated from their "
+        "Jacobians), without pulled, loop or legwise starts",
     )
 
 
@@ -221,8 +223,8 @@ def _short_of_a_minimum(plan, search):
 
 def _exact_hessians(system: System, legs: list[LegSpec], settings: PlannerSettings) -> bool:
     """Whether every leg's end-point map has exact second derivatives; if not (ODE-path
-    legs, URDF models) the energy search keeps one start (`optimise_energy`), so no seeded
-    Newton plans are made for the others."""
+    legs, URDF models) the energy search makes no pulled, loop or legwise start
+    (`optimise_energy`): the Newton plan, and the seeded Newton plans `starts` asks for."""
     from .endpoint import make_endpoint
 
     return all(

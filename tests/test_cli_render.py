@@ -285,6 +285,25 @@ def test_the_search_line_ends_with_why_no_loop_start_was_made(monkeypatch, plann
     assert "(energies before time scaling); no loop start: why not" in text
 
 
+def test_a_first_order_search_from_one_start_says_how_to_add_starts(monkeypatch, planned):
+    """A URDF plan's energy search runs from the Newton plan alone: its search line says that
+    `planner.starts` adds seeded starts (a user's arm3 task: 863.79 alone, 68.80 with 5), and
+    says it only there."""
+    from stratcli.planners.energy import MORE_STARTS, NO_HESSIANS
+
+    doc = copy.deepcopy(planned.document)
+    opt = doc["optimisation"]
+    opt["no_loop_start"] = NO_HESSIANS
+    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    assert MORE_STARTS not in text  # two starts ran
+    opt["starts"], opt["best"] = opt["starts"][:1], 0
+    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    assert text.count(f"no loop start: {NO_HESSIANS}; {MORE_STARTS}") == 1
+    opt["no_loop_start"] = "why not"
+    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    assert MORE_STARTS not in text
+
+
 def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monkeypatch, planned):
     """With [constraints] that moved the plan off the free optimum, the energy search's line
     describes the plan without them: it says so, before the note of the constrained search."""

@@ -208,9 +208,11 @@ def test_a_single_start_is_the_pulled_one_and_extra_starts_are_seeded_newton_pla
     assert four.total_energy <= optimal.total_energy * (1 + 1e-9)
 
 
-def test_more_starts_asked_of_a_first_order_search_are_noted_not_ignored(tmp_path):
-    """URDF legs have no second derivatives: the search keeps one start, and a scenario's
-    `starts = 4` or `search = "legwise"` says it made no difference (it was silent)."""
+def test_more_starts_asked_of_a_first_order_search_are_raced_legwise_is_noted(tmp_path):
+    """URDF legs have no second derivatives: the search makes no pulled, loop or legwise
+    start, but a scenario's `starts = 4` adds its two seeded Newton plans, raced after the
+    Newton plan's own search (never higher than it alone); `search = "legwise"` says it made
+    no difference (it was silent)."""
     pytest.importorskip("pinocchio")
     from pathlib import Path
 
@@ -229,11 +231,14 @@ def test_more_starts_asked_of_a_first_order_search_are_noted_not_ignored(tmp_pat
         {"planner": {"starts": 4, "search": "legwise"}}
     )
     plan = stratcli.plan(asked)
-    assert len(plan.optimisation.starts) == 1
-    assert plan.total_energy == pytest.approx(plain.total_energy, rel=1e-12)  # the same
+    assert [s.kind for s in plan.optimisation.starts] == ["newton"] * 3
+    first = plan.optimisation.starts[0]
+    assert first.energy == pytest.approx(plain.optimisation.starts[0].energy, rel=1e-12)
+    assert plan.total_energy <= plain.total_energy * (1 + 1e-9)
     assert plan.notes == (
-        'planner.starts = 4 and search = "legwise" made no difference here: these legs\' '
-        "end-point maps have no second derivatives (URDF models, ODE-path legs), so the energy "
-        "search runs from one start (at most 40 steps, the goals' curvature estimated from "
-        "their Jacobians)",
+        'planner.search = "legwise" made no difference here: these legs\' end-point maps '
+        "have no second derivatives (URDF models, ODE-path legs), so the energy search runs "
+        "from the Newton plan and planner.starts - 2 seeded Newton plans (at most 40 steps "
+        "each, the goals' curvature estimated from their Jacobians), without pulled, loop or "
+        "legwise starts",
     )

@@ -225,6 +225,9 @@ def plan_summary(doc: dict) -> None:
         free = None if total is None else total / doc.get("time_scale", 1.0)
         moved = free is not None and not _close(best["energy"], free)
         from ..constraints import KEPT_FREE  # (after planning: numpy is loaded)
+        from ..planners.energy import MORE_STARTS, NO_HESSIANS
+
+        alone = NO_HESSIANS if len(opt["starts"]) == 1 else None  # one start, first order
 
         kept = KEPT_FREE in (doc.get("message") or "")  # a stalled search keeps the free plan
         head = "without the constraints, " if (moved or kept) and doc.get("constraints") else ""
@@ -238,7 +241,8 @@ def plan_summary(doc: dict) -> None:
             f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
             f"{energies}{rechained}; plain Newton: {fmt(opt['newton_energy'])}"
             + (" (energies before time scaling)" if scale != 1.0 else "")
-            + (f"; no loop start: {opt['no_loop_start']}" if opt.get("no_loop_start") else ""),
+            + (f"; no loop start: {opt['no_loop_start']}" if opt.get("no_loop_start") else "")
+            + (f"; {MORE_STARTS}" if opt.get("no_loop_start") == NO_HESSIANS == alone else ""),
             highlight=False,
         )
     failure = (doc.get("message") or "") if doc["status"] != "ok" else ""

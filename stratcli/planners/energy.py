@@ -36,6 +36,10 @@ LATER = ("loop", "legwise")  # starts raced after the others (`loops`, `legwise`
 # why no loop start (`Optimisation.no_loop_start`), besides `loops.loop_starts`' reasons
 NO_MINIMUM = "no start reached a minimum to begin them from"
 NO_HESSIANS = "the legs have no exact second derivatives (URDF robots, ODE-path legs)"
+# what the search line adds where such a search ran from one start (`cli.render`)
+MORE_STARTS = (
+    "planner.starts = 5 adds three seeded Newton plans as starts (slower; at times far lower)"
+)
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
 # back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).
@@ -81,9 +85,22 @@ def optimise_energy(
     say = progress or (lambda phase: None)
     problem = StackedProblem(system, starts, legs, settings, targets, constraints)
     if not problem.exact_hessians:  # URDF, ODE-path legs: first-order steps are slow
+        # the first start (the warm start or the Newton plan) alone, as the search always
+        # ran; then the seeded Newton plans that follow the Newton plan (`starts`), raced
+        # after it against its result, as the loop starts are: never higher than it alone
+        lead = 1 + next((k for k, (kind, _) in enumerate(seeds) if kind == "newton"), len(seeds))
+        seeds, extra = seeds[:lead], seeds[lead:]
         say(f"energy search: minimum energy from {_starts(seeds[:1])}")
         runs = _first_kept(problem, seeds, settings.tolerance, pg_tol)
         seeds = seeds[: len(runs)]
+        if extra:
+            say(f"energy search: {_starts(extra)} more, from seeded Newton plans")
+            kept = [run for run in runs if run.feasible and run.reason in KEPT]
+            low = min((run.energy for run in kept), default=np.inf)
+            minima = [run.z for run in kept if run.reason in MINIMUM]
+            zs = [problem.project(lam) for _, lam in extra]
+            runs += race(problem, zs, settings.tolerance, pg_tol, (low, minima))
+            seeds = [*seeds, *extra]
     else:
         say("energy search: pulling the Newton plan toward low energy (a start)")
         seeds = _with_pulled_start(problem, seeds, settings.starts)
