@@ -42,10 +42,11 @@ F = TypeVar("F", bound=Callable[..., Any])
 def checked(**rules: Rule) -> Callable[[F], F]:
     """Decorate a public function: each named argument passes its rule before the call.
 
-    A call that does not match the signature fails as it would without the decorator; an
-    argument left at its default is not checked (the default is right). A checked numpy
-    scalar (``np.int64(2)``, ``np.float32(2)``) is passed on as Python's: it would otherwise
-    reach the records, which JSON cannot write.
+    A call that does not match the signature raises `TypeError` naming the function and its
+    arguments (`signature.bind`'s message alone names neither); an argument left at its
+    default is not checked (the default is right). A checked numpy scalar (``np.int64(2)``,
+    ``np.float32(2)``) is passed on as Python's: it would otherwise reach the records, which
+    JSON cannot write.
     """
 
     def decorate(func: F) -> F:
@@ -56,7 +57,14 @@ def checked(**rules: Rule) -> Callable[[F], F]:
 
         @functools.wraps(func)
         def call(*args: Any, **kwargs: Any) -> Any:
-            bound = signature.bind(*args, **kwargs)
+            try:
+                bound = signature.bind(*args, **kwargs)
+            except TypeError as exc:  # "got an unexpected keyword argument 'x'": name the call
+                takes = ", ".join(signature.parameters)
+                hint = _settings_hint(str(exc)) if "scenario" in signature.parameters else ""
+                raise TypeError(
+                    f"{func.__name__}() {exc} ({func.__name__} takes {takes}{hint})"
+                ) from None
             given = bound.arguments
             for name, rule in rules.items():
                 if name in given:
@@ -67,6 +75,17 @@ def checked(**rules: Rule) -> Callable[[F], F]:
         return call  # type: ignore[return-value]
 
     return decorate
+
+
+def _settings_hint(message: str) -> str:
+    """For a use case taking a scenario and given an unknown keyword (`plan(task,
+    tolerance=1e-4)`): where a scenario's own settings go instead."""
+    if "unexpected keyword argument" not in message:
+        return ""
+    return (
+        "; a scenario's own settings change with its with_changes, e.g. "
+        "load_scenario(path).with_changes({'planner': {'tolerance': 1e-4}})"
+    )
 
 
 def _python(value: Any) -> Any:

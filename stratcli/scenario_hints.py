@@ -51,6 +51,11 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
                 "write a list, even of one: obstacles = [{ shape = ... }], or one "
                 "[[constraints.obstacles]] table per obstacle"
             )
+        elif p.path == "legs" and raw.get("legs") == []:  # a notebook's `"legs": []`
+            hint = (
+                "for auto mode to choose the legs, give a [decompose] table instead "
+                "(from Python: with_changes({'legs': None, 'decompose': {}}))"
+            )
         elif urdf and model_broken and _CONFIGURATION.match(p.path):
             continue  # by name is right here: read once the model loads (its problem is listed)
         elif p.message.startswith(_LIST) and _CONFIGURATION.match(p.path):

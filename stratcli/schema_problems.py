@@ -114,9 +114,10 @@ def validation_problems(
     meant, missing = set(), []  # keys an unknown key is a misspelling of; missing keys
     for err in exc.errors():
         raw = prefix + tuple(err["loc"])
-        loc = file_location(raw, models)
         kind = err["type"]
         unknown = kind in UNKNOWN_KEY_ERRORS  # a key the schema has not: its table's is walked
+        # (an unknown key is the file's own, whatever it looks like: "legs[0]" is no form)
+        loc = file_location(raw[:-1], models) + raw[-1:] if unknown else file_location(raw, models)
         walked = _walk(root, loc[:-1] if unknown else loc) if root is not None else None
         where = _path((*walked[1], *loc[-1:]) if unknown else walked[1]) if walked else _path(loc)
         if unknown:

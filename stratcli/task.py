@@ -110,7 +110,10 @@ class Task:
         changes : Mapping
             In the scenario file's structure. Tables are merged key by key, anything else
             (a value, a list such as `legs`) replaces what was there; None removes the key.
-            E.g. ``{"planner": {"objective": "newton"}, "task": {"goal": [0, 1, 0.5, 0]}}``.
+            E.g. ``{"planner": {"objective": "newton"}, "task": {"goal": [0, 1, 0.5, 0]}}``;
+            a dotted key names a value in nested tables: ``{"planner.tolerance": 1e-4}``
+            (tables only: a coordinate or a list entry is changed by giving its vector or
+            list whole).
 
         Returns
         -------
@@ -130,10 +133,9 @@ class Task:
             raise wrong_type("changes", "a mapping (a dict)", changes)
         where = f"{self.source} (with changes)"  # the file itself may be fine
         try:  # numpy values as Python's, as a dict given to `load_scenario`
-            plain_changes = plain(changes)
+            raw = _merged(parse_toml(self.text, self.source), plain(changes))
         except InputError as exc:
             raise exc.with_source(where) from None
-        raw = _merged(parse_toml(self.text, self.source), plain_changes)
         try:
             return from_raw(raw, None, self.source, self.base_dir)
         except InputError as exc:  # (ModelError included: the same problems, re-sourced)
@@ -168,9 +170,16 @@ def _same(values: np.ndarray | None, given: list | None) -> bool:
 
 
 def _merged(raw: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
-    """`raw` with `changes` merged in (`Task.with_changes`); neither is modified."""
+    """`raw` with `changes` merged in (`Task.with_changes`); neither is modified. A dotted
+    key (``"planner.tolerance"``, as a sweep's) stands for its nested tables."""
     out = dict(raw)
     for key, value in changes.items():
+        if isinstance(key, str) and "." in key:
+            head, rest = key.split(".", 1)
+            if not head or not rest:
+                raise InputError(f"{key}: not a dotted name such as planner.tolerance")
+            out = _merged(out, {head: {rest: value}})
+            continue
         if value is None:
             out.pop(key, None)
         elif isinstance(value, Mapping) and isinstance(out.get(key), dict):

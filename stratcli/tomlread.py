@@ -208,6 +208,8 @@ def read_source(
             raise exc.with_source(where) from None
     if not isinstance(source, str | os.PathLike):
         raise wrong_type("source", f"a {kind} path, TOML text or a dict", source)
+    if isinstance(source, str) and not source.strip():  # Path("") is ".", "not a regular file"
+        raise InputError(f"an empty string is no {kind}: give a path, TOML text or a dict")
     if isinstance(source, str) and is_toml_text(source):
         tables = parse_toml(source, name or "<text>")
         return tables, source, name or _anonymous("<text>", tables, kind), None

@@ -77,6 +77,19 @@ BAD_CALLS = {
                      lambda: stratcli.load_run(3)),
     "read_sweep None": (TypeError, r"^path: must be a path .*\(got None of type NoneType\)$",
                         lambda: stratcli.read_sweep(None)),
+    "unknown keyword": (TypeError, r"^plan\(\) got an unexpected keyword argument 'tolerance' "
+                        r"\(plan takes scenario, check, time_scale, jobs; a scenario's own "
+                        r"settings change with its with_changes, e\.g\. ",
+                        lambda: stratcli.plan(UNICYCLE, tolerance=1e-4)),
+    "missing argument": (TypeError, r"^decompose\(\) missing a required argument: 'scenario' "
+                         r"\(decompose takes scenario, ",
+                         lambda: stratcli.decompose()),
+    "empty scenario": (InputError, r"^an empty string is no scenario: give a path, TOML text "
+                       r"or a dict$", lambda: stratcli.plan("")),
+    "preset name": (InputError, r"^name: no preset 'onearm' \(did you mean 'one-arm'\? presets: "
+                    r"one-arm, two-arm\)$", lambda: stratcli.preset("onearm")),
+    "preset int": (TypeError, r"^name: must be a preset's name \(a str\) \(got 3 of type int\)$",
+                   lambda: stratcli.preset(3)),
 }  # fmt: skip
 
 

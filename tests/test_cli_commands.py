@@ -625,12 +625,21 @@ def test_models_describes_a_preset_by_name():
 
 
 @pytest.mark.parametrize("command", ["check", "models"])
-def test_check_and_models_say_the_same_of_an_unknown_argument(command):
-    result = runner.invoke(app, [command, "three-arm"])
+@pytest.mark.parametrize(
+    ("target", "why"),
+    [
+        ("one_arm", "not a preset (did you mean 'one-arm'? presets: one-arm, two-arm), a "
+         "scenario file or a URDF file"),
+        ("robots/nope.urdf", "no such file (a preset is named one-arm or two-arm)"),
+        ("nope.toml", "no such file (a preset is named one-arm or two-arm)"),
+    ],
+)  # fmt: skip
+def test_check_and_models_say_the_same_of_an_unknown_argument(command, target, why):
+    """A misspelt preset gets its nearest name; a missing file is called missing (it was
+    "not a preset or a scenario file", and a URDF was not named)."""
+    result = runner.invoke(app, [command, target])
     assert result.exit_code == 2
-    assert result.stderr.strip() == (
-        "error: three-arm: not a preset (one-arm, two-arm) or a scenario file"
-    )
+    assert result.stderr.strip() == f"error: {target}: {why}"
 
 
 def test_plan_json_names_the_record_but_result_json_does_not(tmp_path):

@@ -326,6 +326,39 @@ def test_with_changes_takes_numpy_values_as_load_scenario_does():
         task.with_changes([("planner", {})])
 
 
+def test_with_changes_takes_dotted_keys_as_a_sweep_does():
+    """`{"planner.tolerance": 1e-4}` (a sweep's key) was an unknown top-level key."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
+    nested = task.with_changes({"planner": {"tolerance": 1e-4, "basis": {"harmonics": 5}}})
+    dotted = task.with_changes({"planner.tolerance": 1e-4, "planner.basis.harmonics": 5})
+    assert dotted == nested and dotted.text == nested.text
+    assert task.with_changes({"planner": {"seed": 3}, "planner.tolerance": 1e-4}).settings.seed == 3
+    assert task.with_changes({"planner.continuity": "l-C0"}).settings.continuity == "l-C0"
+    with pytest.raises(InputError, match=r"\(with changes\): planner\.tolerance: must be at least"):
+        task.with_changes({"planner.tolerance": -1})
+    with pytest.raises(InputError, match=r"\(with changes\): \.x: not a dotted name such as"):
+        task.with_changes({".x": 1})
+
+
+def test_no_legs_says_how_to_ask_for_auto_mode():
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
+    with pytest.raises(InputError, match=r"legs: must have at least 1 entry, not 0: for auto "
+                       r"mode to choose the legs, give a \[decompose\] table instead"):  # fmt: skip
+        task.with_changes({"legs": []})
+    assert task.with_changes({"legs": None, "decompose": {}}).legs == ()  # as the hint says
+
+
+def test_a_key_that_looks_like_an_index_is_an_unknown_key_not_a_crash():
+    """A quoted key "legs[0]" (a sweep's way of writing it) raised IndexError while its
+    problem was described: pydantic's location filter took it for a union member's tag."""
+    with pytest.raises(InputError) as caught:
+        load_scenario('name = "x"\n"legs[0]" = 1\n')
+    assert "<text 'x'>: legs[0]: unknown key (allowed: name, " in str(caught.value)
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
+    with pytest.raises(InputError, match=r"planner\.a\(b: unknown key"):
+        task.with_changes({"planner": {"a(b": 1}})
+
+
 def test_a_checked_task_still_pickles_for_worker_processes():
     """The check caches the Lie brackets' generated code on the system, which does not
     pickle: a task sent to a spawned worker or Dask after `stratcli.plan` failed."""

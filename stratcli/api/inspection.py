@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -194,8 +195,9 @@ def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | T
     Raises
     ------
     InputError
-        "not a preset (one-arm, two-arm) or a scenario file" when `target` is a name that is
-        neither a preset nor an existing path; a scenario's own problems otherwise.
+        "no such file" when `target` names a missing .toml or .urdf file or a path, "not a
+        preset (did you mean ...)" for any other name that is no preset and no file; a
+        scenario's own problems otherwise.
     """
     if isinstance(target, Task):
         return target
@@ -203,11 +205,22 @@ def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | T
     if isinstance(target, str | Path) and not text and not Path(target).exists():
         if str(target) in PRESETS:
             return str(target)
-        raise InputError(f"not a preset ({', '.join(PRESETS)}) or a scenario file", str(target))
+        raise InputError(_neither(str(target)), str(target))
     urdf = isinstance(target, str | Path) and not text and Path(target).suffix.lower() == ".urdf"
     if urdf or (isinstance(target, str | Path) and not text and _is_xml_file(Path(target))):
         return urdf_system(target)  # (an empty or broken .urdf: its own message, not a scenario's)
     return load_scenario(target)
+
+
+def _neither(target: str) -> str:
+    """Why a name is no model: a missing file (it looks like one), or no preset's name."""
+    from difflib import get_close_matches
+
+    if Path(target).suffix.lower() in (".toml", ".urdf") or "/" in target or os.sep in target:
+        return f"no such file (a preset is named {' or '.join(PRESETS)})"
+    near = get_close_matches(target, PRESETS, n=1, cutoff=0.6)
+    meant = f"did you mean {near[0]!r}? " if near else ""
+    return f"not a preset ({meant}presets: {', '.join(PRESETS)}), a scenario file or a URDF file"
 
 
 def scenario_model(path: str | Path) -> System | None:

@@ -206,7 +206,27 @@ def two_arm() -> System:
 PRESETS = {"one-arm": one_arm, "two-arm": two_arm}
 
 
-@cache
 def preset(name: str) -> System:
-    """A preset model by name; one shared instance, so its numeric functions compile once."""
+    """A preset model by name; one shared instance, so its numeric functions compile once.
+
+    Raises `InputError` for a name that is no preset (naming the presets and the nearest),
+    `TypeError` for one that is no str.
+    """
+    if not isinstance(name, str):
+        from ..arguments import wrong_type
+
+        raise wrong_type("name", "a preset's name (a str)", name)
+    if name not in PRESETS:
+        from difflib import get_close_matches
+
+        from ..errors import InputError
+
+        near = get_close_matches(str(name), PRESETS, n=1, cutoff=0.6)
+        meant = f"did you mean {near[0]!r}? " if near else ""
+        raise InputError(f"name: no preset {name!r} ({meant}presets: {', '.join(PRESETS)})")
+    return _shared(name)
+
+
+@cache
+def _shared(name: str) -> System:
     return PRESETS[name]()
