@@ -310,11 +310,13 @@ WORDS = {  # a violation after the first, in the message's count of them
 }  # fmt: skip
 
 
-def verified_again(plan):
+def verified_again(plan, s: float | None = None):
     """`plan` with its [constraints] report measured again on its own controls (after
     re-timing, `time_scaled`), the limits resolved from the report's table; not slowed, so
-    a violation fails it, its message naming the limit, leg and time. No limit set its
-    duration any more (`duration_set_by` is empty): the caller's re-timing did."""
+    a violation fails it, its message naming the limit, leg and time, and the factor that
+    meets it: of the call (`s`, the speed-up it was re-timed by: the plan given it was
+    within its limits) and of `plan` itself. No limit set its duration any more
+    (`duration_set_by` is empty): the caller's re-timing did."""
     c = resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
     report = verify(plan, c)
     over = _past_budget(plan) if report.ok else None  # re-timed past it: a limit too
@@ -326,7 +328,12 @@ def verified_again(plan):
         report = replace(report, violated=violated, violation=violation)
     out = replace(plan, constraints=report)
     if not report.ok and plan.ok:  # run too fast for a rate limit, or too slow for its budget
-        advice = _too_slow(plan.duration / over[0]) if over is not None else _too_fast(out, c)
+        if over is not None:
+            advice = _retimed("too slow for its budget", plan.duration / over[0], s, "more fits it")
+        else:
+            factor, which = rate_limited(out, c)
+            advice = _retimed(f"too fast for {which}", factor, s, "less meets every rate and "
+                              "acceleration limit")  # fmt: skip
         out = replace(out, message=f"{report.violated}; {advice}")
     elif out.ok and not plan.ok:  # slowed back within its limits: the violation is gone
         out = replace(out, message="")
@@ -342,23 +349,18 @@ def _three_digits(x: float, up: bool) -> float:
     return (math.ceil(x * k) if up else math.floor(x * k)) / k
 
 
-def _too_slow(ratio: float) -> str:
-    """The advice for a plan re-timed `ratio` times longer than its budget."""
-    return (
-        f"re-timed too slow for its budget: this plan time_scaled by "
-        f"{_three_digits(ratio, up=True):g} or more fits it"
-    )
-
-
-def _too_fast(plan, c: Constraints) -> str:
-    """The advice for a plan re-timed faster than its rate or acceleration limits allow
-    (joint limits and clearances do not depend on the speed): how much slower meets them."""
-    s, which = rate_limited(plan, c)
-    slower = _three_digits(s, up=False)
-    return (
-        f"re-timed too fast for {which}: this plan time_scaled by {slower:g} or less meets "
-        "every rate and acceleration limit"
-    )
+def _retimed(why: str, factor: float, s: float | None, meets: str) -> str:
+    """The advice for a plan re-timed `why` (too slow for its budget, too fast for a rate
+    or acceleration limit; joint limits and clearances do not depend on the speed): the
+    re-timing `factor` of this plan that meets it, "or more" / "or less" (`meets` begins
+    with which), rounded to stay true; first, where the call's speed-up `s` is known, that
+    of the plan given it (a user re-times that plan again, not the failed one)."""
+    up = meets.startswith("more")
+    this = f"time_scaled by {_three_digits(factor, up=up):g} or"
+    if s is None:
+        return f"re-timed {why}: this plan {this} {meets}"
+    first = f"time_scaled by {s:g} where {_three_digits(s * factor, up=up):g} or {meets}"
+    return f"re-timed {why}: {first} (this plan {this} {meets.split()[0]})"
 
 
 def enforce(plan, c: Constraints):

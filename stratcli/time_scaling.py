@@ -51,7 +51,7 @@ def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
     if plan.constraints is not None:  # its margins were measured at the old speed
         from .constraints import verified_again  # (imports this module)
 
-        out = verified_again(out)
+        out = verified_again(out, s)
         if plan.constraints.duration_set_by:  # its "slowed ...x to meet ..." note is history
             note = f"then time-scaled by {s:g}: its duration is this call's, not a limit's"
             out = replace(out, notes=(*out.notes, note))

@@ -113,9 +113,15 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     # the advice is to run it slower, by how much (not the vias or harmonics of a plan that
     # was planned off its limits: joint limits and clearances do not change with the speed)
     assert "via configurations" not in faster.message
-    factor = float(re.search(r"time_scaled by ([0-9.e+-]+) or less", faster.message)[1])
-    # exactly 0.1: the plan ran at its rate limit, sped up 10 times (a new user was offered
-    # 0.499 for 2 times, the exact 0.5 rounded down from 0.49999999999999994)
+    found = re.search(r"time_scaled by 10 where ([0-9.e+-]+) or less meets every rate and "
+                      r"acceleration limit \(this plan time_scaled by ([0-9.e+-]+) or less\)",
+                      faster.message)  # fmt: skip
+    given, factor = float(found[1]), float(found[2])
+    # exactly 1 and 0.1: the plan ran at its rate limit, sped up 10 times (a new user was
+    # offered 0.499 for 2 times, the exact 0.5 rounded down from 0.49999999999999994); the
+    # first factor is the plan given time_scaled's (a user re-times that one, and was
+    # offered the second, which slowed it 10x more than needed)
+    assert given == 1.0 and stratcli.time_scaled(plan, given).ok
     assert factor == 0.1 and stratcli.time_scaled(faster, factor).ok
     assert faster.to_dict()["constraints"]["violated"]
     # slowed back within the limit: ok, and no message of the violation left behind
