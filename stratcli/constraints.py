@@ -300,7 +300,25 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
             violation.update(by=-value, t=when)
     if others:
         violated += f" (and {counted(len(others), 'more limit')}: {', '.join(others)})"
-    return ConstraintReport(c.spec, tuple(margins), samples, violated, violation=violation)
+    return ConstraintReport(
+        c.spec, tuple(margins), samples, violated, violation=violation,
+        joint_limits=_joint_limits(plan.coordinates, c),
+    )  # fmt: skip
+
+
+def _joint_limits(names, c: Constraints) -> dict[str, dict]:
+    """The limits verified, by coordinate (`ConstraintReport.joint_limits`): a URDF robot's
+    come from its file unless the table overrides them, and result.json should say which."""
+    bound = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731
+    return {
+        name: {
+            "lower": bound(c.lower[j]),
+            "upper": bound(c.upper[j]),
+            "from": "urdf" if j in c.from_urdf else "table",
+        }
+        for j, name in enumerate(names)
+        if np.isfinite(c.lower[j]) or np.isfinite(c.upper[j])
+    }
 
 
 UNITS = {"joint_limit": " rad", "rate": " rad/s", "acceleration": " rad/s²"}  # of a violation

@@ -19,7 +19,7 @@ compile.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -321,6 +321,10 @@ class ConstraintReport:
         (a `LegMargins` key, or "total_duration": the budget of optimised durations, which
         the slowing to the rate limits broke), `what` (the limit named), `by` (how far past
         it), `t` (s).
+    joint_limits : the joint limits verified, per coordinate that has one: `lower`,
+        `upper` (None where unbounded) and `from` ("table": [constraints].joint_limits,
+        "urdf": the URDF's, which a URDF robot's table need not repeat); {} in records
+        made before this field.
     """
 
     spec: dict[str, Any]
@@ -329,6 +333,7 @@ class ConstraintReport:
     violated: str = ""
     duration_set_by: str = ""
     violation: dict[str, Any] | None = None
+    joint_limits: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -343,6 +348,7 @@ class ConstraintReport:
             "violated": self.violated or None,
             "duration_set_by": self.duration_set_by or None,
             "violation": self.violation,
+            "joint_limits": self.joint_limits,
             "legs": [m.to_dict() for m in self.legs],
         }
 
@@ -356,4 +362,5 @@ class ConstraintReport:
             violated=doc.get("violated") or "",
             duration_set_by=doc.get("duration_set_by") or "",
             violation=doc.get("violation"),
+            joint_limits=dict(doc.get("joint_limits") or {}),
         )

@@ -145,6 +145,22 @@ def test_a_urdf_plan_is_searched_within_the_urdfs_limits(tmp_path, objective):
     assert not any("not searched for" in note for note in plan.notes)
     assert any(note.startswith("constrained search from") for note in plan.notes)
     assert plan.constraints.legs[0].joint_limit >= 0
+    # result.json says which limits it kept: the URDF's, which the empty table does not list
+    assert doc["constraints"]["spec"]["joint_limits"] is None
+    urdf = {"lower": -1.0, "upper": 1.0, "from": "urdf"}
+    assert doc["constraints"]["joint_limits"]["j2"] == urdf
+    assert doc["constraints"]["joint_limits"]["j1"]["from"] == "urdf"  # arm3's ±2
+    assert set(doc["constraints"]["joint_limits"]) == {"j1", "j2", "j3"}  # no attitude's
+
+
+def test_a_table_overriding_the_urdfs_limit_is_recorded_as_the_tables(tmp_path):
+    path = _scenario(tmp_path, constraints="[constraints]\njoint_limits = { j2 = [-0.5, 1.5] }\n")
+    plan = stratcli.plan(path, check=False)
+    limits = plan.to_dict()["constraints"]["joint_limits"]
+    assert limits["j2"] == {"lower": -0.5, "upper": 1.5, "from": "table"}
+    assert limits["j1"]["from"] == "urdf"
+    again = stratcli.load_run(stratcli.write_record(tmp_path / "runs", plan))
+    assert again.constraints.joint_limits == plan.constraints.joint_limits
 
 
 def test_a_urdf_limit_the_search_cannot_keep_is_named_as_the_urdfs(tmp_path):
