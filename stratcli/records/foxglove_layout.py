@@ -14,7 +14,9 @@ them (`{"direction", "first", "second", "splitPercentage"}`; a leaf is a panel i
 
 A URDF robot's 3-D panel draws the robot from `run.mcap`'s `/robot_description` topic (the
 URDF's text, a `std_msgs/String`-shaped `{"data": ...}` message that Foxglove's 3-D panel draws by
-itself), in perspective: no path outside the record, which may be moved or shared.
+itself) and its `/scene` (primitives on the link frames, for the links without `<visual>`s
+Foxglove draws: `mcap_spatial_scene`), in perspective: no path outside the record, which may be
+moved or shared.
 The 3-D panel is left out when the log has no `/tf` (a model without a robot drawing). Message
 paths are `topic.field.field` in the field names of `mcap_schemas`; every time axis is the log
 time, so the plots and the 3-D view move together with Foxglove's playback bar. Built as plain

@@ -9,7 +9,7 @@ Every channel is JSON-encoded with a JSON Schema:
 | `/legs` | `stratplan.Leg` | `kind: "leg"` at each leg's start, `kind: "switch"` at each switch |
 | `/summary` | `stratplan.Summary` | one, at the end: status, energies, end point, ... |
 | `/tf` | `foxglove.FrameTransforms` | manipulators, URDF robots: per sample, world → base → links |
-| `/scene` | `foxglove.SceneUpdate` | manipulators: once, base, links, end-effector path |
+| `/scene` | `foxglove.SceneUpdate` | manipulators, URDF robots: once, base, links, tip paths |
 | `/robot_description` | `std_msgs/String` | URDF robots: once, the URDF's text (`data`) |
 
 Samples are those of a `Trajectory` (both ends of every leg, so a switch instant appears twice).
@@ -27,7 +27,8 @@ field of the schemas then has one JSON type, as Foxglove's JSON Schema reader re
 NaN time counts as the run's start), so a failed or extreme plan still gets a valid log.
 
 The channels' JSON Schemas are in `mcap_schemas`; the frames of Foxglove's 3-D panel and the
-`/tf` and `/scene` messages are built by `mcap_scene`. This module writes the file.
+`/tf` and `/scene` messages are built by `mcap_scene` (a URDF robot's by `mcap_spatial` and
+`mcap_spatial_scene`). This module writes the file.
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ from .mcap_schemas import (
     own_schemas,
 )
 from .mcap_spatial import is_spatial, spatial_transforms, urdf_attachment
+from .mcap_spatial_scene import spatial_scene
 from .trajectory import Trajectory, world_geometry
 
 __all__ = ["epoch_ns", "layout_bytes", "mcap_bytes", "mcap_log"]
@@ -233,6 +235,7 @@ def mcap_log(
         log.channel("/tf", FRAME_TRANSFORMS_SCHEMA)
     if spatial:
         log.channel(ROBOT_DESCRIPTION, ROBOT_DESCRIPTION_SCHEMA)
+        log.channel("/scene", SCENE_UPDATE_SCHEMA)
     if manipulator:
         log.channel("/scene", SCENE_UPDATE_SCHEMA)
         geo = world_geometry(system.robot, traj.q)
@@ -263,6 +266,7 @@ def mcap_log(
         log.write("/scene", at(t_first), scene_update(plan, geo, at(t_first)))
     if spatial:  # the robot the 3-D panel draws (layout.json), from the log itself
         log.write(ROBOT_DESCRIPTION, at(t_first), {"data": system.spatial.text})
+        log.write("/scene", at(t_first), spatial_scene(plan, traj.q, at(t_first)))
     legs_doc = result_doc.get("legs", [])
     switches = {sw["after_leg"]: sw for sw in result_doc.get("switches", [])}
     for k, leg in enumerate(plan.legs):

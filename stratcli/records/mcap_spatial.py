@@ -4,7 +4,9 @@ Foxglove's 3-D panel draws a URDF itself and moves its links from `FrameTransfor
 `child_frame_id`s are the link names (SPATIAL.md), the URDF's text being the one message of
 `/robot_description`; the URDF is also attached, under the name of the record's copy. Each sample's
 configuration is the re-integrated `(q, log R)`; the base sits at `−R c(q)` (the system CoM
-is the world origin). Link poses come from Pinocchio's forward kinematics.
+is the world origin). Link poses come from Pinocchio's forward kinematics. A URDF made for
+planning has no `<visual>` for Foxglove to draw: the `/scene` that draws the robot on these
+frames (base box, link cylinders, tip paths) is built by `mcap_spatial_scene`.
 """
 
 from __future__ import annotations
