@@ -48,6 +48,29 @@ def test_configuration_by_name_with_rpy_and_free_coordinates():
     assert np.isnan(task.goal[2]) and np.isnan(task.goal[4]) and task.goal[3] == 0.1
 
 
+def test_an_omitted_attitude_is_the_identity():
+    task = parse_scenario(_text("{ j1 = 0, j2 = 0, j3 = 0 }", '{ j1 = 0, j2 = 0, j3 = "*" }'))
+    assert task.start[3:].tolist() == [0, 0, 0] and task.goal[3:].tolist() == [0, 0, 0]
+
+
+def test_an_attitude_turning_by_more_than_pi_is_noted_with_the_rotation_reached(tmp_path):
+    """A goal attitude [0, 0, 4] was planned to the same rotation as [0, 0, 4 - 2 pi], which
+    result.json's `end` shows, silently: a script comparing `end` with `goal` saw 2 pi."""
+    (tmp_path / "s.toml").write_text(_text(goal='[0, 0, "*", 0, 0, 4.0]'))
+    outcome = plan_run(load_scenario(tmp_path / "s.toml"), check=False)
+    short = 4.0 - 2 * np.pi
+    note = (
+        f"task.goal's attitude [0, 0, 4] turns by more than pi: it is the rotation "
+        f"[0, 0, {short:.4g}], which the plan reaches (result.json's end shows that one)"
+    )
+    assert note in outcome.result.notes
+    end = outcome.document["attitude"]["end"]["rotation_vector"]
+    assert outcome.result.ok and end[2] == pytest.approx(short, abs=1e-3)
+    (tmp_path / "s.toml").write_text(_text(goal='[0, 0, "*", 0, 0, 3.0]'))  # within pi: none
+    quiet = plan_run(load_scenario(tmp_path / "s.toml"), check=False).result
+    assert not any("turns by more than pi" in n for n in quiet.notes)
+
+
 def test_path_is_relative_to_the_scenario_file(tmp_path):
     (tmp_path / "robots").mkdir()
     (tmp_path / "robots" / "r.urdf").write_text((ROOT / "robots" / "arm3.urdf").read_text())

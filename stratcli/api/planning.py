@@ -202,6 +202,7 @@ def plan_run(
     else:  # a URDF's joint limits, unless [constraints] verified them: noted (at its speed)
         result = time_scaled(result, scale) if scale != 1.0 else result
         result = with_limit_notes(result, task)
+    result = _with_attitude_notes(result, task)
     result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
     doc = result.to_dict()
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases, check_time)
@@ -279,9 +280,18 @@ def chosen_as_run(plan: SequencePlan, task: Task, scale: float = 1.0) -> Sequenc
     them a URDF's joint limits noted at that speed (`urdf_limits.with_limit_notes`)."""
     plan = plan.with_system(task.system)
     if task.constraints is not None and plan.ok:
-        return within_rates(plan, task, scale)
+        return _with_attitude_notes(within_rates(plan, task, scale), task)
     plan = time_scaled(plan, scale) if scale != 1.0 else plan
-    return with_limit_notes(plan, task)
+    return _with_attitude_notes(with_limit_notes(plan, task), task)
+
+
+def _with_attitude_notes(plan: SequencePlan, task: Task) -> SequencePlan:
+    """`plan` with a note of each attitude of a URDF task that turns by more than π
+    (`spatial_scenario.long_attitudes`): it reaches the shorter rotation vector."""
+    from ..models.spatial_scenario import long_attitudes
+
+    notes = [note for note in long_attitudes(task) if note not in plan.notes]
+    return dataclasses.replace(plan, notes=(*plan.notes, *notes)) if notes else plan
 
 
 def within_rates(result: SequencePlan, task: Task, scale: float = 1.0) -> SequencePlan:

@@ -9,6 +9,7 @@ from difflib import get_close_matches
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from pydantic import TypeAdapter, ValidationError
 
 from .. import so3
@@ -105,3 +106,28 @@ def configuration_list(table: dict, system: System, where: str) -> list:
     elif key == "rpy" and any(a != "*" for a in angles):
         raise InputError([Problem(f"{where}.rpy", 'either all three angles or "*" for all')])
     return out + angles
+
+
+def long_attitudes(task) -> list[str]:
+    """A note for each start, via or goal attitude of a URDF task whose rotation vector is
+    longer than π: it names the same rotation as a shorter one, and the plan (result.json's
+    `end`) reaches that one, which a script comparing `end` with `goal` reads as 2π off."""
+    robot = getattr(task.system, "spatial", None)
+    if robot is None:
+        return []
+    k = robot.n_joints
+    places = [("task.start", task.start)]
+    places += [(f"legs[{i}].goal", leg.goal) for i, leg in enumerate(task.legs[:-1])]
+    places += [("task.goal", task.goal)]
+    out = []
+    for where, q in places:
+        phi = None if q is None else np.asarray(q, dtype=float)[k : k + 3]
+        if phi is None or not np.all(np.isfinite(phi)) or np.linalg.norm(phi) <= np.pi + 1e-9:
+            continue
+        short = so3.log(so3.exp(phi))
+        shown = lambda v: "[" + ", ".join(f"{x:.4g}" for x in np.round(v, 12) + 0.0) + "]"  # noqa: E731
+        out.append(
+            f"{where}'s attitude {shown(phi)} turns by more than pi: it is the rotation "
+            f"{shown(short)}, which the plan reaches (result.json's end shows that one)"
+        )
+    return out
