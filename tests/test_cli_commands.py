@@ -118,7 +118,7 @@ def test_the_objective_option_plans_by_newton_and_the_search_option_without_loop
     starts (task A's default plan has one, lower). The --search choices are the settings'."""
     from typing import get_args
 
-    from stratcli.cli.commands import SearchChoice
+    from stratcli.cli.options import SearchChoice
     from stratcli.settings import SEARCHES
 
     assert get_args(SearchChoice) == SEARCHES  # (in the same order: the errors list them)
@@ -432,6 +432,22 @@ def newton(tmp_path):
     path.parent.mkdir()
     path.write_text(AUTO_TEXT.replace("[planner]", '[planner]\nobjective = "newton"', 1))
     return path
+
+
+def test_compare_sequences_takes_plans_objective_option(tmp_path):
+    """compare-sequences lacked plan's --objective and --search: the comparison ran the
+    scenario's objective only (sim4_auto's is energy: 2 s; --objective newton, 0.3 s)."""
+    out = str(tmp_path / "runs")
+    args = ["compare-sequences", str(AUTO), "--jobs", "1", "--out", out, "--json"]
+    result = runner.invoke(app, [*args, "--objective", "newton"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["settings"]["objective"] == "newton"
+    recorded = tomllib.loads((Path(doc["record"]) / "scenario.toml").read_text())
+    assert recorded["planner"]["objective"] == "newton"
+    bad = runner.invoke(app, [*args, "--search", "loop"])
+    assert bad.exit_code == 2
+    assert bad.output.strip() == "error: --search: must be starts, loops or legwise (got 'loop')"
 
 
 def test_decompose_command_lists_the_papers_sequences(tmp_path):

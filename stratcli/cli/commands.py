@@ -19,12 +19,20 @@ import typer
 from ..errors import Problem, UnusedLegsWarning
 from . import progress as bars
 from . import render, render_tables
-from .options import Animation, Json, MaxLength, Out, Quiet, Scenario, Strategy, TaskScenario
+from .options import (
+    Animation,
+    Json,
+    MaxLength,
+    Objective,
+    Out,
+    Quiet,
+    Scenario,
+    Search,
+    Strategy,
+    TaskScenario,
+)
 from .render_analysis import check_report, decomposition
 
-# `settings.Search`, spelt here for start-up speed (--help imports no settings); a test keeps
-# the two the same
-SearchChoice = Literal["starts", "loops", "legwise"]
 Format = Annotated[
     Literal["png", "svg", "pdf"],
     typer.Option("--format", help="Format of the plots (motion.gif stays a GIF)."),
@@ -37,6 +45,16 @@ def _load(path: Path):
 
     with render.reported():
         return load_scenario(path)
+
+
+def _with_planner(task, objective: str | None, search: str | None):
+    """`task` with `--objective` and `--search` (given ones only) in its [planner] table: the
+    record holds the scenario as changed."""
+    changed = {"objective": objective, "search": search}
+    if changed := {key: value for key, value in changed.items() if value is not None}:
+        with render.reported():
+            task = task.with_changes({"planner": changed})
+    return task
 
 
 def _argv() -> list[str]:
@@ -70,23 +88,8 @@ def plan(
         ),
     ] = True,
     fmt: Format = "png",
-    objective: Annotated[
-        Literal["energy", "newton"] | None,
-        typer.Option(
-            metavar="energy|newton",
-            help="Plan with this objective instead of the scenario's planner.objective: newton "
-            "(the paper's method, leg by leg) or energy (least energy over all legs).",
-        ),
-    ] = None,
-    search: Annotated[
-        SearchChoice | None,
-        typer.Option(
-            metavar="loops|starts|legwise",
-            help="The energy objective's search instead of the scenario's planner.search: loops "
-            "(its starts, then loop starts on the base's curvature peaks; the default), starts "
-            "(without loop starts) or legwise (also each leg's own minimum, joined; slower).",
-        ),
-    ] = None,
+    objective: Objective = None,
+    search: Search = None,
     jobs: Annotated[
         int | None,
         typer.Option(
@@ -112,11 +115,7 @@ def plan(
     """
     from .. import api  # start-up speed
 
-    task = _load(file)
-    changed = {"objective": objective, "search": search}
-    if changed := {key: value for key, value in changed.items() if value is not None}:
-        with render.reported():  # the record holds the scenario as changed
-            task = task.with_changes({"planner": changed})
+    task = _with_planner(_load(file), objective, search)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     # matplotlib loads while the plan is made; niced only beside a comparison's workers
@@ -192,7 +191,8 @@ def compare_sequences(
         str | None,
         typer.Option(
             help="energy | peak-control | excursion | duration "
-            "(default: decompose table, else energy)."
+            "(default: decompose table, else energy).",
+            metavar="NAME",
         ),
     ] = None,
     jobs: Annotated[
@@ -220,6 +220,8 @@ def compare_sequences(
     quiet: Quiet = False,
     animation: Animation = False,
     fmt: Format = "png",
+    objective: Objective = None,
+    search: Search = None,
 ) -> None:
     """Plan every candidate sequence in parallel (Newton: shared prefixes once) and rank them.
 
@@ -234,7 +236,7 @@ def compare_sequences(
     """
     from .. import api  # start-up speed
 
-    task = _load(file)
+    task = _with_planner(_load(file), objective, search)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     api.draw_ahead()  # matplotlib loads while the sequences are planned

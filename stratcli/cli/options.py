@@ -7,7 +7,7 @@ value.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import typer
 
@@ -52,6 +52,28 @@ MaxLength = Annotated[
 Strategy = Annotated[
     str | None,
     typer.Option(
-        help="conservative | postponed | both (default: decompose table, else conservative)."
+        help="conservative | postponed | both (default: decompose table, else conservative).",
+        metavar="NAME",
+    ),
+]
+
+# `settings.Search`, spelt here for start-up speed (--help imports no settings); a test keeps
+# the two the same
+SearchChoice = Literal["starts", "loops", "legwise"]
+Objective = Annotated[
+    Literal["energy", "newton"] | None,
+    typer.Option(
+        metavar="energy|newton",
+        help="Plan with this objective instead of the scenario's planner.objective: newton "
+        "(the paper's method, leg by leg) or energy (least energy over all legs).",
+    ),
+]
+Search = Annotated[
+    SearchChoice | None,
+    typer.Option(
+        metavar="loops|starts|legwise",
+        help="The energy objective's search instead of the scenario's planner.search: loops "
+        "(its starts, then loop starts on the base's curvature peaks; the default), starts "
+        "(without loop starts) or legwise (also each leg's own minimum, joined; slower).",
     ),
 ]
