@@ -42,6 +42,30 @@ class SequencePlan:
     every leg reached its goal; `message` says which leg failed and what to try. Two plans
     are equal when their result.json documents and scenarios are (a plan and its pickle, or
     its record read back, are equal; the same scenario planned twice differs in its times).
+
+    Attributes
+    ----------
+    scenario : the scenario's name.
+    model : what the model is (`ModelRef`: its result.json name and [model] table).
+    coordinates, inputs : the model's names (q1, ..., theta; u1, ...), in order.
+    settings : the planner settings it was planned with (`PlannerSettings`).
+    start, goal : configurations (goal is NaN where left free).
+    legs : the planned legs (`LegPlan`); fewer than `planned_legs` if one failed.
+    switches : the joints between legs and their control jumps (`Switch`).
+    planned_legs : how many legs the sequence has.
+    message : why it failed ("" if it did not).
+    optimisation : the energy search (`Optimisation`: its starts and where each ended);
+        None under the Newton objective.
+    time_scale : how many times faster than planned it runs (`time_scaled`, rate limits).
+    notes : what a user should know of it (the lines `stratplan plan` prints as `note:`).
+    reference_energy : the paper's energy for the task, if the scenario gives one.
+    scenario_text : the scenario as TOML (the record's scenario.toml).
+    timings : when it was planned and how long that took (`Timings`).
+    constraints : the [constraints] table and each leg's smallest margins on a dense
+        re-integration (`ConstraintReport`); None without the table.
+
+    Derived: `ok`, `status`, `total_energy`, `duration`, `end`, `sample()`, `controls(t)`,
+    `to_dict()` (result.json).
     """
 
     scenario: str

@@ -209,8 +209,22 @@ PRESETS = {"one-arm": one_arm, "two-arm": two_arm}
 def preset(name: str) -> System:
     """A preset model by name; one shared instance, so its numeric functions compile once.
 
-    Raises `InputError` for a name that is no preset (naming the presets and the nearest),
-    `TypeError` for one that is no str.
+    Parameters
+    ----------
+    name : str
+        "one-arm" (paper eq. 5-9) or "two-arm" (eq. 10-13).
+
+    Returns
+    -------
+    System
+        The model (the same object for every call with this name).
+
+    Raises
+    ------
+    InputError
+        `name` is no preset (the message names the presets and the nearest).
+    TypeError
+        `name` is no str.
     """
     if not isinstance(name, str):
         from ..arguments import wrong_type
