@@ -53,7 +53,8 @@ LAYOUT_PANELS = (THREE_D, CONTROLS, CONFIGURATION, STRATUM)
 
 
 def shows_robot(plan: SequencePlan, traj: Trajectory) -> bool:
-    """Whether `run.mcap` has the `/tf` and `/scene` channels (and the layout a 3-D panel).
+    """Whether a planar plan's `run.mcap` has the `/tf` and `/scene` channels of
+    `mcap_scene` (and the layout a 3-D panel); URDF plans have their own (`run_layout`).
 
     Parameters
     ----------
