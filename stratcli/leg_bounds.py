@@ -132,7 +132,11 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     are the costliest: the quadrature's nodes grow with the controls). With a `warm` start
     (a tight bound: the loose one is known) no Newton plan falls back on continuation (seconds
     on a hard leg; the warm start is a start already), and without any feasible start the
-    leg gets no tight bound (its loose one stands)."""
+    leg gets no tight bound (its loose one stands). Where the search ends with no feasible
+    result at all (every start not restored onto the goals) the bound is 0, not the Newton
+    plan's energy: that is where the search started, above the minimum it was heading for (an
+    arm3 S1 leg: 7.82, the minimum 6.36), so no lower bound; the leg keeps its plan (a warm
+    start, and not a leg without one)."""
     mid = 1 if i > 0 else 0
     leg = around[mid]
     after = around[mid + 1] if mid + 1 < len(around) else None
@@ -175,6 +179,8 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     if not seeds:
         return 0.0, None, ""
     best = min(seeds, key=lambda p: p.energy)
+    if not found:  # no search result: no bound but 0 (the screen takes the leg's floor)
+        return 0.0, best.coefficients, ""
     return float(low), best.coefficients, ""
 
 

@@ -242,3 +242,19 @@ def test_more_starts_asked_of_a_first_order_search_are_raced_legwise_is_noted(tm
         "each, the goals' curvature estimated from their Jacobians), without pulled, loop or "
         "legwise starts",
     )
+
+
+def test_restoration_steps_on_the_range_of_a_rank_deficient_jacobian():
+    """`sqp._least_norm`: of full row rank the Cholesky step, as always; with rows zero to
+    rounding (goals the stratum cannot move there) the least-norm step on the other rows,
+    not their rounding inverted."""
+    from stratcli.planners.sqp import _least_norm
+
+    rng = np.random.default_rng(0)
+    J = rng.normal(size=(3, 8))
+    c = rng.normal(size=3)
+    assert np.allclose(_least_norm(J)(c), np.linalg.pinv(J) @ c, rtol=1e-12, atol=1e-14)
+    degenerate = np.vstack([J, 1e-18 * rng.normal(size=(2, 8))])
+    step = _least_norm(degenerate)(np.concatenate([c, [2e-17, -2e-17]]))
+    assert np.allclose(step, np.linalg.pinv(J) @ c, rtol=1e-10, atol=1e-12)
+    assert _least_norm(np.zeros((2, 8))) is None

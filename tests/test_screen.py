@@ -259,3 +259,59 @@ def test_a_urdf_leg_bound_stops_earlier_within_rounding_of_the_minimum(monkeypat
     monkeypatch.setattr(leg_bounds, "BOUND_PG_TOL", leg_bounds.PG_TOL)
     full, _, _ = leg_bounds.leg_minimum(task.system, task.start, cand.legs[:1], 0, settings)
     assert early == pytest.approx(full, rel=1e-9) and early >= full * (1 - 1e-12)
+
+
+ARM3_YAW = """
+name = "arm3_yaw"
+[model]
+kind = "urdf"
+path = "{root}/robots/arm3.urdf"
+[task]
+start = {{ j1 = 0, j2 = 0, j3 = 0, attitude = [0, 0, 0] }}
+goal = {{ j1 = 0, j2 = "10deg", j3 = 0, attitude = [0, 0, "20deg"] }}
+[planner]
+continuity = "lr-C1"
+tolerance = 1e-6
+leg_duration = 2.0
+[decompose]
+max_length = 2
+"""
+
+
+def _arm3_yaw_s1_leg():
+    """A new user's arm3 task (j2 10 deg, base yaw 20 deg, every stratum, energy): the S1 leg
+    of S2 > S1, from the via (yaw 20 deg) to j2 = 10 deg, planned alone and free."""
+    task = load_scenario(ARM3_YAW.format(root=ROOT))
+    (cand,) = [c for c in _arm3_candidates(task) if [leg.stratum for leg in c.legs] == ["S2", "S1"]]
+    at = np.asarray(cand.legs[0].goal, dtype=float)
+    return task, at, cand.legs[1:]
+
+
+def test_a_urdf_leg_whose_stratum_cannot_turn_some_axes_is_bounded_by_a_converged_search():
+    """S1 at j1 = 0 turns the base about y only: the leg's rx and rz rows are zero to rounding.
+    Restoring trial points inverted them (|λ| ~ 1e8, Magnus steps at their cap): 40 SQP
+    iterations, 117 s, no result, and the Newton plan's 7.82 taken for the bound. Restored on
+    the rows' range, the search converges (0.07 s) to 6.36, below that."""
+    from stratcli.leg_bounds import leg_minimum
+
+    task, at, legs = _arm3_yaw_s1_leg()
+    value, coefficients, why = leg_minimum(task.system, at, legs, 0, _free(task.settings))
+    assert coefficients is not None and why == ""
+    assert 0 < value < 7.8  # a search's minimum (6.36), below the Newton plan's 7.82
+
+
+def test_a_leg_bound_whose_search_has_no_result_is_zero_not_the_newton_plans_energy(monkeypatch):
+    """A search that ends with no feasible start certifies nothing: the Newton plan's energy
+    is above the minimum it was heading for, no lower bound. The bound is 0 (the screen takes
+    the leg's floor), the leg keeps its plan (a warm start; not a leg without one)."""
+    from types import SimpleNamespace
+
+    from stratcli import leg_bounds
+
+    task, at, legs = _arm3_yaw_s1_leg()
+    monkeypatch.setattr(
+        leg_bounds, "optimise_energy", lambda *a, **k: (None, SimpleNamespace(starts=()))
+    )
+    settings = _free(task.settings)
+    value, coefficients, why = leg_bounds.leg_minimum(task.system, at, legs, 0, settings)
+    assert value == 0.0 and coefficients is not None and why == ""

@@ -38,6 +38,32 @@ SR1_SKIP = 1e-8  # `_curvature`: an update whose denominator is below this (rela
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 
 
+def _least_norm(J: np.ndarray):
+    """`c -> J⁺ c`, the least-energy-norm step that cancels the residuals `c` to first order
+    (H0 = 2 I: the energy is |z|² in the whitened z), or None where it cannot be made.
+
+    Of full row rank (the rule of `Descent._step`): `H0⁻¹ Jᵀ (J H0⁻¹ Jᵀ)⁻¹ c` by Cholesky, as
+    always. Else on the rows' range only (truncated SVD): goals that the leg's stratum cannot
+    move at all there (arm3's S1 at j1 = 0 turns the base about y only, its rx and rz rows
+    are zero to rounding) are met or not whatever the step, and inverting their rounding-level
+    rows threw trial points to |λ| ~ 1e8 (Magnus steps at their cap) without ever restoring
+    them: 40 SQP iterations of 2-4 s each, then no result."""
+    S = np.linalg.svd(J, compute_uv=False)
+    rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
+    if rank == J.shape[0]:
+        HJ = 0.5 * J.T  # H0⁻¹ Jᵀ
+        try:
+            L = np.linalg.cholesky(J @ HJ)
+        except np.linalg.LinAlgError:
+            return None
+        return lambda c: HJ @ np.linalg.solve(L.T, np.linalg.solve(L, c))
+    if rank == 0:
+        return None
+    U, S, Vt = np.linalg.svd(J, full_matrices=False)
+    U, S, V = U[:, :rank], S[:rank], Vt[:rank].T
+    return lambda c: V @ ((U.T @ c) / S)
+
+
 class Descent:
     """One start of the feasible-point SQP with the exact Hessian of the Lagrangian, advanced
     one iteration at a time (so that starts can be raced).
@@ -108,18 +134,16 @@ class Descent:
                 simplified = False
             previous = violation
             if kept is not None:
-                HJ, L = kept
+                correct = kept
             else:
                 if J is None:
                     J = problem._evaluate(z, True)[1]
-                HJ = 0.5 * J.T  # H0⁻¹ Jᵀ (H0 = 2 I: the energy is |z|² in the whitened z)
-                try:
-                    L = np.linalg.cholesky(J @ HJ)
-                except np.linalg.LinAlgError:
+                correct = _least_norm(J)
+                if correct is None:
                     return None
                 if simplified:
-                    kept = (HJ, L)
-            z = z - HJ @ np.linalg.solve(L.T, np.linalg.solve(L, c))
+                    kept = correct
+            z = z - correct(c)
             if not np.all(np.isfinite(z)):
                 return None
         return None
