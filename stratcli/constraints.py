@@ -345,7 +345,8 @@ def verified_again(plan, s: float | None = None):
         )
         report = replace(report, violated=violated, violation=violation)
     out = replace(plan, constraints=report)
-    if not report.ok and plan.ok:  # run too fast for a rate limit, or too slow for its budget
+    if not report.ok and (plan.ok or _failed_by_timing(plan)):  # too fast, or too slow for
+        # its budget (a plan failed so by an earlier re-timing gets the advice of this one)
         if over is not None:
             advice = _retimed("too slow for its budget", plan.duration / over[0], s, "more fits it")
         else:
@@ -356,6 +357,21 @@ def verified_again(plan, s: float | None = None):
     elif out.ok and not plan.ok:  # slowed back within its limits: the violation is gone
         out = replace(out, message="")
     return out
+
+
+def _failed_by_timing(plan) -> bool:
+    """Whether `plan` reached every goal inside its joint limits and clearances and failed
+    only a rate, acceleration or duration limit (which re-timing changes)."""
+    report = plan.constraints
+    reached = len(plan.legs) == plan.planned_legs and all(leg.status.ok for leg in plan.legs)
+    timed = (report.violation or {}).get("limit") in ("rate", "acceleration", "total_duration")
+    geometric = ("joint_limit", "self_clearance", "obstacle_clearance")
+    inside = all(
+        getattr(m, key) is None or getattr(m, key) >= -VIOLATION_TOL
+        for m in report.legs
+        for key in geometric
+    )
+    return reached and timed and inside
 
 
 def _three_digits(x: float, up: bool) -> float:

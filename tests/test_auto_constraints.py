@@ -124,6 +124,13 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     assert given == 1.0 and stratcli.time_scaled(plan, given).ok
     assert factor == 0.1 and stratcli.time_scaled(faster, factor).ok
     assert faster.to_dict()["constraints"]["violated"]
+    # re-timed again while failed: the message is this re-timing's (it kept the first's)
+    still = stratcli.time_scaled(faster, 0.5)  # 5x the plan: still too fast
+    assert not still.ok and still.message.startswith(still.constraints.violated)
+    assert still.message.endswith(
+        "time_scaled by 0.5 where 0.1 or less meets every rate and acceleration limit (this "
+        "plan time_scaled by 0.2 or less)"
+    )
     # slowed back within the limit: ok, and no message of the violation left behind
     back = stratcli.time_scaled(faster, 0.1)
     assert back.ok and back.message == "" and back.to_dict()["status"] == "ok"
