@@ -170,7 +170,7 @@ def from_raw(
     if non_finite := reject_non_finite(raw):
         raise InputError(non_finite, source)
     base_dir = (base_dir or Path.cwd()).absolute()  # as now: `with_changes` may run elsewhere
-    system = None
+    system, given = None, raw  # (a dict is recorded as given: a URDF's configurations by name)
     if isinstance(raw.get("model"), dict) and raw["model"].get("kind") == "urdf":
         from .models.spatial_scenario import prepare_urdf  # configurations by joint name
 
@@ -190,7 +190,7 @@ def from_raw(
         raise InputError(problems, source) from None
     if text is None:  # a dict: record it as the TOML file it stands for
         try:
-            text = tomlwrite.dumps(raw)
+            text = tomlwrite.dumps(given)
         except (TypeError, ValueError) as exc:
             raise InputError(f"cannot be written as TOML: {exc}", source) from None
     try:

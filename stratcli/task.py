@@ -3,6 +3,7 @@ changed only through them (`Task.with_changes`), so that a record holds what was
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -110,10 +111,12 @@ class Task:
         changes : Mapping
             In the scenario file's structure. Tables are merged key by key, anything else
             (a value, a list such as `legs`) replaces what was there; None removes the key.
-            E.g. ``{"planner": {"objective": "newton"}, "task": {"goal": [0, 1, 0.5, 0]}}``;
-            a dotted key names a value in nested tables: ``{"planner.tolerance": 1e-4}``
-            (tables only: a coordinate or a list entry is changed by giving its vector or
-            list whole).
+            E.g. ``{"planner": {"objective": "newton"}, "task": {"goal": [0, 1, 0.5, 0]}}``.
+            A key may also be a sweep's (`scenario_keys`): a dotted path
+            (``"planner.tolerance"``, ``"constraints.obstacles[0].centre[1]"``) or a
+            coordinate by name (``"goal.q1"``, ``"legs[0].goal.theta"``; a URDF robot's
+            ``"goal.j2"``, ``"goal.rz"``), set after the nested ones; one place given both
+            ways is refused.
 
         Returns
         -------
@@ -133,7 +136,7 @@ class Task:
             raise wrong_type("changes", "a mapping (a dict)", changes)
         where = f"{self.source} (with changes)"  # the file itself may be fine
         try:  # numpy values as Python's, as a dict given to `load_scenario`
-            raw = _merged(parse_toml(self.text, self.source), plain(changes))
+            raw = _changed(parse_toml(self.text, self.source), plain(changes), self.system.states)
         except InputError as exc:
             raise exc.with_source(where) from None
         try:
@@ -169,17 +172,63 @@ def _same(values: np.ndarray | None, given: list | None) -> bool:
     )
 
 
+def _changed(raw: dict[str, Any], changes: Mapping[str, Any], states) -> dict[str, Any]:
+    """`raw` with `changes` (`Task.with_changes`): nested ones merged, then a sweep's keys
+    (`scenario_keys.assign`; `states`, the model's coordinates, name a vector's entries)."""
+    from .scenario_keys import assign, key_parts
+
+    keyed = {k: v for k, v in changes.items() if isinstance(k, str) and ("." in k or "[" in k)}
+    nested = {k: v for k, v in changes.items() if k not in keyed}
+    out = copy.deepcopy(_merged(raw, nested))
+    for key, value in keyed.items():
+        try:
+            parts = key_parts(key)
+            if _covers(nested, parts):
+                raise ValueError("given twice, as this key and in a nested table")
+            if value is None:  # removes the key, as a nested None does
+                _remove(out, parts)
+            else:
+                assign(out, key, value, tuple(states))
+        except ValueError as exc:
+            raise InputError(f"{key}: {exc}") from None
+    return out
+
+
+def _remove(raw: dict[str, Any], parts: list) -> None:
+    """Remove the table key `parts` names (absent: nothing to remove)."""
+    node: Any = raw
+    for part in parts[:-1]:
+        if isinstance(node, Mapping) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
+            node = node[part]
+        else:
+            return
+    if not isinstance(node, dict) or isinstance(parts[-1], int):
+        raise ValueError("None removes a table's key, not an entry of a list or vector")
+    node.pop(parts[-1], None)
+
+
+def _covers(nested: Any, parts: list) -> bool:
+    """Whether the nested changes set the place `parts` names (or a value holding it)."""
+    for part in parts:
+        if isinstance(nested, Mapping):
+            if part not in nested:
+                return False
+            nested = nested[part]
+        elif isinstance(nested, list) and isinstance(part, int):
+            if part >= len(nested):
+                return False
+            nested = nested[part]
+        else:
+            return True  # a vector or value set whole holds it
+    return True
+
+
 def _merged(raw: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
-    """`raw` with `changes` merged in (`Task.with_changes`); neither is modified. A dotted
-    key (``"planner.tolerance"``, as a sweep's) stands for its nested tables."""
+    """`raw` with `changes` merged in; neither is modified."""
     out = dict(raw)
     for key, value in changes.items():
-        if isinstance(key, str) and "." in key:
-            head, rest = key.split(".", 1)
-            if not head or not rest:
-                raise InputError(f"{key}: not a dotted name such as planner.tolerance")
-            out = _merged(out, {head: {rest: value}})
-            continue
         if value is None:
             out.pop(key, None)
         elif isinstance(value, Mapping) and isinstance(out.get(key), dict):

@@ -20,6 +20,7 @@ SCENARIO = (
     "stratcli.scenario",
     "stratcli.scenario_checks",
     "stratcli.scenario_hints",
+    "stratcli.scenario_keys",
     "stratcli.schema_problems",
     "stratcli.task",
     "stratcli.tomlread",

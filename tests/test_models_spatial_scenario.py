@@ -71,6 +71,22 @@ def test_an_attitude_turning_by_more_than_pi_is_noted_with_the_rotation_reached(
     assert not any("turns by more than pi" in n for n in quiet.notes)
 
 
+def test_a_urdf_scenario_given_as_a_dict_changes_its_goal_by_joint_name():
+    """A dict was recorded after its configurations by name became lists, so a change by
+    name replaced the whole goal: `task.goal: missing joints j2, j3` (from a file: fine)."""
+    import tomllib
+
+    raw = tomllib.loads((SPATIAL / "arm3_auto.toml").read_text())
+    raw["model"]["path"] = str(ROOT / "robots" / "arm3.urdf")
+    task = load_scenario(raw)
+    assert "[task.goal]" in task.text  # recorded as given: by name
+    nested = task.with_changes({"task": {"goal": {"j1": 0.2}}})
+    dotted = task.with_changes({"task.goal.j1": 0.2})
+    assert nested.goal[0] == dotted.goal[0] == 0.2
+    np.testing.assert_array_equal(nested.goal[1:], task.goal[1:])
+    assert task.with_changes({"goal.rz": 0.1}).goal[5] == pytest.approx(0.1)
+
+
 def test_path_is_relative_to_the_scenario_file(tmp_path):
     (tmp_path / "robots").mkdir()
     (tmp_path / "robots" / "r.urdf").write_text((ROOT / "robots" / "arm3.urdf").read_text())

@@ -327,17 +327,35 @@ def test_with_changes_takes_numpy_values_as_load_scenario_does():
 
 
 def test_with_changes_takes_dotted_keys_as_a_sweep_does():
-    """`{"planner.tolerance": 1e-4}` (a sweep's key) was an unknown top-level key."""
+    """`{"planner.tolerance": 1e-4}` (a sweep's key) was an unknown top-level key; a sweep's
+    coordinate and index keys work too (`scenario_keys.assign`, the sweeps' own)."""
     task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
     nested = task.with_changes({"planner": {"tolerance": 1e-4, "basis": {"harmonics": 5}}})
     dotted = task.with_changes({"planner.tolerance": 1e-4, "planner.basis.harmonics": 5})
     assert dotted == nested and dotted.text == nested.text
     assert task.with_changes({"planner": {"seed": 3}, "planner.tolerance": 1e-4}).settings.seed == 3
     assert task.with_changes({"planner.continuity": "l-C0"}).settings.continuity == "l-C0"
-    with pytest.raises(InputError, match=r"\(with changes\): planner\.tolerance: must be at least"):
-        task.with_changes({"planner.tolerance": -1})
-    with pytest.raises(InputError, match=r"\(with changes\): \.x: not a dotted name such as"):
-        task.with_changes({".x": 1})
+    goal = task.with_changes({"goal.theta": 0.1}).goal
+    assert goal[3] == 0.1 and goal[:3].tolist() == task.goal[:3].tolist()
+    via = task.with_changes({"legs[0].goal.theta": -0.3}).legs[0].goal
+    assert via[3] == -0.3 and via[:3].tolist() == task.legs[0].goal[:3].tolist()
+    assert dotted.with_changes({"planner.tolerance": None}).settings.tolerance == 1e-3  # removed
+    obstacles = load_scenario(ROOT / "scenarios" / "sim4_task_d_obstacles.toml")
+    moved = obstacles.with_changes({"constraints.obstacles[0].centre[0]": 1.0})
+    assert moved.constraints.circles[0][0].tolist() == [1.0, 1.3]
+    for changes, why in [
+        ({"planner.tolerance": -1}, r"planner\.tolerance: must be at least"),
+        ({".x": 1}, r"\.x: not a dotted name such as"),
+        ({"goal.q9": 1}, r"goal\.q9: unknown coordinate 'q9' \(this model has: q1, q2, q3, "
+                         r"theta\)"),
+        ({"legs[5].goal": [0, 0, 0, 0]}, r"legs\[5\]\.goal: the scenario has no legs\[5\]"),
+        ({"planner.tolerance": 1e-4, "planner": {"tolerance": 1e-5}},
+         r"planner\.tolerance: given twice, as this key and in a nested table"),
+        ({"task": {"goal": [0, 0, 0, 0]}, "goal.q1": 1}, r"goal\.q1: given twice"),
+        ({"goal.q1": None}, r"goal\.q1: None removes a table's key, not an entry"),
+    ]:  # fmt: skip
+        with pytest.raises(InputError, match=r"\(with changes\): " + why):
+            task.with_changes(changes)
 
 
 def test_no_legs_says_how_to_ask_for_auto_mode():

@@ -44,10 +44,11 @@ from .. import tomlwrite
 from ..errors import InputError, Problem
 from ..models.specs import STRICT
 from ..scenario import load_scenario
+from ..scenario_keys import assign, changes_task
 from ..schema_problems import file_location, validation_problems
 from ..settings import Bool, Int
 from ..tomlread import parse_toml, read_scenario_text, read_source, reject_non_finite
-from .keys import MAX_TASKS, assign, changes_task, check_scenario, check_value, value_of
+from .keys import MAX_TASKS, check_scenario, check_value, value_of
 from .tables import Base, base_states, grid_axes, random_ranges, task_rows
 
 MODES = ("legs", "auto", "compare")
