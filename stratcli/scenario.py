@@ -37,6 +37,7 @@ from .planners import PLANNERS
 from .results import none_to_nan
 from .scenario_checks import (
     acceleration_problems,
+    attitude_problems,
     duration_problems,
     lie_problems,
     periodic_problems,
@@ -341,6 +342,8 @@ def _resolve(
     problems.extend(duration_problems(scenario, legs))
     problems.extend(periodic_problems(scenario, system, legs))
     problems.extend(acceleration_problems(scenario))
+    vias = [(f"legs[{i}].goal", leg.goal) for i, leg in enumerate(legs[:-1])]
+    problems.extend(attitude_problems(system, [*vias, ("task.goal", goal)]))
     if constraints is not None:
         problems.extend(lie_problems(constraints, legs))
         if start is not None:

@@ -18,7 +18,13 @@ if TYPE_CHECKING:
     from .scenario import Scenario
     from .stratified import LegSpec
 
-__all__ = ["acceleration_problems", "duration_problems", "lie_problems", "periodic_problems"]
+__all__ = [
+    "acceleration_problems",
+    "attitude_problems",
+    "duration_problems",
+    "lie_problems",
+    "periodic_problems",
+]
 
 
 def lie_problems(constraints: Constraints, legs: list[LegSpec]) -> list[Problem]:
@@ -35,6 +41,35 @@ def lie_problems(constraints: Constraints, legs: list[LegSpec]) -> list[Problem]
         for i, leg in enumerate(legs)
         if leg.method == "lie"
     ]
+
+
+def attitude_problems(system, places: list[tuple[str, np.ndarray | None]]) -> list[Problem]:
+    """A URDF robot's partly free goal or via attitude (some rotation-vector components "*")
+    is reached component by component on the rotation vector log(R), which is never longer
+    than π: fixed components longer than that can never be reached (a goal [*, *, 4] planned
+    for 35 s and failed with advice to try more harmonics). A whole attitude longer than π
+    is the same rotation as a shorter one, which the plan reaches (a note says so)."""
+    robot = getattr(system, "spatial", None)
+    if robot is None:
+        return []
+    k, out = robot.n_joints, []
+    for where, q in places:
+        phi = None if q is None else np.asarray(q, dtype=float)[k : k + 3]
+        if phi is None or np.all(np.isfinite(phi)) or not np.any(np.isfinite(phi)):
+            continue
+        length = float(np.linalg.norm(phi[np.isfinite(phi)]))
+        if length > np.pi + 1e-9:
+            shown = ", ".join("*" if v != v else f"{v:.4g}" for v in phi)
+            out.append(
+                Problem(
+                    where,
+                    f"its partly free attitude [{shown}] cannot be reached: it is compared "
+                    "component by component on the rotation vector log(R), never longer than "
+                    f"pi, and its fixed components are {length:.4g} long; give the whole "
+                    "attitude, or fixed components within pi",
+                )
+            )
+    return out
 
 
 def acceleration_problems(scenario: Scenario) -> list[Problem]:

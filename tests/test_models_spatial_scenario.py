@@ -71,6 +71,18 @@ def test_an_attitude_turning_by_more_than_pi_is_noted_with_the_rotation_reached(
     assert not any("turns by more than pi" in n for n in quiet.notes)
 
 
+@pytest.mark.parametrize("attitude", ['["*", "*", 4.0]', '[2.5, "*", 2.5]'])
+def test_a_partly_free_attitude_longer_than_pi_is_refused(attitude):
+    """Its fixed components can never be reached (log(R) is never longer than pi): it
+    planned for 35 s and failed, advising more harmonics."""
+    with pytest.raises(InputError) as caught:
+        parse_scenario(_text(goal=f'{{ j1 = 0, j2 = 0, j3 = "*", attitude = {attitude} }}'))
+    (problem,) = caught.value.problems
+    assert problem.path == "task.goal"
+    assert "cannot be reached: it is compared component by component" in problem.message
+    parse_scenario(_text(goal='{ j1 = 0, j2 = 0, j3 = "*", attitude = ["*", "*", 3.0] }'))
+
+
 def test_a_urdf_scenario_given_as_a_dict_changes_its_goal_by_joint_name():
     """A dict was recorded after its configurations by name became lists, so a change by
     name replaced the whole goal: `task.goal: missing joints j2, j3` (from a file: fine)."""
