@@ -445,6 +445,13 @@ def test_compare_sequences_takes_plans_objective_option(tmp_path):
     assert doc["settings"]["objective"] == "newton"
     recorded = tomllib.loads((Path(doc["record"]) / "scenario.toml").read_text())
     assert recorded["planner"]["objective"] == "newton"
+    ignored = runner.invoke(app, [*args, "--objective", "newton", "--search", "legwise",
+                                  "--exhaustive"])  # fmt: skip
+    assert ignored.exit_code == 0  # options that do nothing there say so
+    assert "note: --search legwise is the energy objective's search: the Newton objective " in (
+        ignored.stderr
+    )
+    assert "note: --exhaustive is for the energy objective's screen" in ignored.stderr
     bad = runner.invoke(app, [*args, "--search", "loop"])
     assert bad.exit_code == 2
     assert bad.output.strip() == "error: --search: must be starts, loops or legwise (got 'loop')"

@@ -271,6 +271,22 @@ def test_the_search_line_names_the_start_that_won(monkeypatch, planned):
     assert f"the starts ended at {first['from']} {first['energy']:,.2f} (abandoned)" in text
 
 
+def test_seeded_newton_starts_are_numbered_on_the_search_line(monkeypatch, planned):
+    """result.json calls every Newton plan's start `newton`: on the search line the ones after
+    the first are `seed k` (with starts = 5 a URDF plan's four read "newton", the winner too)."""
+    doc = copy.deepcopy(planned.document)
+    opt = doc["optimisation"]
+    first = opt["starts"][-1]
+    opt["starts"] = [
+        {**first, "index": k, "from": "newton", "energy": 90.0 + k, "stopped": "converged"}
+        for k in range(3)
+    ]
+    opt["best"] = 2
+    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    assert "start 3 of 3 (seed 2: " in text
+    assert "the starts ended at newton 90.00, seed 1 91.00, seed 2 92.00" in text
+
+
 def test_the_search_line_ends_with_why_no_loop_start_was_made(monkeypatch, planned):
     """The record's `no_loop_start` ends the search line (after the time-scaling remark,
     which is about the energies before it); an empty one adds nothing."""

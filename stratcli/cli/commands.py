@@ -54,6 +54,9 @@ def _with_planner(task, objective: str | None, search: str | None):
     if changed := {key: value for key, value in changed.items() if value is not None}:
         with render.reported():
             task = task.with_changes({"planner": changed})
+    if search is not None and task.settings.objective == "newton":  # (said, not ignored)
+        render.notes([f"--search {search} is the energy objective's search: the Newton "
+                      "objective plans leg by leg without it"])  # fmt: skip
     return task
 
 
@@ -237,6 +240,9 @@ def compare_sequences(
     from .. import api  # start-up speed
 
     task = _with_planner(_load(file), objective, search)
+    if exhaustive and task.settings.objective == "newton":
+        render.notes(["--exhaustive is for the energy objective's screen: under the Newton "
+                      "objective every sequence is planned anyway"])  # fmt: skip
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     api.draw_ahead()  # matplotlib loads while the sequences are planned

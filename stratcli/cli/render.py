@@ -236,7 +236,8 @@ def plan_summary(doc: dict) -> None:
         rechained = f"; re-chained: {fmt(free)}" if moved and not head else ""
         out_console.print(
             f"{head}energy-optimal over all legs together: start {best['index'] + 1} of "
-            f"{len(opt['starts'])} ({best['from']}: {best['iterations']} SQP iterations"
+            f"{len(opt['starts'])} ({start_kind(best, opt['starts'])}: {best['iterations']} "
+            "SQP iterations"
             f"{', ' + best['stopped'] if best.get('stopped') else ''}, "
             f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
             f"{energies}{rechained}; plain Newton: {fmt(opt['newton_energy'])}"
@@ -297,7 +298,17 @@ def _start_energy(start: dict, starts: list[dict]) -> str:
         if ends:
             other = min(ends, key=lambda s: energy - s["energy"])
             why = f" (heading for start {other['index'] + 1}'s minimum)"
-    return f"{start['from']} {fmt(energy)}{why}"
+    return f"{start_kind(start, starts)} {fmt(energy)}{why}"
+
+
+def start_kind(start: dict, starts: list[dict]) -> str:
+    """Where a start began, as the search line says it: result.json's `from`, but a Newton
+    plan after the first is `seed k`, the k-th seeded Newton plan (`planner.starts`): four
+    starts all called "newton" did not say which one won."""
+    if start["from"] != "newton":
+        return start["from"]
+    earlier = sum(s["from"] == "newton" for s in starts[: starts.index(start)])
+    return f"seed {earlier}" if earlier else "newton"
 
 
 def _close(a: float | None, b: float | None) -> bool:
