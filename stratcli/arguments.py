@@ -177,7 +177,14 @@ def choice(*options: str) -> Rule:
         if not isinstance(value, str):
             raise wrong_type(name, f"a string: {what}", value)
         if value not in options:
-            raise bad_value(name, what, value)
+            from difflib import get_close_matches
+
+            near = get_close_matches(value.replace("_", "-"), options, n=1, cutoff=0.75)
+            error = bad_value(name, what, value)
+            if near:  # peak_control for peak-control
+                (problem,) = error.problems
+                error = InputError([Problem(name, f"{problem.message}: did you mean {near[0]!r}?")])
+            raise error
 
     return rule
 

@@ -86,6 +86,9 @@ BAD_CALLS = {
                          lambda: stratcli.decompose()),
     "empty scenario": (InputError, r"^an empty string is no scenario: give a path, TOML text "
                        r"or a dict$", lambda: stratcli.plan("")),
+    "criterion typo": (InputError, r"^criterion: must be energy, peak-control, excursion or "
+                       r"duration \(got 'peak_control'\): did you mean 'peak-control'\?$",
+                       lambda: stratcli.compare_sequences(UNICYCLE, criterion="peak_control")),
     "preset name": (InputError, r"^name: no preset 'onearm' \(did you mean 'one-arm'\? presets: "
                     r"one-arm, two-arm\)$", lambda: stratcli.preset("onearm")),
     "preset int": (TypeError, r"^name: must be a preset's name \(a str\) \(got 3 of type int\)$",

@@ -185,7 +185,7 @@ def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
     say = render.say
     fmt = render.fmt
     say(f"[bold]sweep {escape(str(doc['name']))}[/] ({doc['mode']} mode, {doc['kind']}): "
-        f"{doc['done']} of {doc['tasks']} tasks done")  # fmt: skip
+        f"{doc['done']} of {counted(doc['tasks'], 'task')} done")  # fmt: skip
     counts = ", ".join(f"{n} {s}" for s, n in doc["counts"].items() if n)
     rate = doc.get("success_rate")
     say(f"  status   {counts or 'none'}" + (f"  (success {100 * rate:.1f} %)" if rate else ""))

@@ -20,6 +20,7 @@ from matplotlib.colors import ListedColormap, LogNorm
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from ..wording import counted
 from .figure_common import LOG_RATIO, fixed_margins, plain_log_labels, save_figure
 
 FAILED = "0.8"
@@ -41,7 +42,7 @@ def _title(spec: dict[str, Any], rows: dict[int, dict]) -> str:
     rate = f"{100 * ok / done:.0f} %" if done else "–"
     # ok: reached every goal, within the [constraints] if any (a failed task may have
     # reached its goals and broken a limit)
-    return f"{spec['name']} ({spec['mode']} mode): {ok} of {done} tasks ok ({rate})"
+    return f"{spec['name']} ({spec['mode']} mode): {ok} of {counted(done, 'task')} ok ({rate})"
 
 
 def _grid(spec: dict[str, Any], rows: dict[int, dict], value) -> np.ndarray:

@@ -31,6 +31,7 @@ from typing import Any
 from ..errors import InputError, Problem
 from ..records import sweepdir
 from ..records.rundir import write_run
+from ..wording import counted
 from .executors import ExecutorInfo, local_executor
 from .keys import unit_of
 from .spec import Sweep
@@ -70,7 +71,7 @@ def tally(summary: dict[str, Any], path: Path) -> str:
     counts = ", ".join(f"{k} {n}" for k, n in summary.get("counts", {}).items() if n)
     return (
         f"{summary.get('name')!r} in {str(path)!r}: {summary.get('done')} of "
-        f"{summary.get('tasks')} tasks" + (f" ({counts})" if counts else "")
+        f"{counted(summary.get('tasks') or 0, 'task')}" + (f" ({counts})" if counts else "")
     )
 
 
