@@ -145,7 +145,7 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     seeds = []
     starts = max(settings.starts, BOUND_STARTS)
     exact = _exact_hessians(system, [leg], settings)
-    for k in range(starts if exact else 1):
+    for k in range(starts):  # URDF legs too: one start bounded by poor local minima
         extra = {} if k == 0 else {
             "restarts": min(settings.restarts, SEED_RESTARTS),
             "seed": settings.seed + 7919 * k,

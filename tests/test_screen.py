@@ -215,18 +215,19 @@ def test_without_a_shared_leg_the_comparison_searches_every_candidate(sim4):
 
 
 def test_a_tight_bound_comes_from_a_search_not_from_a_failed_one(monkeypatch):
-    """Without exact Hessians a leg's search keeps one start; when that start (the tight
-    bound's warm start) cannot be restored onto the goals, the next one (its Newton plan) is
-    searched: the bound is a minimum found, not the Newton plan's energy."""
+    """When the tight bound's warm start cannot be restored onto the goals, the next starts
+    (Newton plans) are searched: the bound is a minimum found, not the Newton plan's energy
+    (115). URDF legs race seeded starts too (`BOUND_STARTS`): from the Newton plan alone
+    this leg's loose bound was 42.02 and its tight one 45-50, where 31.76 and 33.81 exist."""
     from stratcli.leg_bounds import leg_minimum
 
     task = _arm3_auto_energy()
     (cand,) = [c for c in _arm3_candidates(task) if [leg.stratum for leg in c.legs] == ["S2", "S3"]]
     legs = list(cand.legs)
     loose, free, why = leg_minimum(task.system, task.start, legs[:1], 0, _free(task.settings))
-    assert free is not None and why == "" and loose == pytest.approx(42.02, rel=1e-3)
+    assert free is not None and why == "" and loose < 42.02  # below the one start's minimum
     tight, coefficients, _ = leg_minimum(task.system, task.start, legs, 0, task.settings, free)
-    assert coefficients is not None and 45 < tight < 50  # the Newton plan's energy: 115
+    assert coefficients is not None and loose <= tight < 45  # the Newton plan's energy: 115
 
 
 def _free(settings):
