@@ -29,7 +29,9 @@ def ranking(task, doc: dict) -> None:
     s = task.settings
     reference = doc.get("reference_duration_s")
     durations = {row["duration"] for row in doc["rows"] if row["duration"] is not None}
-    scaled = doc["criterion"] == "energy" and reference is not None and durations != {reference}
+    lengths = {len(row["sequence"]) for row in doc["rows"]}  # a bounded row has no duration
+    differ = durations != {reference} or len(lengths) > 1  # (the screened: their bounds too)
+    scaled = doc["criterion"] == "energy" and reference is not None and differ
     ranked = CRITERION_LABELS[doc["criterion"]]
     if scaled:
         ranked = f"energy at an equal total duration of {reference:g} s"
