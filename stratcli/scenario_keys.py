@@ -27,6 +27,8 @@ _PART = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?$")
 
 
 def key_parts(key: str) -> list[str | int]:
+    """`key`'s names and indices in order (`goal.q1` -> ["task", "goal", "q1"]); raises
+    `ValueError` for a key that is no dotted name."""
     parts: list[str | int] = []
     for piece in key.split("."):
         match = _PART.match(piece)
@@ -61,18 +63,23 @@ def assign(scenario: dict[str, Any], key: str, value: Any, states: tuple[str, ..
     for i, part in enumerate(parts[:-1]):
         if isinstance(part, int):
             if not isinstance(node, list) or part >= len(node):
-                where = ".".join(str(p) for p in parts[:i])
-                raise ValueError(f"the scenario has no {where}[{part}]")
+                raise ValueError(f"the scenario has no {dotted(parts[: i + 1])}")
             node = node[part]
             continue
         if not isinstance(node, dict):
             raise ValueError(f"{part} is not inside a table")
         if part not in node:
             if parts[i + 1] in states or isinstance(parts[i + 1], int):
-                raise ValueError(f"the scenario has no {'.'.join(map(str, parts[: i + 1]))}")
+                last_leg = parts[0] == "legs" and part == "goal"  # the last leg's is task.goal
+                hint = " (the last leg's goal is task.goal)" if last_leg else ""
+                raise ValueError(f"the scenario has no {dotted(parts[: i + 1])}{hint}")
             node[part] = {}
         node = node[part]
     last = parts[-1]
+    if isinstance(node, dict) and last in ("attitude", "rpy") and is_coordinate(key):
+        node.pop("rpy" if last == "attitude" else "attitude", None)  # a URDF attitude, whole
+        node[last] = value
+        return
     if isinstance(node, dict) and last in ATTITUDE and is_coordinate(key):
         node["attitude"] = _attitude(node, key)  # a URDF configuration given by name
         node.pop("rpy", None)

@@ -175,7 +175,7 @@ def _same(values: np.ndarray | None, given: list | None) -> bool:
 def _changed(raw: dict[str, Any], changes: Mapping[str, Any], states) -> dict[str, Any]:
     """`raw` with `changes` (`Task.with_changes`): nested ones merged, then a sweep's keys
     (`scenario_keys.assign`; `states`, the model's coordinates, name a vector's entries)."""
-    from .scenario_keys import assign, key_parts
+    from .scenario_keys import assign, is_coordinate, key_parts
 
     keyed = {k: v for k, v in changes.items() if isinstance(k, str) and ("." in k or "[" in k)}
     nested = {k: v for k, v in changes.items() if k not in keyed}
@@ -185,6 +185,8 @@ def _changed(raw: dict[str, Any], changes: Mapping[str, Any], states) -> dict[st
             parts = key_parts(key)
             if _covers(nested, parts):
                 raise ValueError("given twice, as this key and in a nested table")
+            if value is None and is_coordinate(key):
+                raise ValueError('None removes a table\'s key; "*" leaves a coordinate free')
             if value is None:  # removes the key, as a nested None does
                 _remove(out, parts)
             else:

@@ -305,7 +305,8 @@ def test_a_first_order_search_from_one_start_says_how_to_add_starts(monkeypatch,
     """A URDF plan's energy search runs from the Newton plan alone: its search line says that
     `planner.starts` adds seeded starts (a user's arm3 task: 863.79 alone, 68.80 with 5), and
     says it only there."""
-    from stratcli.planners.energy import MORE_STARTS, NO_HESSIANS
+    from stratcli.cli.render import MORE_STARTS
+    from stratcli.planners.energy import NO_HESSIANS
 
     doc = copy.deepcopy(planned.document)
     opt = doc["optimisation"]

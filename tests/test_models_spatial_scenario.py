@@ -97,6 +97,9 @@ def test_a_urdf_scenario_given_as_a_dict_changes_its_goal_by_joint_name():
     assert nested.goal[0] == dotted.goal[0] == 0.2
     np.testing.assert_array_equal(nested.goal[1:], task.goal[1:])
     assert task.with_changes({"goal.rz": 0.1}).goal[5] == pytest.approx(0.1)
+    whole = task.with_changes({"goal.attitude": [0, 0, 0.1]}).goal  # (was "unknown coordinate")
+    np.testing.assert_allclose(whole[3:], [0, 0, 0.1])
+    assert np.isnan(task.with_changes({"goal.rz": "*"}).goal[5])
 
 
 def test_path_is_relative_to_the_scenario_file(tmp_path):

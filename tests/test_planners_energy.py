@@ -258,3 +258,6 @@ def test_restoration_steps_on_the_range_of_a_rank_deficient_jacobian():
     step = _least_norm(degenerate)(np.concatenate([c, [2e-17, -2e-17]]))
     assert np.allclose(step, np.linalg.pinv(J) @ c, rtol=1e-10, atol=1e-12)
     assert _least_norm(np.zeros((2, 8))) is None
+    broken = J.copy()
+    broken[1, 2] = np.nan  # an overflowed trial point: no step (the SVD raised LinAlgError)
+    assert _least_norm(broken) is None

@@ -352,7 +352,10 @@ def test_with_changes_takes_dotted_keys_as_a_sweep_does():
         ({"planner.tolerance": 1e-4, "planner": {"tolerance": 1e-5}},
          r"planner\.tolerance: given twice, as this key and in a nested table"),
         ({"task": {"goal": [0, 0, 0, 0]}, "goal.q1": 1}, r"goal\.q1: given twice"),
-        ({"goal.q1": None}, r"goal\.q1: None removes a table's key, not an entry"),
+        ({"goal.q1": None}, r"goal\.q1: None removes a table's key; \"\*\" leaves a "
+                            r"coordinate free"),
+        ({"legs[1].goal.q1": 1}, r"legs\[1\]\.goal\.q1: the scenario has no legs\[1\]\.goal "
+                                 r"\(the last leg's goal is task\.goal\)"),
     ]:  # fmt: skip
         with pytest.raises(InputError, match=r"\(with changes\): " + why):
             task.with_changes(changes)

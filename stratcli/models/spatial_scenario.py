@@ -110,17 +110,20 @@ def configuration_list(table: dict, system: System, where: str) -> list:
 
 def long_attitudes(task) -> list[str]:
     """A note for each start, via or goal attitude of a URDF task whose rotation vector is
-    longer than π: it names the same rotation as a shorter one, and the plan (result.json's
-    `end`) reaches that one, which a script comparing `end` with `goal` reads as 2π off."""
+    longer than π: it names the same rotation as a shorter one, which the plan starts from
+    or reaches and result.json shows (a script comparing `end` with `goal` read 2π off)."""
     robot = getattr(task.system, "spatial", None)
     if robot is None:
         return []
     k = robot.n_joints
-    places = [("task.start", task.start)]
-    places += [(f"legs[{i}].goal", leg.goal) for i, leg in enumerate(task.legs[:-1])]
-    places += [("task.goal", task.goal)]
+    places = [("task.start", task.start, "the plan starts from (result.json's attitude.start")]
+    places += [
+        (f"legs[{i}].goal", leg.goal, f"leg {i + 1} reaches (result.json's legs[{i}].end")
+        for i, leg in enumerate(task.legs[:-1])
+    ]
+    places += [("task.goal", task.goal, "the plan reaches (result.json's end")]
     out = []
-    for where, q in places:
+    for where, q, reached in places:
         phi = None if q is None else np.asarray(q, dtype=float)[k : k + 3]
         if phi is None or not np.all(np.isfinite(phi)) or np.linalg.norm(phi) <= np.pi + 1e-9:
             continue
@@ -128,6 +131,6 @@ def long_attitudes(task) -> list[str]:
         shown = lambda v: "[" + ", ".join(f"{x:.4g}" for x in np.round(v, 12) + 0.0) + "]"  # noqa: E731
         out.append(
             f"{where}'s attitude {shown(phi)} turns by more than pi: it is the rotation "
-            f"{shown(short)}, which the plan reaches (result.json's end shows that one)"
+            f"{shown(short)}, which {reached} shows that one)"
         )
     return out

@@ -36,10 +36,6 @@ LATER = ("loop", "legwise")  # starts raced after the others (`loops`, `legwise`
 # why no loop start (`Optimisation.no_loop_start`), besides `loops.loop_starts`' reasons
 NO_MINIMUM = "no start reached a minimum to begin them from"
 NO_HESSIANS = "the legs have no exact second derivatives (URDF robots, ODE-path legs)"
-# what the search line adds where such a search ran from one start (`cli.render`)
-MORE_STARTS = (
-    "planner.starts = 5 adds three seeded Newton plans as starts (slower; at times far lower)"
-)
 # The pulled start (`pulled_start`): Gauss-Newton on |c(z)|² + w²|z - z*|² for each weight
 # w in turn (z* the energy's unconstrained minimiser), each for at most PULL_ITERATIONS, then
 # back onto the goals by minimum-norm Gauss-Newton (at most RESTORE_ITERATIONS, to RESTORED).

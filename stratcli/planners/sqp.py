@@ -48,7 +48,12 @@ def _least_norm(J: np.ndarray):
     are zero to rounding) are met or not whatever the step, and inverting their rounding-level
     rows threw trial points to |λ| ~ 1e8 (Magnus steps at their cap) without ever restoring
     them: 40 SQP iterations of 2-4 s each, then no result."""
-    S = np.linalg.svd(J, compute_uv=False)
+    if not np.all(np.isfinite(J)):  # an overflowed trial point: the line search shortens
+        return None
+    try:
+        S = np.linalg.svd(J, compute_uv=False)
+    except np.linalg.LinAlgError:
+        return None
     rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
     if rank == J.shape[0]:
         HJ = 0.5 * J.T  # H0⁻¹ Jᵀ
@@ -59,7 +64,10 @@ def _least_norm(J: np.ndarray):
         return lambda c: HJ @ np.linalg.solve(L.T, np.linalg.solve(L, c))
     if rank == 0:
         return None
-    U, S, Vt = np.linalg.svd(J, full_matrices=False)
+    try:
+        U, S, Vt = np.linalg.svd(J, full_matrices=False)
+    except np.linalg.LinAlgError:
+        return None
     U, S, V = U[:, :rank], S[:rank], Vt[:rank].T
     return lambda c: V @ ((U.T @ c) / S)
 
