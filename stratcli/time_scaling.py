@@ -49,7 +49,7 @@ def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
     """
     out = scale_time(plan, s)
     if plan.constraints is not None:  # its margins were measured at the old speed
-        from .constraints import verified_again  # (imports this module)
+        from .limit_timing import verified_again  # (imports this module)
 
         out = verified_again(out, s)
         if plan.constraints.duration_set_by:  # its "slowed ...x to meet ..." note is history
@@ -63,7 +63,7 @@ def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
 
 
 def scale_time(plan: SequencePlan, s: float) -> SequencePlan:
-    """`time_scaled` without the check of `s` (`constraints.enforce` slows a plan by any
+    """`time_scaled` without the check of `s` (`limit_timing.enforce` slows a plan by any
     factor its rate limits need)."""
     old = plan.settings.basis
     basis = FourierBasis(old.harmonics, old.period / s)

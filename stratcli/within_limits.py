@@ -272,8 +272,8 @@ def candidate_within_limits(system, start, legs, settings, plan, constraints, se
     by `plan_sequence` with them already), then verified on a dense re-integration and failed
     if it still breaks one, so that the comparison cannot choose it. Rate and acceleration
     limits are not checked here: time scaling meets them exactly on whichever plan is chosen
-    (`constraints.enforce`), and at equal total duration they change no ranking."""
-    from .constraints import enforce  # (re-integration and figures' geometry: not needed above)
+    (`limit_timing.enforce`), and at equal total duration they change no ranking."""
+    from .limit_timing import enforce  # (re-integration and figures' geometry: not needed above)
 
     if not searchable(constraints) or not plan.ok:  # (rate limits alone: nothing to do here)
         return plan

@@ -14,10 +14,10 @@ from typing import Any
 
 from ..arguments import checked, choice, flag, instance, integer, number, optional, source
 from ..compare import CRITERIA
-from ..constraints import enforce
 from ..decomposition import STRATEGIES
 from ..durations import optimise_durations, timed_as
 from ..errors import IllConditionedWarning, InputError
+from ..limit_timing import enforce
 from ..objectives import plan_sequence, stalled, with_more_harmonics
 from ..records.manifest import Phases, phase, since_start
 from ..results import Timings
