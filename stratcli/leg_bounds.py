@@ -135,8 +135,9 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     leg gets no tight bound (its loose one stands). Where the search ends with no feasible
     result at all (every start not restored onto the goals) the bound is 0, not the Newton
     plan's energy: that is where the search started, above the minimum it was heading for (an
-    arm3 S1 leg: 7.82, the minimum 6.36), so no lower bound; the leg keeps its plan (a warm
-    start, and not a leg without one)."""
+    arm3 S1 leg: 7.82, the minimum 6.36), so no lower bound. Its coefficients are still
+    returned: the leg has a plan (a warm start for its tight bound), unlike a leg whose
+    Newton plan failed."""
     mid = 1 if i > 0 else 0
     leg = around[mid]
     after = around[mid + 1] if mid + 1 < len(around) else None
@@ -186,7 +187,8 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
 
 def plan_alone(items: list[tuple]) -> dict[tuple, tuple]:
     """Each leg's minimum energy planned alone (0.0 when its search fails), the CPU seconds,
-    the coefficients (None when it failed) and why it failed ("" when unknown)."""
+    the coefficients (None when it has no plan: its Newton plan failed) and why it failed
+    ("" when unknown)."""
     system, settings = STATE["system"], STATE["settings"]
     out = {}
     for key, at, around, i, relaxed, warm in items:

@@ -26,8 +26,8 @@ def verified_again(plan, s: float | None = None):
     """`plan` with its [constraints] report measured again on its own controls (after
     re-timing, `time_scaled`), the limits resolved from the report's table; not slowed, so
     a violation fails it, its message naming the limit, leg and time, and the factor that
-    meets it: of the call (`s`, the speed-up it was re-timed by: the plan given it was
-    within its limits) and of `plan` itself. No limit set its duration any more
+    meets it: for the plan the caller re-timed by `s` (within its limits, or failed only by
+    an earlier re-timing) and for `plan` itself. No limit set its duration any more
     (`duration_set_by` is empty): the caller's re-timing did."""
     c = resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
     report = verify(plan, c)
