@@ -97,17 +97,21 @@ PHASES = {  # (object, method): column; the search's own phases, its checks, the
     "barrier": ("_Search", "_lower_barrier"),
     "SQP": ("_Search", "_sqp_step"),
     "checks": ("NodeMargins", "refined"),
-    "verification": ("constraints", "verify"),
+    "verification": ("limit_timing", "verify"),  # (as `enforce` calls it)
 }
 
 
 def owners_of_phases() -> dict:
     """The objects whose methods `PHASES` names."""
-    from stratcli import constraints
+    from stratcli import limit_timing
     from stratcli.node_margins import NodeMargins
     from stratcli.planners import constrained
 
-    return {"_Search": constrained._Search, "NodeMargins": NodeMargins, "constraints": constraints}
+    return {
+        "_Search": constrained._Search,
+        "NodeMargins": NodeMargins,
+        "limit_timing": limit_timing,
+    }
 
 
 def phases(names: list[str], repeats: int) -> None:
