@@ -116,7 +116,8 @@ class Task:
             (``"planner.tolerance"``, ``"constraints.obstacles[0].centre[1]"``) or a
             coordinate by name (``"goal.q1"``, ``"legs[0].goal.theta"``; a URDF robot's
             ``"goal.j2"``, ``"goal.rz"``), set after the nested ones; one place given both
-            ways is refused.
+            ways is refused. A change of the task, legs or model drops the scenario's
+            [reference] energy (the paper's, for its own task) unless `changes` gives one.
 
         Returns
         -------
@@ -175,11 +176,16 @@ def _same(values: np.ndarray | None, given: list | None) -> bool:
 def _changed(raw: dict[str, Any], changes: Mapping[str, Any], states) -> dict[str, Any]:
     """`raw` with `changes` (`Task.with_changes`): nested ones merged, then a sweep's keys
     (`scenario_keys.assign`; `states`, the model's coordinates, name a vector's entries)."""
-    from .scenario_keys import assign, is_coordinate, key_parts
+    from .scenario_keys import assign, changes_task, is_coordinate, key_parts
 
     keyed = {k: v for k, v in changes.items() if isinstance(k, str) and ("." in k or "[" in k)}
     nested = {k: v for k, v in changes.items() if k not in keyed}
     out = copy.deepcopy(_merged(raw, nested))
+    other = any(k in ("task", "legs", "model") for k in nested) or any(
+        _quietly(changes_task, k) for k in keyed
+    )
+    if other and "reference" not in changes:  # another task: not the paper's (as a sweep's)
+        out.pop("reference", None)
     for key, value in keyed.items():
         try:
             parts = key_parts(key)
@@ -194,6 +200,14 @@ def _changed(raw: dict[str, Any], changes: Mapping[str, Any], states) -> dict[st
         except ValueError as exc:
             raise InputError(f"{key}: {exc}") from None
     return out
+
+
+def _quietly(test, key: str) -> bool:
+    """`test(key)`, False for a key that is no dotted name (its error comes after)."""
+    try:
+        return test(key)
+    except ValueError:
+        return False
 
 
 def _remove(raw: dict[str, Any], parts: list) -> None:

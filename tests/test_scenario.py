@@ -361,6 +361,18 @@ def test_with_changes_takes_dotted_keys_as_a_sweep_does():
             task.with_changes(changes)
 
 
+def test_changing_the_task_drops_the_papers_reference_energy():
+    """A changed goal still printed "(paper: 124.59, ratio 0.90)": the paper's energy is for
+    its own task (a sweep drops it alike); a change of the planner keeps it."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    assert task.scenario.reference.energy == 124.59
+    assert task.with_changes({"planner.tolerance": 1e-4}).scenario.reference.energy == 124.59
+    for changes in ({"goal.theta": 0.1}, {"task": {"goal": ["-pi/3", "pi/3", 0.7, -0.3]}}):
+        assert task.with_changes(changes).scenario.reference is None
+    given = task.with_changes({"goal.theta": 0.1, "reference": {"energy": 99.0}})
+    assert given.scenario.reference.energy == 99.0
+
+
 def test_no_legs_says_how_to_ask_for_auto_mode():
     task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
     with pytest.raises(InputError, match=r"legs: must have at least 1 entry, not 0: for auto "
