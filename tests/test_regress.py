@@ -6,11 +6,13 @@ from __future__ import annotations
 import json
 import shutil
 
+import pytest
 from conftest import ROOT, SCENARIOS
 from typer.testing import CliRunner
 
 from stratcli.api.regression import summarise
 from stratcli.cli import app
+from stratcli.errors import InputError
 from stratcli.regress import compare, load_baseline, summary_of
 
 runner = CliRunner()
@@ -52,6 +54,12 @@ def test_regress_replays_auto_mode_unscaled_as_it_does_legs(tmp_path):
     raw["planner"]["time_scale"] = 2.0
     fast.write_text(dumps(raw))
     assert summarise(fast)["total_energy"] == summarise(plain)["total_energy"]
+    # --jobs 1 (a shared CI machine): the same comparison in this process, the same plan
+    assert summarise(plain, jobs=1) == summarise(plain)
+    from stratcli.api import regress
+
+    with pytest.raises(InputError, match=r"^jobs: must be an integer of at least 1 \(got 0\)$"):
+        regress(tmp_path, tmp_path / "baseline.json", jobs=0)
 
 
 def test_regress_detects_a_regression(tmp_path):

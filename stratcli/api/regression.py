@@ -9,6 +9,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..arguments import checked, integer, optional
 from ..errors import InputError, Problem
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
@@ -58,11 +59,13 @@ class RegressReport:
         )
 
 
+@checked(jobs=optional(integer(1)))
 def regress(
     directory: Path,
     baseline: Path,
     update: bool = False,
     progress: Callable[[str, dict[str, Any], float], None] | None = None,
+    jobs: int | None = None,
 ) -> RegressReport:
     """Plan every scenario in `directory` and compare with a baseline file.
 
@@ -77,6 +80,9 @@ def regress(
     progress : callable, optional
         Called as `progress(name, summary, seconds)` after each scenario is planned (its
         status, energies and errors, and the seconds it took); default: silent.
+    jobs : int, optional
+        Worker processes of an auto-mode scenario's comparison (default: all cores; 1 keeps
+        the whole run in this process, for a shared CI machine).
 
     Returns
     -------
@@ -98,7 +104,7 @@ def regress(
     now, seconds = {}, {}
     for path in paths:
         clock = time.perf_counter()
-        now[path.stem] = summarise(tasks[path])
+        now[path.stem] = summarise(tasks[path], jobs=jobs)
         seconds[path.stem] = time.perf_counter() - clock
         if progress is not None:
             progress(path.stem, now[path.stem], seconds[path.stem])
@@ -123,7 +129,7 @@ def _load_all(paths: list[Path]) -> dict[Path, Task]:
     return tasks
 
 
-def summarise(path: Path | Task) -> dict[str, Any]:
+def summarise(path: Path | Task, jobs: int | None = None) -> dict[str, Any]:
     """Plan one scenario (as `plan` does, unchecked and not time-scaled) and keep what the
     baseline compares.
 
@@ -131,6 +137,8 @@ def summarise(path: Path | Task) -> dict[str, Any]:
     ----------
     path : Path or Task
         A scenario file, or a loaded one; in auto mode the best candidate sequence is kept.
+    jobs : int, optional
+        Worker processes of an auto-mode comparison (default: all cores).
 
     Returns
     -------
@@ -144,5 +152,5 @@ def summarise(path: Path | Task) -> dict[str, Any]:
     if task.legs:
         result = plan_run(task, check=False, time_scale=1.0).result
     else:  # auto mode ([decompose], no [[legs]]): the best candidate sequence
-        result = plan_auto(task, check=False, time_scale=1.0).best.result
+        result = plan_auto(task, check=False, time_scale=1.0, jobs=jobs).best.result
     return summary_of(result)

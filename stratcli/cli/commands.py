@@ -418,6 +418,13 @@ def regress(
     ] = False,
     quiet: Quiet = False,
     json_output: Json = False,
+    jobs: Annotated[
+        int | None,
+        typer.Option(
+            help="Worker processes of an auto-mode scenario's comparison (default: all cores).",
+            min=1,
+        ),
+    ] = None,
 ) -> None:
     """Plan every scenario in DIRECTORY and compare with a baseline; exit 1 on a regression.
 
@@ -430,8 +437,9 @@ def regress(
     baseline = directory / "baseline.json" if baseline is None else baseline
     with render.reported():
         report = api.regress(
-            directory, baseline, update=update, progress=render_tables.regress_progress(quiet)
-        )
+            directory, baseline, update=update, progress=render_tables.regress_progress(quiet),
+            jobs=jobs,
+        )  # fmt: skip
     if json_output:
         render.print_json(report.document)
     elif not quiet:
