@@ -21,6 +21,7 @@ from . import progress as bars
 from . import render, render_tables
 from .options import (
     Animation,
+    AutoJobs,
     Json,
     MaxLength,
     Objective,
@@ -93,13 +94,7 @@ def plan(
     fmt: Format = "png",
     objective: Objective = None,
     search: Search = None,
-    jobs: Annotated[
-        int | None,
-        typer.Option(
-            help="Auto mode: worker processes comparing the sequences (default: all cores).",
-            min=1,
-        ),
-    ] = None,
+    jobs: AutoJobs = None,
 ) -> None:
     """Plan a scenario: every leg to tolerance, controls continuous across switches.
 
@@ -418,13 +413,7 @@ def regress(
     ] = False,
     quiet: Quiet = False,
     json_output: Json = False,
-    jobs: Annotated[
-        int | None,
-        typer.Option(
-            help="Worker processes of an auto-mode scenario's comparison (default: all cores).",
-            min=1,
-        ),
-    ] = None,
+    jobs: AutoJobs = None,
 ) -> None:
     """Plan every scenario in DIRECTORY and compare with a baseline; exit 1 on a regression.
 

@@ -77,3 +77,9 @@ Search = Annotated[
         "(without loop starts) or legwise (also each leg's own minimum, joined; slower).",
     ),
 ]
+AutoJobs = Annotated[
+    int | None,
+    typer.Option(
+        help="Auto mode: worker processes comparing the sequences (default: all cores).", min=1
+    ),
+]
