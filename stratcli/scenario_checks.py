@@ -49,13 +49,11 @@ def attitude_problems(system, places: list[tuple[str, np.ndarray | None]]) -> li
     than π: fixed components longer than that can never be reached (a goal [*, *, 4] planned
     for 35 s and failed with advice to try more harmonics). A whole attitude longer than π
     is the same rotation as a shorter one, which the plan reaches (a note says so)."""
-    robot = getattr(system, "spatial", None)
-    if robot is None:
-        return []
-    k, out = robot.n_joints, []
-    for where, q in places:
-        phi = None if q is None else np.asarray(q, dtype=float)[k : k + 3]
-        if phi is None or np.all(np.isfinite(phi)) or not np.any(np.isfinite(phi)):
+    from .models.spatial_scenario import attitudes
+
+    out = []
+    for where, phi in attitudes(system, places):
+        if np.all(np.isfinite(phi)) or not np.any(np.isfinite(phi)):
             continue
         length = float(np.linalg.norm(phi[np.isfinite(phi)]))
         if length > np.pi + 1e-9:

@@ -15,6 +15,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from .errors import InputError, Problem
+from .scenario_keys import holds
 from .schema_problems import file_location
 
 __all__ = ["beside_refused", "hinted"]
@@ -122,7 +123,7 @@ def beside_refused(raw, exc: ValidationError, reported, recheck) -> list[Problem
             return []  # the whole scenario, or a key it needs: nothing more to check
         node: Any = kept
         for part in loc[:-1]:
-            node = node[part] if _holds(node, part) else None
+            node = node[part] if holds(node, part) else None
         if isinstance(node, dict):
             node.pop(loc[-1], None)
         refused.add(str(loc[-1]))
@@ -139,10 +140,3 @@ def beside_refused(raw, exc: ValidationError, reported, recheck) -> list[Problem
     except (ValidationError, ValueError, TypeError):  # not checkable without the refused keys
         return []
     return []
-
-
-def _holds(node: Any, part: Any) -> bool:
-    """Whether `node[part]` is there: a dict's key, a list's index."""
-    if isinstance(node, dict):
-        return part in node
-    return isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)

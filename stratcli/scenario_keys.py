@@ -19,7 +19,16 @@ import numpy as np
 from .errors import InputError
 from .models.numbers import parse_number
 
-__all__ = ["ATTITUDE", "VECTORS", "assign", "changes_task", "dotted", "is_coordinate", "key_parts"]
+__all__ = [
+    "ATTITUDE",
+    "VECTORS",
+    "assign",
+    "changes_task",
+    "dotted",
+    "holds",
+    "is_coordinate",
+    "key_parts",
+]
 
 VECTORS = ("start", "goal")
 ATTITUDE = ("rx", "ry", "rz")  # a URDF model's attitude: components of `attitude` by name
@@ -128,3 +137,10 @@ def _attitude(table: dict[str, Any], key: str) -> list:
     from . import so3
 
     return [float(x) for x in so3.log(so3.rpy_to_matrix(angles))]
+
+
+def holds(node: Any, part: str | int) -> bool:
+    """Whether `node[part]` is there: a table's key, a list's index."""
+    if isinstance(node, dict):
+        return part in node
+    return isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)

@@ -212,14 +212,13 @@ def _quietly(test, key: str) -> bool:
 
 def _remove(raw: dict[str, Any], parts: list) -> None:
     """Remove the table key `parts` names (absent: nothing to remove)."""
+    from .scenario_keys import holds
+
     node: Any = raw
     for part in parts[:-1]:
-        if isinstance(node, Mapping) and part in node:
-            node = node[part]
-        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
-            node = node[part]
-        else:
+        if not holds(node, part):
             return
+        node = node[part]
     if not isinstance(node, dict) or isinstance(parts[-1], int):
         raise ValueError("None removes a table's key, not an entry of a list or vector")
     node.pop(parts[-1], None)
@@ -227,17 +226,16 @@ def _remove(raw: dict[str, Any], parts: list) -> None:
 
 def _covers(nested: Any, parts: list) -> bool:
     """Whether the nested changes set the place `parts` names (or a value holding it)."""
+    from .scenario_keys import holds
+
     for part in parts:
-        if isinstance(nested, Mapping):
-            if part not in nested:
-                return False
-            nested = nested[part]
-        elif isinstance(nested, list) and isinstance(part, int):
-            if part >= len(nested):
-                return False
-            nested = nested[part]
-        else:
+        if not isinstance(nested, dict | list) or (
+            isinstance(nested, list) and isinstance(part, str)
+        ):
             return True  # a vector or value set whole holds it
+        if not holds(nested, part):
+            return False
+        nested = nested[part]
     return True
 
 

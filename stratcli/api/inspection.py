@@ -13,7 +13,7 @@ from ..arguments import checked, integer, source
 from ..errors import InputError, NotControllableError, Problem
 from ..liealgebra import MAX_DEGREE
 from ..models.numbers import parse_number
-from ..models.presets import PRESETS, preset
+from ..models.presets import PRESETS, meant_preset, preset
 from ..models.system import System
 from ..scenario import Task, load_scenario
 from ..tomlread import is_toml_text, is_xml_text
@@ -214,13 +214,9 @@ def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | T
 
 def _neither(target: str) -> str:
     """Why a name is no model: a missing file (it looks like one), or no preset's name."""
-    from difflib import get_close_matches
-
     if Path(target).suffix.lower() in (".toml", ".urdf") or "/" in target or os.sep in target:
         return f"no such file (a preset is named {' or '.join(PRESETS)})"
-    near = get_close_matches(target, PRESETS, n=1, cutoff=0.6)
-    meant = f"did you mean {near[0]!r}? " if near else ""
-    return f"not a preset ({meant}presets: {', '.join(PRESETS)}), a scenario file or a URDF file"
+    return f"not a preset ({meant_preset(target)}), a scenario file or a URDF file"
 
 
 def scenario_model(path: str | Path) -> System | None:

@@ -231,14 +231,20 @@ def preset(name: str) -> System:
 
         raise wrong_type("name", "a preset's name (a str)", name)
     if name not in PRESETS:
-        from difflib import get_close_matches
-
         from ..errors import InputError
 
-        near = get_close_matches(str(name), PRESETS, n=1, cutoff=0.6)
-        meant = f"did you mean {near[0]!r}? " if near else ""
-        raise InputError(f"name: no preset {name!r} ({meant}presets: {', '.join(PRESETS)})")
+        raise InputError(f"name: no preset {name!r} ({meant_preset(name)})")
     return _shared(name)
+
+
+def meant_preset(name: str) -> str:
+    """The presets, the one nearest a misspelt `name` first: "did you mean 'one-arm'?
+    presets: one-arm, two-arm" (`preset`, `stratplan models one_arm`)."""
+    from difflib import get_close_matches
+
+    near = get_close_matches(name, PRESETS, n=1, cutoff=0.6)
+    meant = f"did you mean {near[0]!r}? " if near else ""
+    return f"{meant}presets: {', '.join(PRESETS)}"
 
 
 @cache

@@ -112,10 +112,6 @@ def long_attitudes(task) -> list[str]:
     """A note for each start, via or goal attitude of a URDF task whose rotation vector is
     longer than π: it names the same rotation as a shorter one, which the plan starts from
     or reaches and result.json shows (a script comparing `end` with `goal` read 2π off)."""
-    robot = getattr(task.system, "spatial", None)
-    if robot is None:
-        return []
-    k = robot.n_joints
     places = [("task.start", task.start, "the plan starts from (result.json's attitude.start")]
     places += [
         (f"legs[{i}].goal", leg.goal, f"leg {i + 1} reaches (result.json's legs[{i}].end")
@@ -123,9 +119,8 @@ def long_attitudes(task) -> list[str]:
     ]
     places += [("task.goal", task.goal, "the plan reaches (result.json's end")]
     out = []
-    for where, q, reached in places:
-        phi = None if q is None else np.asarray(q, dtype=float)[k : k + 3]
-        if phi is None or not np.all(np.isfinite(phi)) or np.linalg.norm(phi) <= np.pi + 1e-9:
+    for where, phi, reached in attitudes(task.system, places):
+        if not np.all(np.isfinite(phi)) or np.linalg.norm(phi) <= np.pi + 1e-9:
             continue
         short = so3.log(so3.exp(phi))
         shown = lambda v: "[" + ", ".join(f"{x:.4g}" for x in np.round(v, 12) + 0.0) + "]"  # noqa: E731
@@ -134,3 +129,16 @@ def long_attitudes(task) -> list[str]:
             f"{shown(short)}, which {reached} shows that one)"
         )
     return out
+
+
+def attitudes(system, places):
+    """`(where, rotation vector, *rest)` of each `(where, q, *rest)` in `places` whose
+    configuration `q` is given, for a URDF robot (its attitude after the joints); none for
+    any other model (`long_attitudes`, `scenario_checks.attitude_problems`)."""
+    robot = getattr(system, "spatial", None)
+    if robot is None:
+        return
+    k = robot.n_joints
+    for where, q, *rest in places:
+        if q is not None:
+            yield where, np.asarray(q, dtype=float)[k : k + 3], *rest
