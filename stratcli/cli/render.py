@@ -227,7 +227,8 @@ def plan_summary(doc: dict) -> None:
         from ..constraints import KEPT_FREE  # (after planning: numpy is loaded)
         from ..planners.energy import NO_HESSIANS
 
-        alone = NO_HESSIANS if len(opt["starts"]) == 1 else None  # one start, first order
+        # a search without second derivatives that ran from one start: more are asked for so
+        alone = opt.get("no_loop_start") == NO_HESSIANS and len(opt["starts"]) == 1
 
         kept = KEPT_FREE in (doc.get("message") or "")  # a stalled search keeps the free plan
         head = "without the constraints, " if (moved or kept) and doc.get("constraints") else ""
@@ -243,7 +244,7 @@ def plan_summary(doc: dict) -> None:
             f"{energies}{rechained}; plain Newton: {fmt(opt['newton_energy'])}"
             + (" (energies before time scaling)" if scale != 1.0 else "")
             + (f"; no loop start: {opt['no_loop_start']}" if opt.get("no_loop_start") else "")
-            + (f"; {MORE_STARTS}" if opt.get("no_loop_start") == NO_HESSIANS == alone else ""),
+            + (f"; {MORE_STARTS}" if alone else ""),
             highlight=False,
         )
     failure = (doc.get("message") or "") if doc["status"] != "ok" else ""
@@ -313,7 +314,7 @@ def start_kind(start: dict, starts: list[dict]) -> str:
     starts all called "newton" did not say which one won."""
     if start["from"] != "newton":
         return start["from"]
-    earlier = sum(s["from"] == "newton" for s in starts[: starts.index(start)])
+    earlier = sum(s["from"] == "newton" for s in starts[: start["index"]])
     return f"seed {earlier}" if earlier else "newton"
 
 

@@ -106,12 +106,13 @@ def visual_links(text: str) -> tuple[frozenset[str], dict[str, np.ndarray]]:
     return frozenset(drawn), coms
 
 
-def link_segments(robot) -> dict[str, list[np.ndarray]]:
+def link_segments(robot, coms: dict[str, np.ndarray] | None = None) -> dict[str, list[np.ndarray]]:
     """The far end, in each link's frame, of every segment drawn from the link's origin.
 
     Parameters
     ----------
     robot : a `models.spatial.SpatialRobot`.
+    coms : its links' centres of mass (`visual_links`); default: read from its URDF.
 
     Returns
     -------
@@ -123,7 +124,7 @@ def link_segments(robot) -> dict[str, list[np.ndarray]]:
     k = robot.n_joints
     poses = robot.link_poses(np.zeros(k), np.eye(3))  # any configuration: offsets are fixed
     parents = {j.child: j.parent for j in robot.summary.joints}
-    _, coms = visual_links(robot.text)
+    coms = visual_links(robot.text)[1] if coms is None else coms
     ends: dict[str, list[np.ndarray]] = {name: [] for name in poses}
     for name, (p, _) in poses.items():
         parent = parents.get(name)
@@ -177,8 +178,8 @@ def spatial_scene(plan, q: np.ndarray, ns: int) -> dict[str, Any]:
         `{"deletions": [], "entities": [...]}`, the entities of the module's table.
     """
     robot = plan.system.spatial
-    foxglove_draws, _ = visual_links(robot.text)
-    ends = link_segments(robot)
+    foxglove_draws, coms = visual_links(robot.text)  # (the URDF parsed once)
+    ends = link_segments(robot, coms)
     centre, axes, edges = robot.base_box()
     lengths = [float(np.linalg.norm(e)) for out in ends.values() for e in out]
     width = THICKNESS * max([*lengths, *edges.tolist(), 1e-3])
