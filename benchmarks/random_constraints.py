@@ -49,7 +49,9 @@ def pre_violation(scenario: dict) -> str:
             where = p.path.split("[")[0].split(".")[0]
             if where not in ("task", "legs") or not p.path.endswith(("start", "goal")):
                 raise
-            if "joint limits" in p.message:
+            # the loader's wording since a6128aa: "q1 = -3.31 is outside its limits [...]
+            # (constraints.joint_limits)"; before it, "joint limits"
+            if "outside its limits" in p.message or "joint limits" in p.message:
                 reasons.add("joint limits")
             elif "with itself" in p.message or "clearance of itself" in p.message:
                 reasons.add("self-collision")

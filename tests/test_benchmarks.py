@@ -88,6 +88,16 @@ def test_random_constrained_tasks_are_redrawn_for_every_configuration_problem():
     assert pre_violation(task) == "self-collision"
 
 
+def test_random_constrained_tasks_outside_a_joint_limit_are_redrawn():
+    """A drawn task whose goal is outside ±2.5 rad is redrawn as a joint-limit problem: the
+    loader calls them "its limits" since a start or via outside one says where the limit
+    comes from (bench_random --constraints stopped on the first such task, 579362556)."""
+    from bench_random import make_task
+    from random_constraints import pre_violation
+
+    assert pre_violation(make_task(579362556)) == "joint limits and self-collision"
+
+
 def test_the_phases_of_a_constrained_plan_add_up_to_less_than_the_plan(capsys):
     """`bench_constraints.py --phases`: each phase of Sim 4 C's constrained plan has steps and
     CPU time, together less than the whole plan's (which also plans the free plan), and the
