@@ -4,7 +4,7 @@
 feasible plan), then the minimum-energy controls over all legs together from
 `settings.starts` deterministic starts (`planners.energy`), then a final leg-by-leg pass that
 re-chains the legs from the configurations they actually reach (Newton polishes a leg only if
-it is off by more than the tolerance). Every start is a `chain_legs` call.
+it is off by more than the tolerance). Every start is a `chain_legs` call (`newton_starts`).
 """
 
 from __future__ import annotations
@@ -17,16 +17,15 @@ import numpy as np
 from .controls import embed
 from .errors import InputError
 from .models.system import System
+from .newton_starts import LEG_TRIES, lowest_legs, seeded_plans
 from .node_margins import searchable
 from .planners import PLANNERS
-from .planners.base import ENERGY_RUNAWAY
-from .planners.energy import optimise_energy
+from .planners.energy import LOWEST_LEGS, optimise_energy
 from .planners.sqp import FIRST_ORDER_ITERATIONS, LOOSE_ABOVE
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import (
     NUMERICAL_ERRORS,
-    SEED_RESTARTS,
     LegSpec,
     chain_legs,
     check_legs,
@@ -36,11 +35,6 @@ from .urdf_limits import stalled_too
 from .within_limits import STALLED, re_planned, within_limits
 
 __all__ = ["plan_sequence", "plan_with_objective", "stalled", "with_more_harmonics"]
-
-# Newton iterations per leg over all attempts of an extra start (`stratified.SEED_RESTARTS`
-# restarts): a seed that needs more is dropped
-# (on the paper's scenarios the seeds that win need at most 34; failing ones ran 39-48)
-SEED_BUDGET = 36
 
 # harmonics added when the search stalls in the default basis (`with_more_harmonics`), tried
 # in turn: a realistic table (soft start and full stop, ±150°, self-collision, two obstacles)
@@ -119,32 +113,20 @@ def plan_with_objective(
         return newton
     # Starts: the Newton plan pulled toward least energy (made by the search,
     # `planners.energy.pulled_start`), the Newton plan itself, then Newton plans from more
-    # widely perturbed seeded starts (feasible, and in different basins).
-    seeds = [newton]
+    # widely perturbed seeded starts (feasible, and in different basins). Legs without exact
+    # second derivatives have no pulled start; the lowest of several Newton plans a leg
+    # stands in for it, raced after the Newton plan (`newton_starts`).
     exact = _exact_hessians(system, legs, settings)
-    # the pulled start and the plan come first (without exact second derivatives the search
-    # makes no pulled start: `starts` then counts one start more than it races)
-    seeded = settings.starts - 2
-    for k in range(1, seeded + 1):
-        say(f"energy search: a start from a seeded Newton plan ({k} of {seeded})")
-        other = chain_legs(
-            system,
-            start,
-            legs,
-            settings,
-            restarts=min(settings.restarts, SEED_RESTARTS),
-            budget=SEED_BUDGET,
-            seed=settings.seed + 7919 * k,
-            spread=0.02 + 0.3 * k,
-        )
-        # a seed that needs many restarts is not worth its time, nor one whose energy ran
-        # away (ENERGY_RUNAWAY x the first start's): skip it
-        if other.ok and other.total_energy <= ENERGY_RUNAWAY * newton.total_energy:
-            seeds.append(other)
+    starts = [("newton", newton)]
+    if not exact and settings.starts > 1:  # (in the pulled start's place: one start asked)
+        say("energy search: a start from the lowest of several Newton plans a leg")
+        lowest = lowest_legs(system, start, legs, settings, newton)
+        starts += [] if lowest is None else [(LOWEST_LEGS, lowest)]
+    starts += [("newton", p) for p in seeded_plans(system, start, legs, settings, newton, say)]
     nominal = nominal_starts(start, legs, newton)
     targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
     stacked = [
-        ("newton", np.concatenate([leg.coefficients.ravel() for leg in p.legs])) for p in seeds
+        (kind, np.concatenate([leg.coefficients.ravel() for leg in p.legs])) for kind, p in starts
     ]
     if warm_start is not None:
         stacked.insert(0, ("warm start", np.concatenate([np.ravel(c) for c in warm_start])))
@@ -196,9 +178,10 @@ def _one_start(plan, settings: PlannerSettings):
         plan,
         'planner.search = "legwise" made no difference here: these legs\' end-point maps '
         "have no second derivatives (URDF models, ODE-path legs), so the energy search runs "
-        f"from the Newton plan and planner.starts - 2 seeded Newton plans (at most "
-        f"{FIRST_ORDER_ITERATIONS} steps each, the goals' curvature estimated from their "
-        "Jacobians), without pulled, loop or legwise starts",
+        f"from the Newton plan, the lowest of {LEG_TRIES} Newton plans a leg and "
+        f"planner.starts - 2 seeded Newton plans (at most {FIRST_ORDER_ITERATIONS} steps "
+        "each, the goals' curvature estimated from their Jacobians), without pulled, loop or "
+        "legwise starts",
     )
 
 

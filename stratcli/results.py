@@ -207,8 +207,9 @@ class StartOutcome:
     index: int
     kind: str  # where the start came from: "pulled" (the Newton plan pulled toward least
     # energy), "newton" (a Newton plan, seeded or not), "warm start", "loop" (a leg's loop
-    # moved onto a curvature peak, `planners.loops`) or "legwise" (the legs' own minima
-    # joined, `planners.legwise`)
+    # moved onto a curvature peak, `planners.loops`), "legwise" (the legs' own minima
+    # joined, `planners.legwise`) or "lowest legs" (each leg's lowest of several Newton
+    # plans, `newton_starts.lowest_legs`: legs without exact second derivatives)
     energy: float
     goal_error: float
     projected_gradient: float

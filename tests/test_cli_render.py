@@ -301,24 +301,29 @@ def test_the_search_line_ends_with_why_no_loop_start_was_made(monkeypatch, plann
     assert "(energies before time scaling); no loop start: why not" in text
 
 
-def test_a_first_order_search_from_one_start_says_how_to_add_starts(monkeypatch, planned):
-    """A URDF plan's energy search runs from the Newton plan alone: its search line says that
-    `planner.starts` adds seeded starts (a user's arm3 task: 863.79 alone, 68.80 with 5), and
-    says it only there."""
+def test_a_first_order_search_without_seeded_starts_says_how_to_add_them(monkeypatch, planned):
+    """A URDF plan's energy search runs from the Newton plan and its lowest legs: its search
+    line says that `planner.starts` adds seeded Newton plans (a user's arm3 task: 1401.94
+    from the Newton plan, 68.80 with 5), and says it only there: not where seeded plans ran,
+    nor where the legs have second derivatives."""
     from stratcli.cli.render import MORE_STARTS
-    from stratcli.planners.energy import NO_HESSIANS
+    from stratcli.planners.energy import LOWEST_LEGS, NO_HESSIANS
 
     doc = copy.deepcopy(planned.document)
     opt = doc["optimisation"]
     opt["no_loop_start"] = NO_HESSIANS
-    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
-    assert MORE_STARTS not in text  # two starts ran
-    opt["starts"], opt["best"] = opt["starts"][:1], 0
-    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
-    assert text.count(f"no loop start: {NO_HESSIANS}; {MORE_STARTS}") == 1
+    first = opt["starts"][0]
+
+    def ran(*kinds):
+        opt["starts"] = [{**first, "index": k, "from": kind} for k, kind in enumerate(kinds)]
+        opt["best"] = 0
+        return " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+
+    for kinds in (("newton",), ("newton", LOWEST_LEGS)):
+        assert ran(*kinds).count(f"no loop start: {NO_HESSIANS}; {MORE_STARTS}") == 1
+    assert MORE_STARTS not in ran("newton", LOWEST_LEGS, "newton")  # a seeded plan ran
     opt["no_loop_start"] = "why not"
-    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
-    assert MORE_STARTS not in text
+    assert MORE_STARTS not in ran("newton")
 
 
 def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monkeypatch, planned):

@@ -227,8 +227,10 @@ def plan_summary(doc: dict) -> None:
         from ..constraints import KEPT_FREE  # (after planning: numpy is loaded)
         from ..planners.energy import NO_HESSIANS
 
-        # a search without second derivatives that ran from one start: more are asked for so
-        alone = opt.get("no_loop_start") == NO_HESSIANS and len(opt["starts"]) == 1
+        # a search without second derivatives that ran from no seeded Newton plan: more are
+        # asked for so (the lowest legs are a start of their own, not a seeded plan)
+        newtons = sum(s["from"] == "newton" for s in opt["starts"])
+        alone = opt.get("no_loop_start") == NO_HESSIANS and newtons <= 1
 
         kept = KEPT_FREE in (doc.get("message") or "")  # a stalled search keeps the free plan
         head = "without the constraints, " if (moved or kept) and doc.get("constraints") else ""

@@ -32,7 +32,11 @@ ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best s
 MODEL_ABOVE = 1.05  # ... or whose Newton model's minimum is this far above it
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 SAME_ENERGY = 1e-9  # relative: a later start wins only if lower than this (`LATER`)
-LATER = ("loop", "legwise")  # starts raced after the others (`loops`, `legwise`)
+# the start of legs without exact second derivatives made of each leg's lowest Newton plan
+# (`stratcli.newton_starts.lowest_legs`)
+LOWEST_LEGS = "lowest legs"
+# starts raced after the others (`loops`, `legwise`, the lowest legs)
+LATER = ("loop", "legwise", LOWEST_LEGS)
 # why no loop start (`Optimisation.no_loop_start`), besides `loops.loop_starts`' reasons
 NO_MINIMUM = "no start reached a minimum to begin them from"
 NO_HESSIANS = "the legs have no exact second derivatives (URDF robots, ODE-path legs)"
