@@ -371,7 +371,9 @@ def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
         last = plan.legs[-1] if plan.legs else None
         reason = (
             f"leg {last.index + 1} on {last.stratum}: error {last.error:.2g} > "
-            f"tolerance {settings.tolerance:g}"
+            f"tolerance {settings.tolerance:g}" + (f" ({last.message})" if last.message else "")
+            # why, where the leg's planner knows: a URDF stratum that cannot move a goal's
+            # direction there (`reachability.out_of_reach`), a continuation that fell short
             if last is not None and not last.converged
             else first_clause(plan.message)
         )

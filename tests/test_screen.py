@@ -317,3 +317,20 @@ def test_a_leg_bound_whose_search_has_no_result_is_zero_not_the_newton_plans_ene
     settings = _free(task.settings)
     value, coefficients, why = leg_bounds.leg_minimum(task.system, at, legs, 0, settings)
     assert value == 0.0 and coefficients is not None and why == ""
+
+
+def test_an_exhaustive_comparisons_failed_row_says_why_its_leg_cannot_reach():
+    """A candidate searched whole, not screened, whose S1 leg cannot turn arm3's base about z
+    at j1 = 0 says so in its row, as the screen's rows do (it read only "leg 1 on S1: error
+    0.35 > tolerance 1e-06")."""
+    from dataclasses import replace
+
+    task = _arm3_auto_energy(strata=False)
+    first_s1 = [c for c in _arm3_candidates(task) if c.legs[0].stratum == "S1"]
+    assert first_s1
+    newton = replace(task.settings, objective="newton")
+    result = compare(task.system, task.start, first_s1[:1], newton, screen=None)
+    (row,) = result.outcomes
+    assert row.status == "failed"
+    assert row.reason.startswith("leg 1 on S1: error ")
+    assert "(S1 cannot move rz from the leg's start: " in row.reason
