@@ -369,11 +369,12 @@ def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
     reason = ""
     if not plan.ok:
         last = plan.legs[-1] if plan.legs else None
+        # why, where the leg's planner knows: a URDF stratum that cannot move a goal's
+        # direction there (`reachability.out_of_reach`), a continuation that fell short
+        why = f" ({last.message})" if last is not None and last.message else ""
         reason = (
             f"leg {last.index + 1} on {last.stratum}: error {last.error:.2g} > "
-            f"tolerance {settings.tolerance:g}" + (f" ({last.message})" if last.message else "")
-            # why, where the leg's planner knows: a URDF stratum that cannot move a goal's
-            # direction there (`reachability.out_of_reach`), a continuation that fell short
+            f"tolerance {settings.tolerance:g}{why}"
             if last is not None and not last.converged
             else first_clause(plan.message)
         )
