@@ -188,8 +188,9 @@ def _one_start(plan, settings: PlannerSettings):
 def _short_of_a_minimum(plan, search):
     """`plan` with a note when the search's best start stopped far from a minimum (its
     projected gradient above the SQP's `LOOSE_ABOVE`): its energy may be far above the least.
-    Not for searches without exact second derivatives (URDF and ODE-path legs: one start,
-    at most `sqp.FIRST_ORDER_ITERATIONS` steps; result.json says whether it converged)."""
+    Not for searches without exact second derivatives (URDF and ODE-path legs: the Newton
+    plan and its lowest legs, at most `sqp.FIRST_ORDER_ITERATIONS` steps each; result.json
+    says whether they converged)."""
     best = search.starts[search.best] if search.best is not None else None
     if best is None or best.converged or not best.projected_gradient > LOOSE_ABOVE:
         return plan
@@ -207,7 +208,8 @@ def _short_of_a_minimum(plan, search):
 def _exact_hessians(system: System, legs: list[LegSpec], settings: PlannerSettings) -> bool:
     """Whether every leg's end-point map has exact second derivatives; if not (ODE-path
     legs, URDF models) the energy search makes no pulled, loop or legwise start
-    (`optimise_energy`): the Newton plan, and the seeded Newton plans `starts` asks for."""
+    (`optimise_energy`): the Newton plan, the lowest legs (`newton_starts`) and the seeded
+    Newton plans `starts` asks for."""
     from .endpoint import make_endpoint
 
     return all(
