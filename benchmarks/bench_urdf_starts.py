@@ -120,9 +120,11 @@ def main() -> None:
         order = (False, True) if k % 2 == 0 else (True, False)
         runs = dict(zip(order, (_planned(task, lowest) for lowest in order), strict=True))
         (plain, t_plain), (with_low, t_low) = runs[False], runs[True]
-        starts = with_low.optimisation.starts if with_low.optimisation else ()
-        best = starts[with_low.optimisation.best].kind if starts else "-"  # (no search ran)
-        lower += with_low.total_energy < plain.total_energy * (1 - 1e-9)
+        opt = with_low.optimisation
+        best = "-" if opt is None or opt.best is None else opt.starts[opt.best].kind  # none won
+        lower += (
+            plain.ok and with_low.ok and with_low.total_energy < plain.total_energy * (1 - 1e-9)
+        )
         ratios.append(t_low / t_plain)
         print(
             f"| {task.scenario.name} | {' '.join(leg.stratum for leg in task.legs)} | "

@@ -21,11 +21,11 @@ from .planners.energy import optimise_energy
 from .planners.sqp import PG_TOL
 from .stratified import (
     NUMERICAL_ERRORS,
-    SEED_RESTARTS,
     LegStart,
     _targets,
     plan_next_leg,
     planner_for,
+    seeded,
 )
 from .trie import STATE
 
@@ -147,11 +147,7 @@ def leg_minimum(system, at: np.ndarray, around, i: int, settings, warm=None) -> 
     starts = max(settings.starts, BOUND_STARTS)
     exact = _exact_hessians(system, [leg], settings)
     for k in range(starts):  # URDF legs too: one start bounded by poor local minima
-        extra = {} if k == 0 else {
-            "restarts": min(settings.restarts, SEED_RESTARTS),
-            "seed": settings.seed + 7919 * k,
-            "spread": 0.02 + 0.3 * k,
-        }  # fmt: skip
+        extra = {} if k == 0 else seeded(settings, k)
         if warm is not None:
             extra["continuation"] = False
         planned = plan_next_leg(

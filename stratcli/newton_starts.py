@@ -5,14 +5,16 @@ basin it starts in. Two kinds of start come from Newton's method itself:
 
 * **Seeded plans** (`seeded_plans`, `planner.starts` above 2): the whole sequence planned
   again from more widely perturbed seeded Newton starts.
-* **The lowest legs** (`lowest_legs`, for legs without exact second derivatives: URDF robots
-  and ODE-path legs, which have no pulled or loop start). Leg by leg, the lowest-energy of
+* **The lowest legs** (`lowest_legs`, for URDF robots, whose legs have no exact second
+  derivatives and so no pulled or loop start; not for ODE-path legs, which have none either,
+  but whose Newton legs cost seconds each: six a leg took arm3_reorient on the ODE path from
+  30.6 s to 229 s of Newton legs, for the same minimum). Leg by leg, the lowest-energy of
   `LEG_TRIES` Newton plans (the plain one and seeded ones), each leg started where the one
   chosen before it ends. A Newton leg's minimum-norm steps from a small random start find
   any of many solutions, and their energies differ by orders of magnitude: on arm3 reoriented
   by 30° about x, then y, then z (soft start, full stop), the plain Newton plan's legs cost
   45.6, 385.4 and 2162.2 and its search ended at 1401.94 with j2 swinging 2.5 turns; the
-  lowest of six a leg (18.5, 34.2, ...) leads the search to 68.80. A Newton leg costs far
+  lowest of six a leg (24.5, 34.7 and 99.1) lead the search to 68.80. A Newton leg costs far
   less than a search from it: raced after the Newton plan's search, this start took 1.0-2.0x
   its CPU time on eleven URDF tasks (`benchmarks/bench_urdf_starts.py`) and ended lower on
   six, where a seeded plan costs a search of its own.
@@ -29,13 +31,13 @@ from .planners.base import ENERGY_RUNAWAY
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import (
-    SEED_RESTARTS,
     LegSpec,
     LegStart,
     assemble,
     chain_legs,
     plan_next_leg,
     planner_for,
+    seeded,
 )
 
 __all__ = ["LEG_TRIES", "lowest_legs", "seeded_plans"]
@@ -50,14 +52,9 @@ SEED_BUDGET = 36
 LEG_TRIES, LEG_SPREAD = 6, 0.3
 
 
-def _seeded(settings: PlannerSettings, k: int, spread: float) -> dict:
-    """The Newton planner's options of the k-th seeded start (k ≥ 1): few restarts, a budget."""
-    return {
-        "restarts": min(settings.restarts, SEED_RESTARTS),
-        "budget": SEED_BUDGET,
-        "seed": settings.seed + 7919 * k,
-        "spread": spread,
-    }
+def _budgeted(settings: PlannerSettings, k: int, spread: float | None = None) -> dict:
+    """The k-th seeded Newton start's options (`stratified.seeded`) within `SEED_BUDGET`."""
+    return {**seeded(settings, k, spread), "budget": SEED_BUDGET}
 
 
 def seeded_plans(
@@ -75,7 +72,7 @@ def seeded_plans(
     count = settings.starts - 2  # (the pulled start and the Newton plan come first)
     for k in range(1, count + 1):
         say(f"energy search: a start from a seeded Newton plan ({k} of {count})")
-        other = chain_legs(system, start, legs, settings, **_seeded(settings, k, 0.02 + 0.3 * k))
+        other = chain_legs(system, start, legs, settings, **_budgeted(settings, k))
         if other.ok and other.total_energy <= ENERGY_RUNAWAY * newton.total_energy:
             plans.append(other)
     return plans
@@ -101,8 +98,8 @@ def lowest_legs(
         plain = [newton.legs[i]] if same else []
         # (the plain planner again from elsewhere, but with a seed's budget: a leg on a
         # nearly singular stratum can take the plain planner's every restart)
-        kinds = [_seeded(settings, 0, 0.02)] if not same else []
-        kinds += [_seeded(settings, k, LEG_SPREAD) for k in range(1, tries)]
+        kinds = [_budgeted(settings, 0, 0.02)] if not same else []
+        kinds += [_budgeted(settings, k, LEG_SPREAD) for k in range(1, tries)]
         found = plain + [
             plan_next_leg(system, settings, leg, at, next_leg, planner_for(leg, settings, **kw))
             for kw in kinds

@@ -114,11 +114,14 @@ def plan_with_objective(
     # Starts: the Newton plan pulled toward least energy (made by the search,
     # `planners.energy.pulled_start`), the Newton plan itself, then Newton plans from more
     # widely perturbed seeded starts (feasible, and in different basins). Legs without exact
-    # second derivatives have no pulled start; the lowest of several Newton plans a leg
-    # stands in for it, raced after the Newton plan (`newton_starts`).
-    exact = _exact_hessians(system, legs, settings)
+    # second derivatives have no pulled start; on URDF robots the lowest of several Newton
+    # plans a leg stands in for it, raced after the Newton plan (`newton_starts`; not on
+    # ODE-path legs, whose Newton legs cost seconds each).
+    endpoints = _endpoints(system, legs, settings)
+    exact = all(hasattr(endpoint, "hessian") for endpoint in endpoints)
     starts = [("newton", newton)]
-    if not exact and settings.starts > 1:  # (in the pulled start's place: one start asked)
+    magnus = all(endpoint.kind == "magnus" for endpoint in endpoints)
+    if magnus and settings.starts > 1:  # (URDF robots' legs, in the pulled start's place)
         say("energy search: a start from the lowest of several Newton plans a leg")
         lowest = lowest_legs(system, start, legs, settings, newton)
         starts += [] if lowest is None else [(LOWEST_LEGS, lowest)]
@@ -178,8 +181,8 @@ def _one_start(plan, settings: PlannerSettings):
         plan,
         'planner.search = "legwise" made no difference here: these legs\' end-point maps '
         "have no second derivatives (URDF models, ODE-path legs), so the energy search runs "
-        f"from the Newton plan, the lowest of {LEG_TRIES} Newton plans a leg and "
-        f"planner.starts - 2 seeded Newton plans (at most {FIRST_ORDER_ITERATIONS} steps "
+        f"from the Newton plan, on URDF robots the lowest of {LEG_TRIES} Newton plans a leg, "
+        f"and planner.starts - 2 seeded Newton plans (at most {FIRST_ORDER_ITERATIONS} steps "
         "each, the goals' curvature estimated from their Jacobians), without pulled, loop or "
         "legwise starts",
     )
@@ -189,8 +192,8 @@ def _short_of_a_minimum(plan, search):
     """`plan` with a note when the search's best start stopped far from a minimum (its
     projected gradient above the SQP's `LOOSE_ABOVE`): its energy may be far above the least.
     Not for searches without exact second derivatives (URDF and ODE-path legs: the Newton
-    plan and its lowest legs, at most `sqp.FIRST_ORDER_ITERATIONS` steps each; result.json
-    says whether they converged)."""
+    plan, a URDF robot's lowest legs, at most `sqp.FIRST_ORDER_ITERATIONS` steps each;
+    result.json says whether they converged)."""
     best = search.starts[search.best] if search.best is not None else None
     if best is None or best.converged or not best.projected_gradient > LOOSE_ABOVE:
         return plan
@@ -208,23 +211,25 @@ def _short_of_a_minimum(plan, search):
 def _exact_hessians(system: System, legs: list[LegSpec], settings: PlannerSettings) -> bool:
     """Whether every leg's end-point map has exact second derivatives; if not (ODE-path
     legs, URDF models) the energy search makes no pulled, loop or legwise start
-    (`optimise_energy`): the Newton plan, the lowest legs (`newton_starts`) and the seeded
-    Newton plans `starts` asks for."""
+    (`optimise_energy`): the Newton plan, a URDF robot's lowest legs (`newton_starts`) and
+    the seeded Newton plans `starts` asks for."""
+    return all(hasattr(endpoint, "hessian") for endpoint in _endpoints(system, legs, settings))
+
+
+def _endpoints(system: System, legs: list[LegSpec], settings: PlannerSettings) -> list:
+    """Each leg's end-point map as its planner makes it (the evaluator resolved)."""
     from .endpoint import make_endpoint
 
-    return all(
-        hasattr(
-            make_endpoint(
-                system.compiled(leg.stratum),
-                np.zeros(system.n),
-                settings.basis,
-                leg.duration,
-                settings.evaluator,
-            ),
-            "hessian",
+    return [
+        make_endpoint(
+            system.compiled(leg.stratum),
+            np.zeros(system.n),
+            settings.basis,
+            leg.duration,
+            settings.evaluator,
         )
         for leg in legs
-    )
+    ]
 
 
 def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:

@@ -209,7 +209,7 @@ class StartOutcome:
     # energy), "newton" (a Newton plan, seeded or not), "warm start", "loop" (a leg's loop
     # moved onto a curvature peak, `planners.loops`), "legwise" (the legs' own minima
     # joined, `planners.legwise`) or "lowest legs" (each leg's lowest of several Newton
-    # plans, `newton_starts.lowest_legs`: legs without exact second derivatives)
+    # plans, `newton_starts.lowest_legs`: URDF robots)
     energy: float
     goal_error: float
     projected_gradient: float

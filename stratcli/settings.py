@@ -89,8 +89,8 @@ class PlannerSettings:
     starts : deterministic starts of the energy search: the Newton plan pulled toward least
         energy, the Newton plan, then Newton plans from seeded starts. Legs without exact
         second derivatives (URDF and ODE-path legs) have no pulled start: the Newton plan
-        comes first, then in its place the lowest legs (each leg's lowest-energy of six
-        Newton plans, `newton_starts`), left out with 1.
+        comes first, then on URDF robots in its place the lowest legs (each leg's
+        lowest-energy of six Newton plans, `newton_starts`), left out with 1.
     search : "loops" (the default): after those starts, *loop starts* where a leg's loop could
         run round a nearer peak of the base's curvature, raced on their own (`planners.loops`;
         a few milliseconds a leg where none qualifies); "starts": those starts only (the

@@ -36,6 +36,7 @@ __all__ = [
     "leg_problem",
     "nominal_starts",
     "plan_next_leg",
+    "seeded",
 ]
 
 # Exceptions that mean "the numbers broke down" inside a leg's search; they end the leg with
@@ -49,6 +50,17 @@ NUMERICAL_ERRORS = (
 # Newton restarts allowed for the extra, seeded starts (`chain_legs` with a `seed`): the
 # energy objective's, the constrained search's and the screen's leg bounds'
 SEED_RESTARTS = 2
+
+
+def seeded(settings: PlannerSettings, k: int, spread: float | None = None) -> dict:
+    """The Newton planner's options (`planner_for`) of the k-th seeded start (k ≥ 1): few
+    restarts (`SEED_RESTARTS`), seed `settings.seed + 7919 k`, a perturbation of `spread`
+    times the goal's scale (default 0.02 + 0.3 k: wider as k grows, other basins)."""
+    return {
+        "restarts": min(settings.restarts, SEED_RESTARTS),
+        "seed": settings.seed + 7919 * k,
+        "spread": 0.02 + 0.3 * k if spread is None else spread,
+    }
 
 
 @dataclass(frozen=True, eq=False)

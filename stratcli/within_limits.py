@@ -13,8 +13,8 @@ import numpy as np
 from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.constrained import NotSearchable, constrained_search
-from .planners.energy import LATER
-from .stratified import NUMERICAL_ERRORS, SEED_RESTARTS, chain_legs, held_vias, nominal_starts
+from .planners.energy import SEARCHED
+from .stratified import NUMERICAL_ERRORS, chain_legs, held_vias, nominal_starts, seeded
 
 __all__ = ["STALLED", "candidate_within_limits", "re_planned", "within_limits"]
 
@@ -63,10 +63,7 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
             seeds = [("minimum-energy (without loop starts)", lam)]
         elif k:  # another start: a Newton plan from a seed, as the energy search's starts
             say(f"constrained search: start {k + 1} (a Newton plan from a seed)")
-            other = chain_legs(
-                system, start, legs, settings, restarts=min(settings.restarts, SEED_RESTARTS),
-                seed=settings.seed + 7919 * k, spread=0.02 + 0.3 * k,
-            )  # fmt: skip
+            other = chain_legs(system, start, legs, settings, **seeded(settings, k))
             if not other.ok:
                 continue
             seeds = [
@@ -154,9 +151,10 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
 
 
 def _from_a_later_start(plan) -> bool:
-    """The plan's energy search kept a loop or legwise start (`planners.energy.LATER`)."""
+    """The plan's energy search kept a loop or legwise start (`planners.energy.SEARCHED`):
+    not the lowest legs, which a search without them (`_plain_minimum`) would make again."""
     opt = plan.optimisation
-    return bool(opt and opt.best is not None and opt.starts[opt.best].kind in LATER)
+    return bool(opt and opt.best is not None and opt.starts[opt.best].kind in SEARCHED)
 
 
 def _plain_minimum(system, start, legs, settings) -> np.ndarray | None:

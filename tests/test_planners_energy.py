@@ -240,9 +240,9 @@ def test_more_starts_asked_of_a_first_order_search_are_raced_legwise_is_noted(tm
     assert plan.notes == (
         'planner.search = "legwise" made no difference here: these legs\' end-point maps '
         "have no second derivatives (URDF models, ODE-path legs), so the energy search runs "
-        "from the Newton plan, the lowest of 6 Newton plans a leg and planner.starts - 2 "
-        "seeded Newton plans (at most 40 steps each, the goals' curvature estimated from "
-        "their Jacobians), without pulled, loop or legwise starts",
+        "from the Newton plan, on URDF robots the lowest of 6 Newton plans a leg, and "
+        "planner.starts - 2 seeded Newton plans (at most 40 steps each, the goals' curvature "
+        "estimated from their Jacobians), without pulled, loop or legwise starts",
     )
 
 

@@ -32,11 +32,11 @@ ABANDON_AFTER, ABANDON_RATIO = 4, 1.25  # drop a start this far above the best s
 MODEL_ABOVE = 1.05  # ... or whose Newton model's minimum is this far above it
 SAME_MINIMUM = 1e-2  # relative energy-norm distance at which two starts share a minimum
 SAME_ENERGY = 1e-9  # relative: a later start wins only if lower than this (`LATER`)
-# the start of legs without exact second derivatives made of each leg's lowest Newton plan
+# the start of a URDF robot's legs made of each leg's lowest Newton plan
 # (`stratcli.newton_starts.lowest_legs`)
 LOWEST_LEGS = "lowest legs"
-# starts raced after the others (`loops`, `legwise`, the lowest legs)
-LATER = ("loop", "legwise", LOWEST_LEGS)
+SEARCHED = ("loop", "legwise")  # the starts `[planner] search` adds (`loops`, `legwise`)
+LATER = (*SEARCHED, LOWEST_LEGS)  # starts raced after the others
 # why no loop start (`Optimisation.no_loop_start`), besides `loops.loop_starts`' reasons
 NO_MINIMUM = "no start reached a minimum to begin them from"
 NO_HESSIANS = "the legs have no exact second derivatives (URDF robots, ODE-path legs)"
@@ -86,15 +86,16 @@ def optimise_energy(
     problem = StackedProblem(system, starts, legs, settings, targets, constraints)
     if not problem.exact_hessians:  # URDF, ODE-path legs: first-order steps are slow
         # the first start (the warm start or the Newton plan) alone, as the search always
-        # ran; then the seeded Newton plans that follow the Newton plan (`starts`), raced
-        # after it against its result, as the loop starts are: never higher than it alone
+        # ran; then the starts that follow the Newton plan (a URDF robot's lowest legs, the
+        # seeded Newton plans `starts` asks for), raced after it against its result, as the
+        # loop starts are: never higher than it alone
         lead = 1 + next((k for k, (kind, _) in enumerate(seeds) if kind == "newton"), len(seeds))
         seeds, extra = seeds[:lead], seeds[lead:]
         say(f"energy search: minimum energy from {_starts(seeds[:1])}")
         runs = _first_kept(problem, seeds, settings.tolerance, pg_tol)
         seeds = seeds[: len(runs)]
         if extra:
-            say(f"energy search: {_starts(extra)} more, from seeded Newton plans")
+            say(f"energy search: {_starts(extra)} more, raced after the first")
             kept = [run for run in runs if run.feasible and run.reason in KEPT]
             low = min((run.energy for run in kept), default=np.inf)
             minima = [run.z for run in kept if run.reason in MINIMUM]
