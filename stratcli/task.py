@@ -14,6 +14,7 @@ import numpy as np
 from .arguments import wrong_type
 from .errors import InputError
 from .results import none_to_nan
+from .scenario_keys import assign, changes_task, holds, is_coordinate, key_parts
 from .tomlread import parse_toml, plain
 
 if TYPE_CHECKING:
@@ -176,8 +177,6 @@ def _same(values: np.ndarray | None, given: list | None) -> bool:
 def _changed(raw: dict[str, Any], changes: Mapping[str, Any], states) -> dict[str, Any]:
     """`raw` with `changes` (`Task.with_changes`): nested ones merged, then a sweep's keys
     (`scenario_keys.assign`; `states`, the model's coordinates, name a vector's entries)."""
-    from .scenario_keys import assign, changes_task, is_coordinate, key_parts
-
     keyed = {k: v for k, v in changes.items() if isinstance(k, str) and ("." in k or "[" in k)}
     nested = {k: v for k, v in changes.items() if k not in keyed}
     out = copy.deepcopy(_merged(raw, nested))
@@ -212,8 +211,6 @@ def _quietly(test, key: str) -> bool:
 
 def _remove(raw: dict[str, Any], parts: list) -> None:
     """Remove the table key `parts` names (absent: nothing to remove)."""
-    from .scenario_keys import holds
-
     node: Any = raw
     for part in parts[:-1]:
         if not holds(node, part):
@@ -226,8 +223,6 @@ def _remove(raw: dict[str, Any], parts: list) -> None:
 
 def _covers(nested: Any, parts: list) -> bool:
     """Whether the nested changes set the place `parts` names (or a value holding it)."""
-    from .scenario_keys import holds
-
     for part in parts:
         if not isinstance(nested, dict | list) or (
             isinstance(nested, list) and isinstance(part, str)
