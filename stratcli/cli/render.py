@@ -304,7 +304,8 @@ def _start_energy(start: dict, starts: list[dict]) -> str:
     return f"{start_kind(start, starts)} {fmt(energy)}{why}"
 
 
-# what the search line adds where a search without second derivatives ran from one start
+# what the search line adds where a search without second derivatives ran from no seeded
+# Newton plan (`plan_summary`)
 MORE_STARTS = (
     "planner.starts = 5 adds three seeded Newton plans as starts (slower; at times far lower)"
 )
