@@ -13,6 +13,7 @@ import numpy as np
 
 from .arguments import wrong_type
 from .errors import InputError
+from .models.specs import model_states
 from .results import none_to_nan
 from .scenario_keys import assign, changes_task, holds, is_coordinate, key_parts
 from .tomlread import parse_toml, plain
@@ -137,8 +138,15 @@ class Task:
         if not isinstance(changes, Mapping):
             raise wrong_type("changes", "a mapping (a dict)", changes)
         where = f"{self.source} (with changes)"  # the file itself may be fine
+
+        def states(raw: dict[str, Any]) -> tuple[str, ...]:  # of a changed [model]
+            found = model_states(raw.get("model"), self.base_dir)
+            if found is None:  # it does not build: loading it names why
+                return from_raw(raw, None, self.source, self.base_dir).system.states
+            return found
+
         try:  # numpy values as Python's, as a dict given to `load_scenario`
-            raw = _changed(parse_toml(self.text, self.source), plain(changes), self.system.states)
+            raw = _changed(parse_toml(self.text, self.source), plain(changes), self.system, states)
         except InputError as exc:
             raise exc.with_source(where) from None
         try:
@@ -174,9 +182,11 @@ def _same(values: np.ndarray | None, given: list | None) -> bool:
     )
 
 
-def _changed(raw: dict[str, Any], changes: Mapping[str, Any], states) -> dict[str, Any]:
+def _changed(raw: dict[str, Any], changes: Mapping[str, Any], system, states_of) -> dict:
     """`raw` with `changes` (`Task.with_changes`): nested ones merged, then a sweep's keys
-    (`scenario_keys.assign`; `states`, the model's coordinates, name a vector's entries)."""
+    (`scenario_keys.assign`; the model's coordinates name a vector's entries: `system`'s, or
+    where the changes change the [model], `states_of(raw)` once its keys are in: a model's
+    keys come first, so that `{"model.name": "two-arm", "goal.q4": 1}` finds q4)."""
     keyed = {k: v for k, v in changes.items() if isinstance(k, str) and ("." in k or "[" in k)}
     nested = {k: v for k, v in changes.items() if k not in keyed}
     out = copy.deepcopy(_merged(raw, nested))
@@ -185,7 +195,12 @@ def _changed(raw: dict[str, Any], changes: Mapping[str, Any], states) -> dict[st
     )
     if other and "reference" not in changes:  # another task: not the paper's (as a sweep's)
         out.pop("reference", None)
+    model = [k for k in keyed if _quietly(lambda k: key_parts(k)[0] == "model", k)]
+    keyed = {k: keyed[k] for k in [*model, *(k for k in keyed if k not in model)]}
+    states, changed = system.states, bool(model) or "model" in nested
     for key, value in keyed.items():
+        if changed and _quietly(is_coordinate, key):
+            states, changed = states_of(out), False  # (the model's keys are in: first)
         try:
             parts = key_parts(key)
             if _covers(nested, parts):

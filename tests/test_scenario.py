@@ -361,6 +361,30 @@ def test_with_changes_takes_dotted_keys_as_a_sweep_does():
             task.with_changes(changes)
 
 
+def test_with_changes_names_coordinates_of_the_model_it_changes_to():
+    """`{"model.name": "two-arm", ..., "goal.q4": -0.9}` from a one-arm task was refused as
+    "unknown coordinate 'q4' (this model has: q1, q2, q3, theta)": coordinate names were
+    checked against the model before the change."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_a.toml")
+    two_arm = {
+        "model.name": "two-arm",
+        "task.start": [0, 1.0, 0, 1.0, 0],
+        "task.goal": [0, -1.0, 0, -1.0, 0],
+        "legs": [{"stratum": "S3", "goal": [0, -1.0, 0, -0.5, 0]}, {"stratum": "S2"}],
+        "goal.q4": -0.9,
+    }
+    changed = task.with_changes(two_arm)
+    assert list(changed.system.states) == ["q1", "q2", "q3", "q4", "theta"]
+    assert changed.goal.tolist() == [0, -1.0, 0, -0.9, 0]
+    nested = {**two_arm, "model": {"name": "two-arm"}}
+    del nested["model.name"]
+    assert task.with_changes(nested) == changed
+    back = load_scenario(ROOT / "scenarios" / "sim2.toml")
+    with pytest.raises(InputError, match=r"goal\.q4: unknown coordinate 'q4' \(this model "
+                       r"has: q1, q2, q3, theta\)"):  # fmt: skip
+        back.with_changes({"model.name": "one-arm", "goal.q4": 0.1})
+
+
 def test_changing_the_task_drops_the_papers_reference_energy():
     """A changed goal still printed "(paper: 124.59, ratio 0.90)": the paper's energy is for
     its own task (a sweep drops it alike); a change of the planner keeps it."""

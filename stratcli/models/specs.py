@@ -10,9 +10,18 @@ plan loaded from a record or unpickled in another process.
 from __future__ import annotations
 
 from functools import lru_cache
+from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    TypeAdapter,
+    ValidationError,
+    model_validator,
+)
 
 from ..errors import InputError, Problem
 from .manipulator import ManipulatorSystem
@@ -31,6 +40,7 @@ __all__ = [
     "PresetModel",
     "UrdfModel",
     "build_system",
+    "model_states",
     "system_from_ref",
 ]
 
@@ -171,6 +181,20 @@ def build_system(spec: PresetModel | CustomModel | PlanarModel | UrdfModel) -> S
         system = _custom_system(spec)
     system.spec = spec
     return system
+
+
+def model_states(model: Any, base_dir: Path | None = None) -> tuple[str, ...] | None:
+    """The coordinates of the model a [model] table (a dict, as read) describes, or None where
+    it does not build (loading the scenario names its problems). A URDF `path` is relative to
+    `base_dir` (default: the working directory), as when the scenario loads."""
+    urdf = isinstance(model, dict) and model.get("kind") == "urdf"
+    if urdf and isinstance(model.get("path"), str):
+        path = Path(model["path"]).expanduser()
+        model = {**model, "path": str((base_dir or Path.cwd()) / path)}
+    try:
+        return tuple(build_system(_SPEC.validate_python(model)).states)
+    except (ValidationError, ValueError, TypeError, OSError):  # InputError too
+        return None
 
 
 def _planar_system(spec: PlanarModel) -> System:

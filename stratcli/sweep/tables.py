@@ -12,10 +12,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from pydantic import TypeAdapter, ValidationError
 
 from ..errors import Problem
-from ..models.specs import ModelSpec, build_system
+from ..models.specs import model_states
 from .keys import (
     MAX_TASKS,
     axis_values,
@@ -67,10 +66,7 @@ class Base:
 
 def base_states(base: dict[str, Any]) -> tuple[str, ...] | None:
     """The coordinates of a base scenario that does not load, if its model can be built."""
-    try:
-        return tuple(build_system(TypeAdapter(ModelSpec).validate_python(base.get("model"))).states)
-    except (ValidationError, ValueError, TypeError, OSError):  # InputError too
-        return None
+    return model_states(base.get("model"))
 
 
 def grid_axes(grid: dict[str, Any], base: Base) -> list[tuple[Any, ...]]:
