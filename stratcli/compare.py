@@ -373,7 +373,7 @@ def _outcome(k, cand, plan, seconds, system, settings) -> Outcome:
         # direction there (`reachability.out_of_reach`), a continuation that fell short
         why = f" ({last.message})" if last is not None and last.message else ""
         reason = (
-            f"leg {last.index + 1} on {last.stratum}: error {last.error:.2g} > "
+            f"leg {last.index + 1} on {last.stratum}: error {last.error:.3g} > "
             f"tolerance {settings.tolerance:g}{why}"
             if last is not None and not last.converged
             else first_clause(plan.message)
