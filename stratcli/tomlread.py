@@ -203,16 +203,20 @@ def read_source(
     if isinstance(source, Mapping):
         where = name or _anonymous("<dict>", source, kind)
         try:  # numpy values as Python's, here for every caller (sweeps' tasks too)
-            return plain(source), None, where, None
+            tables = plain(source)
         except InputError as exc:
             raise exc.with_source(where) from None
+        _of_kind(tables, kind, None, where)
+        return tables, None, where, None
     if not isinstance(source, str | os.PathLike):
         raise wrong_type("source", f"a {kind} path, TOML text or a dict", source)
     if isinstance(source, str) and not source.strip():  # Path("") is ".", "not a regular file"
         raise InputError(f"an empty string is no {kind}: give a path, TOML text or a dict")
     if isinstance(source, str) and is_toml_text(source):
         tables = parse_toml(source, name or "<text>")
-        return tables, source, name or _anonymous("<text>", tables, kind), None
+        where = name or _anonymous("<text>", tables, kind)
+        _of_kind(tables, kind, None, where)
+        return tables, source, where, None
     path = Path(source)
     where = name or str(path)
     try:
@@ -226,7 +230,30 @@ def read_source(
             "describes it",
             where,
         )
-    return parse_toml(text, where), text, where, path.parent
+    tables = parse_toml(text, where)
+    _of_kind(tables, kind, path, where)
+    return tables, text, where, path.parent
+
+
+def _of_kind(tables: Mapping, kind: str, path: Path | None, where: str) -> None:
+    """Refuse, in one line, a sweep file given as a scenario or a scenario as a sweep (each
+    table of the one was a problem of the other: 4 and 8 lines that did not say so)."""
+    file = f" {path}" if path is not None else ""
+    sweep = "sweep" in tables and not ({"model", "task"} & set(tables))
+    scenario = "sweep" not in tables and bool({"model", "task"} & set(tables))
+    if kind == "scenario" and sweep:
+        raise InputError(
+            "a sweep file (a [sweep] table, no [model] or [task]), not a scenario: run it with "
+            f"`stratplan sweep{file}` (in Python: run_sweep)",
+            where,
+        )
+    if kind == "sweep" and scenario:
+        raise InputError(
+            "a scenario file (a [model] or [task] table, no [sweep]), not a sweep: plan it "
+            f"with `stratplan plan{file}`; a sweep file's [sweep] table names it as its "
+            "`scenario` (README: Sweeps)",
+            where,
+        )
 
 
 def _anonymous(what: str, tables: Mapping, kind: str) -> str:
