@@ -379,6 +379,33 @@ def test_show_refuses_missing_and_incomplete_records(tmp_path):
     assert json.loads(runner.invoke(app, ["runs", "--out", str(tmp_path), "--json"]).stdout) == []
 
 
+def test_runs_refuses_a_directory_that_is_not_there_and_points_into_a_folder_of_records(
+    tmp_path,
+):
+    """`runs /nonexistent` said "no run records in /nonexistent" with exit 0 (a typo looked
+    like an empty folder); on a sweep's folder it said its records/ was "a folder of 2 run
+    records, not one: give one of them", then "no run records"."""
+    for args in (["runs", str(tmp_path / "nope")], ["runs", "--out", str(tmp_path / "nope")]):
+        missing = runner.invoke(app, args)
+        assert missing.exit_code == 2
+        assert missing.output.strip().endswith(
+            f"{tmp_path / 'nope'}: no such directory (a folder of run records)"
+        )
+    records = tmp_path / "sweep" / "records"
+    records.mkdir(parents=True)
+    (tmp_path / "plans").mkdir()
+    shutil.copytree(plan_record(tmp_path / "plans"), records / "task-000000")
+    listed = runner.invoke(app, ["runs", str(tmp_path / "sweep")])
+    assert listed.exit_code == 0
+    assert (
+        f"skipped: {records} is a folder of 1 run record: `stratplan runs {records}` lists them"
+        in listed.output
+    )
+    inside = runner.invoke(app, ["runs", str(records)])
+    assert f"{records / 'task-000000'}" in inside.output
+    assert "a sweep's task is named task-<its index in the sweep>" in inside.output
+
+
 def test_biped_is_not_controllable_on_its_strata_but_is_stratified_controllable(scenarios_dir):
     result = runner.invoke(app, ["check", str(scenarios_dir / "biped.toml"), "--json"])
     assert result.exit_code == 0, result.output

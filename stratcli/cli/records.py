@@ -90,6 +90,9 @@ def runs(
     if out.exists() and not out.is_dir():
         render.error("error", f"{given} {out}: not a directory (a folder of run records)")
         raise typer.Exit(2)
+    if not out.exists() and (directory is not None or out != Path("runs")):  # a typo, say
+        render.error("error", f"{given} {out}: no such directory (a folder of run records)")
+        raise typer.Exit(2)
     if clean:
         for path in clean_runs(out):
             typer.echo(f"removed {path} (left by a killed run)", err=True)

@@ -173,7 +173,10 @@ def runs_table(rows: list[dict], out: Path) -> None:
             highlight=False,
             soft_wrap=True,
         )
-    say("newest first; a run is named <UTC time it started>-<scenario>-<hash of its text>")
+    if all(row["run"].startswith("task-") for row in rows):  # a sweep's records/
+        say("newest first; a sweep's task is named task-<its index in the sweep>")
+    else:
+        say("newest first; a run is named <UTC time it started>-<scenario>-<hash of its text>")
 
 
 def presets_table(systems: dict) -> None:

@@ -168,12 +168,7 @@ def read_record(path: Path) -> Record:
         raise InputError(f"{path} is an incomplete record (the run was interrupted)")
     missing = [f for f in REQUIRED if not (path / f).is_file()]
     if len(missing) == len(REQUIRED):  # `runs`, say, where `plan` writes its records?
-        inside = sorted(
-            d.name
-            for d in path.iterdir()
-            if not d.name.startswith(".") and (d / "result.json").is_file()
-        )
-        if inside:
+        if inside := _records_inside(path):
             raise InputError(
                 f"{path} is a folder of {counted(len(inside), 'run record')}, "
                 f"not one: give one of them (the latest: {path / inside[-1]})"
@@ -237,6 +232,12 @@ def mcap_summary(path: Path) -> dict[str, Any] | None:
     }
 
 
+def _records_inside(path: Path) -> list[str]:
+    """The names of the run records directly in `path`, sorted (a folder of records)."""
+    found = (d.name for d in path.iterdir() if (d / "result.json").is_file())
+    return sorted(name for name in found if not name.startswith("."))
+
+
 def list_records(out: Path, on_damaged: Callable[[str], None] | None = None) -> list[Record]:
     """Complete records under `out`, newest first.
 
@@ -257,6 +258,11 @@ def list_records(out: Path, on_damaged: Callable[[str], None] | None = None) -> 
     records = []
     for path in out.iterdir():
         if path.is_dir() and not is_partial(path):
+            if not (path / "result.json").exists() and (inside := _records_inside(path)):
+                if on_damaged is not None:  # a sweep's records/, say: not a damaged record
+                    many = counted(len(inside), "run record")
+                    on_damaged(f"{path} is a folder of {many}: `stratplan runs {path}` lists them")
+                continue
             try:
                 records.append(read_record(path))
             except InputError as exc:
