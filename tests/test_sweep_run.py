@@ -165,6 +165,19 @@ def test_a_broken_pool_leaves_the_rest_missing_and_resume_plans_it(reference, tm
     assert again.planned == 3 and strip(again.rows) == strip(reference.rows)
 
 
+def test_an_executor_that_refuses_the_first_task_is_an_error_naming_it(reference, tmp_path):
+    """One shut down (a call after its `with` block) returned an empty outcome, every task
+    missing, and said nothing; the directory stays as an interrupted sweep's."""
+    path = write(tmp_path, GRID)
+    pool = ThreadPoolExecutor(1)
+    pool.shutdown()
+    refused = r"^executor: refused the sweep's first task \(RuntimeError: cannot schedule new"
+    with pytest.raises(RuntimeError, match=refused):
+        run_sweep(load_sweep(path), tmp_path / "o", executor=pool)
+    again = run_sweep(load_sweep(path), tmp_path / "o", jobs=1, resume=True)
+    assert strip(again.rows) == strip(reference.rows)
+
+
 def test_resume_refuses_another_sweep(reference, tmp_path):
     other = write(tmp_path, GRID.replace("-0.2", "-0.1"))
     with pytest.raises(InputError, match="another sweep file"):

@@ -87,6 +87,9 @@ def run_sweep(
     InputError
         A bad sweep file (every problem, one line each), a bad `out` (one another sweep is
         writing into, too), or `resume` on a directory of another sweep.
+    RuntimeError
+        `executor` refused the first task (one already shut down, say); the directory is
+        left as an interrupted sweep's, for `resume`.
     """
     loaded = file if isinstance(file, Sweep) else load_sweep(file)
     target = loaded.out_dir(out)

@@ -177,7 +177,13 @@ def run_sweep(
         with sweepdir.RowLog(out / sweepdir.ROWS) as log:
             todo = sweep.tasks(skip=set(rows))
             window = max(MIN_IN_FLIGHT, IN_FLIGHT_PER_WORKER * max(1, info.workers))
-            accepting = _submit(executor, futures, payloads, todo, window, sweep, per_task)
+            refused: list[Exception] = []
+            accepting = _submit(executor, futures, payloads, todo, window, sweep, per_task, refused)
+            if refused and not futures:  # not one task taken: no sweep to speak of
+                raise RuntimeError(
+                    f"executor: refused the sweep's first task ({type(refused[0]).__name__}: "
+                    f"{refused[0]}); give one that takes work (not one shut down)"
+                ) from refused[0]
             # the plots' matplotlib loads while the workers start (0.3 s each), not after
             # the last task, when nothing else runs: 1.3 ms a task off a 200-task sweep
             from .outputs import finish
@@ -260,27 +266,37 @@ def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOu
 
 
 def _submit(
-    executor, futures: dict, payloads: dict, todo: Iterator, window: int, sweep: Sweep, records
+    executor,
+    futures: dict,
+    payloads: dict,
+    todo: Iterator,
+    window: int,
+    sweep: Sweep,
+    records,
+    refused: list | None = None,
 ) -> bool:
     """Submit tasks from `todo` until `window` are in flight (bounded memory and queue), each
     payload kept in `payloads` until its row is in; False when the executor refuses work (a
-    broken pool: the rest stays missing)."""
+    broken pool: the rest stays missing), its exception then added to `refused`."""
     while len(futures) < window:
         task = next(todo, None)
         if task is None:
             return True
         payloads[task.index] = _payload(sweep, task, records)
-        if not _again(executor, futures, payloads, task.index):
+        if not _again(executor, futures, payloads, task.index, refused):
             return False
     return True
 
 
-def _again(executor, futures: dict, payloads: dict, index: int) -> bool:
-    """Submit task `index` (its kept payload); False if the executor refuses it."""
+def _again(executor, futures: dict, payloads: dict, index: int, refused=None) -> bool:
+    """Submit task `index` (its kept payload); False if the executor refuses it (its
+    exception then added to `refused`)."""
     try:
         futures[executor.submit(run_task, payloads[index])] = index
-    except Exception:  # e.g. BrokenProcessPool after a worker was killed
+    except Exception as exc:  # e.g. BrokenProcessPool after a worker was killed
         payloads.pop(index, None)
+        if refused is not None:
+            refused.append(exc)
         return False
     return True
 
