@@ -3,6 +3,8 @@ bad files give one line per problem naming the field (exit 2 on the command line
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from sweep_files import AUTO, GRID, RANDOM, ROOT, TASK_A, write
@@ -10,7 +12,7 @@ from typer.testing import CliRunner
 
 from stratcli import tomlwrite
 from stratcli.cli import app
-from stratcli.errors import InputError
+from stratcli.errors import InputError, UnusedLegsWarning
 from stratcli.models.numbers import parse_number
 from stratcli.scenario import load_scenario
 from stratcli.sweep import load_sweep
@@ -107,11 +109,17 @@ def test_a_task_table_and_an_inline_scenario(tmp_path):
 
 
 def test_auto_mode_plans_the_base_without_its_legs(tmp_path):
-    sweep = load_sweep(write(tmp_path, GRID, mode="auto"))
+    """... and says so (`UnusedLegsWarning`, a note on the command line; it was silent, where
+    `plan` and `compare-sequences` say it); a base without legs says nothing."""
+    with pytest.warns(UnusedLegsWarning, match=r'^sweep: mode = "auto" decomposes each task '
+                      r"afresh, so the base scenario's \[\[legs\]\] are not used$"):  # fmt: skip
+        sweep = load_sweep(write(tmp_path, GRID, mode="auto"))
     task = next(sweep.tasks())
     assert "legs" not in task.scenario and "decompose" in task.scenario
     assert not load_scenario(task.scenario).legs
-    sweep = load_sweep(write(tmp_path, GRID, scenario=AUTO, mode="compare", name="c"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sweep = load_sweep(write(tmp_path, GRID, scenario=AUTO, mode="compare", name="c"))
     assert sweep.mode == "compare"
 
 
@@ -138,6 +146,11 @@ BAD = [
         "sweep.grod: unknown key: did you mean 'grid'? (allowed: name, ",
     ),
     ("check = \"yes\"\n[sweep.grid]\n\"goal.q1\" = [0]\n", "sweep.check: must be"),
+    (  # ignored before: legs mode compares no candidates
+        "exhaustive = true\n[sweep.grid]\n\"goal.q1\" = [0]\n",
+        'sweep.exhaustive: applies to mode = "compare" only (its comparison then searches '
+        'every candidate sequence fully), not to mode = "legs": remove it or set that mode',
+    ),
     ("[sweep.random]\ncount = \"3\"\nranges = { \"goal.q1\" = [0, 1] }\n", "count: must be"),
 ]  # fmt: skip
 

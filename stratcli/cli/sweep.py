@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shlex
 import textwrap
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -22,6 +23,7 @@ from rich.progress import (
 )
 from rich.text import Text
 
+from ..errors import UnusedLegsWarning
 from ..wording import counted
 from . import progress, render
 from .options import Quiet
@@ -121,10 +123,16 @@ def sweep(
     from .. import api  # start-up speed
 
     gc.enable()  # paused for short commands (stratcli.__main__); a sweep may run for hours
-    with render.reported():
+    with render.reported(), warnings.catch_warnings(record=True) as caught:
         from ..sweep import load_sweep
 
+        warnings.simplefilter("always", UnusedLegsWarning)
         loaded = load_sweep(file)
+    for w in caught:  # the legs a sweep in auto or compare mode does not use: a note line
+        if issubclass(w.category, UnusedLegsWarning):
+            render.notes([str(w.message)])
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     target = loaded.out_dir(out)
     again = _again_command(file, target, jobs, dask, records)  # how to go on after a stop

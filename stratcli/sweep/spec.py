@@ -32,6 +32,7 @@ import hashlib
 import itertools
 import json
 import os
+import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,7 +42,7 @@ import numpy as np
 from pydantic import BaseModel, Field, ValidationError
 
 from .. import tomlwrite
-from ..errors import InputError, Problem
+from ..errors import InputError, Problem, UnusedLegsWarning
 from ..models.specs import STRICT
 from ..scenario import load_scenario
 from ..scenario_keys import assign, changes_task
@@ -334,8 +335,22 @@ def _checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) -
     if ("sweep", "mode") in pruned:  # the mode the base is written for: not a second problem
         mode = "legs" if "legs" in base and "decompose" not in base else "auto"
     if mode in ("auto", "compare"):
-        base.pop("legs", None)
+        if base.pop("legs", None) is not None and ("sweep", "mode") not in pruned:
+            warnings.warn(
+                f'sweep: mode = "{mode}" decomposes each task afresh, so the base scenario\'s '
+                "[[legs]] are not used",
+                UnusedLegsWarning,
+                stacklevel=2,
+            )
         base.setdefault("decompose", {})
+    if s.exhaustive and mode != "compare" and ("sweep", "mode") not in pruned:
+        problems.append(  # (it was ignored)
+            Problem(
+                "sweep.exhaustive",
+                'applies to mode = "compare" only (its comparison then searches every '
+                f'candidate sequence fully), not to mode = "{mode}": remove it or set that mode',
+            )
+        )
     no_legs = mode == "legs" and "legs" not in base and ("sweep", "mode") not in pruned
     try:
         states = tuple(load_scenario(copy.deepcopy(base), name=where).system.states)
