@@ -53,7 +53,7 @@ from .settings import (
 )
 from .stratified import LegSpec, check_legs
 from .task import Task
-from .tomlread import parse_toml, read_source, reject_non_finite
+from .tomlread import parse_toml, raise_non_finite, read_source, reject_non_finite
 
 MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
 
@@ -168,8 +168,8 @@ def from_raw(
             source,
         )
     raw = _nulls_as_free(raw)
-    if non_finite := reject_non_finite(raw):
-        raise InputError(non_finite, source)
+    if non_finite := reject_non_finite(raw):  # with every other problem of the file
+        raise_non_finite(raw, non_finite, lambda r: from_raw(r, None, source, base_dir), source)
     base_dir = (base_dir or Path.cwd()).absolute()  # as now: `with_changes` may run elsewhere
     system, given = None, raw  # (a dict is recorded as given: a URDF's configurations by name)
     if isinstance(raw.get("model"), dict) and raw["model"].get("kind") == "urdf":

@@ -20,7 +20,7 @@ import stat
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from .errors import InputError, Problem
 
@@ -30,10 +30,12 @@ MAX_DEPTH = 64
 __all__ = [
     "MAX_BYTES",
     "MAX_DEPTH",
+    "finite_stand_ins",
     "is_toml_text",
     "is_xml_text",
     "parse_toml",
     "plain",
+    "raise_non_finite",
     "read_scenario_text",
     "read_source",
     "reject_non_finite",
@@ -271,6 +273,40 @@ def is_xml_text(text: str) -> bool:
     return text.lstrip("\ufeff \t\r\n").startswith("<")
 
 
+def finite_stand_ins(raw: Any, value: float = 1.0) -> Any:
+    """`raw` (parsed TOML) with every NaN or ±inf float replaced by `value`."""
+    if isinstance(raw, dict):
+        return {k: finite_stand_ins(v, value) for k, v in raw.items()}
+    if isinstance(raw, list):
+        return [finite_stand_ins(v, value) for v in raw]
+    if isinstance(raw, float) and not math.isfinite(raw):
+        return value
+    return raw
+
+
+def raise_non_finite(raw: Any, non_finite: list[Problem], attempt, where: str) -> NoReturn:
+    """Raise the problems `non_finite` of `raw` (`reject_non_finite`) with every other
+    problem of it: those that `attempt` (a loader that raises InputError) finds alike with
+    the non-finite values replaced by 1.0 and by 2.0 (a stand-in's own problems, at its
+    place or naming its value, differ). A nan no longer hid a misspelt key or a vector of
+    the wrong length."""
+    found = []
+    for value in (1.0, 2.0):
+        try:
+            attempt(finite_stand_ins(raw, value))
+            found.append([])
+        except InputError as exc:
+            found.append(exc.problems)
+    places = [p.path for p in non_finite]
+    others = [
+        p
+        for p in found[0]
+        if p in found[1]
+        and not any(p.path == at or p.path.startswith((f"{at}.", f"{at}[")) for at in places)
+    ]
+    raise InputError([*non_finite, *others], where)
+
+
 def reject_non_finite(raw: Any, prefix: str = "") -> list[Problem]:
     """Problems for every NaN or ±inf float anywhere in a parsed document.
 
@@ -290,7 +326,8 @@ def reject_non_finite(raw: Any, prefix: str = "") -> list[Problem]:
         where, value = stack.pop()
         if isinstance(value, dict):
             for key, item in reversed(value.items()):
-                stack.append((f"{where}.{key}" if where else str(key), item))
+                name = f'"{key}"' if "." in str(key) else str(key)  # a sweep's key: quoted
+                stack.append((f"{where}.{name}" if where else name, item))
         elif isinstance(value, list):
             for i in reversed(range(len(value))):
                 stack.append((f"{where}[{i}]", value[i]))

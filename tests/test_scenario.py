@@ -171,6 +171,36 @@ def test_bytes_size_and_nesting(tmp_path):
     _load(tmp_path / "missing.toml", "a missing file")
 
 
+def test_a_nan_is_reported_with_every_other_problem_but_none_of_its_stand_ins():
+    """A nan hid every other problem (a misspelt key, a via of the wrong length); the other
+    problems are found with the nan replaced by 1.0 and by 2.0, and only those found both
+    times are reported (a via on S1 "locked at 1" would be the stand-in's own)."""
+    text = SCENARIOS["sim4_task_d.toml"]
+    broken = text.replace("[planner]", "[planner]\ntolerence = 1e-3").replace(
+        'start = [0, "pi/4", 0, 0]', 'start = [nan, "pi/4", inf, 0]'
+    )
+    broken = broken.replace('goal = ["-pi/3", "pi/3", 0, "-pi/12"]', "goal = [0, 0, 0]")
+    assert "nan" in broken and "tolerence" in broken and "goal = [0, 0, 0]" in broken
+    with pytest.raises(InputError) as caught:
+        parse_scenario(broken)
+    lines = [f"{p.path}: {p.message}" for p in caught.value.problems]
+    assert lines[:2] == [
+        "task.start[0]: must be a finite number (got nan)",
+        "task.start[2]: must be a finite number (got inf)",
+    ]
+    assert [line.split(":")[0] for line in lines[2:]] == ["planner.tolerence", "legs[0].goal"]
+    # S1 first locks q1 at the start's: "locked at 1 (2) on this stratum" is the stand-in's
+    alone = text.replace('start = [0, "pi/4", 0, 0]', 'start = [nan, "pi/4", 0, 0]')
+    alone = alone.replace('stratum = "S3"', 'stratum = "SX"').replace('"S1"', '"S3"')
+    alone = alone.replace('"SX"', '"S1"')
+    with pytest.raises(InputError) as caught:
+        parse_scenario(alone.replace("nan", "1.0"))
+    assert "legs[0].goal" in [p.path for p in caught.value.problems]  # (with 1.0 given)
+    with pytest.raises(InputError) as caught:  # (leg 2 on S3 is wrong whatever q1 is)
+        parse_scenario(alone)
+    assert [p.path for p in caught.value.problems] == ["task.start[0]", "legs[1].goal"]
+
+
 def test_error_lines_name_the_problem(tmp_path):
     unicycle = SCENARIOS["unicycle.toml"]
     expected = {

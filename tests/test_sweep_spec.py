@@ -296,6 +296,19 @@ def test_a_refused_value_causes_no_second_problem(tmp_path, body, mode, expected
     assert lines and all(line.startswith(expected) for line in lines), lines
 
 
+def test_a_nan_in_a_sweep_file_is_reported_with_every_other_problem(tmp_path):
+    """Only `sweep.grid.goal.theta[0]: must be a finite number (got nan)` was printed, and
+    with its key unquoted, unlike the other problems of the same axis."""
+    body = 'colour = 1\n[sweep.grid]\n"goal.theta" = [nan, 0.1]\n"goal.q9" = [1]\n'
+    with pytest.raises(InputError) as caught:
+        load_sweep(write(tmp_path, body))
+    assert [f"{p.path}: {p.message}"[:44] for p in caught.value.problems] == [
+        'sweep.grid."goal.theta"[0]: must be a finite',
+        "sweep.colour: unknown key (allowed: name, de",
+        'sweep.grid."goal.q9": unknown coordinate \'q9',
+    ]
+
+
 def test_the_shipped_goal_map_is_a_21_by_21_auto_grid_around_the_papers_goal():
     sweep = load_sweep(ROOT / "scenarios" / "sweeps" / "sim4_goal_map.toml")
     assert sweep.mode == "auto" and sweep.count == 441 and sweep.keys == ("goal.q1", "goal.theta")

@@ -48,7 +48,13 @@ from ..scenario import load_scenario
 from ..scenario_keys import assign, changes_task
 from ..schema_problems import file_location, validation_problems
 from ..settings import Bool, Int
-from ..tomlread import parse_toml, read_scenario_text, read_source, reject_non_finite
+from ..tomlread import (
+    parse_toml,
+    raise_non_finite,
+    read_scenario_text,
+    read_source,
+    reject_non_finite,
+)
 from .keys import MAX_TASKS, check_scenario, check_value, value_of
 from .tables import Base, base_states, grid_axes, random_ranges, task_rows
 
@@ -225,8 +231,13 @@ def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) 
             text = tomlwrite.dumps(raw)
         except (TypeError, ValueError) as exc:
             raise InputError(f"cannot be written as TOML: {exc}", where) from None
-    if non_finite := reject_non_finite(raw):
-        raise InputError(non_finite, where)
+    if non_finite := reject_non_finite(raw):  # with every other problem of the file
+        raise_non_finite(raw, non_finite, lambda r: _load(r, text, where, folder), where)
+    return _load(raw, text, where, folder)
+
+
+def _load(raw: dict[str, Any], text: str, where: str, folder: Path | None) -> Sweep:
+    """`load_sweep` of the file's tables `raw` (finite)."""
     problems: list[Problem] = []
     try:
         spec, pruned = SweepFile.model_validate(raw), set()
