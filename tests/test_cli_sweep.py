@@ -83,6 +83,28 @@ def test_show_of_an_unfinished_sweep_counts_its_rows(tmp_path):
     assert "2 tasks in" in text and "; 4 more from an earlier run (--resume)" in text
 
 
+def test_the_resume_hint_of_show_names_the_sweep_file_from_where_show_runs(tmp_path, monkeypatch):
+    """Swept as `sweep small.toml` in its folder, `show` from elsewhere said `stratplan sweep
+    small.toml --out ... --resume`, which cannot read the file from there."""
+    (tmp_path / "my").mkdir()
+    write(tmp_path / "my", GRID)
+    monkeypatch.chdir(tmp_path / "my")
+    out = tmp_path / "o"
+    assert runner.invoke(app, ["sweep", "small.toml", "--out", str(out), "-q"]).exit_code == 0
+    summary = json.loads((out / "sweep.json").read_text())
+    (out / "sweep.json").write_text(json.dumps({**summary, "missing": 2}))  # interrupted
+    shown = " ".join(runner.invoke(app, ["show", str(out)]).output.split())
+    assert f"(stratplan sweep small.toml --out {out} --resume)" in shown  # from its folder
+    monkeypatch.chdir(tmp_path)
+    shown = " ".join(runner.invoke(app, ["show", "o"]).output.split())
+    assert "(stratplan sweep my/small.toml --out o --resume)" in shown
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    shown = " ".join(runner.invoke(app, ["show", str(out)]).output.split())
+    file = (tmp_path / "my" / "small.toml").resolve()
+    assert f"(stratplan sweep {file} --out {out} --resume)" in shown
+
+
 def test_a_finished_sweep_is_not_run_again_and_resume_only_reprints_it(tmp_path):
     path = write(tmp_path, GRID)
     out = tmp_path / "o"

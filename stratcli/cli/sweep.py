@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shlex
 import textwrap
 import warnings
@@ -187,9 +188,10 @@ def _resume_hint(again: str, out: Path, count: int) -> Iterator[None]:
         raise
 
 
-def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
+def summary(doc: dict[str, Any], path: Path, source: str = "", at: str | None = None) -> None:
     """A sweep's summary (sweep.json, or computed from the rows of an unfinished one);
-    `source`: the sweep file it was made from, as given (spec.json's), for the resume hint."""
+    `source`: the sweep file it was made from, as given (spec.json's), for the resume hint,
+    which names it from here where its absolute path `at` is known and the file is there."""
     say = render.say
     fmt = render.fmt
     say(f"[bold]sweep {escape(str(doc['name']))}[/] ({doc['mode']} mode, {doc['kind']}): "
@@ -223,7 +225,10 @@ def summary(doc: dict[str, Any], path: Path, source: str = "") -> None:
         say(f"  ran on   {ex['kind']}, {workers}: {now} tasks in {wall:.1f} s{rate}{before}")
     if doc.get("missing"):
         file = "FILE" if not source or source.startswith("<") else source  # "<dict>": Python
-        say(f"  missing  {doc['missing']} tasks (stratplan sweep {file} --out {path} --resume)")
+        if at is not None and Path(at).is_file():  # as given, it was relative to where it ran
+            file = at if (here := os.path.relpath(at)).startswith("..") else here
+        again = shlex.join(["stratplan", "sweep", file, "--out", str(path), "--resume"])
+        say(f"  missing  {doc['missing']} tasks ({escape(again)})")
     for name in ("results.csv", *doc.get("plots", [])):
         if (Path(path) / name).exists():
             say(f"  file     {escape(str(Path(path) / name))}")
@@ -257,7 +262,7 @@ def show_sweep(path: Path, json_output: bool) -> None:
     if json_output:
         render.print_json(report.summary)
         return
-    summary(report.summary, path, report.spec.get("source", ""))
+    summary(report.summary, path, report.spec.get("source", ""), report.spec.get("source_path"))
     if not report.finished:
         say = render.say
         say("  (not finished: the counts are of the rows written so far)")

@@ -91,9 +91,20 @@ def spec_document(sweep: Sweep) -> dict[str, Any]:
         "states": list(sweep.states),
         "reference_energy": sweep.reference_energy,
         "source": sweep.source,
+        "source_path": _file_path(sweep.source),
         "digest": sweep.digest,
         "created": datetime.now(UTC).isoformat(),
     }
+
+
+def _file_path(source: str) -> str | None:
+    """The sweep file's absolute path, where `source` names one (else text or a dict): the
+    resume hint of `stratplan show` names it from wherever it runs."""
+    try:
+        path = Path(source)
+        return str(path.resolve()) if path.is_file() else None
+    except (OSError, ValueError):  # text that is no path
+        return None
 
 
 def _stop(executor: Executor, futures: dict[Future, int]) -> None:
