@@ -178,6 +178,30 @@ def test_an_executor_that_refuses_the_first_task_is_an_error_naming_it(reference
     assert strip(again.rows) == strip(reference.rows)
 
 
+def test_a_ctrl_c_a_finaliser_swallowed_stops_the_sweep_where_its_rows_are_kept(
+    reference, tmp_path, monkeypatch
+):
+    """A Ctrl-C raised inside a finaliser is swallowed (kept by `interrupts`' hook); the
+    sweep loop had no checkpoint, so it ran on and the command ended on `interrupted` alone,
+    without the note of the rows kept and how to resume (1 run in 25)."""
+    from stratcli import interrupts
+
+    monkeypatch.setattr(interrupts, "_swallowed", [])
+
+    def progress(done, total):
+        if done >= 2:  # as the hook does with an Interrupted no one could raise
+            interrupts._swallowed.append(signal.SIGINT)
+
+    path = write(tmp_path, GRID)
+    with pytest.raises(interrupts.Interrupted):  # (workers in threads would see it too)
+        run_sweep(load_sweep(path), tmp_path / "o", jobs=1, progress=progress)
+    kept = read_rows(tmp_path / "o" / ROWS)
+    assert 2 <= len(kept) < 6
+    interrupts._swallowed.clear()
+    again = run_sweep(load_sweep(path), tmp_path / "o", jobs=1, resume=True)
+    assert again.planned == 6 - len(kept) and strip(again.rows) == strip(reference.rows)
+
+
 def test_resume_refuses_another_sweep(reference, tmp_path):
     other = write(tmp_path, GRID.replace("-0.2", "-0.1"))
     with pytest.raises(InputError, match="another sweep file"):

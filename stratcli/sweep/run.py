@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, Problem
+from ..interrupts import checkpoint
 from ..records import sweepdir
 from ..records.rundir import write_run
 from ..wording import counted
@@ -201,6 +202,7 @@ def run_sweep(
 
             while futures:
                 finished, _ = wait(futures, return_when=FIRST_COMPLETED)
+                checkpoint()  # a Ctrl-C a finaliser swallowed stops here, with its resume note
                 for future in sorted(finished, key=futures.get):
                     index = futures.pop(future)
                     try:
@@ -218,6 +220,7 @@ def run_sweep(
                     advance(len(rows), sweep.count)
                 if accepting:
                     accepting = _submit(executor, futures, payloads, todo, window, sweep, per_task)
+        checkpoint()
         if records == "best":
             best = _best(rows)
             if best is not None and not (out / "records" / f"task-{best:06d}").exists():
