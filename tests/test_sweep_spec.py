@@ -4,6 +4,7 @@ bad files give one line per problem naming the field (exit 2 on the command line
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -307,6 +308,27 @@ def test_a_nan_in_a_sweep_file_is_reported_with_every_other_problem(tmp_path):
         "sweep.colour: unknown key (allowed: name, de",
         'sweep.grid."goal.q9": unknown coordinate \'q9',
     ]
+
+
+def test_a_task_is_a_base_scenario_of_a_sweep_given_as_a_dict():
+    """`{"sweep": {...}, "scenario": task}` was "cannot be written as TOML: cannot write Task
+    to TOML" (a notebook's tables had to be `tomllib.loads(task.text)`); a URDF task's
+    relative path stays its file's."""
+    task = load_scenario(TASK_A).with_changes({"planner.tolerance": 1e-4})
+    grid = {"goal.theta": [0.1]}
+    given = [
+        {"sweep": {"name": "a", "grid": grid}, "scenario": task},
+        {"sweep": {"name": "b", "grid": grid, "scenario": task}},
+    ]
+    for source in given:
+        (first,) = load_sweep(source).tasks()
+        planned = load_scenario(first.scenario)
+        assert planned.settings.tolerance == 1e-4 and planned.goal[3] == 0.1
+    arm3 = load_scenario(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
+    base = load_sweep({"sweep": {"name": "u", "grid": {"goal.j2": [0.1]}}, "scenario": arm3}).base
+    assert Path(base["model"]["path"]).resolve() == (ROOT / "robots" / "arm3.urdf").resolve()
+    with pytest.raises(InputError, match=r"sweep\.scenario: give a path or a \[scenario\] "):
+        load_sweep({**given[1], "scenario": task})
 
 
 def test_the_shipped_goal_map_is_a_21_by_21_auto_grid_around_the_papers_goal():

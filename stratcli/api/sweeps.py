@@ -61,7 +61,8 @@ def run_sweep(
     ----------
     file : str, Path, Mapping or Sweep
         What `stratcli.sweep.load_sweep` takes (a sweep file's path, TOML text or a dict of
-        the same structure), or a sweep it loaded.
+        the same structure, whose base scenario may be a `Task`: ``{"sweep": {...},
+        "scenario": task}``), or a sweep it loaded.
     out : str or Path, optional
         The sweep directory (default: ``sweeps/<name>``).
     jobs : int, optional

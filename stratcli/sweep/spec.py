@@ -208,8 +208,9 @@ def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) 
         What `load_scenario` takes: a path to the sweep file (TOML; a base scenario path in it
         is relative to its directory); TOML text (a string with a newline, or an "=" that
         names no file: `tomlread.is_toml_text`); or a plain `dict` of the same structure
-        (numpy values and arrays as Python's: a grid axis may be ``np.arange(...)``). A base
-        scenario path in text or a dict is relative to the current directory.
+        (numpy values and arrays as Python's: a grid axis may be ``np.arange(...)``; the base
+        scenario a `Task`, as ``"scenario"`` or ``sweep.scenario``). A base scenario path in
+        text or a dict is relative to the current directory.
     name : str, optional
         How messages refer to the source (default: the path, "<text>" or "<dict>").
 
@@ -225,6 +226,8 @@ def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) 
     TypeError
         `source` is none of these.
     """
+    if isinstance(source, Mapping):
+        source = _tasks_as_tables(source)
     raw, text, where, folder = read_source(source, name, "sweep")
     if text is None:  # a dict: recorded as the TOML file it stands for
         try:
@@ -317,6 +320,28 @@ def _base(spec: SweepFile, folder: Path, problems: list[Problem]) -> tuple[dict 
         where = given if read == os.path.normpath(given) else f"{given} ({read})"
         problems.extend(Problem("sweep.scenario", f"{where}: {p.message}") for p in exc.problems)
         return None, ""
+
+
+def _tasks_as_tables(source: Mapping[str, Any]) -> Mapping[str, Any]:
+    """A notebook's `Task` as the base scenario (`{"sweep": {...}, "scenario": task}`, or
+    as `sweep.scenario`): its scenario's tables (a URDF path made absolute), as a [scenario]
+    table; it was "cannot be written as TOML: cannot write Task to TOML"."""
+    from ..task import Task
+
+    sweep = source.get("sweep")
+    inner = sweep.get("scenario") if isinstance(sweep, Mapping) else None
+    if not isinstance(inner, Task) and not isinstance(source.get("scenario"), Task):
+        return source
+    out = dict(source)
+    if isinstance(inner, Task):  # (given both ways: refused as such, the path as its source)
+        out["sweep"] = {**sweep, "scenario": inner.source}
+        if "scenario" not in out:
+            out["sweep"].pop("scenario")
+            out["scenario"] = inner
+    task = out["scenario"]
+    if isinstance(task, Task):
+        out["scenario"] = _urdf_from(parse_toml(task.text, task.source), task.base_dir or Path())
+    return out
 
 
 def _urdf_from(raw: dict[str, Any], folder: Path) -> dict[str, Any]:
