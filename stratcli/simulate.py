@@ -38,7 +38,8 @@ MAX_EVALUATIONS = 50_000  # per leg or Lie piece; DOP853 takes 12 per step
 
 @dataclass(frozen=True, eq=False)
 class Trajectory:
-    """Samples of a motion on the real time axis; unpacks as ``t, q, u = trajectory``.
+    """Samples of a motion on the real time axis; unpacks as ``t, q, u = trajectory`` (and
+    indexes so: ``trajectory[1]`` is q).
 
     Attributes
     ----------
@@ -62,6 +63,9 @@ class Trajectory:
 
     def __iter__(self):
         return iter((self.t, self.q, self.u))
+
+    def __getitem__(self, index):  # `sample()[1]` as `t, q, u = sample()` unpacks
+        return (self.t, self.q, self.u)[index]
 
     def __repr__(self) -> str:  # the dataclass's prints every sample (kB)
         span = f"t {self.t[0]:g} to {self.t[-1]:g} s" if self.t.size else "no time"

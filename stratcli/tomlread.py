@@ -147,7 +147,7 @@ def parse_toml(text: str, source: str = "<scenario>", max_depth: int = MAX_DEPTH
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"not valid TOML: {exc}", source) from None
+        raise InputError(f"not valid TOML: {_with_line(str(exc), text)}", source) from None
     except (RecursionError, MemoryError):
         raise InputError("arrays or inline tables nested too deeply to parse", source) from None
 
@@ -266,6 +266,19 @@ def _anonymous(what: str, tables: Mapping, kind: str) -> str:
     if isinstance(name, str) and re.fullmatch(r"[A-Za-z0-9_.-]{1,100}", name):  # a valid name
         return f"{what[:-1]} {name!r}>"
     return what
+
+
+def _with_line(message: str, text: str) -> str:
+    """tomllib's message with the line it names quoted ("Cannot overwrite a value (at line
+    10, column 17)" did not say which key was given twice)."""
+    found = re.search(r"\(at line (\d+), column \d+\)$", message)
+    lines = text.splitlines()
+    if found is None or not 1 <= int(found.group(1)) <= len(lines):
+        return message
+    line = lines[int(found.group(1)) - 1].strip()
+    line = line if len(line) <= 80 else line[:77] + "..."
+    twice = " (a key given twice)" if message.startswith("Cannot overwrite a value") else ""
+    return f"{message[: found.start()].rstrip()}{twice} {found.group(0)[:-1]}: {line})"
 
 
 def is_xml_text(text: str) -> bool:

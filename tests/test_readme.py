@@ -38,6 +38,8 @@ def test_python_api_example_runs_verbatim(tmp_path, capsys):
     # the example's plan reaches the goal on the re-integrated trajectory
     goal = plan.legs[-1].goal
     assert abs(q[-1] - goal).max() <= plan.settings.tolerance
+    sampled = plan.sample()  # indexes as it unpacks (`plan.sample()[1]` was a TypeError)
+    assert sampled[1] is sampled.q and sampled[-1] is sampled.u
     assert "True" in capsys.readouterr().out
 
 

@@ -201,6 +201,17 @@ def test_a_nan_is_reported_with_every_other_problem_but_none_of_its_stand_ins():
     assert [p.path for p in caught.value.problems] == ["task.start[0]", "legs[1].goal"]
 
 
+def test_invalid_toml_quotes_the_line_it_names():
+    """ "Cannot overwrite a value (at line 4, column 17)" did not say which key was given
+    twice."""
+    with pytest.raises(InputError, match=r"not valid TOML: Cannot overwrite a value \(a key "
+                       r"given twice\) \(at line 4, column 17: tolerance = 1e-4\)$"):  # fmt: skip
+        parse_scenario('name = "x"\n[planner]\ntolerance = 1e-3\ntolerance = 1e-4\n')
+    with pytest.raises(InputError, match=r"Cannot declare \('planner',\) twice \(at line 3, "
+                       r"column 9: \[planner\]\)$"):  # fmt: skip
+        parse_scenario('name = "x"\n[planner]\n[planner]\n')
+
+
 def test_error_lines_name_the_problem(tmp_path):
     unicycle = SCENARIOS["unicycle.toml"]
     expected = {

@@ -364,6 +364,11 @@ def test_legs_mode_refuses_an_auto_mode_base_at_once(tmp_path):
     assert "sweep.mode: legs mode plans the base scenario's [[legs]], and " in str(exc.value)
     assert str(exc.value).endswith('has none: set mode = "auto" or "compare"')
     assert load_sweep(write(tmp_path, GRID, scenario=AUTO, mode="auto", name="a")).count == 6
+    unset = write(tmp_path, GRID, scenario=AUTO, name="u")  # no mode: blamed a key not given
+    unset.write_text(unset.read_text().replace('mode = "legs"\n', ""))
+    with pytest.raises(InputError, match=r"sweep\.mode: legs mode \(the default, where no mode "
+                       r"is given\) plans the base scenario's \[\[legs\]\]"):  # fmt: skip
+        load_sweep(unset)
 
 
 def test_a_missing_base_scenario_names_the_path_as_given_and_as_read(tmp_path):

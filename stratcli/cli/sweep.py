@@ -183,8 +183,8 @@ def _resume_hint(again: str, out: Path, count: int) -> Iterator[None]:
         from ..records.sweepdir import ROWS, read_rows
 
         done = len(read_rows(out / ROWS))  # (a torn last row is planned again)
-        render.notes([f"sweep: {done} of {counted(count, 'task')} kept in {out}; {again} plans "
-                      "the rest"])  # fmt: skip
+        rest = "plans the rest" if done < count else "writes its table, summary and plots"
+        render.notes([f"sweep: {done} of {counted(count, 'task')} kept in {out}; {again} {rest}"])
         raise
 
 
@@ -222,7 +222,8 @@ def summary(doc: dict[str, Any], path: Path, source: str = "", at: str | None = 
         earlier = done - now if isinstance(now, int) and isinstance(done, int) else 0
         rate = f" ({speed:.2f} tasks/s)" if speed else ""
         before = f"; {earlier} more from an earlier run (--resume)" if earlier > 0 else ""
-        say(f"  ran on   {ex['kind']}, {workers}: {now} tasks in {wall:.1f} s{rate}{before}")
+        tasks = counted(now, "task") if isinstance(now, int) else f"{now} tasks"
+        say(f"  ran on   {ex['kind']}, {workers}: {tasks} in {wall:.1f} s{rate}{before}")
     if doc.get("missing"):
         file = "FILE" if not source or source.startswith("<") else source  # "<dict>": Python
         if at is not None and Path(at).is_file():  # as given, it was relative to where it ran

@@ -393,12 +393,12 @@ def _checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) -
     except InputError as exc:
         found = [_under(where, p) for p in exc.problems if p.path != "legs"]
         if no_legs:
-            found.append(_no_legs(where))
+            found.append(_no_legs(where, "mode" in s.model_fields_set))
         problems.extend(found or [_under(where, p) for p in exc.problems])
         hidden = tuple(p.path for p in exc.problems)
         return Base(base, base_states(base), False, pruned, problems, hidden)
     if no_legs:  # an auto-mode base ([decompose], no legs): every task would be invalid
-        problems.append(_no_legs(where))
+        problems.append(_no_legs(where, "mode" in s.model_fields_set))
         return Base(base, states, False, pruned, problems)
     applied = 0  # entries of `set` without a problem of their own: the values see them
     for key, value in s.set.items():
@@ -418,10 +418,11 @@ def _checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) -
     return Base(base, states, loads, pruned, problems)
 
 
-def _no_legs(where: str) -> Problem:
-    """Legs mode (the default) over a base without [[legs]]."""
+def _no_legs(where: str, given: bool = True) -> Problem:
+    """Legs mode (the default, unless `given`) over a base without [[legs]]."""
     named = "the [scenario] table" if where == "scenario" else where
-    why = f"legs mode plans the base scenario's [[legs]], and {named} has none"
+    mode = "legs mode" if given else "legs mode (the default, where no mode is given)"
+    why = f"{mode} plans the base scenario's [[legs]], and {named} has none"
     return Problem("sweep.mode", f'{why}: set mode = "auto" or "compare"')
 
 
