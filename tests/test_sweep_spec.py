@@ -331,6 +331,20 @@ def test_a_task_is_a_base_scenario_of_a_sweep_given_as_a_dict():
         load_sweep({**given[1], "scenario": task})
 
 
+def test_the_base_scenarios_reference_energy_is_the_sweeps_only_where_the_task_is_its(
+    tmp_path,
+):
+    """Each task of a sweep over goals drops the paper's energy (for the paper's task), but
+    the sweep kept it, and energy_hist.png took every task's ratio to it."""
+    over_goals = load_sweep(write(tmp_path, RANDOM))
+    assert over_goals.reference_energy is None
+    assert all("reference" not in task.scenario for task in over_goals.tasks())
+    seeds = '[sweep.grid]\n"planner.seed" = [1, 2]\n'
+    over_seeds = load_sweep(write(tmp_path, seeds, name="seeds"))
+    assert over_seeds.reference_energy == 542.36  # sim4_task_a's: every task is the paper's
+    assert all(task.scenario["reference"]["energy"] == 542.36 for task in over_seeds.tasks())
+
+
 def test_the_shipped_goal_map_is_a_21_by_21_auto_grid_around_the_papers_goal():
     sweep = load_sweep(ROOT / "scenarios" / "sweeps" / "sim4_goal_map.toml")
     assert sweep.mode == "auto" and sweep.count == 441 and sweep.keys == ("goal.q1", "goal.theta")

@@ -6,7 +6,7 @@
   strata as categorical colours.
 * 1-D grid: `energy.png`, energy against the coordinate (failed tasks marked).
 * random tasks (and explicit ones): `energy_hist.png`, a histogram of the energy ratios (to
-  the base scenario's reference energy when it has one, else to the median) with the
+  the base scenario's reference energy where the tasks keep it, else to the median) with the
   success rate and the counts by status in the title.
 """
 

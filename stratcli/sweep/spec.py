@@ -454,6 +454,8 @@ def _resolve(
     if random is not None:
         random = RandomSpec(count=random.count, seed=random.seed, ranges=ranges)
     reference = (base.scenario.get("reference") or {}).get("energy")
+    if any(changes_task(key) for key in (*keys, *s.set)):  # the paper's, for another task
+        reference = None  # (each task drops it: energy_hist.png took ratios to it)
     return Sweep(
         s.name, s.description, s.mode, s.check, s.exhaustive, given[0].replace("task", "tasks"),
         keys, tuple(axes), base.scenario, random, tuple(rows), source, text, base.states,
