@@ -256,7 +256,11 @@ def _merged(raw: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
         if value is None:
             out.pop(key, None)
         elif isinstance(value, Mapping) and isinstance(out.get(key), dict):
-            out[key] = _merged(out[key], value)
+            kept = out[key]
+            for given, other in (("rpy", "attitude"), ("attitude", "rpy")):  # a URDF's, whole
+                if given in value and other not in value:  # (else "give either ..., not both")
+                    kept = {k: v for k, v in kept.items() if k != other}
+            out[key] = _merged(kept, value)
         else:
             out[key] = value
     return out

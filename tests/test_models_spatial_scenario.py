@@ -100,6 +100,13 @@ def test_a_urdf_scenario_given_as_a_dict_changes_its_goal_by_joint_name():
     whole = task.with_changes({"goal.attitude": [0, 0, 0.1]}).goal  # (was "unknown coordinate")
     np.testing.assert_allclose(whole[3:], [0, 0, 0.1])
     assert np.isnan(task.with_changes({"goal.rz": "*"}).goal[5])
+    # a nested rpy replaces the file's attitude (the merge kept both: "give either attitude
+    # or rpy, not both", of a key the user had not written), and an attitude an rpy
+    turned = task.with_changes({"task": {"goal": {"rpy": [0, 0, "10deg"]}}})
+    np.testing.assert_allclose(turned.goal[3:], [0, 0, np.radians(10)])
+    np.testing.assert_array_equal(turned.goal[:3], task.goal[:3])
+    back = turned.with_changes({"task": {"goal": {"attitude": [0, 0, 0.1]}}})
+    np.testing.assert_allclose(back.goal[3:], [0, 0, 0.1])
 
 
 def test_path_is_relative_to_the_scenario_file(tmp_path):
