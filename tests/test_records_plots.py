@@ -174,15 +174,17 @@ def test_a_failed_plan_is_stamped_failed(failed_plan):
         assert fig._suptitle.get_text().endswith("FAILED")
     files = render_plots(plan, traj, "t", animation=False)
     assert set(files) == {"configuration.png", "controls.png", "stroboscope.png"}
-    # in the time plots the message sits under the plots, in a band of its own (it covered
-    # the lower panels' curves), and clear of the time axis' label
-    for fig in figures[:2]:
+    # the message sits under the plots, in a band of its own (it covered the lower panels'
+    # curves, and the stroboscope's poses), clear of the axes' labels (and the legend)
+    for fig in figures:
         renderer = FigureCanvasAgg(fig).get_renderer()
         fig.draw(renderer)
         (box,) = [t for t in fig.texts if plan.message[:30] in t.get_text().replace("\n", " ")]
         extent = box.get_bbox_patch().get_window_extent(renderer)
-        lowest = fig.axes[-1]
-        assert extent.y1 < lowest.xaxis.label.get_window_extent(renderer).y0
+        shown = [ax for ax in fig.axes if ax.get_visible() and ax.get_xlabel()]
+        assert all(extent.y1 < ax.xaxis.label.get_window_extent(renderer).y0 for ax in shown)
+        for legend in fig.legends:
+            assert extent.y1 < legend.get_window_extent(renderer).y0
         assert all(extent.y1 < ax.get_window_extent(renderer).y0 for ax in fig.axes)
 
 

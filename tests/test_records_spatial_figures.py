@@ -24,3 +24,29 @@ def test_stroboscope_and_units():
     assert files["stroboscope.png"][:4] == b"\x89PNG"
     labels = [ax.get_ylabel() for ax in configuration_figure(plan, traj).axes]
     assert "rx [rad]" in labels and "j1 [rad]" in labels
+
+
+def test_a_failed_plans_stroboscope_is_stamped_failed_its_message_under_the_panels():
+    """configuration.png and controls.png of a failed URDF plan were stamped FAILED, its
+    stroboscope looked like a success's."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from stratcli.records.spatial_figures import spatial_stroboscope_figure
+
+    task = load_scenario(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
+    task = task.with_changes({"planner": {"objective": "newton", "max_iterations": 1}})
+    plan = plan_run(task, check=False).result
+    assert not plan.ok and plan.message
+    traj = sample(plan, samples_per_leg=30)
+    fig = spatial_stroboscope_figure(plan, traj, "arm3")
+    assert fig._suptitle.get_text().endswith("FAILED")
+    texts = [t.get_text() for t in fig.texts]
+    assert "FAILED" in texts
+    (box,) = [t for t in fig.texts if plan.message[:30] in t.get_text().replace("\n", " ")]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    top = box.get_bbox_patch().get_window_extent(renderer).y1
+    assert all(top < ax.xaxis.label.get_window_extent(renderer).y0 for ax in fig.axes)
+    fine = plan_run(task.with_changes({"planner.max_iterations": None}), check=False).result
+    ok = spatial_stroboscope_figure(fine, sample(fine, samples_per_leg=30), "arm3")
+    assert fine.ok and "FAILED" not in [t.get_text() for t in ok.texts]

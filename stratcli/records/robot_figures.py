@@ -30,6 +30,7 @@ from .figure_common import (
     fixed_margins,
     leg_method,
     locked_names,
+    message_band,
     stamp_failed,
 )
 from .obstacles import draw_obstacles, obstacle_points
@@ -104,6 +105,8 @@ def stroboscope_figure(
     per_row = int(max(width, 7.5) // LEGEND_ENTRY_IN)
     legend_rows = -(-len(handles) // per_row)
     margins["bottom"] += 0.2 * (legend_rows - 1)
+    band = message_band(plan, max(width, 7.5))  # a failed plan's message, under the legend
+    margins["bottom"] += band  # (boxed over the panels' middle, it hid the poses)
     height = panel_h * rows + margins["top"] + margins["bottom"] + gaps["hspace"] * (rows - 1)
     fig = Figure(figsize=(max(width, 7.5), height), dpi=DPI)
     axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
@@ -149,7 +152,7 @@ def stroboscope_figure(
     fig.legend(
         handles=handles,
         loc="lower center",
-        bbox_to_anchor=(0.5, 0.0),
+        bbox_to_anchor=(0.5, band / height),
         ncols=-(-len(handles) // legend_rows),
         fontsize=8,
         frameon=False,
@@ -165,7 +168,7 @@ def stroboscope_figure(
         fontweight="bold",
         color="k" if plan.ok else FAILED_COLOR,
     )
-    stamp_failed(fig, plan)
+    stamp_failed(fig, plan, band_at=0.12 if band else None)
     return fig
 
 

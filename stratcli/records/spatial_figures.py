@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .. import so3
+from .figure_common import FAILED_COLOR, message_band, stamp_failed
 
 __all__ = ["reach", "spatial_stroboscope_figure"]
 
@@ -80,8 +81,10 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
     centre = points.mean(axis=0)
     _, _, Vt = np.linalg.svd(points - centre, full_matrices=False)
     planes = ((0, 1), (0, 2))
-    fig = Figure(figsize=(10, 5))
+    band = message_band(plan, 10.0)  # a failed plan's message, under the panels
+    fig = Figure(figsize=(10, 5 + band))
     axes = fig.subplots(1, 2)
+    fig.subplots_adjust(bottom=(0.55 + band) / (5 + band), top=1 - 0.5 / (5 + band))
     for ax, (a, b) in zip(axes, planes, strict=True):
         for n, ((leg, _), (_, segments, base)) in enumerate(zip(picks, drawn, strict=True)):
             position = (n % INSTANTS_PER_LEG + 1) / INSTANTS_PER_LEG
@@ -105,7 +108,10 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
     axes[0].plot([], [], color="0.45", lw=0.6, label="base (box of its inertia)")
     axes[0].legend(loc="best", fontsize=8)
     fig.suptitle(
-        f"{title or plan.scenario}: stroboscope on the principal planes (light to dark in time)",
+        f"{title or plan.scenario}: stroboscope on the principal planes (light to dark in time)"
+        + ("" if plan.ok else " — FAILED"),
         fontsize=11,
+        color="k" if plan.ok else FAILED_COLOR,
     )
+    stamp_failed(fig, plan, band_at=0.12 if band else None)  # (a failed plan's looked ok)
     return fig
