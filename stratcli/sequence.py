@@ -7,6 +7,7 @@ switch numbering is documented in `stratcli.results`.
 
 from __future__ import annotations
 
+import tomllib
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -271,10 +272,10 @@ class SequencePlan:
             return True
         if not isinstance(other, SequencePlan):
             return NotImplemented
-        return self.scenario_text == other.scenario_text and self.to_dict() == other.to_dict()
+        return _scenario_of(self) == _scenario_of(other) and self.to_dict() == other.to_dict()
 
     def __hash__(self) -> int:  # of what equal plans share, cheaply
-        return hash((self.scenario, self.scenario_text, self.planned_legs, len(self.legs)))
+        return hash((self.scenario, self.planned_legs, len(self.legs)))
 
     @classmethod
     def from_dict(cls, doc: dict[str, Any], settings: PlannerSettings | None = None, model=None):
@@ -294,3 +295,18 @@ class SequencePlan:
         SequencePlan
         """
         return plan_from_document(cls, doc, settings, model)
+
+
+def _scenario_of(plan: SequencePlan) -> Any:
+    """What plans compare of their scenarios: the text, or a URDF robot's tables without the
+    [model] path and with the URDF's own text: a record names its copy of the URDF
+    (`records.model_files`), so a plan read back with `load_run` differed from the plan."""
+    if plan.model.name != "urdf":
+        return plan.scenario_text
+    try:
+        tables = tomllib.loads(plan.scenario_text)
+    except tomllib.TOMLDecodeError:
+        return plan.scenario_text
+    model = {k: v for k, v in (tables.get("model") or {}).items() if k != "path"}
+    robot = getattr(plan.system, "spatial", None)
+    return {**tables, "model": model}, getattr(robot, "text", None)

@@ -6,6 +6,7 @@ import dataclasses
 import json
 
 import numpy as np
+import pytest
 from conftest import ROOT
 
 import stratcli
@@ -38,6 +39,26 @@ def test_plans_are_equal_by_value_as_values_should_be(tmp_path):
     replanned = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
     assert replanned != plan and replanned.total_energy == plan.total_energy
     assert plan != plan.to_dict() and {plan: 1}[again] == 1
+
+
+def test_a_urdf_plan_equals_its_record_read_back(tmp_path):
+    """The record names its own copy of the URDF (`path = "arm3.urdf"`), so the scenario
+    texts differ: a URDF plan read back was unequal to the plan; another URDF is not."""
+    pytest.importorskip("pinocchio")
+    scenario = ROOT / "scenarios" / "spatial" / "arm3_reorient.toml"
+    plan = api.plan_run(load_scenario(scenario).with_changes({"planner.objective": "newton"}))
+    plan = plan.result
+    back = api.load_run(api.write_record(tmp_path / "a", plan, animation=False))
+    assert 'path = "arm3.urdf"' in back.scenario_text and back.scenario_text != plan.scenario_text
+    assert back == plan and hash(back) == hash(plan)
+    moved = tmp_path / "robot"
+    moved.mkdir()
+    urdf = (ROOT / "robots" / "arm3.urdf").read_text()
+    (moved / "arm3.urdf").write_text(urdf.replace("<robot", "<!-- edited -->\n<robot", 1))
+    other = plan.scenario_text.replace("../../robots/arm3.urdf", str(moved / "arm3.urdf"))
+    replanned = api.plan_run(load_scenario(other)).result
+    assert replanned.to_dict()["total_energy"] == plan.to_dict()["total_energy"]
+    assert replanned != plan  # (the same numbers, another URDF text)
 
 
 def test_comparisons_and_decompositions_are_equal_by_value_as_values_should_be():
@@ -74,7 +95,6 @@ def test_comparisons_and_decompositions_are_equal_by_value_as_values_should_be()
 def test_load_run_of_the_runs_folder_names_the_latest_record_in_it(tmp_path):
     """`load_run("runs")`, where `write_record("runs", plan)` wrote, said only "missing
     scenario.toml, result.json, manifest.json"."""
-    import pytest
 
     from stratcli.errors import InputError
 
