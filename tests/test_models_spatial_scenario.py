@@ -367,6 +367,11 @@ def test_a_urdf_plans_limits_say_which_are_the_tables_and_which_the_urdfs():
     assert limits_asked({"spec": {"self_collision": False}, "legs": legs}, urdf=True) == (
         "limits: joints within the URDF's limits"
     )
+    rates = {"spec": {"self_collision": False, "max_rate": [1, 1.5, 1]}, "legs": legs}
+    assert limits_asked(rates, urdf=True) == (  # ("rate within its per-joint limits": whose?)
+        "limits: joints within the URDF's limits; rate at most 1, 1.5, 1 rad/s, input by "
+        "input (the table's)"
+    )
     import tomllib
 
     raw = tomllib.loads((ROOT / "scenarios" / "spatial" / "arm3_reorient.toml").read_text())

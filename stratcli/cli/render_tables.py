@@ -373,8 +373,9 @@ def limits_asked(report: dict | None, urdf: bool = False) -> str:
         value = spec.get(key)
         if isinstance(value, int | float):
             parts.append(f"{what} at most {value:g} {unit}")
-        elif value:
-            parts.append(f"{what} within its per-joint limits")
+        elif value:  # ("within its per-joint limits" read as a URDF's velocity limits)
+            each = ", ".join(f"{v:g}" for v in value)
+            parts.append(f"{what} at most {each} {unit}, input by input (the table's)")
     return "limits: " + "; ".join(parts) if parts else ""
 
 
