@@ -153,6 +153,14 @@ def test_every_number_and_id_appears_whole_at_80_columns(monkeypatch, planned):
     assert "3.02346e+07" in text and "9.87654e-11" in text
 
 
+def test_a_small_energy_is_not_rounded_to_zero():
+    """A short Lie leg's 0.0021 read "0.00" in the leg table."""
+    assert render.fmt(0.00213) == "2.13e-03" and render.fmt(-0.001) == "-1.00e-03"
+    assert (
+        render.fmt(0.0) == "0.00" and render.fmt(0.005) == "0.01" and render.fmt(12.345) == "12.35"
+    )
+
+
 def _limited_ranking_doc() -> dict:
     """A comparison under a rate limit: the searched sequence slowed to 13 s, the other one
     bounded at the 2 s it was planned in before any slowing."""

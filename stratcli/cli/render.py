@@ -134,9 +134,12 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
 
 
 def fmt(x: float | None) -> str:
-    """An energy for a table: grouped digits, scientific when large, "–" when unknown."""
+    """An energy for a table: grouped digits, scientific when large or when two decimals
+    would read 0.00 (a short Lie leg's), "–" when unknown."""
     if x is None or x != x:
         return "–"
+    if 0 < abs(x) < 0.005:
+        return f"{x:.2e}"
     return f"{x:,.2f}" if abs(x) < 1e6 else f"{x:.3e}"
 
 
