@@ -27,8 +27,8 @@ def _path(loc: tuple) -> str:
             parts[-1] = f"{parts[-1]}[{item}]" if parts else f"[{item}]"
         elif i > 0 and loc[i - 1] == "model" and item in KINDS:
             continue  # pydantic's tag of the discriminated union, not a key of the file
-        else:
-            parts.append(str(item))
+        else:  # a sweep's key holds dots: quoted, as the other problems of its axis are
+            parts.append(f'"{item}"' if "." in str(item) else str(item))
     return ".".join(parts)
 
 

@@ -128,7 +128,7 @@ BAD = [
     ("[sweep.grid]\n\"goal.q9\" = [1, 2]\n", 'sweep.grid."goal.q9": unknown coordinate'),
     ("[sweep.grid]\n\"goal.q1\" = [1, \"abc\"]\n", 'sweep.grid."goal.q1"[1]:'),
     ("[sweep.grid]\n\"planner.continuity\" = [\"C7\"]\n", 'sweep.grid."planner.continuity"[0]'),
-    ("[sweep.grid]\n\"goal.q1\" = { linspace = [0, 1, 0] }\n", "linspace[2]: a count"),
+    ("[sweep.grid]\n\"goal.q1\" = { linspace = [0, 1, 0] }\n", "linspace[2]: must be a whole"),
     ("[sweep.grid]\n\"goal.q1\" = { linspace = [0, 1, 2] }\n[sweep.random]\ncount = 2\n"
      "ranges = { \"goal.q1\" = [0, 1] }\n", "sweep: give only one of"),
     ("[sweep.random]\ncount = 2\nranges = { \"goal.q1\" = [1, 0] }\n", "low must be below high"),
@@ -279,7 +279,7 @@ def test_problems_of_the_schema_and_of_the_values_are_reported_in_one_run(
 # A value the schema refuses is left out of the checks of the values: nothing it causes is
 # reported beside it (no missing table of tasks, base scenario or [[legs]] of legs mode)
 REFUSED = [
-    ('[sweep.grid]\n"goal.q1" = 5\n', "auto", "sweep.grid.goal.q1: "),
+    ('[sweep.grid]\n"goal.q1" = 5\n', "auto", 'sweep.grid."goal.q1": '),
     ('[sweep.random]\ncount = 2\nranges = { "goal.q1" = 3 }\n', "auto", "sweep.random.ranges"),
     ('[[sweep.task]]\n"goal.q1" = 1\n', "automatic", "sweep.mode: "),
     ('[sweep.grid]\n"goal.q1" = [0]\n', "auto", "sweep.scenario: must be a valid string"),

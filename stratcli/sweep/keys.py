@@ -62,7 +62,7 @@ def axis_values(key: str, axis: Any, field: str, problems: list[Problem]) -> tup
         lo = number(a, f"{field}.linspace[0]", problems)
         hi = number(b, f"{field}.linspace[1]", problems)
         if not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= MAX_TASKS:
-            count = f"a count from 1 to {MAX_TASKS} (got {n!r})"
+            count = f"must be a whole count of points from 1 to {MAX_TASKS} (got {n!r})"
             problems.append(Problem(f"{field}.linspace[2]", count))
             return ()
         if lo is None or hi is None:
