@@ -136,6 +136,33 @@ def test_custom_expressions(tmp_path):
         _load(_write(tmp_path, k, head + sep + rest), f"{name} #{k}: {bad[:40]}")
 
 
+def test_a_field_infinite_or_complex_with_its_parameters_is_bad_input(tmp_path):
+    """`tan(theta)/L` with L = 0 (sympy's ComplexInfinity) and `sqrt(-1)*x` loaded, then
+    `check`, `models` and `plan` ended on a traceback and exit 1 (a leg that did not
+    converge); a stratum's own parameters are said where they are the cause."""
+    unicycle = SCENARIOS["unicycle.toml"]
+    zero = unicycle.replace('inputs = ["v", "w"]', 'inputs = ["v", "w"]\nparameters = { L = 0 }')
+    zero = zero.replace('"cos(theta)", "sin(theta)", 0]', '"cos(theta)", "sin(theta)", "1/L"]')
+    cases = {
+        zero: "model.fields.v[2]: in '1/L': infinite or undefined with L = 0",
+        unicycle.replace('"sin(theta)"', '"sqrt(-1)*x"'): (
+            "model.fields.v[1]: in 'sqrt(-1)*x': complex-valued (a field is real)"
+        ),
+        zero.replace("parameters = { L = 0 }", "parameters = { L = 1 }").replace(
+            'active = ["v", "w"]', 'active = ["v", "w"]\nparameters = { L = 0 }'
+        ): "in '1/L': infinite or undefined with L = 0 (stratum 'drive''s parameters)",
+    }
+    for k, (text, expected) in enumerate(cases.items()):
+        with pytest.raises(InputError) as caught:
+            parse_scenario(text)
+        assert expected in str(caught.value)
+        path = _write(tmp_path, k, text.encode())
+        for command in (["check", str(path)], ["plan", str(path), "--out", str(tmp_path)]):
+            result = CliRunner().invoke(app, command)
+            assert result.exit_code == 2 and expected in result.output, result.output
+    assert parse_scenario(zero.replace("L = 0", "L = 2")).system.n == 3
+
+
 def test_bytes_size_and_nesting(tmp_path):
     rng = random.Random(SEED + 2)
     cases: list[tuple[str, bytes]] = []

@@ -300,11 +300,43 @@ def _custom_system(spec: CustomModel) -> System:
     if problems:
         raise InputError(problems)
     system = System("custom", states, inputs, G, strata, dict(spec.parameters))
+    if undefined := _undefined_fields(system, spec):
+        raise InputError(undefined)
     try:
         system.check()
     except InputError as exc:
         raise exc.prefixed("model") from None
     return system
+
+
+def _undefined_fields(system: System, spec: CustomModel) -> list[Problem]:
+    """Field entries infinite, undefined or complex once a stratum's parameters are in
+    ("tan(phi)/L" with L = 0 is sympy's ComplexInfinity, which no compiled function
+    evaluates: every command ended on a traceback)."""
+    import sympy as sp
+
+    found: dict[tuple[int, int], Problem] = {}
+    for stratum in system.strata.values():
+        fields = system.fields_on(stratum)
+        values = {**spec.parameters, **dict(stratum.parameters)}
+        for c, j in enumerate(stratum.active):
+            for i in range(system.n):
+                entry = fields[i, c]
+                bad = entry.has(sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I)
+                if not bad or (i, j) in found:
+                    continue
+                given = system.fields[i, j]
+                names = sorted(str(x) for x in given.free_symbols if str(x) in values)
+                with_ = ", ".join(f"{x} = {values[x]:g}" for x in names)
+                complex_ = entry.has(sp.I)
+                what = "complex-valued (a field is real)" if complex_ else "infinite or undefined"
+                text = spec.fields[system.inputs[j]][i]
+                on = f" (stratum {stratum.name!r}'s parameters)" if stratum.parameters else ""
+                found[(i, j)] = Problem(
+                    f"model.fields.{system.inputs[j]}[{i}]",
+                    f"in {str(text)!r}: {what}" + (f" with {with_}{on}" if with_ else ""),
+                )
+    return [found[k] for k in sorted(found, key=lambda ij: (ij[1], ij[0]))]
 
 
 @lru_cache(maxsize=16)
