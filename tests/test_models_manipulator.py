@@ -39,9 +39,9 @@ def test_default_strata_are_single_locks_and_pairs_from_four_joints():
     assert list(three.strata) == ["S1", "S2", "S3"]
     arm = Arm((0.5, 0), 0, 1, (rod,) * 11)
     eleven = ManipulatorSystem(PlanarManipulator(Base(5, 1), (arm,)))
-    assert "S1_11" in eleven.strata and "S12" in eleven.strata
-    assert len(eleven.strata) == 11 + 55
-    assert eleven.strata["S1_11"].locked == (0, 10)
+    assert "S1_11" in eleven.strata and "S1_2" in eleven.strata  # (10 joints on: separated)
+    assert len(eleven.strata) == 11 + 55 and "S12" not in eleven.strata  # (no joint 12)
+    assert eleven.strata["S1_11"].locked == (0, 10) and eleven.strata["S11"].locked == (10,)
 
 
 def test_rod_links_change_the_model():

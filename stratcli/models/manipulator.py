@@ -29,10 +29,12 @@ if TYPE_CHECKING:
     import sympy as sp
 
 
-def stratum_name(locked: tuple[int, ...]) -> str:
-    """`S1`, `S13`; with joint numbers ≥ 10 the indices are separated: `S1_12`."""
+def stratum_name(locked: tuple[int, ...], joints: int = 0) -> str:
+    """`S1`, `S13`; on a robot of 10 or more `joints` the numbers of a stratum that locks
+    several are separated, `S1_2`, `S1_12`, so that `S12` is joint 12 alone (locking joint
+    12, and joints 1 and 2, were both `S12`: one of them was lost)."""
     numbers = [str(j + 1) for j in locked]
-    sep = "_" if any(len(x) > 1 for x in numbers) else ""
+    sep = "_" if joints >= 10 or any(len(x) > 1 for x in numbers) else ""
     return "S" + sep.join(numbers)
 
 
@@ -134,7 +136,8 @@ class ManipulatorSystem(System):
         for locked in lock_sets if lock_sets is not None else default_lock_sets(k):
             locked = tuple(sorted(locked))
             active = tuple(j for j in range(k) if j not in locked)
-            strata[stratum_name(locked)] = Stratum(stratum_name(locked), locked, active)
+            named = stratum_name(locked, k)  # (`name` is the model's)
+            strata[named] = Stratum(named, locked, active)
         super().__init__(name, states, inputs, None, strata, description=description, robot=robot)
 
     @property

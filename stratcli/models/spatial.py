@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import so3
 from ..errors import InputError, ModelError, Problem
+from .manipulator import stratum_name
 from .system import Stratum, System
 from .urdf import UrdfSummary, lock_indices, native_stderr, read_urdf, urdfdom_errors
 
@@ -266,12 +267,6 @@ def _inverse3(A: np.ndarray) -> np.ndarray:
     return rows / det[:, None, None]
 
 
-def stratum_name(locked: tuple[int, ...]) -> str:
-    """As for planar robots: `S1`, `S13` by joint number (1-based, URDF order)."""
-    numbers = [str(j + 1) for j in locked]
-    return "S" + ("_" if any(len(x) > 1 for x in numbers) else "").join(numbers)
-
-
 def default_lock_sets(k: int) -> list[tuple[int, ...]]:
     """Every single lock and, from four joints on, every pair."""
     return [(j,) for j in range(k)] + (list(combinations(range(k), 2)) if k >= 4 else [])
@@ -345,7 +340,8 @@ class SpatialSystem(System):
         for locked in lock_sets if lock_sets is not None else default_lock_sets(k):
             locked = tuple(sorted(locked))
             active = tuple(j for j in range(k) if j not in locked)
-            strata[stratum_name(locked)] = Stratum(stratum_name(locked), locked, active)
+            named = stratum_name(locked, k)  # (`name` is the model's)
+            strata[named] = Stratum(named, locked, active)
         limits = ", ".join(
             f"{name} [{lo:.3g}, {hi:.3g}]"
             for name, lo, hi in zip(robot.joint_names, robot.lower, robot.upper, strict=True)

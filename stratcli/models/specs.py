@@ -214,15 +214,20 @@ def _planar_system(spec: PlanarModel) -> System:
     if spec.strata is not None:
         lock_sets = []
         for i, locks in enumerate(spec.strata):
-            bad = [j for j in locks if not 1 <= j <= k]
-            if bad or not locks or len(set(locks)) == k:
+            bad = [j for j in locks if not 1 <= j <= k]  # [2, 2] was S2, without a word
+            if bad or not locks or len(set(locks)) >= k or len(set(locks)) < len(locks):
                 problems.append(
                     Problem(
                         f"model.strata[{i}]",
                         f"lock set {locks} must name 1..{k - 1} distinct joints out of 1..{k}",
                     )
                 )
-            lock_sets.append(tuple(sorted({j - 1 for j in locks})))
+                continue
+            locked = tuple(sorted({j - 1 for j in locks}))
+            if locked in lock_sets:  # else one stratum fewer than given (as URDF robots')
+                why = f"lock set {locks} repeats model.strata[{lock_sets.index(locked)}]"
+                problems.append(Problem(f"model.strata[{i}]", why))
+            lock_sets.append(locked)
     if problems:
         raise InputError(problems)
     try:
