@@ -163,6 +163,24 @@ def test_a_field_infinite_or_complex_with_its_parameters_is_bad_input(tmp_path):
     assert parse_scenario(zero.replace("L = 0", "L = 2")).system.n == 3
 
 
+def test_custom_names_reserved_in_expressions_and_names_given_twice_are_refused():
+    """A state named `lambda` failed every expression as "invalid syntax", one named `pi`
+    hid the constant, and `active = ["v", "w", "w"]` was taken."""
+    unicycle = SCENARIOS["unicycle.toml"]
+    cases = {
+        unicycle.replace('"x", "y", "theta"]', '"x", "pi", "theta"]'): (
+            "model.states: pi: reserved in expressions (Python words, pi, E and the functions)"
+        ),
+        unicycle.replace('"x", "y", "theta"]', '"x", "lambda", "theta"]'): "model.states: lambda",
+        unicycle.replace('active = ["v", "w"]', 'active = ["v", "w", "w"]'): (
+            "model.strata[0].active: names twice: w"
+        ),
+    }
+    for text, expected in cases.items():
+        with pytest.raises(InputError, match=re.escape(expected)):
+            parse_scenario(text)
+
+
 def test_bytes_size_and_nesting(tmp_path):
     rng = random.Random(SEED + 2)
     cases: list[tuple[str, bytes]] = []

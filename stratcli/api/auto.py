@@ -10,6 +10,7 @@ from ..decomposition import STRATEGIES, Decomposition, decompose
 from ..errors import InputError, Problem
 from ..scenario import Task
 from ..settings import DecomposeSettings
+from ..wording import counted
 
 UNUSED_LEGS = (
     "the scenario's [[legs]] are not used here: its task.start -> task.goal is decomposed "
@@ -143,7 +144,7 @@ def auto_choice(outcome) -> str:
     bounded = any(o.status == "bounded" for o in outcomes)
     scale = outcome.best.result.time_scale  # the chosen plan was then run this much faster
     return (
-        f"auto mode: {len(outcomes)} candidate sequences (max length {auto.max_length}, "
+        f"auto mode: {counted(len(outcomes), 'candidate sequence')} (max length {auto.max_length}, "
         f"{' + '.join(auto.strategies)}) {'compared' if bounded else 'planned'}; "
         + ("chose " if outcome.ok else "")
         + outcome.comparison.choice()

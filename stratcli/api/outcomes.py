@@ -12,6 +12,7 @@ from ..decomposition import Decomposition
 from ..records.manifest import Phases
 from ..scenario import Task
 from ..sequence import SequencePlan
+from ..wording import counted
 from .auto import AutoSettings
 
 __all__ = ["ComparisonOutcome", "DecompositionOutcome", "PlanOutcome"]
@@ -65,7 +66,8 @@ class ComparisonOutcome:
     def __repr__(self) -> str:
         candidates = len(self.decomposition.candidates)
         return (
-            f"ComparisonOutcome({self.task.scenario.name!r}: {candidates} candidate sequences, "
+            f"ComparisonOutcome({self.task.scenario.name!r}: "
+            f"{counted(candidates, 'candidate sequence')}, "
             f"best {self.best.result!r})"
         )
 

@@ -9,6 +9,7 @@ plan loaded from a record or unpickled in another process.
 
 from __future__ import annotations
 
+import keyword
 from functools import lru_cache
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -249,7 +250,7 @@ def _planar_system(spec: PlanarModel) -> System:
 def _custom_system(spec: CustomModel) -> System:
     import sympy as sp  # only for models written as expressions (presets need none)
 
-    from .expressions import parse_expression
+    from .expressions import CONSTANTS, FUNCTIONS, parse_expression
 
     problems: list[Problem] = []
     states, inputs = tuple(spec.states), tuple(spec.inputs)
@@ -260,6 +261,17 @@ def _custom_system(spec: CustomModel) -> System:
     clash = set(states) & (set(inputs) | set(spec.parameters))
     if clash:
         problems.append(Problem("model", f"names used twice: {', '.join(sorted(clash))}"))
+    for what, names in (("states", states), ("parameters", tuple(spec.parameters))):
+        # "lambda" failed every expression as "invalid syntax"; "pi" hid the constant
+        taken = [x for x in names if keyword.iskeyword(x) or x in CONSTANTS or x in FUNCTIONS]
+        if taken:
+            problems.append(
+                Problem(
+                    f"model.{what}",
+                    f"{', '.join(taken)}: reserved in expressions (Python words, pi, E and the "
+                    "functions): choose other names",
+                )
+            )
     symbols = {s: sp.Symbol(s, real=True) for s in (*states, *spec.parameters)}
     G = sp.zeros(len(states), len(inputs))
     for name in spec.fields:
@@ -294,6 +306,9 @@ def _custom_system(spec: CustomModel) -> System:
         if bad:
             problems.append(Problem(where, f"unknown names: {', '.join(bad)}"))
             continue
+        for what, names in (("active", s.active), ("locked", s.locked)):
+            if twice := sorted({x for x in names if names.count(x) > 1}):
+                problems.append(Problem(f"{where}.{what}", f"names twice: {', '.join(twice)}"))
         if s.name in strata:
             problems.append(Problem(f"{where}.name", f"duplicate stratum {s.name!r}"))
         strata[s.name] = Stratum(
