@@ -67,6 +67,10 @@ class Piece:
     def __post_init__(self) -> None:
         object.__setattr__(self, "coefficients", frozen_array(self.coefficients))
 
+    def __repr__(self) -> str:  # the dataclass's printed every coefficient
+        rows, cols = np.shape(self.coefficients)
+        return f"Piece(t0 {self.t0:g} s, {self.duration:g} s, coefficients {rows} inputs x {cols})"
+
 
 @dataclass(frozen=True, eq=False)
 class LegPlan:
@@ -234,6 +238,14 @@ class Optimisation:
     method: str = EXACT_HESSIAN  # or SR1_UPDATES (legs without second derivatives)
     search: str = ""  # as run: "starts", "loops" or "legwise" ("": a record made before it)
     no_loop_start: str = ""  # why the loop search made no loop start ("" where it made some)
+
+    def __repr__(self) -> str:  # the dataclass's ran to 700 characters for two starts
+        ends = ", ".join(
+            f"{s.kind} {s.energy:.6g}" + ("" if s.converged else f" ({s.stopped or 'stopped'})")
+            for s in self.starts
+        )
+        best = "none" if self.best is None else f"start {self.best + 1}"
+        return f"Optimisation({len(self.starts)} starts: {ends}; best {best})"
 
 
 @dataclass(frozen=True)

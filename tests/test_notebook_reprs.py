@@ -138,3 +138,17 @@ def test_a_comparisons_parts_are_one_line_each(task):
         "Decomposition(6 candidates of up to 2 strata from S1, S2, S3; conservative)"
     )
     assert all(len(repr(o)) < SHORT for o in comparison.outcomes)
+
+
+def test_a_piece_and_an_optimisation_say_what_they_hold_in_one_line():
+    """`plan.legs[0].pieces[0]` printed every coefficient and `plan.optimisation` ran to
+    700 characters for two starts (the dataclasses' reprs)."""
+    planned = stratcli.plan(TASK_D)
+    piece = planned.legs[0].pieces[0]
+    rows, cols = piece.coefficients.shape
+    assert repr(piece) == f"Piece(t0 0 s, 1 s, coefficients {rows} inputs x {cols})"
+    text = repr(planned.optimisation)
+    assert len(text) < SHORT, text
+    kinds = [s.kind for s in planned.optimisation.starts]
+    assert text.startswith(f"Optimisation({len(kinds)} starts: {kinds[0]} ")
+    assert text.endswith(f"; best start {planned.optimisation.best + 1})")
