@@ -287,6 +287,23 @@ def test_models_describes_a_scenario_model():
     assert "S12" in result.output and "asks for the ode evaluator" in result.output
 
 
+def test_models_json_lists_presets_and_describes_a_model_as_the_table_does():
+    """`models` was the one command without --json."""
+    presets = json.loads(runner.invoke(app, ["models", "--json"]).stdout)
+    assert [p["model"] for p in presets] == ["one-arm", "two-arm"]
+    assert (
+        presets[0]["coordinates"] == ["q1", "q2", "q3", "theta"] and "S24" in presets[1]["strata"]
+    )
+    biped = json.loads(
+        runner.invoke(app, ["models", str(ROOT / "scenarios" / "biped.toml"), "--json"]).stdout
+    )
+    assert biped["coordinates"] == ["x", "y", "theta", "phi1", "phi2"]
+    assert [s["stratum"] for s in biped["strata"]] == ["S1", "S2", "S12"]
+    assert all({"locked", "active", "dimension", "evaluator"} <= set(s) for s in biped["strata"])
+    missing = runner.invoke(app, ["models", "nosuch", "--json"])
+    assert missing.exit_code == 2 and "not a preset" in missing.output
+
+
 def test_models_describes_a_scenarios_model_though_its_legs_are_wrong(tmp_path):
     """The strata's names are what legs must use: `models` refused to show them while a leg
     named one the model has not. The model is described, then the problems (exit 2)."""

@@ -10,7 +10,7 @@ import typer
 from typer.core import TyperCommand, TyperGroup
 
 from .. import __version__
-from . import commands, records
+from . import commands, models, records
 from . import sweep as sweep_command
 from .usage import one_line
 
@@ -96,7 +96,7 @@ def _main(
 app.command(cls=_Command)(commands.plan)
 app.command(cls=_Command)(records.show)
 app.command(cls=_Command)(records.runs)
-app.command(cls=_Command)(commands.models)
+app.command(cls=_Command)(models.models)
 app.command(cls=_Command)(commands.regress)
 app.command("decompose", cls=_Command)(commands.decompose)
 app.command("compare-sequences", cls=_Command)(commands.compare_sequences)

@@ -345,59 +345,6 @@ def _warning(message: str) -> None:
     render.error("warning", message)
 
 
-def models(
-    target: Annotated[
-        str | None,
-        typer.Argument(
-            metavar="NAME|FILE",
-            help="A preset model's name, a scenario file or a URDF file: describe it.",
-        ),
-    ] = None,
-) -> None:
-    """List the preset models, or describe one: a preset by NAME, or a scenario FILE's model.
-
-    Described: coordinates, inputs and every stratum with its locked coordinates, active
-    inputs, dimension and the end-point evaluator `auto` will use on it. A URDF file is
-    described as `[model] kind = "urdf"` would read it (joints, limits, default strata).
-    Exits 0, or 2 when the argument is neither a preset nor a scenario or URDF file.
-    """
-    if target is None:  # the static table: listing presets builds no sympy model
-        from ..models.presets import PRESET_TABLE  # start-up speed
-
-        render_tables.presets_table(PRESET_TABLE)
-        return
-    from .. import api  # start-up speed
-    from ..api.inspection import preset_or_scenario, scenario_model
-    from ..errors import InputError
-    from ..task import model_name
-
-    try:
-        found = preset_or_scenario(target)
-    except InputError as exc:  # the model itself may be fine: described, then the problems
-        model_ok = not any(p.path == "model" or p.path.startswith("model.") for p in exc.problems)
-        system = scenario_model(target) if model_ok and Path(target).is_file() else None
-        if system is not None:
-            name = model_name(system.spec)
-            render_tables.model(name, system, api.strata_table(system), of=Path(target).name)
-        with render.reported():
-            raise
-    with render.reported():
-        if isinstance(found, str):
-            from ..models.presets import preset  # start-up speed
-
-            system = preset(found)
-            render_tables.model(found, system, api.strata_table(system))
-            return
-        if not hasattr(found, "scenario"):  # a URDF file's model (a System)
-            render_tables.model("urdf", found, api.strata_table(found), of=Path(target).name)
-            return
-        render_tables.model(
-            found.model_name, found.system, api.strata_table(found.system), of=found.scenario.name
-        )
-    if found.settings.evaluator != "auto":
-        render.say(f"this scenario asks for the {found.settings.evaluator} evaluator")
-
-
 def regress(
     directory: Annotated[Path, typer.Argument(help="Directory of scenario files.")] = Path(
         "scenarios"
