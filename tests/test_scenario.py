@@ -181,6 +181,23 @@ def test_custom_names_reserved_in_expressions_and_names_given_twice_are_refused(
             parse_scenario(text)
 
 
+def test_a_field_entry_or_a_lock_set_of_another_type_is_refused_not_read_as_a_number():
+    """`true` in a field was read as 1.0 and `strata = [["1"]]` as joint 1 (the README:
+    types are strict); a list in a field was refused twice (`.str: ...`, `.float: ...`)."""
+    unicycle = SCENARIOS["unicycle.toml"]
+    for entry, shown in (("true", "true"), ("[1]", "[1]")):
+        with pytest.raises(InputError) as caught:
+            parse_scenario(unicycle.replace("w = [0, 0, 1]", f"w = [0, 0, {entry}]"))
+        assert [f"{p.path}: {p.message}" for p in caught.value.problems] == [
+            f"model.fields.w[2]: must be an expression (a string) or a number (got {shown})"
+        ]
+    rods = SCENARIOS["rods_three_link.toml"]
+    quoted = rods.replace('kind = "planar-manipulator"', 'kind = "planar-manipulator"\nstrata '
+                          '= [["1"], [2]]')  # fmt: skip
+    with pytest.raises(InputError, match=r"model\.strata\[0\]\[0\]: must be a valid integer"):
+        parse_scenario(quoted)
+
+
 def test_bytes_size_and_nesting(tmp_path):
     rng = random.Random(SEED + 2)
     cases: list[tuple[str, bytes]] = []

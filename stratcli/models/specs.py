@@ -19,6 +19,7 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    Strict,
     TypeAdapter,
     ValidationError,
     model_validator,
@@ -46,6 +47,19 @@ __all__ = [
 ]
 
 Number = Annotated[float, BeforeValidator(parse_number)]  # also "pi/3", "60deg"
+StrictWhole = Annotated[int, Strict()]
+
+
+def _field_entry(value: Any) -> Any:
+    """An expression or a number, in one message where it is neither: `true` was read as
+    1.0, and a list was refused twice ("model.fields.w[2].str: ...", then ".float: ...")."""
+    if isinstance(value, bool) or not isinstance(value, str | int | float):
+        shown = str(value).lower() if isinstance(value, bool) else repr(value)
+        raise ValueError(f"must be an expression (a string) or a number (got {shown})")
+    return value
+
+
+FieldEntry = Annotated[str | float, BeforeValidator(_field_entry)]
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
 
 
@@ -77,7 +91,7 @@ class CustomModel(_Strict):
     states: list[Name] = Field(min_length=1)
     inputs: list[Name] = Field(min_length=1)
     parameters: dict[Name, Number] = {}
-    fields: dict[str, list[str | float]]
+    fields: dict[str, list[FieldEntry]]
     strata: list[CustomStratum] = Field(min_length=1)
 
 
@@ -131,7 +145,7 @@ class PlanarModel(_Strict):
     kind: Literal["planar-manipulator"]
     base: BaseSpec
     arms: list[ArmSpec] = Field(min_length=1, max_length=MAX_ARMS)
-    strata: list[list[int]] | None = Field(
+    strata: list[list[StrictWhole]] | None = Field(  # (["1"] was read as joint 1)
         None,
         max_length=1000,
         description="lock sets as joint numbers; default all single locks (+ pairs)",
