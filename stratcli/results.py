@@ -265,6 +265,10 @@ class ModelRef:
     name: str
     spec: Any = None
 
+    def __repr__(self) -> str:  # the dataclass's printed the whole [model] table
+        path = getattr(self.spec, "path", None)
+        return f"ModelRef({self.name!r}" + (f", {path!r})" if path else ")")
+
 
 def make_leg(**values: Any) -> LegPlan:
     """A `LegPlan` whose energy is computed from its pieces when not given."""

@@ -96,6 +96,10 @@ class LegSpec:
             (self.stratum, self.method, self.duration, (np.nan_to_num(goal) + 0.0).tobytes())
         )
 
+    def __repr__(self) -> str:  # as a Task's: 4 digits, "*" where any value will do
+        goal = ", ".join("*" if v != v else f"{v:.4g}" for v in np.asarray(self.goal, float))
+        return f"LegSpec({self.stratum} to [{goal}], {self.method}, {self.duration:g} s)"
+
 
 @dataclass(frozen=True, eq=False)
 class LegStart:

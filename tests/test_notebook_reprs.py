@@ -152,3 +152,11 @@ def test_a_piece_and_an_optimisation_say_what_they_hold_in_one_line():
     kinds = [s.kind for s in planned.optimisation.starts]
     assert text.startswith(f"Optimisation({len(kinds)} starts: {kinds[0]} ")
     assert text.endswith(f"; best start {planned.optimisation.best + 1})")
+
+
+def test_a_leg_spec_and_a_model_ref_say_what_they_are_in_one_line(task):
+    """A LegSpec printed its goal's array, a ModelRef the whole [model] table."""
+    assert repr(task.legs[0]) == "LegSpec(S3 to [-1.047, 1.047, 0, -0.2618], newton, 1 s)"
+    free = task.with_changes({"legs[0].goal.theta": "*"}).legs[0]
+    assert repr(free) == "LegSpec(S3 to [-1.047, 1.047, 0, *], newton, 1 s)"
+    assert repr(stratcli.plan(task).model) == "ModelRef('one-arm')"
