@@ -21,7 +21,8 @@ class Status(enum.Enum):
     SUCCESS = "reached its goal"
     NOT_CONVERGED = (
         "did not reach its goal; try more harmonics (planner.basis.harmonics), a longer leg, "
-        "or a via configuration closer to the start"
+        "a via configuration closer to the start, or other strata (stratplan "
+        "compare-sequences, or auto mode: a [decompose] table instead of [[legs]])"
     )
     LIE_NOT_CONVERGED = (
         "did not reach its goal; try a smaller lie.gamma, "

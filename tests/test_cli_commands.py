@@ -264,6 +264,10 @@ def test_failed_leg_exits_1_and_still_writes_a_failed_record(tmp_path):
     assert "allow more planner.max_iterations (now 1, default 100)" in result.output
     assert "planner.restarts (now 0, default 11)" in result.output
     assert "in 1 attempt " in result.output
+    # other strata too (a new user's leg failed at 7.5e5 where auto mode found 68.13)
+    assert "or other strata (stratplan compare-sequences, or auto mode" in " ".join(
+        result.output.split()
+    )
     # the leg that was not planned is listed, and one leg's energy is not set beside the
     # paper's total
     assert "not planned" in result.output and "leg 1 of 2 only" in result.output
