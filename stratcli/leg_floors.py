@@ -44,6 +44,21 @@ PERIOD_STRIDE = 257  # ... checked at every 257th grid point (16 spread over the
 SAFETY = 1.0 - 1e-6  # a floor is lowered by this factor (rounding)
 
 
+def floors_known(system, stratum: str) -> bool:
+    """Whether legs on `stratum` can have a floor: a quadrature model's only (a URDF
+    robot's have none: `leg_floor` is 0 for every leg)."""
+    return _quadrature(system, stratum) is not None
+
+
+def _quadrature(system, stratum: str):
+    """The stratum's compiled functions where they have quadrature terms, else None."""
+    try:
+        cs = system.compiled(stratum)
+    except Exception:  # not a quadrature model (URDF): no floor
+        return None
+    return cs if getattr(cs, "quadrature_terms", None) is not None else None
+
+
 def leg_floor(
     system, stratum: str, start, goal, duration: float, peaks=None, slack: float = 0.0
 ) -> float:
@@ -54,12 +69,8 @@ def leg_floor(
     stratum and the joints it does not drive. `slack`: how far from `goal` a plan may end
     (the planner's tolerance: the norm of the joints' error, and the base's), so that the
     floor holds for such a plan too."""
-    try:
-        cs = system.compiled(stratum)
-    except Exception:  # not a quadrature model (URDF): no floor
-        return 0.0
-    terms = getattr(cs, "quadrature_terms", None)
-    if terms is None or not duration > 0:
+    cs = _quadrature(system, stratum)
+    if cs is None or not duration > 0:
         return 0.0
     start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
     if not np.isfinite(start).all():

@@ -77,7 +77,7 @@ import numpy as np
 
 from .interrupts import checkpoint
 from .leg_bounds import leg_items, plan_alone
-from .leg_floors import leg_floor
+from .leg_floors import floors_known, leg_floor
 from .trie import STATE, plan_whole, run_units, stop_workers, submit, worker_init
 
 __all__ = ["Screen", "legs_shared", "screen_candidates"]
@@ -207,20 +207,9 @@ def legs_shared(system, candidates, valid, start) -> bool:
 
 
 def _floorless(system, candidates, valid) -> bool:
-    """Whether no leg of the candidates can have a floor (`leg_floors`: a quadrature model's
-    strata only; a URDF robot's have none)."""
+    """Whether no leg of the candidates can have a floor (`leg_floors.floors_known`)."""
     strata = {leg.stratum for k in valid for leg in candidates[k].legs}
-    return not any(
-        getattr(_compiled(system, stratum), "quadrature_terms", None) is not None
-        for stratum in strata
-    )
-
-
-def _compiled(system, stratum: str):
-    try:
-        return system.compiled(stratum)
-    except Exception:  # (as `leg_floor`: not a quadrature model)
-        return None
+    return not any(floors_known(system, stratum) for stratum in strata)
 
 
 def screen_candidates(system, settings, start, candidates, valid, jobs, advance, top, reference):
