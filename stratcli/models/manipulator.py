@@ -38,6 +38,17 @@ def stratum_name(locked: tuple[int, ...], joints: int = 0) -> str:
     return "S" + sep.join(numbers)
 
 
+def locked_strata(k: int, lock_sets=None) -> dict[str, Stratum]:
+    """The strata of a robot of `k` joints (planar or URDF), one per lock set (joint indices;
+    default `default_lock_sets`), named by `stratum_name`, the other joints driven."""
+    strata = {}
+    for locked in lock_sets if lock_sets is not None else default_lock_sets(k):
+        locked = tuple(sorted(locked))
+        name = stratum_name(locked, k)
+        strata[name] = Stratum(name, locked, tuple(j for j in range(k) if j not in locked))
+    return strata
+
+
 def default_lock_sets(k: int) -> list[tuple[int, ...]]:
     """Every single lock and, for four or more joints, every pair (issue: physical models)."""
     sets = [(j,) for j in range(k)]
@@ -132,12 +143,7 @@ class ManipulatorSystem(System):
         k = robot.n_joints
         states = (*(f"q{j}" for j in range(1, k + 1)), "theta")
         inputs = tuple(f"u{j}" for j in range(1, k + 1))
-        strata = {}
-        for locked in lock_sets if lock_sets is not None else default_lock_sets(k):
-            locked = tuple(sorted(locked))
-            active = tuple(j for j in range(k) if j not in locked)
-            named = stratum_name(locked, k)  # (`name` is the model's)
-            strata[named] = Stratum(named, locked, active)
+        strata = locked_strata(k, lock_sets)
         super().__init__(name, states, inputs, None, strata, description=description, robot=robot)
 
     @property

@@ -20,14 +20,13 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 from functools import cached_property
-from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
 from .. import so3
 from ..errors import InputError, ModelError, Problem
-from .manipulator import stratum_name
+from .manipulator import locked_strata
 from .system import Stratum, System
 from .urdf import UrdfSummary, lock_indices, native_stderr, read_urdf, urdfdom_errors
 
@@ -267,11 +266,6 @@ def _inverse3(A: np.ndarray) -> np.ndarray:
     return rows / det[:, None, None]
 
 
-def default_lock_sets(k: int) -> list[tuple[int, ...]]:
-    """Every single lock and, from four joints on, every pair."""
-    return [(j,) for j in range(k)] + (list(combinations(range(k), 2)) if k >= 4 else [])
-
-
 @dataclass
 class SpatialStratum:
     """The interface of `CompiledStratum` for a spatial stratum; its end-point map is
@@ -336,12 +330,7 @@ class SpatialSystem(System):
             )
         states = (*robot.joint_names, *ATTITUDE)
         inputs = tuple(f"u_{j}" for j in robot.joint_names)
-        strata = {}
-        for locked in lock_sets if lock_sets is not None else default_lock_sets(k):
-            locked = tuple(sorted(locked))
-            active = tuple(j for j in range(k) if j not in locked)
-            named = stratum_name(locked, k)  # (`name` is the model's)
-            strata[named] = Stratum(named, locked, active)
+        strata = locked_strata(k, lock_sets)
         limits = ", ".join(
             f"{name} [{lo:.3g}, {hi:.3g}]"
             for name, lo, hi in zip(robot.joint_names, robot.lower, robot.upper, strict=True)
