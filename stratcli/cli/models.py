@@ -61,20 +61,22 @@ def models(
         with render.reported():
             raise
     with render.reported():
-        if isinstance(found, str):
-            from ..models.presets import preset  # start-up speed
-
-            system = preset(found)
-            render_tables.model(found, system, api.strata_table(system))
-            return
-        if not hasattr(found, "scenario"):  # a URDF file's model (a System)
-            render_tables.model("urdf", found, api.strata_table(found), of=Path(target).name)
-            return
-        render_tables.model(
-            found.model_name, found.system, api.strata_table(found.system), of=found.scenario.name
-        )
-    if found.settings.evaluator != "auto":
+        name, system, of = _described(found, target)
+        render_tables.model(name, system, api.strata_table(system), of=of)
+    if hasattr(found, "settings") and found.settings.evaluator != "auto":
         render.say(f"this scenario asks for the {found.settings.evaluator} evaluator")
+
+
+def _described(found, target: str) -> tuple:
+    """(name, model, what it is of: None for a preset) of what `preset_or_scenario` found:
+    a preset's name, a URDF file's model (a System) or a scenario's task."""
+    if isinstance(found, str):
+        from ..models.presets import preset  # start-up speed
+
+        return found, preset(found), None
+    if not hasattr(found, "scenario"):  # a URDF file's model
+        return "urdf", found, Path(target).name
+    return found.model_name, found.system, found.scenario.name
 
 
 def _model_json(target: str) -> None:
@@ -84,15 +86,7 @@ def _model_json(target: str) -> None:
     from ..api.inspection import preset_or_scenario
 
     with render.reported():
-        found = preset_or_scenario(target)
-        if isinstance(found, str):
-            from ..models.presets import preset  # start-up speed
-
-            name, system = found, preset(found)
-        elif not hasattr(found, "scenario"):  # a URDF file's model (a System)
-            name, system = "urdf", found
-        else:
-            name, system = found.model_name, found.system
+        name, system, _ = _described(preset_or_scenario(target), target)
         render.print_json(
             {
                 "model": name,
