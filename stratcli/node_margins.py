@@ -223,6 +223,7 @@ class NodeMargins:
         values, grads, labels, times = [], [], [], []
         label = not self.labels
         configurations, slopes = [], []
+        shifts = self.problem.start_shifts(z, jacobian) if self.need_theta else None
         for index, leg in enumerate(self.legs):
             kept = jacobian and leg.dqz is not None  # dq/dz constant: only the joints move
             q, dq = leg.configurations(lam[leg.rows], jacobian and not kept)
@@ -231,6 +232,14 @@ class NodeMargins:
                 dqz = leg.dqz if kept else dq @ null[leg.rows]
                 if not leg.theta:
                     leg.dqz = dqz
+            shift = shifts[index] if leg.theta else None
+            if shift is not None:  # θ from where the leg before ends (`StackedProblem`)
+                coordinates, offset, slope = shift
+                q = q.copy()
+                q[:, coordinates] += offset
+                if jacobian:
+                    dqz = dqz.copy()
+                    dqz[:, coordinates] += slope
             configurations.append((q, dqz))
             for i in self.limited:
                 if i not in leg.moving:

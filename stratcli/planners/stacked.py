@@ -12,6 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from .. import so3
 from ..continuity import eliminate, sequence_constraints
 from ..endpoint import make_endpoint
 from ..models.system import System
@@ -19,6 +20,7 @@ from .base import goal_residual
 
 __all__ = ["StackedProblem", "null_space"]
 
+ROTATION = "rotation"  # a leg chained to the one before by its attitude (`_chained`)
 ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
 
 
@@ -78,6 +80,8 @@ class StackedProblem:
             for leg, s in zip(legs, starts, strict=True)
         ]
         self.goals = [np.asarray(leg.goal)[t] for leg, t in zip(legs, targets, strict=True)]
+        self.chained = _chained(self.endpoints, targets)
+        self._ends: list = []  # of the last evaluation (`_residuals`)
         self.n_residuals = sum(t.size for t in targets)
         # Work in coordinates where the energy is |z|² (up to λp): whiten the energy's
         # Hessian. The Fourier basis is far from orthogonal on a leg shorter than its period
@@ -133,22 +137,7 @@ class StackedProblem:
         if self._c is not None and jacobian and self._J is None:
             self._J = self._late_jacobian(z)
         if self._c is None or (jacobian and self._J is None):
-            lam = self.coefficients(z)
-            res = []
-            J = np.zeros((self.n_residuals, lam.size)) if jacobian else None
-            row = 0
-            for i, (ep, t, g) in enumerate(
-                zip(self.endpoints, self.targets, self.goals, strict=True)
-            ):
-                end, Ji = ep(lam[self.offsets[i] : self.offsets[i + 1]], jacobian)
-                r, Jt = goal_residual(ep, end, Ji, g, t)
-                res.append(r)
-                if jacobian:
-                    J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = Jt
-                row += t.size
-            self._c = np.concatenate(res)
-            if jacobian:
-                self._J = J @ self.null
+            self._c, self._J = self._residuals(z, lambda ep, lam: ep(lam, jacobian))
         return self._c, self._J
 
     def _late_jacobian(self, z):
@@ -156,16 +145,31 @@ class StackedProblem:
         evaluations (their marches), or None if a leg's map cannot add it afterwards."""
         if not all(hasattr(ep, "jacobian_of_last") for ep in self.endpoints):
             return None
+        return self._residuals(z, lambda ep, lam: ep.jacobian_of_last(lam))[1]
+
+    def _residuals(self, z, evaluate):
+        """The goal residuals at z and their Jacobian in z (None where `evaluate(ep, λ)`, a
+        leg's end and Jacobian, gives none); a leg that starts after a via with a free
+        attitude starts where the leg before ends (`_chained`)."""
         lam = self.coefficients(z)
-        J = np.zeros((self.n_residuals, lam.size))
-        row = 0
+        res, rows, before, ends = [], [], None, []
         for i, (ep, t, g) in enumerate(zip(self.endpoints, self.targets, self.goals, strict=True)):
-            end, Ji = ep.jacobian_of_last(lam[self.offsets[i] : self.offsets[i + 1]])
-            J[row : row + t.size, self.offsets[i] : self.offsets[i + 1]] = goal_residual(
-                ep, end, Ji, g, t
-            )[1]
-            row += t.size
-        return J @ self.null
+            a, b = self.offsets[i], self.offsets[i + 1]
+            end, Ji = evaluate(ep, lam[a:b])
+            J = None
+            if Ji is not None:
+                J = np.zeros((end.size, lam.size))
+                J[:, a:b] = Ji
+            if self.chained[i] is not None:
+                end, J = _after(self.chained[i], ep, end, J, *before)
+            before = (end, J)
+            ends.append(before)
+            r, Jt = goal_residual(ep, end, J, g, t)
+            res.append(r)
+            rows.append(Jt)
+        J = None if any(Jt is None for Jt in rows) else np.vstack(rows) @ self.null
+        self._ends = ends  # each leg's end (chained) and its rows over λ: `start_shifts`
+        return np.concatenate(res), J
 
     def constraint(self, z):
         return self._evaluate(z, False)[0]
@@ -184,21 +188,88 @@ class StackedProblem:
         return all(hasattr(ep, "hessian") for ep in self.endpoints)
 
     def constraint_hessian(self, z, mu) -> np.ndarray:
-        """`Σ_j μ_j ∇²c_j(z)` in z (exact, from the legs' quadrature Hessians)."""
+        """`Σ_j μ_j ∇²c_j(z)` in z (exact, from the legs' quadrature Hessians): a leg chained
+        to the one before on coordinates it adds to (`_chained`) weighs that leg's ends there
+        as well, so the weights are carried back from the last leg."""
         lam = self.coefficients(z)
-        H = np.zeros((lam.size, lam.size))
+        weights = [np.zeros(ep.q0.size) for ep in self.endpoints]
         row = 0
-        for i, (ep, t) in enumerate(zip(self.endpoints, self.targets, strict=True)):
-            weights = np.zeros(ep.q0.size)
-            weights[t] = mu[row : row + t.size]
-            a, b = self.offsets[i], self.offsets[i + 1]
-            H[a:b, a:b] = ep.hessian(lam[a:b], weights)
+        for w, t in zip(weights, self.targets, strict=True):
+            w[t] = mu[row : row + t.size]
             row += t.size
+        for i in range(len(weights) - 1, 0, -1):
+            if self.chained[i] is not None:  # (additive: a spatial leg has no Hessian)
+                weights[i - 1][self.chained[i]] += weights[i][self.chained[i]]
+        H = np.zeros((lam.size, lam.size))
+        for i, (ep, w) in enumerate(zip(self.endpoints, weights, strict=True)):
+            a, b = self.offsets[i], self.offsets[i + 1]
+            H[a:b, a:b] = ep.hessian(lam[a:b], w)
         N = self.null
         return N.T @ H @ N
+
+    def start_shifts(self, z, jacobian: bool) -> list:
+        """Per leg: None, or (coordinates, shift, its Jacobian in z) where the leg starts
+        elsewhere than its nominal start on quadrature coordinates chained to the leg before
+        (`_chained`): what `node_margins` adds to θ along the leg (obstacles, limits on θ)."""
+        self._evaluate(z, jacobian)
+        out = []
+        for i, link in enumerate(self.chained):
+            if link is None or isinstance(link, str):
+                out.append(None)
+                continue
+            end, J = self._ends[i - 1]
+            slope = J[link] @ self.null if jacobian else None
+            out.append((link, end[link] - self.endpoints[i].q0[link], slope))
+        return out
 
     def projected_gradient(self, z) -> float:
         """|Z'∇f| / |∇f| with Z a basis of the constraints' tangent space at z."""
         g = self.energy_grad(z)
         Z = null_space(self.constraint_jac(z))
         return float(np.linalg.norm(Z.T @ g) / max(np.linalg.norm(g), 1e-300))
+
+
+def _chained(endpoints, targets) -> list:
+    """How each leg starts where the leg before ends, not where the plan the search was
+    seeded from left the via, for the coordinates that via leaves free ("*"): None (it
+    leaves none such), ROTATION (a spatial leg after a via whose attitude is free in part
+    or whole: a leg turns the base by ΔR whatever attitude it starts from, its angular
+    velocity in its own frame a function of the joints alone, so the legs chain as a
+    product of rotations) or the indices of quadrature coordinates (a planar base's θ: no
+    field depends on them, so a leg adds the same to them from any start). Joints left free
+    at a via stay where that plan put them: the legs after them would move otherwise."""
+    out = [None]
+    for before, ep, t in zip(endpoints[:-1], endpoints[1:], targets[:-1], strict=True):
+        link = None
+        if ep.kind == "magnus" and getattr(before, "k", None) == ep.k:
+            link = ROTATION if not np.isin(np.arange(ep.k, ep.k + 3), t).all() else None
+        elif ep.kind == "quadrature" and before.kind == "quadrature":
+            added = np.setdiff1d(ep.Q, t)
+            link = added if added.size else None
+        out.append(link)
+    return out
+
+
+def _after(link, ep, end, J, before, J_before):
+    """A leg's end (and its Jacobian rows over every coefficient) started at `before`, the
+    end of the leg before (`J_before`), instead of at the via `ep.q0` on the coordinates of
+    `link` (`_chained`). A rotation: R = R_before ΔR with ΔR = R(q0)ᵀ R(end), so a right
+    perturbation δ of R_before is `ΔRᵀ δ` of R (rotation vectors through the right
+    Jacobians of `so3`)."""
+    out = np.array(end, dtype=float)
+    J = None if J is None else J.copy()
+    if not isinstance(link, str):  # quadrature coordinates: added to
+        out[link] += before[link] - ep.q0[link]
+        if J is not None:
+            J[link] += J_before[link]
+        return out, J
+    k = ep.k
+    turn = so3.exp(ep.q0[k:]).T @ so3.exp(end[k:])  # ΔR of this leg
+    phi = so3.log(so3.exp(before[k:]) @ turn)
+    out[k:] = phi
+    if J is not None:
+        J[k:] = so3.right_jacobian_inverse(phi) @ (
+            turn.T @ so3.right_jacobian(before[k:]) @ J_before[k:]
+            + so3.right_jacobian(end[k:]) @ J[k:]
+        )
+    return out, J
