@@ -160,6 +160,15 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
                         f"not a coordinate ({', '.join(system.states)})",
                     )
                 )
+            elif spatial is not None and system.states.index(name) >= joints:
+                problems.append(  # (its search keeps the joints within limits, not R)
+                    Problem(
+                        f"constraints.joint_limits.{name}",
+                        "a component of the base's attitude (a rotation vector), not a joint: "
+                        "a URDF robot's limits are on its joints "
+                        f"({', '.join(system.states[:joints])}); the attitude is a goal",
+                    )
+                )
             else:
                 pairs[system.states.index(name)] = pair
     elif limits is not None and limits and isinstance(limits[0], list):

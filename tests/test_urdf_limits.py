@@ -163,6 +163,16 @@ def test_a_table_overriding_the_urdfs_limit_is_recorded_as_the_tables(tmp_path):
     assert again.constraints.joint_limits == plan.constraints.joint_limits
 
 
+def test_a_limit_on_the_attitude_is_refused_naming_the_joints(tmp_path):
+    """A limit on rx (an attitude component) made the constrained search give up with a note
+    blaming ODE-path legs, and the plan failed the URDF's joint limits it kept before."""
+    path = _scenario(tmp_path, constraints="[constraints]\njoint_limits = { rx = [-1, 1] }\n")
+    result = CliRunner().invoke(app, ["check", str(path)])
+    assert result.exit_code == 2, result.output
+    assert "constraints.joint_limits.rx: a component of the base's attitude" in result.output
+    assert "(j1, j2, j3)" in result.output and "Traceback" not in result.output
+
+
 def test_a_urdf_limit_the_search_cannot_keep_is_named_as_the_urdfs(tmp_path):
     """j2 within ±0.02 rad cannot turn the base 0.1 rad: the search stalls, and the message
     names the limit as the URDF's with what can help, wider limits in the table among it."""
