@@ -160,3 +160,16 @@ def test_one_scenario_is_one_scenario_in_the_report(capsys):
         assert said in capsys.readouterr().out
     render_tables.regress_report(SimpleNamespace(updated=True, scenarios=1, baseline="b.json"))
     assert "written: 1 scenario\n" in capsys.readouterr().out
+
+
+def test_a_new_scenario_that_fails_is_a_regression_a_new_one_that_plans_is_not():
+    """A CI job stayed green (exit 0, "0 of 1 differences are regressions") when a scenario
+    added without --update could not be planned."""
+    tolerances = {"energy_rel": 1e-6, "error_abs": 1e-6}
+    ok = {"status": "ok", "total_energy": 1.0, "errors": [0.0], "energies": [1.0]}
+    failed = {"status": "failed", "total_energy": 2.0, "errors": [1.0], "energies": [2.0]}
+    (new,) = compare({"a": ok}, {}, tolerances)
+    assert (new.now, new.regression) == ("new", False)
+    (new,) = compare({"a": failed}, {}, tolerances)
+    assert (new.now, new.regression) == ("new, failed", True)
+    assert compare({"a": failed}, {"a": failed}, tolerances) == []  # taken in by --update
