@@ -24,7 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from .arguments import flag, wrong_type
 from .controls import FourierBasis, energy
+from .errors import InputError, Problem
 from .status import Status
 from .wording import counted
 
@@ -155,8 +157,8 @@ class LegPlan:
         Parameters
         ----------
         t : float or array of float
-            Times from the leg's start, s, from 0 to `duration`. Not checked, unlike
-            `SequencePlan.controls`: outside, the Fourier series is extrapolated.
+            Times from the leg's start, s, from 0 to `duration` (`SequencePlan.controls`
+            takes the plan's time).
         derivative : bool
             The inputs' time derivatives instead of their values.
 
@@ -164,8 +166,18 @@ class LegPlan:
         -------
         ndarray
             Shape (len(t), m), also for a single time.
+
+        Raises
+        ------
+        InputError
+            A time outside [0, duration] (beyond rounding, `TIME_ROUNDING` of it): the Fourier
+            series would be extrapolated, not the leg.
+        TypeError
+            `t` not a number or array of numbers, `derivative` not True or False.
         """
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        flag("derivative", derivative)
+        t = checked_times(t, self.duration, "the leg (times from its start: plan.controls "
+                          "takes the plan's)")[0]  # fmt: skip
         out = np.zeros((t.size, self.n_inputs))
         starts = np.array([p.t0 for p in self.pieces])
         which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.pieces) - 1)
@@ -334,7 +346,8 @@ class ConstraintReport:
     samples_per_leg : re-integration samples per leg behind the margins.
     violated : empty when every margin is ≥ 0; else names the limit, the leg and the time.
     duration_set_by : the rate or acceleration limit that slowed the plan ("" if none did).
-    violation : the first violation for scripts (None if none): `leg` (1-based), `limit`
+    violation : the first violation for scripts (None if none): `leg` (1-based; None for
+        the budget), `limit`
         (a `LegMargins` key, or "total_duration": the budget of optimised durations, which
         the slowing to the rate limits broke), `what` (the limit named), `by` (how far past
         it), `t` (s).
@@ -381,3 +394,37 @@ class ConstraintReport:
             violation=doc.get("violation"),
             joint_limits=dict(doc.get("joint_limits") or {}),
         )
+
+
+TIME_ROUNDING = 1e-9  # relative: how far outside [0, duration] `controls` still takes a time
+
+
+def checked_times(t, total: float, within: str) -> tuple[np.ndarray, bool]:
+    """`t` as a 1-D float array and whether it was a single time, or a TypeError (not
+    numbers: a string "1" was read as 1.0, None as NaN) or an InputError (2-D, or outside
+    [0, total] beyond `TIME_ROUNDING`, naming `within` and its span)."""
+    try:
+        single = np.ndim(t) == 0
+        if isinstance(t, str | bytes) or np.asarray(t).dtype.kind not in "iuf":
+            raise TypeError
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+    except (TypeError, ValueError):
+        raise wrong_type("t", "a time or an array of times (s)", t) from None
+    if t.ndim > 1:  # (its rows would be read as times and fail deep inside)
+        shape = "x".join(map(str, t.shape))
+        raise InputError([Problem("t", f"must be a time or a 1-D array of times (got {shape})")])
+    slack = TIME_ROUNDING * total
+    outside = ~(np.isfinite(t) & (t >= -slack) & (t <= total + slack))
+    if outside.any():
+        bad = t[outside][0]
+        digits = 6 if f"{bad:g}" != f"{total:g}" else 17  # 0.666667 beyond 0.666667?
+        raise InputError(
+            [
+                Problem(
+                    "t",
+                    f"must be within {within}, from 0 to {total:.{digits}g} s "
+                    f"(got {bad:.{digits}g})",
+                )
+            ]
+        )
+    return t, single

@@ -13,8 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .arguments import integer, wrong_type
-from .errors import InputError, Problem
+from .arguments import flag, integer
 from .models.specs import system_from_ref
 from .resultdoc import plan_document, plan_from_document
 from .results import (
@@ -24,6 +23,7 @@ from .results import (
     Optimisation,
     Switch,
     Timings,
+    checked_times,
     frozen_array,
 )
 from .settings import PlannerSettings
@@ -31,8 +31,6 @@ from .simulate import Trajectory, sample
 from .status import Status
 
 __all__ = ["SequencePlan"]
-
-TIME_ROUNDING = 1e-9  # relative: how far outside [0, duration] `controls` still takes a time
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # == below: by value (the fields hold arrays)
@@ -201,41 +199,18 @@ class SequencePlan:
             A time outside [0, duration] (beyond rounding, `TIME_ROUNDING` of the duration):
             the Fourier series would be extrapolated, not the plan.
         """
-        try:
-            single = np.ndim(t) == 0
-            if isinstance(t, str | bytes) or np.asarray(t).dtype.kind not in "iuf":
-                raise TypeError  # ("1" converted to 1.0 before: no string is a time)
-            t = np.atleast_1d(np.asarray(t, dtype=float))
-        except (TypeError, ValueError):
-            raise wrong_type("t", "a time or an array of times (s)", t) from None
-        if t.ndim > 1:  # (its rows would be read as times and fail deep inside)
-            shape = "x".join(map(str, t.shape))
-            raise InputError(
-                [Problem("t", f"must be a time or a 1-D array of times (got {shape})")]
-            )
+        flag("derivative", derivative)
+        t, single = checked_times(t, self.duration, "the plan")
         out = np.zeros((t.size, len(self.inputs)))
         if not self.legs:
             return out[0] if single else out
-        total, slack = self.duration, TIME_ROUNDING * self.duration
-        outside = ~(np.isfinite(t) & (t >= -slack) & (t <= total + slack))
-        if outside.any():
-            bad = t[outside][0]
-            digits = 6 if f"{bad:g}" != f"{total:g}" else 17  # 0.666667 beyond 0.666667?
-            raise InputError(
-                [
-                    Problem(
-                        "t",
-                        f"must be within the plan, from 0 to {total:.{digits}g} s "
-                        f"(got {bad:.{digits}g})",
-                    )
-                ]
-            )
         starts = np.array([leg.t0 for leg in self.legs])
         which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.legs) - 1)
         for k, leg in enumerate(self.legs):
             sel = which == k
             if sel.any():
-                out[sel] = leg.controls(t[sel] - leg.t0, derivative)
+                local = np.clip(t[sel] - leg.t0, 0.0, leg.duration)  # (rounding: its own)
+                out[sel] = leg.controls(local, derivative)
         return out[0] if single else out
 
     def sample(self, samples_per_leg: int = 200) -> Trajectory:

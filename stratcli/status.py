@@ -71,6 +71,10 @@ class Status(enum.Enum):
         Raises
         ------
         KeyError
-            No member has that name.
+            No member has that name (the message lists those that have).
         """
-        return cls[key.upper()]
+        try:
+            return cls[str(key).upper()]
+        except KeyError:
+            keys = ", ".join(member.key for member in cls)
+            raise KeyError(f"{key!r} is not a status: one of {keys}") from None

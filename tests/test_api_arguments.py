@@ -186,6 +186,29 @@ def test_controls_name_t_for_a_table_of_times_and_show_digits_that_differ(plan):
     )
 
 
+def test_a_legs_controls_refuse_the_plans_time_and_wrong_types(plan):
+    """`plan.legs[k].controls` took any time and extrapolated the Fourier series (a new
+    user passed the plan's time 1.5 to leg 2 and got u = -167 where the plan has 4.46), read
+    None as NaN, and both took a string as `derivative`."""
+    leg = plan.legs[-1]
+    T = leg.duration
+    _raises(
+        InputError,
+        rf"^t: must be within the leg \(times from its start: plan.controls takes the plan's\), "
+        rf"from 0 to {T:g} s \(got {1.5 * T:g}\)$",
+        lambda: leg.controls(1.5 * T),
+    )
+    for t in (None, "x", ["0.5"]):
+        _raises(
+            TypeError, r"^t: must be a time or an array of times \(s\)", lambda t=t: leg.controls(t)
+        )
+    for call in (lambda: leg.controls(0.0, "no"), lambda: plan.controls(0.0, derivative="no")):
+        _raises(TypeError, r"^derivative: must be True or False \(got 'no'", call)
+    # the plan's last instant, within rounding of the plan but past the leg's: the leg's end
+    end = plan.controls(plan.duration * (1 + 1e-12))
+    np.testing.assert_allclose(end, leg.controls(T)[0], rtol=0, atol=1e-12)
+
+
 def test_leg_slice_of_a_leg_the_trajectory_has_not_is_an_index_error(plan):
     traj = plan.sample(5)
     assert traj.leg_slice(0) == slice(0, 5)
@@ -277,3 +300,12 @@ def test_load_run_of_a_file_outside_a_record_names_that_file(tmp_path, monkeypat
         r"^notes\.txt: a file, not a run record \(give a run directory\)$",
         lambda: stratcli.load_run("notes.txt"),
     )
+
+
+def test_a_status_by_an_unknown_key_names_the_keys():
+    """`Status.from_key('nope')` raised a bare KeyError: 'NOPE' from enum."""
+    from stratcli.status import Status
+
+    assert all(Status.from_key(s.key) is s for s in Status)
+    with pytest.raises(KeyError, match=r"'nope' is not a status: one of success, not_converged"):
+        Status.from_key("nope")
