@@ -133,7 +133,7 @@ def _past_budget(plan) -> tuple[float, dict[str, Any]] | None:
     if budget is None or plan.duration <= budget * (1.0 + 1e-9):
         return None
     return budget, {
-        "leg": len(plan.legs), "limit": "total_duration",
+        "leg": None, "limit": "total_duration",  # (the whole plan's, no leg's)
         "what": f"planner.total_duration ({budget:g} s)", "by": plan.duration - budget,
         "t": plan.duration,
     }  # fmt: skip

@@ -161,6 +161,7 @@ def test_a_budget_the_rate_limits_cannot_meet_fails_and_its_advice_meets_it(tmp_
     assert doc["status"] == "failed" and doc["duration"] > 2.0
     violation = doc["constraints"]["violation"]
     assert violation["limit"] == "total_duration"
+    assert violation["leg"] is None  # the budget is the plan's (it named the last leg)
     assert violation["by"] == pytest.approx(doc["duration"] - 2.0)
     advice = re.search(
         r"planner.total_duration to at least ([\d.]+) s and planner.basis.period alike, "
