@@ -35,10 +35,15 @@ def _pose(phi: np.ndarray) -> dict[str, Any] | None:
 
 
 def group_error(goal: np.ndarray, end: np.ndarray) -> float | None:
-    """`|log(R_goalᵀ R_end)|` (rad) between two rotation vectors; None if the goal is free."""
+    """`|log(R_goalᵀ R_end)|` (rad) between two rotation vectors; where the goal is partly
+    free ("*" components), the norm of the given components' differences (as the planner
+    compares them, `magnus.residual_on_group`); None if it is free (or the end not finite)."""
     goal, end = np.asarray(goal, dtype=float), np.asarray(end, dtype=float)
-    if not np.all(np.isfinite(goal)) or not np.all(np.isfinite(end)):
+    given = np.isfinite(goal)
+    if not given.any() or not np.all(np.isfinite(end)):
         return None
+    if not given.all():
+        return float(np.linalg.norm(end[given] - goal[given]))
     return float(np.linalg.norm(so3.log(so3.exp(goal).T @ so3.exp(end))))
 
 
@@ -100,7 +105,9 @@ def attitude_document(plan) -> dict[str, Any]:
     return {
         "convention": (
             "R maps base to world axes; rotation_vector = log(R) (rad, world frame); "
-            "quaternion (w, x, y, z), w >= 0; goal_error = |log(R_goal^T R_end)| (rad)"
+            "quaternion (w, x, y, z), w >= 0; goal_error = |log(R_goal^T R_end)| (rad), "
+            "where the goal is partly free the norm of its given rotation-vector components' "
+            "differences, null where it is free"
         ),
         "start": _pose(plan.start[att]),
         "goal": _pose(plan.goal[att]),

@@ -372,6 +372,24 @@ def test_a_plan_the_final_pass_changed_says_what_the_legs_ended_at(monkeypatch, 
     assert f"; re-chained: {render.fmt(doc['total_energy'])}; plain Newton:" in text
 
 
+def test_a_stalled_search_keeping_the_free_plan_says_what_it_re_chained_to(monkeypatch, planned):
+    """A stalled constrained search keeps the free plan: its total (re-chained) differed from
+    the starts' energies on the line below it, with nothing saying why."""
+    from stratcli.constraints import KEPT_FREE
+
+    doc = copy.deepcopy(planned.document)
+    doc["constraints"] = {"spec": {"joint_limits": [-1, 1]}, "legs": []}
+    doc["status"], doc["message"] = "failed", f"the search stalled; {KEPT_FREE}, in which ..."
+    doc["total_energy"] = 1.03 * doc["total_energy"]
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    assert "without the constraints, energy-optimal" in text
+    assert f"; re-chained: {render.fmt(doc['total_energy'])}; plain Newton:" in text
+    del doc["message"]  # a constrained search moved it: not a re-chaining
+    doc["status"] = "ok"
+    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    assert "without the constraints, energy-optimal" in text and "re-chained" not in text
+
+
 def test_the_record_line_names_the_animation_when_one_was_written(tmp_path):
     runner = CliRunner()
     for flag in ("--animation", "--no-animation"):

@@ -317,9 +317,23 @@ def test_plan_command_prints_the_audit_per_leg(tmp_path):
     result = CliRunner().invoke(app, ["plan", str(path), "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output
     assert "leg 3 on SO(3): attitude error" in result.output
-    assert "leg 1 on SO(3): attitude error (partly free)" in result.output
+    assert "leg 1 on SO(3): attitude error (free)" in result.output  # attitude = "*"
     (run,) = tmp_path.iterdir()
     assert {"run.mcap", "stroboscope.png", "result.json"} <= {p.name for p in run.iterdir()}
+
+
+def test_a_partly_free_attitude_has_the_error_of_its_given_components():
+    """A partly free goal attitude had no error in result.json (null) nor on the SO(3) line,
+    where the leg table showed one: the planner compares its given components."""
+    from stratcli.spatialdoc import group_error
+
+    nan = np.nan
+    assert group_error([nan, 0.2, nan], [0.3, 0.2 + 3e-9, -0.1]) == pytest.approx(3e-9)
+    assert group_error([0.1, nan, 0.0], [0.1 + 3e-4, 1.0, 4e-4]) == pytest.approx(5e-4)
+    assert group_error([nan, nan, nan], [0.3, 0.2, -0.1]) is None
+    task, out = _planned("arm3_reorient")  # its leg 2: ["*", 0.174..., "*"]
+    leg = out.document["attitude"]["legs"][1]
+    assert leg["goal"] is None and 0 <= leg["goal_error"] <= task.settings.tolerance
 
 
 def test_a_pickled_urdf_plan_keeps_its_robot_when_the_file_changes(tmp_path):

@@ -239,7 +239,8 @@ def plan_summary(doc: dict) -> None:
         head = "without the constraints, " if (moved or kept) and doc.get("constraints") else ""
         # else the final pass re-chained the legs from the configurations they reach (a leg
         # off by more than the tolerance is polished by Newton): the plan's own energy
-        rechained = f"; re-chained: {fmt(free)}" if moved and not head else ""
+        # (a stalled search keeps the free plan: its own energy, re-chained, as without)
+        rechained = f"; re-chained: {fmt(free)}" if moved and (kept or not head) else ""
         out_console.print(
             f"{head}energy-optimal over all legs together: start {best['index'] + 1} of "
             f"{len(opt['starts'])} ({start_kind(best, opt['starts'])}: {best['iterations']} "
@@ -265,7 +266,7 @@ def plan_summary(doc: dict) -> None:
             a, err = leg["audit"], leg.get("goal_error")
             out_console.print(
                 f"leg {i + 1} on SO(3): attitude error "
-                f"{'(partly free)' if err is None else f'{err:.1e} rad'} · audit: momentum "
+                f"{_attitude_error(leg.get('goal'), err)} · audit: momentum "
                 f"{a['max_momentum']:.1e}, CoM drift {a['com_drift']:.1e} m, "
                 f"|RᵀR − I| {a['orthogonality']:.1e}",
                 highlight=False,
@@ -312,6 +313,13 @@ def _start_energy(start: dict, starts: list[dict]) -> str:
 MORE_STARTS = (
     "planner.starts = 5 adds three seeded Newton plans as starts (slower; at times far lower)"
 )
+
+
+def _attitude_error(goal, err) -> str:
+    """A URDF leg's attitude error as its SO(3) line says it (`spatialdoc.group_error`)."""
+    if err is None:
+        return "(free)"
+    return f"{err:.1e} rad" + (" (partly free: its given components)" if goal is None else "")
 
 
 def start_kind(start: dict, starts: list[dict]) -> str:
