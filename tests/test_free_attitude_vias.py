@@ -6,6 +6,7 @@ re-planned that leg: a new user's arm3 task was searched to 28.31 and planned at
 
 from __future__ import annotations
 
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -45,9 +46,19 @@ def _task(via='"*"'):
     return parse_scenario(TEXT.replace("{via}", via))
 
 
-@pytest.mark.parametrize("via", ['"*"', '["*", 0.01, "*"]'])
-def test_the_search_energy_is_the_plans_and_it_verifies(via):
-    task = _task(via)
+def _planar(name: str, tolerance=1e-8, obstacles=False):
+    """A shipped planar task with θ free at every via (`sim4_task_d_obstacles`: obstacles)."""
+    raw = tomllib.loads((ROOT / "scenarios" / f"{name}.toml").read_text())
+    for leg in raw["legs"][:-1]:
+        leg["goal"][-1] = "*"
+    raw.pop("reference", None)
+    raw["planner"]["tolerance"] = tolerance
+    return load_scenario(raw), raw
+
+
+def _searched(task):
+    """The plan of `task` (the energy objective), checked to be the search's own: its energy
+    the best start's, no leg re-planned by re-chaining."""
     outcome = plan_run(task, check=False)
     plan = outcome.result
     assert plan.ok, plan.message
@@ -55,65 +66,63 @@ def test_the_search_energy_is_the_plans_and_it_verifies(via):
     assert plan.total_energy == pytest.approx(best.energy, rel=1e-9)
     assert not any("re-chained" in note for note in plan.notes)
     assert all(leg.iterations == 0 for leg in plan.legs)  # re-chaining polished nothing
-    verify_spatial(outcome.document, task.system.spatial)
+    return outcome
 
 
-@pytest.mark.parametrize("name", ["arm7_three_legs", None])
-def test_chained_goal_jacobian_equals_central_differences(name):
-    task = (
-        _task() if name is None else load_scenario(ROOT / "scenarios" / "spatial" / f"{name}.toml")
-    )
+def _stacked(task, scale: float, seed: int):
+    """The stacked problem seeded from the Newton plan of `task`, a point near that plan, and
+    a problem of the same legs whose leg 2 starts where leg 1 ends there (none chained)."""
     newton = plan_run(task.with_changes({"planner.objective": "newton"}), check=False).result
     legs = list(task.legs)
     targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
     problem = StackedProblem(
         task.system, nominal_starts(task.start, legs, newton), legs, task.settings, targets
     )
-    assert problem.chained[:2] == [None, "rotation"]
-    for ep in problem.endpoints:
-        ep.steps_override = 200  # one discrete map: its derivative is exact
     lam = np.concatenate([leg.coefficients.ravel() for leg in newton.legs])
-    z = problem.project(lam) + 0.01 * np.random.default_rng(0).standard_normal(
-        problem.null.shape[1]
-    )
-    J = problem.constraint_jac(z).copy()
-    h, fd = 1e-6, np.zeros_like(J)
-    for j in range(z.size):
-        e = np.zeros(z.size)
-        e[j] = h
-        fd[:, j] = (problem.constraint(z + e) - problem.constraint(z - e)) / (2 * h)
-    np.testing.assert_allclose(J, fd, atol=1e-8 * np.abs(J).max())
-    # the residual is that of leg 2 started where leg 1 ends: a problem so started agrees
-    split = problem.split(problem.coefficients(z))
-    end = problem.endpoints[0](split[0], False)[0]
-    k = problem.endpoints[0].k
+    rng = np.random.default_rng(seed)
+    z = problem.project(lam) + scale * rng.standard_normal(problem.null.shape[1])
+    end = problem.endpoints[0](problem.split(problem.coefficients(z))[0], False)[0]
+    k = task.system.n - (3 if problem.chained[1] == "rotation" else 1)  # the attitude's first
     started = [ep.q0 for ep in problem.endpoints]
+    assert not np.allclose(end[k:], started[1][k:], atol=1e-4)  # leg 1 moved the via's
     started[1] = np.concatenate([started[1][:k], end[k:]])
     direct = StackedProblem(task.system, started, legs, task.settings, targets)
     direct.chained = [None] * len(legs)
-    assert not np.allclose(end[k:], problem.endpoints[1].q0[k:], atol=1e-4)  # it moved
-    for ep in direct.endpoints:
-        ep.steps_override = 200
-    lam = direct.coefficients(direct.project(problem.coefficients(z)))
-    rows = slice(targets[0].size, targets[0].size + targets[1].size)  # leg 2's
-    np.testing.assert_allclose(
-        direct.constraint(direct.project(lam))[rows], problem.constraint(z)[rows], atol=1e-12
-    )
+    return problem, z, direct
+
+
+def _differences(f, z, h=1e-6):
+    """Central differences of `f` at z, one column per coordinate of z."""
+    columns = []
+    for j in range(z.size):
+        e = np.zeros(z.size)
+        e[j] = h
+        columns.append((f(z + e) - f(z - e)) / (2 * h))
+    return np.stack(columns, axis=-1)
+
+
+@pytest.mark.parametrize("via", ['"*"', '["*", 0.01, "*"]'])
+def test_the_search_energy_is_the_plans_and_it_verifies(via):
+    task = _task(via)
+    verify_spatial(_searched(task).document, task.system.spatial)
+
+
+@pytest.mark.parametrize("name", ["arm7_three_legs", None])
+def test_chained_goal_jacobian_equals_central_differences(name):
+    spatial = ROOT / "scenarios" / "spatial"
+    task = _task() if name is None else load_scenario(spatial / f"{name}.toml")
+    problem, z, direct = _stacked(task, 0.01, 0)
+    assert problem.chained[:2] == [None, "rotation"]
+    for ep in (*problem.endpoints, *direct.endpoints):
+        ep.steps_override = 200  # one discrete map: its derivative is exact
+    J = problem.constraint_jac(z).copy()
+    np.testing.assert_allclose(J, _differences(problem.constraint, z), atol=1e-8 * np.abs(J).max())
+    # leg 2's residual is that of leg 2 started where leg 1 ends
+    rows = slice(problem.targets[0].size, problem.targets[0].size + problem.targets[1].size)
+    np.testing.assert_allclose(direct.constraint(z)[rows], problem.constraint(z)[rows], atol=1e-12)
 
 
 # ---- a planar base's θ: a quadrature coordinate, chained by adding ----------------------
-
-
-def _planar(name: str, tolerance=1e-8, **tables):
-    import tomllib
-
-    raw = tomllib.loads((ROOT / "scenarios" / f"{name}.toml").read_text())
-    for leg in raw["legs"][:-1]:
-        leg["goal"][-1] = "*"  # θ free at every via
-    raw.pop("reference", None)
-    raw["planner"]["tolerance"] = tolerance
-    raw.update(tables)
-    return load_scenario(raw)
 
 
 @pytest.mark.parametrize("name", ["sim4_task_a", "sim4_task_c"])
@@ -123,35 +132,18 @@ def test_a_free_theta_via_chains_the_legs_and_verifies(name):
     search's plan is the plan, on the goals to rounding."""
     from reintegrate import verify
 
-    task = _planar(name)
-    outcome = plan_run(task, check=False)
-    plan = outcome.result
-    assert plan.ok, plan.message
-    best = plan.optimisation.starts[plan.optimisation.best]
-    assert plan.total_energy == pytest.approx(best.energy, rel=1e-9)
-    assert all(leg.iterations == 0 and leg.error < 1e-9 for leg in plan.legs)
+    task = _planar(name)[0]
+    outcome = _searched(task)
+    assert all(leg.error < 1e-9 for leg in outcome.result.legs)
     verify(task, outcome.document)  # goals, continuity and energies on re-integration
 
 
 def test_the_chained_hessian_equals_differences_of_the_jacobian():
-    task = _planar("sim4_task_c", tolerance=1e-3)
-    newton = plan_run(task.with_changes({"planner.objective": "newton"}), check=False).result
-    legs = list(task.legs)
-    targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
-    problem = StackedProblem(
-        task.system, nominal_starts(task.start, legs, newton), legs, task.settings, targets
-    )
+    problem, z, _ = _stacked(_planar("sim4_task_c", tolerance=1e-3)[0], 0.01, 1)
     assert [link is not None for link in problem.chained] == [False, True, True]
-    lam = np.concatenate([leg.coefficients.ravel() for leg in newton.legs])
-    rng = np.random.default_rng(1)
-    z = problem.project(lam) + 0.01 * rng.standard_normal(problem.null.shape[1])
-    mu = rng.standard_normal(problem.n_residuals)
+    mu = np.random.default_rng(1).standard_normal(problem.n_residuals)
     H = problem.constraint_hessian(z, mu)
-    h, fd = 1e-6, np.zeros_like(H)
-    for j in range(z.size):
-        e = np.zeros(z.size)
-        e[j] = h
-        fd[:, j] = (problem.constraint_jac(z + e) - problem.constraint_jac(z - e)).T @ mu / (2 * h)
+    fd = _differences(lambda z: problem.constraint_jac(z).T @ mu, z)
     np.testing.assert_allclose(H, fd, atol=1e-6 * np.abs(H).max())
 
 
@@ -159,56 +151,26 @@ def test_obstacle_margins_follow_a_chained_theta():
     """Obstacles are measured at θ along each leg: a chained leg's θ starts where the leg
     before ends (`StackedProblem.start_shifts`), as a problem started there measures it, and
     the margins' Jacobian follows leg 1's coefficients through it."""
-    import tomllib
-
     from stratcli.constraints import ConstraintsSpec, resolve
     from stratcli.node_margins import NodeMargins
 
-    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_obstacles.toml").read_text())
-    raw["legs"][0]["goal"][-1] = "*"
-    task = load_scenario(raw)
+    task, raw = _planar("sim4_task_d_obstacles", tolerance=1e-3)
     constraints = resolve(ConstraintsSpec.model_validate(raw["constraints"]), task.system)
-    newton = plan_run(task.with_changes({"planner.objective": "newton"}), check=False).result
-    legs = list(task.legs)
-    targets = [np.array(leg.targets, dtype=int) for leg in newton.legs]
-    problem = StackedProblem(
-        task.system, nominal_starts(task.start, legs, newton), legs, task.settings, targets
-    )
+    problem, z, direct = _stacked(task, 0.05, 2)
     assert problem.chained[1].tolist() == [3]
-    lam = np.concatenate([leg.coefficients.ravel() for leg in newton.legs])
-    z = problem.project(lam) + 0.05 * np.random.default_rng(2).standard_normal(
-        problem.null.shape[1]
-    )
     margins = NodeMargins(problem, task.system, constraints, nodes=16)
-    g, G = margins(z, jacobian=True)
-    g, G = g.copy(), G.copy()
-    end = problem.endpoints[0](problem.split(problem.coefficients(z))[0], False)[0]
-    started = [ep.q0 for ep in problem.endpoints]
-    started[1] = np.concatenate([started[1][:3], end[3:]])
-    direct = StackedProblem(task.system, started, legs, task.settings, targets)
-    direct.chained = [None] * len(legs)
-    assert abs(end[3] - problem.endpoints[1].q0[3]) > 1e-3  # leg 1 moved θ's via
-    np.testing.assert_allclose(
-        NodeMargins(direct, task.system, constraints, nodes=16)(z, False)[0], g, atol=1e-10
-    )
-    h = 1e-6
+    g, G = (a.copy() for a in margins(z, jacobian=True))
+    g_direct = NodeMargins(direct, task.system, constraints, nodes=16)(z, False)[0]
+    np.testing.assert_allclose(g_direct, g, atol=1e-10)
     moving = np.abs(G).sum(axis=1) > 0  # (rows beyond reach have no slope)
-    for j in range(z.size):
-        e = np.zeros(z.size)
-        e[j] = h
-        fd = (margins(z + e, False)[0] - margins(z - e, False)[0]) / (2 * h)
-        np.testing.assert_allclose(G[moving, j], fd[moving], atol=1e-5)
+    fd = _differences(lambda z: margins(z, False)[0], z)
+    np.testing.assert_allclose(G[moving], fd[moving], atol=1e-5)
 
 
 def test_a_free_theta_via_under_obstacles_plans_clear():
     """With θ free at the via, the plan is verified clear of the obstacles (dense
     re-integration), planned as one chain (no leg re-planned after the search)."""
-    import tomllib
-
-    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_obstacles.toml").read_text())
-    raw["legs"][0]["goal"][-1] = "*"
-    outcome = plan_run(load_scenario(raw), check=False)
-    plan = outcome.result
+    plan = plan_run(_planar("sim4_task_d_obstacles", tolerance=1e-3)[0], check=False).result
     assert plan.ok, plan.message
     margins = [m.obstacle_clearance for m in plan.constraints.legs]
     assert len(margins) == 2 and min(margins) >= -1e-6
