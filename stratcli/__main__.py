@@ -33,7 +33,7 @@ import sys
 import threading
 
 from . import blas, lean_imports
-from .interrupts import Interrupted, install, pending
+from .interrupts import Interrupted, install, pending, raised
 
 HANDLED = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
 
@@ -87,6 +87,7 @@ def _on_signal(signum: int, frame) -> None:
     if _state["raised"]:  # a second signal while unwinding: stop now
         _leave(signum)
     _state["raised"] = True
+    raised(signum)  # (caught by code that goes on: `checkpoint` and the end raise it again)
     raise Interrupted(signum)
 
 

@@ -8,7 +8,10 @@ dropped, and the command would carry on as if nothing had happened. `install` re
 `sys.unraisablehook` so that such a swallowed `Interrupted` is remembered instead of printed,
 and `checkpoint` re-raises it; the engine calls `checkpoint` where work is handed out or
 collected, and before anything is written, and the entry point calls it once more at the end.
-Outside the command line nothing is installed and `checkpoint` costs one list test.
+The handler also notes each `Interrupted` it raises (`raised`): code that runs on after it
+was raised caught it somewhere (a library's bare `except:`; every `except BaseException` of
+stratplan's re-raises), so `checkpoint` raises it again there too.
+Outside the command line nothing is installed and `checkpoint` costs two list tests.
 """
 
 import signal
@@ -17,6 +20,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 _swallowed: list[int] = []
+_raised: list[int] = []  # signals whose `Interrupted` the handler raised (`raised`)
 
 
 class Interrupted(BaseException):
@@ -45,15 +49,24 @@ def install() -> None:
         sys.unraisablehook = _hook
 
 
+def raised(signum: int) -> None:
+    """Note that the signal handler raises `Interrupted` for `signum` (the entry point's)."""
+    _raised.append(signum)
+
+
 def pending() -> int | None:
-    """The signal number of a swallowed interrupt, or None."""
-    return _swallowed[0] if _swallowed else None
+    """The signal number of a swallowed interrupt (or of one raised), or None."""
+    if _swallowed:
+        return _swallowed[0]
+    return _raised[0] if _raised else None
 
 
 def checkpoint() -> None:
-    """Raise `Interrupted` again if a signal handler's exception was swallowed."""
-    if _swallowed:
-        raise Interrupted(_swallowed[0])
+    """Raise `Interrupted` again if a signal handler's exception was swallowed (dropped by
+    Python in a finaliser, or caught by code that went on)."""
+    signum = pending()
+    if signum is not None:
+        raise Interrupted(signum)
 
 
 @contextmanager
