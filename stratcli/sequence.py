@@ -256,6 +256,10 @@ class SequencePlan:
     def from_dict(cls, doc: dict[str, Any], settings: PlannerSettings | None = None, model=None):
         """A plan read back from a `result.json` document (nothing is re-planned).
 
+        The document holds no scenario text, so the plan equals the one it came from only
+        in its `to_dict()` (plans compare their scenarios too: `load_run` reads a record's
+        scenario.toml as well, and that plan is equal).
+
         Parameters
         ----------
         doc : dict

@@ -175,3 +175,22 @@ def test_a_free_theta_via_under_obstacles_plans_clear():
     margins = [m.obstacle_clearance for m in plan.constraints.legs]
     assert len(margins) == 2 and min(margins) >= -1e-6
     assert not any(note.startswith("constrained search from the re-chained") for note in plan.notes)
+
+
+def test_a_free_joint_at_a_via_is_held_so_the_plan_is_the_searchs():
+    """Task D with q2 (a joint) and θ free at its via: the search moved leg 1's q2 where leg 2,
+    started at its nominal start, did not follow, and re-chaining re-planned leg 2 (96.00,
+    above the 67.61 of before θ chained). q2 is held where the Newton plan left it
+    (`stacked._held`), θ chained: the search's plan is the plan."""
+    from reintegrate import verify
+
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d.toml").read_text())
+    raw["legs"][0]["goal"] = ["-pi/3", "*", 0, "*"]
+    raw["planner"]["tolerance"] = 1e-8
+    raw.pop("reference")
+    task = load_scenario(raw)
+    outcome = _searched(task)
+    verify(task, outcome.document)
+    newton = plan_run(task.with_changes({"planner.objective": "newton"}), check=False).result
+    q2 = outcome.result.legs[0].end[1]
+    assert q2 == pytest.approx(newton.legs[0].end[1], abs=1e-8)  # held there

@@ -60,7 +60,7 @@ def test_joined_legs_meet_the_switch_conditions_and_the_goals():
     """Each leg's own minimum, stacked, misses the switch rows; the continuation carries it
     onto them, and onto the goals."""
     task, problem, lam = _problem("sim4_task_d")
-    parts = legwise.leg_minima(problem, task.system, task.legs, task.settings, lam)
+    parts = legwise.leg_minima(problem, task.system, task.settings, lam)
     assert parts is not None
     stacked = np.concatenate(parts)
     cons = problem.constraints
@@ -83,9 +83,9 @@ def test_a_pulled_start_is_each_legs_start_as_it_is_and_a_newton_plan_is_pulled(
     real = energy.pulled_start
     monkeypatch.setattr(energy, "pulled_start", lambda p, z: calls.append(z) or real(p, z))
     start = problem.coefficients(pulled)
-    parts = legwise.leg_minima(problem, task.system, task.legs, task.settings, start, True)
+    parts = legwise.leg_minima(problem, task.system, task.settings, start, True)
     assert parts is not None and calls == []
-    again = legwise.leg_minima(problem, task.system, task.legs, task.settings, lam)
+    again = legwise.leg_minima(problem, task.system, task.settings, lam)
     assert again is not None and len(calls) == len(task.legs)
     # each leg's own minimum from there is no higher than its part of the pulled start
     blocks = [problem.M[a:b, a:b] for a, b in itertools.pairwise(problem.offsets)]

@@ -132,7 +132,7 @@ def optimise_energy(
             runs += race(problem, loops, settings.tolerance, pg_tol, known)
     if problem.exact_hessians and settings.search == "legwise":
         say(f"energy search: start {len(seeds) + 1}, made leg by leg (legwise)")
-        z = legwise_start(problem, system, legs, settings, *_newton_part(seeds))
+        z = legwise_start(problem, system, settings, *_newton_part(seeds))
         if z is not None:
             seeds = [*seeds, ("legwise", problem.coefficients(z))]
             runs += race(problem, [z], settings.tolerance, pg_tol)

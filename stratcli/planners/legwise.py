@@ -118,20 +118,18 @@ def leg_minimum(own, settings, newton, pulled: bool = False) -> np.ndarray | Non
     return None if best is None else best.z
 
 
-def leg_minima(
-    problem, system, legs, settings, newton, pulled: bool = False
-) -> list[np.ndarray] | None:
+def leg_minima(problem, system, settings, newton, pulled: bool = False) -> list[np.ndarray] | None:
     """Each leg's lowest minimum of its own problem (flat coefficients per leg), or None if
     a leg has no start that reaches its goals; `pulled`: `newton` is the stacked pulled
     start (`leg_minimum`)."""
     from .stacked import StackedProblem
 
     out = []
-    for i, (leg, part) in enumerate(zip(legs, problem.split(newton), strict=True)):
+    for i, part in enumerate(problem.split(newton)):
         own = StackedProblem(
             system,
             [problem.endpoints[i].q0],
-            [leg],
+            [problem.legs[i]],  # (its free via coordinates held as the problem holds them)
             settings,
             [problem.targets[i]],
             leg_constraints(problem.constraints, problem.offsets, i),
@@ -168,12 +166,12 @@ def join(problem, parts: list[np.ndarray], tolerance: float) -> np.ndarray | Non
     return z
 
 
-def legwise_start(problem, system, legs, settings, newton, pulled=False) -> np.ndarray | None:
+def legwise_start(problem, system, settings, newton, pulled=False) -> np.ndarray | None:
     """The legwise start (module docstring) as whitened z of `problem`, or None; `pulled`:
     `newton` is the stacked pulled start (`leg_minimum`)."""
     try:
         with np.errstate(all="ignore"):
-            parts = leg_minima(problem, system, legs, settings, newton, pulled)
+            parts = leg_minima(problem, system, settings, newton, pulled)
             if parts is None:
                 return None
             if not tied_rows(problem.constraints, problem.offsets).any():

@@ -2,7 +2,10 @@
 coefficients stacked, the continuity conditions eliminated once (`λ = λp + N z`, N whitened so
 that the energy is `e0 + b·z + |z|²`), the goals nonlinear equality constraints with their
 Jacobians (and exact Hessians where the legs' end-point maps have them), evaluations cached
-per z. `planners.energy` searches it; the constrained search and the legwise start too.
+per z. A via's free ("*") base attitude chains the legs (`_chained`); its other free
+coordinates are held where the plan the search starts from left them (`_held`), so that
+every leg starts where the one before ends. `planners.energy` searches it; the constrained
+search and the legwise start too.
 """
 
 from __future__ import annotations
@@ -48,8 +51,6 @@ class StackedProblem:
 
     def __init__(self, system: System, starts, legs, settings, targets, constraints=None):
         basis = settings.basis
-        self.legs = legs
-        self.targets = targets
         actives = [system.stratum(leg.stratum).active for leg in legs]
         durations = [leg.duration for leg in legs]
         self.sizes = [len(a) * basis.size for a in actives]
@@ -79,10 +80,13 @@ class StackedProblem:
             make_endpoint(system.compiled(leg.stratum), s, basis, leg.duration, settings.evaluator)
             for leg, s in zip(legs, starts, strict=True)
         ]
-        self.goals = [np.asarray(leg.goal)[t] for leg, t in zip(legs, targets, strict=True)]
         self.chained = _chained(self.endpoints, targets)
+        self.legs, self.targets = _held(system, legs, targets, self.endpoints, self.chained)
+        self.goals = [
+            np.asarray(leg.goal)[t] for leg, t in zip(self.legs, self.targets, strict=True)
+        ]
         self._ends: list = []  # of the last evaluation (`_residuals`)
-        self.n_residuals = sum(t.size for t in targets)
+        self.n_residuals = sum(t.size for t in self.targets)
         # Work in coordinates where the energy is |z|² (up to λp): whiten the energy's
         # Hessian. The Fourier basis is far from orthogonal on a leg shorter than its period
         # (condition number ~1e13 at H = 8), and directions that change no control at all
@@ -248,6 +252,27 @@ def _chained(endpoints, targets) -> list:
             link = added if added.size else None
         out.append(link)
     return out
+
+
+def _held(system: System, legs, targets, endpoints, chained):
+    """The legs and targets searched: a via's free coordinates that the next leg does not
+    chain (`_chained`: a joint, or any coordinate of an ODE-path leg) are held where the
+    plan the search starts from left them (the next leg's nominal start), so that the next
+    leg starts where this one ends: left free, the search moved them at no cost to a leg
+    that ignores them, and re-chaining its controls re-planned the next leg (task D with q2
+    free at its via: 96.00 where holding gives a plan whose energy is the search's)."""
+    out_legs, out_targets = list(legs), list(targets)
+    for i, (leg, t, link) in enumerate(zip(legs[:-1], targets[:-1], chained[1:], strict=True)):
+        after = endpoints[i + 1]
+        carried = np.arange(after.k, after.k + 3) if link == ROTATION else link
+        moved = np.asarray(system.stratum(leg.stratum).free(system.n), dtype=int)
+        held = np.setdiff1d(moved, np.union1d(t, [] if carried is None else carried))
+        if held.size:
+            goal = np.array(leg.goal, dtype=float)
+            goal[held] = after.q0[held]
+            out_legs[i] = replace(leg, goal=goal)
+            out_targets[i] = np.union1d(t, held).astype(int)
+    return out_legs, out_targets
 
 
 def _after(link, ep, end, J, before, J_before):
