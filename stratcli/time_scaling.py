@@ -5,6 +5,7 @@ planning again (`planner.time_scale`, and the rate limits of `[constraints]`).""
 from __future__ import annotations
 
 import math
+import tomllib
 from dataclasses import replace
 
 import numpy as np
@@ -15,7 +16,7 @@ from .results import Switch
 from .sequence import SequencePlan
 from .settings import MAX_TIME_SCALE
 
-__all__ = ["peaks", "rate_limited", "scale_time", "time_scaled"]
+__all__ = ["peaks", "rate_limited", "retimed", "scale_time", "time_scaled"]
 
 PEAK_SAMPLES = 40_000  # per leg: where the peak controls and their derivatives are sought
 
@@ -26,6 +27,10 @@ PEAK_SAMPLES = 40_000  # per leg: where the peak controls and their derivatives 
 )
 def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
     """The same path run `s` times faster (paper §6): `u(t) → s·u(s·t)`.
+
+    The plan's settings and scenario text say `planner.time_scale` multiplied by `s`, so
+    that its record re-plans to it (a record of it said 2 in result.json and 1 in its
+    scenario.toml and resolved.json, and re-planned to the plan before).
 
     Durations and switch times are divided by `s`, the basis period too (so every piece is
     still a Fourier series of the documented form), coefficients are multiplied by `s`;
@@ -47,6 +52,32 @@ def time_scaled(plan: SequencePlan, s: float) -> SequencePlan:
         a plan run faster than its rate limits allow is failed, naming the limit); a note of
         where the legs leave a URDF's joint limits is made again at the new times.
     """
+    out = retimed(plan, s)
+    scale = plan.settings.time_scale * s
+    return replace(
+        out,
+        settings=replace(out.settings, time_scale=scale),
+        scenario_text=_with_time_scale(plan.scenario_text, scale),
+    )
+
+
+def _with_time_scale(text: str, scale: float) -> str:
+    """Scenario TOML `text` with `planner.time_scale = scale` ("" stays "")."""
+    if not text:
+        return text
+    from .tomlwrite import dumps
+
+    tables = tomllib.loads(text)
+    if tables.get("planner", {}).get("time_scale", 1.0) == scale:
+        return text  # (as it was: plans compare their scenarios' text)
+    tables.setdefault("planner", {})["time_scale"] = float(scale)
+    return dumps(tables)
+
+
+def retimed(plan: SequencePlan, s: float) -> SequencePlan:
+    """`time_scaled` of a plan whose settings already say its time scale (`plan_run`: the
+    planned path run at `planner.time_scale`): the limits verified again, notes at the new
+    times; settings and scenario text as they are."""
     out = scale_time(plan, s)
     if plan.constraints is not None:  # its margins were measured at the old speed
         from .limit_timing import verified_again  # (imports this module)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import (
+    ROOT,
     plan_document,
     weak_stratum_scenario,
 )
@@ -50,6 +51,25 @@ def test_time_scaling_keeps_the_path(task_d):
     for leg, again in zip(optimal.legs, replay, strict=True):
         np.testing.assert_allclose(again["end"], leg.end, atol=1e-8)  # same end points
         assert again["energy"] == pytest.approx(leg.energy * s, rel=1e-8)
+
+
+def test_a_time_scaled_plans_record_re_plans_to_it(tmp_path):
+    """A record written from `time_scaled(plan, 2)` said time_scale 2 in result.json but 1
+    in its scenario.toml and resolved.json: re-planning it gave the plan before (84.04 over
+    2 s, not 168.08 over 1 s)."""
+    import json
+
+    plan = stratcli.plan(ROOT / "scenarios" / "sim4_task_d.toml", check=False)
+    fast = time_scaled(plan, 2.0)
+    assert fast.settings.time_scale == 2.0
+    run = stratcli.write_record(tmp_path, fast)
+    again = stratcli.plan(run / "scenario.toml", check=False)
+    assert again.total_energy == pytest.approx(fast.total_energy, rel=1e-12)
+    assert again.duration == pytest.approx(fast.duration, rel=1e-12)
+    assert json.loads((run / "resolved.json").read_text())["planner"]["time_scale"] == 2.0
+    assert stratcli.load_run(run) == fast
+    back = time_scaled(fast, 0.5)  # and back: the scales multiply
+    assert back.settings.time_scale == 1.0 and back.total_energy == pytest.approx(plan.total_energy)
 
 
 def test_every_planner_and_continuity_mode_reaches_its_goals(small_plan):

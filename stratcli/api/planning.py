@@ -24,7 +24,7 @@ from ..results import Timings
 from ..scenario import Task, load_scenario
 from ..sequence import SequencePlan
 from ..settings import MAX_TIME_SCALE
-from ..time_scaling import scale_time, time_scaled
+from ..time_scaling import retimed, scale_time
 from ..urdf_limits import with_limit_notes
 from .auto import auto_choice, harmonics_given
 from .inspection import controllability_first, limit_warnings
@@ -200,7 +200,7 @@ def plan_run(
             say("verifying the constraints on a dense re-integration")
             result = within_rates(result.with_system(task.system), task, scale)
     else:  # a URDF's joint limits, unless [constraints] verified them: noted (at its speed)
-        result = time_scaled(result, scale) if scale != 1.0 else result
+        result = retimed(result, scale) if scale != 1.0 else result
         result = with_limit_notes(result, task)
     result = _with_attitude_notes(result, task)
     result = _named(result, task, Timings(started.isoformat(), compile_time, planning_time))
@@ -281,7 +281,7 @@ def chosen_as_run(plan: SequencePlan, task: Task, scale: float = 1.0) -> Sequenc
     plan = plan.with_system(task.system)
     if task.constraints is not None and plan.ok:
         return _with_attitude_notes(within_rates(plan, task, scale), task)
-    plan = time_scaled(plan, scale) if scale != 1.0 else plan
+    plan = retimed(plan, scale) if scale != 1.0 else plan
     return _with_attitude_notes(with_limit_notes(plan, task), task)
 
 
