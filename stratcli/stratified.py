@@ -17,6 +17,7 @@ import numpy as np
 from .errors import InputError, Problem
 from .interrupts import checkpoint
 from .models.system import System
+from .planner_contract import NUMERICAL, checked_outcome, is_own, noted
 from .planners import PLANNERS, LegPlanner, LegProblem
 from .planners.base import SearchDiverged
 from .planners.lie import DRIFTED
@@ -180,10 +181,15 @@ def plan_next_leg(
         "basis": settings.basis,
         "n_inputs": system.m,
     }
+    own = is_own(planner)  # a user's: its bugs propagate, its outcome is checked
+    where = f"leg {at.index + 1} on {leg.stratum}"
     try:
         with np.errstate(all="ignore"):  # overflow shows as a non-finite error, handled below
             out = planner.plan(problem)
     except (SearchDiverged, *NUMERICAL_ERRORS) as exc:
+        if own and not isinstance(exc, NUMERICAL):
+            noted(exc, planner, leg.method, where)
+            raise
         diverged = isinstance(exc, SearchDiverged)
         return make_leg(
             **common,
@@ -203,6 +209,13 @@ def plan_next_leg(
                 else f"{type(exc).__name__}: {exc}"
             )[:300],
         )
+    except Exception as exc:
+        if own:
+            noted(exc, planner, leg.method, where)
+        raise
+    if own:
+        with np.errstate(all="ignore"):
+            out = checked_outcome(out, problem, planner, leg.method, settings.tolerance)
     status, message = out.status, out.message
     if not (np.all(np.isfinite(out.end)) and np.isfinite(out.error)):
         status = Status.NUMERICAL_FAILURE

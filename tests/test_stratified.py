@@ -196,6 +196,95 @@ def test_a_planner_of_ones_own_plans_the_legs_that_name_it(
         assert not notes
 
 
+def test_a_planner_of_ones_own_cannot_take_a_builtin_name_or_a_bad_one():
+    """A user's class with method = "newton" replaced the built-in for the whole process
+    (task D: 256.12 instead of 84.04), silently; so did a NewtonPlanner subclass that named
+    no method (it inherited "newton"); 3 and "Bad Name" were registered."""
+    for name in ("newton", "lie"):
+        with pytest.raises(ValueError, match=rf"^Mine.method: '{name}' is stratplan's own"):
+            type("Mine", (LegPlanner,), {"method": name})
+    for bad in (3, "Bad Name", "", "1st"):
+        with pytest.raises(TypeError, match=r"^Mine.method: must be a lowercase name"):
+            type("Mine", (LegPlanner,), {"method": bad})
+    type("Quiet", (NewtonPlanner,), {})  # no method of its own: registers nothing
+    assert PLANNERS["newton"] is NewtonPlanner and PLANNERS["lie"].__name__ == "LiePlanner"
+
+
+def _own(plan, name="contract-test"):
+    """A user's planner (registered for one test) whose `plan` is `plan`."""
+
+    def missing(self, problem):
+        return NewtonPlanner().missing_coefficients(problem)
+
+    return type(
+        "Own", (LegPlanner,), {"method": name, "plan": plan, "missing_coefficients": missing}
+    )
+
+
+@pytest.fixture
+def own_planner():
+    made = []
+
+    def make(plan):
+        made.append(_own(plan))
+        return made[-1]
+
+    yield make
+    PLANNERS.pop("contract-test", None)
+
+
+def _task_d_with(method):
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    legs = [
+        {"stratum": "S3", "goal": ["-pi/3", "pi/3", 0, "-pi/12"]},
+        {"stratum": "S1", "method": method},
+    ]
+    return task.with_changes({"legs": legs, "planner": {"objective": "newton"}})
+
+
+def test_a_planner_that_claims_its_goal_is_checked_by_the_end_point_map(own_planner):
+    """A planner returning zero controls with the goal as its end was "ok", error 0.00,
+    while its path ended 0.785 rad from the goal."""
+    from stratcli.planners import LegOutcome
+    from stratcli.results import Piece
+
+    def lying(self, problem):
+        zero = np.zeros((len(problem.stratum.active), problem.basis.size))
+        piece = Piece(0.0, problem.duration, zero)
+        return LegOutcome((piece,), problem.goal, 0.0, 1, 1, Status.SUCCESS, 0, "quadrature")
+
+    own_planner(lying)
+    plan = stratcli.plan(_task_d_with("contract-test"))
+    leg = plan.legs[1]
+    assert not plan.ok and leg.status is Status.NOT_CONVERGED
+    assert leg.error == pytest.approx(np.pi / 4, rel=1e-6)  # q3: 0 -> pi/4 not moved
+    assert (
+        "leg planner 'contract-test' (Own.plan) reported its goal reached, but its " in leg.message
+    )
+    np.testing.assert_allclose(leg.end, leg.start, atol=1e-12)  # where its controls end
+
+
+def test_a_planners_wrong_outcome_or_own_bug_is_named_not_a_numerical_failure(own_planner):
+    own_planner(lambda self, problem: None)
+    with pytest.raises(
+        TypeError,
+        match=r"^leg planner 'contract-test' \(Own.plan\) returned NoneType, not a LegOutcome$",
+    ):
+        stratcli.plan(_task_d_with("contract-test"))
+    PLANNERS.pop("contract-test")
+
+    def buggy(self, problem):
+        raise RuntimeError("my bug")
+
+    own_planner(buggy)
+    with pytest.raises(RuntimeError) as caught:  # its own, not a "numerical failure"
+        stratcli.plan(_task_d_with("contract-test"))
+    assert str(caught.value) == "my bug"
+    assert caught.value.__notes__ == [
+        "raised by leg planner 'contract-test' (Own.plan) planning leg 2 on S1"
+    ]
+
+
 def _escaping(z, jacobian):
     """e = exp(-z): every step lowers the error and pushes the end point z farther out."""
     e = np.exp(-z)

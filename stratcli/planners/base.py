@@ -16,6 +16,7 @@ that blow up.
 from __future__ import annotations
 
 import abc
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
@@ -46,6 +47,7 @@ __all__ = [
 ]
 
 PLANNERS: dict[str, type[LegPlanner]] = {}
+_METHOD_NAME = re.compile(r"[a-z][a-z0-9_-]*")
 
 # A Newton search is abandoned as diverged when, after an accepted step that did not reach the
 # goal, a coordinate of its end point is COORDINATE_RUNAWAY (rad, or the model's unit) farther
@@ -185,7 +187,9 @@ class LegPlanner(abc.ABC):
     Attributes
     ----------
     method : str
-        The name legs use; defining a second class with the same name replaces the first.
+        The name legs use: lowercase letters, digits, `_` or `-`. Defining a second class
+        with the same name replaces the first (a notebook cell run again); stratplan's own
+        names ("newton", "lie") are refused.
     joint_optimisation : bool
         Whether the energy objective may optimise its legs jointly with the others. Only for
         a Newton-like planner: one `Piece` per leg on the leg's duration, `problem.initial`
@@ -198,9 +202,30 @@ class LegPlanner(abc.ABC):
     joint_optimisation: ClassVar[bool] = False  # its legs can be optimised jointly (energy)
 
     def __init_subclass__(cls, **kwargs) -> None:
+        """Register a class that sets its own `method`: a lowercase name (letters, digits,
+        `_`, `-`) not taken by stratplan's own planners (a user's "newton" had replaced the
+        built-in silently for the whole process, and a subclass of `NewtonPlanner` without
+        a name of its own replaced it under the name it inherited)."""
         super().__init_subclass__(**kwargs)
-        if getattr(cls, "method", None):
-            PLANNERS[cls.method] = cls
+        method = cls.__dict__.get("method")
+        if method is None:
+            return
+        if not isinstance(method, str) or not _METHOD_NAME.fullmatch(method):
+            raise TypeError(
+                f"{cls.__name__}.method: must be a lowercase name (letters, digits, _ or -, "
+                f"starting with a letter), not {method!r}"
+            )
+        taken = PLANNERS.get(method)
+        if (
+            taken is not None
+            and taken.__module__.startswith("stratcli.")
+            and (taken.__module__ != cls.__module__)
+        ):
+            raise ValueError(
+                f"{cls.__name__}.method: {method!r} is stratplan's own planner "
+                f"({taken.__name__}); give yours another name"
+            )
+        PLANNERS[method] = cls  # (a user's class defined again, in a notebook: replaced)
 
     @classmethod
     def from_settings(cls, settings, leg, **overrides) -> LegPlanner:

@@ -180,7 +180,11 @@ def _own_planners(modules: dict[str, str], scenario: dict[str, Any]) -> None:
                                 f"legs[{i}].method",
                                 f"leg planner {method!r} is defined in {where}, which this "
                                 "worker (spawned, or on a Dask cluster) cannot import: define "
-                                "it in a module that the workers can import",
+                                "it in a module that the workers can import (a sweep's "
+                                "workers inherit it where they are forked: on Linux, no "
+                                "other thread running and OPENBLAS_NUM_THREADS, "
+                                "OMP_NUM_THREADS and MKL_NUM_THREADS set to 1 before numpy "
+                                "loaded)",
                             )
                         ]
                     )
