@@ -182,8 +182,9 @@ def plain(raw: Mapping[str, Any], max_depth: int = MAX_DEPTH) -> dict[str, Any]:
 def read_source(
     source: Any, name: str | None = None, kind: str = "scenario"
 ) -> tuple[dict[str, Any], str | None, str, Path | None]:
-    """A scenario or sweep as `load_scenario` and `load_sweep` take it: a path, TOML text
-    (`is_toml_text`) or a dict of the file's structure (`plain`).
+    """A scenario or sweep as `load_scenario` and `load_sweep` take it: a path (of a TOML
+    file, or a JSON one: a record's resolved.json), TOML text (`is_toml_text`) or a dict of
+    the file's structure (`plain`).
 
     Returns
     -------
@@ -225,6 +226,10 @@ def read_source(
         text = read_scenario_text(path, kind=kind)
     except InputError as exc:
         raise exc.with_source(where) from None
+    if path.suffix.lower() == ".json":  # a record's resolved.json, or a script's own
+        tables = _json_tables(text, where)
+        _of_kind(tables, kind, path, where)
+        return tables, None, where, path.parent
     if is_xml_text(text):  # else "not valid TOML: Invalid statement (at line 1, column 1)"
         raise InputError(
             f"XML, not a {kind} file (TOML); a URDF robot is named in a scenario's [model] "
@@ -235,6 +240,24 @@ def read_source(
     tables = parse_toml(text, where)
     _of_kind(tables, kind, path, where)
     return tables, text, where, path.parent
+
+
+def _json_tables(text: str, where: str) -> dict[str, Any]:
+    """The tables of a JSON scenario or sweep file (as a dict source: TOML's structure)."""
+    import json
+
+    try:
+        tables = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(
+            f"not valid JSON: {exc.msg} (at line {exc.lineno}, column {exc.colno})", where
+        ) from None
+    if not isinstance(tables, dict):
+        raise InputError(f"JSON of a {type(tables).__name__}, not an object of tables", where)
+    try:
+        return plain(tables)
+    except InputError as exc:
+        raise exc.with_source(where) from None
 
 
 def _of_kind(tables: Mapping, kind: str, path: Path | None, where: str) -> None:

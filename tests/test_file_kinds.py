@@ -48,3 +48,26 @@ def test_the_library_refuses_either_as_the_other_whatever_the_source_kind():
         with pytest.raises(InputError, match=r"a scenario file \(a \[model\] or \[task\] table"):
             load_sweep(source)
     assert load_sweep(SWEEP).name and stratcli.load_scenario(SCENARIO).scenario.name
+
+
+def test_a_records_resolved_json_is_a_scenario_on_the_command_line(tmp_path):
+    """The README says a record's resolved.json re-plans it; the command line read it as
+    TOML: `not valid TOML: Invalid statement (at line 1, column 1: {)`."""
+    import json
+
+    runner = CliRunner()
+    result = runner.invoke(app, ["plan", str(SCENARIO), "--out", str(tmp_path / "a"), "-q"])
+    assert result.exit_code == 0, result.output
+    (run,) = (tmp_path / "a").iterdir()
+    again = runner.invoke(
+        app, ["plan", str(run / "resolved.json"), "--out", str(tmp_path / "b"), "-q", "--json"]
+    )
+    assert again.exit_code == 0, again.output
+    first = json.loads((run / "result.json").read_text())
+    assert json.loads(again.stdout)["total_energy"] == first["total_energy"]
+    (tmp_path / "bad.json").write_text('{"model": ')
+    bad = runner.invoke(app, ["check", str(tmp_path / "bad.json")])
+    assert bad.exit_code == 2
+    assert bad.output.strip() == (
+        f"error: {tmp_path / 'bad.json'}: not valid JSON: Expecting value (at line 1, column 11)"
+    )
