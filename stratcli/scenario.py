@@ -34,6 +34,7 @@ from .models.specs import (
 )
 from .models.system import System
 from .planners import PLANNERS
+from .planners.base import ENTRY_POINTS, PLUGINS, load_plugins
 from .results import none_to_nan
 from .scenario_checks import (
     acceleration_problems,
@@ -271,11 +272,18 @@ def _resolve(
             )
     for i, entry in enumerate(scenario.legs or []):
         where = f"legs[{i}]"
+        plugins = load_plugins() if entry.method not in PLANNERS else []
         if entry.method not in PLANNERS:
             known = " or ".join(repr(m) for m in PLANNERS)
             got = f"(got {entry.method!r})"
             message = suggested(f"must be {known} {got}", entry.method)
+            if message.endswith(")"):  # no name close to it: how one's own is found
+                message += (
+                    f"; a planner of your own: import its module first, or name the module in "
+                    f"{PLUGINS} or under the entry points {ENTRY_POINTS}"
+                )
             problems.append(Problem(f"{where}.method", message))
+            problems += [Problem(*p) for p in plugins if Problem(*p) not in problems]
             continue
         if entry.stratum not in system.strata:
             problems.append(

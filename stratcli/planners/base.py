@@ -47,6 +47,9 @@ __all__ = [
 ]
 
 PLANNERS: dict[str, type[LegPlanner]] = {}
+PLUGINS = "STRATPLAN_PLANNERS"  # modules to import for planners of one's own (comma-separated)
+ENTRY_POINTS = "stratplan.planners"  # the entry-point group of installed packages' planners
+_plugins_loaded: list = []  # problems of the one loading (`load_plugins`), once done
 _METHOD_NAME = re.compile(r"[a-z][a-z0-9_-]*")
 
 # A Newton search is abandoned as diverged when, after an accepted step that did not reach the
@@ -420,3 +423,31 @@ def onto_goals(evaluate, z: np.ndarray, tolerance: float, max_iterations: int):
 def no_divergence_check(payload) -> None:
     """For searches whose payloads carry nothing to check for runaway."""
     return None
+
+
+def load_plugins() -> list[tuple[str, str]]:
+    """Import the modules of planners of one's own, once: those named in the environment
+    variable `STRATPLAN_PLANNERS` (comma-separated, on the path) and the entry points of the
+    group `stratplan.planners` (an installed package's). Defining a `LegPlanner` registers
+    it; so a scenario file names it on the command line. Returns a problem per module that
+    could not be imported, (where, what), every time: the scenario's check reports them."""
+    if _plugins_loaded:
+        return _plugins_loaded[1:]
+    import importlib
+    import os
+    from importlib.metadata import entry_points
+
+    problems: list = [None]  # (a first entry marks the loading done)
+    for module in filter(None, (m.strip() for m in os.environ.get(PLUGINS, "").split(","))):
+        try:
+            importlib.import_module(module)
+        except Exception as exc:  # a user's module: whatever it raises, said in one line
+            problems.append((PLUGINS, f"cannot import {module!r} ({type(exc).__name__}: {exc})"))
+    for point in entry_points(group=ENTRY_POINTS):
+        try:
+            point.load()
+        except Exception as exc:
+            what = f"cannot load {point.value!r} ({type(exc).__name__}: {exc})"
+            problems.append((f"entry point {point.name!r} of {ENTRY_POINTS}", what))
+    _plugins_loaded[:] = problems
+    return problems[1:]

@@ -1,0 +1,60 @@
+"""Planners of one's own on the command line: a scenario file names them, and the modules
+that define them are imported from STRATPLAN_PLANNERS (or an installed package's entry points,
+group stratplan.planners). A new user's `method = "lsq"` was refused with no way to say where
+the planner lives."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+from conftest import ROOT
+
+MODULE = """
+from stratcli.planners import LegPlanner, NewtonPlanner
+
+
+class Lsq(LegPlanner):
+    method = "lsq-plugin"
+
+    def __init__(self, **overrides):
+        self.inner = NewtonPlanner(**overrides)
+
+    def plan(self, problem):
+        return self.inner.plan(problem)
+
+    def missing_coefficients(self, problem):
+        return self.inner.missing_coefficients(problem)
+"""
+
+
+def _run(tmp_path, *args, modules=""):
+    env = dict(os.environ, PYTHONPATH=f"{tmp_path}{os.pathsep}{ROOT}", STRATPLAN_PLANNERS=modules)
+    return subprocess.run(
+        [sys.executable, "-m", "stratcli", *args], env=env, capture_output=True, text=True,
+        cwd=tmp_path, timeout=120,
+    )  # fmt: skip
+
+
+def test_a_scenario_names_a_planner_whose_module_the_variable_names(tmp_path):
+    (tmp_path / "myplanners.py").write_text(MODULE)
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    text = text.replace('stratum = "S1"', 'stratum = "S1"\nmethod = "lsq-plugin"')
+    (tmp_path / "mine.toml").write_text(text)
+    refused = _run(tmp_path, "check", "mine.toml")
+    assert refused.returncode == 2
+    assert refused.stderr.strip() == (
+        "error: mine.toml: legs[1].method: must be 'lie' or 'newton' (got 'lsq-plugin'); a "
+        "planner of your own: import its module first, or name the module in "
+        "STRATPLAN_PLANNERS or under the entry points stratplan.planners"
+    )
+    broken = _run(tmp_path, "check", "mine.toml", modules="nosuchmodule")
+    assert broken.returncode == 2
+    assert "error: mine.toml: STRATPLAN_PLANNERS: cannot import 'nosuchmodule' (" in broken.stderr
+    planned = _run(tmp_path, "plan", "mine.toml", "--json", "-q", modules="myplanners")
+    assert planned.returncode == 0, planned.stderr
+    doc = json.loads(planned.stdout)
+    assert [leg["method"] for leg in doc["legs"]] == ["newton", "lsq-plugin"]
+    assert doc["status"] == "ok"
