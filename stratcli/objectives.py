@@ -261,24 +261,32 @@ def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
         proxy = plan_with_objective(system, start, stand_in, settings)
     except (InputError, *NUMERICAL_ERRORS):  # the stand-in is only a helper
         proxy = None
+    seeded = None
     if proxy is not None and proxy.ok and proxy.optimisation is not None:
         initial = [np.ravel(leg.coefficients) for leg in proxy.legs]
         seeded = chain_legs(system, start, legs, settings, initial=initial)
+        how = "the Lie-algebraic method (local steps, planned where the system is)"
+        applied = _noted(
+            seeded,
+            f"objective {objective!r} applied to the Newton legs only: leg(s) {which} use "
+            f"{how if lie else named}; the Newton legs come from the minimum-energy plan "
+            f"with a Newton stand-in for each {'Lie leg' if lie else 'of them'}, then the "
+            "sequence was planned leg by leg (a Newton leg's iterations are its polish from "
+            "there: 0 where it reached its goal as it was)",
+        )
         if seeded.ok:
-            how = "the Lie-algebraic method (local steps, planned where the system is)"
-            return _noted(
-                seeded,
-                f"objective {objective!r} applied to the Newton legs only: leg(s) {which} use "
-                f"{how if lie else named}; the Newton legs come from the minimum-energy plan "
-                f"with a Newton stand-in for each {'Lie leg' if lie else 'of them'}, then the "
-                "sequence was planned leg by leg (a Newton leg's iterations are its polish from "
-                "there: 0 where it reached its goal as it was)",
-            )
+            return applied
     plain = chain_legs(system, start, legs, settings)
+    if seeded is not None and not plain.ok:  # failed both ways: the plan the objective made
+        return applied  # (a new user's failed Lie leg swapped it for the paper's legs)
+    why = (
+        f"from the minimum-energy Newton legs {seeded.message[0].lower()}{seeded.message[1:]}"
+        if seeded is not None
+        else f"leg(s) {which} use {'the Lie-algebraic method' if lie else named}"
+    )
     return _noted(
         plain,
-        f"objective {objective!r} not applied: leg(s) {which} use "
-        f"{'the Lie-algebraic method' if lie else named}, so the sequence was planned leg by "
+        f"objective {objective!r} not applied: {why}, so the sequence was planned leg by "
         "leg (Newton legs with the paper's Newton method)",
     )
 

@@ -260,6 +260,8 @@ def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
         where += " (Lie-algebraic)"
         work = f"after {counted(leg.iterations, 'step')}"
         _, drift, how = leg.message.partition(DRIFTED)  # `lie._drifted`: the first thing to try
+        if settings.lie.degree >= 3:  # (advised to a scenario that had set it)
+            advice = advice.replace("lie.degree = 3, ", "")
         if drift:
             advice = f"{drift}{how}, or {advice}"
     else:

@@ -156,3 +156,21 @@ def test_a_hybrid_plans_note_says_what_its_newton_legs_iterations_count(scenario
     assert note.endswith("(a Newton leg's iterations are its polish from there: 0 where it "
                          "reached its goal as it was)")  # fmt: skip
     assert [leg.iterations for leg in plan.legs if leg.method == "newton"] == [0, 0]
+
+
+def test_a_lie_leg_failing_either_way_keeps_the_energy_objectives_newton_legs(scenarios_dir):
+    """Sim 3 with lie.max_steps = 6: its Lie leg fails from the minimum-energy Newton legs,
+    and the plan was swapped for the paper's leg-by-leg one (legs 927.89 and 299.31 where they
+    had been 95.56 and 125.63), whose Lie leg failed too, the note blaming the method; and the
+    advice said lie.degree = 3 to a scenario that had set it."""
+    from stratcli.api import plan_run
+
+    task = load_scenario(scenarios_dir / "sim3_hybrid.toml")
+    short = task.with_changes({"planner.lie.max_steps": 6})
+    plan = plan_run(short, check=False).result
+    full = plan_run(task, check=False).result
+    assert not plan.ok and plan.legs[2].status.key == "lie_not_converged"
+    assert any("applied to the Newton legs only" in n for n in plan.notes)
+    for leg, energy_plan_leg in zip(plan.legs[:2], full.legs[:2], strict=True):
+        assert leg.energy == pytest.approx(energy_plan_leg.energy, rel=1e-9)
+    assert "lie.degree = 3" not in plan.message and "more lie.max_steps" in plan.message
