@@ -279,6 +279,28 @@ def test_a_dead_dask_worker_loses_no_task(reference, tmp_path):
     assert strip(outcome.rows) == strip(reference.rows)
 
 
+@pytest.mark.slow
+def test_an_interrupted_dask_sweep_stops_as_interrupted_with_its_rows_kept(tmp_path):
+    """Ctrl-C during a sweep on Dask ended on a TypeError (Dask's ClientExecutor.shutdown
+    takes no cancel_futures), which hid the interrupt, so no resume note was printed."""
+    distributed = pytest.importorskip("distributed")
+    from stratcli.interrupts import Interrupted
+
+    def interrupt(done: int, total: int) -> None:
+        if done >= 1:
+            raise Interrupted(signal.SIGINT)
+
+    with distributed.LocalCluster(
+        n_workers=1, processes=True, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        with pytest.raises(Interrupted):
+            stratcli.run_sweep(
+                write(tmp_path, GRID), tmp_path / "d", dask=cluster.scheduler_address,
+                progress=interrupt,
+            )  # fmt: skip
+    assert len(read_rows(tmp_path / "d" / ROWS)) >= 1
+
+
 def test_a_bad_dask_scheduler_file_is_bad_input(tmp_path):
     (tmp_path / "scheduler.json").write_text("{}")
     with pytest.raises(InputError, match="not a readable Dask scheduler file"):

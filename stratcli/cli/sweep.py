@@ -228,7 +228,10 @@ def summary(doc: dict[str, Any], path: Path, source: str = "", at: str | None = 
         file = "FILE" if not source or source.startswith("<") else source  # "<dict>": Python
         if at is not None and Path(at).is_file():  # as given, it was relative to where it ran
             file = at if (here := os.path.relpath(at)).startswith("..") else here
-        again = shlex.join(["stratplan", "sweep", file, "--out", str(path), "--resume"])
+        words = ["stratplan", "sweep", file, "--out", str(path), "--resume"]
+        if ex and ex.get("kind") == "dask" and ex.get("address"):  # where it ran, not locally
+            words += ["--dask", str(ex["address"])]
+        again = shlex.join(words)
         say(f"  missing  {doc['missing']} tasks ({escape(again)})")
     for name in ("results.csv", *doc.get("plots", [])):
         if (Path(path) / name).exists():

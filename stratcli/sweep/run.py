@@ -117,7 +117,10 @@ def _stop(executor: Executor, futures: dict[Future, int]) -> None:
         return
     for future in futures:
         future.cancel()
-    executor.shutdown(wait=False, cancel_futures=True)
+    try:
+        executor.shutdown(wait=False, cancel_futures=True)
+    except TypeError:  # Dask's ClientExecutor takes no cancel_futures (they are cancelled)
+        executor.shutdown(wait=False)
 
 
 def run_sweep(
