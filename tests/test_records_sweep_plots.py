@@ -135,3 +135,19 @@ def test_plots_of_a_sweep_with_no_task_ok_say_so_instead_of_empty_axes():
     line = energy_line(_spec(axes=((0.0, 1.0),)), rows).axes[0]
     for ax in (hist, line):
         assert [t.get_text() for t in ax.texts] == [NO_TASK_OK]
+
+
+def test_the_energy_has_its_unit_and_a_whole_number_axis_whole_ticks():
+    """The sweep's energy axes said "energy ∫|u|² dt" without the unit the ranking figure
+    gives, and a sweep of planner.basis.harmonics over 2..5 had ticks at 2.5 and 3.5."""
+    from stratcli.sweep.keys import energy_unit
+
+    spec = {**_spec(axes=((2.0, 3.0, 4.0, 5.0),)), "energy_unit": energy_unit("preset")}
+    spec["keys"] = ["planner.basis.harmonics"]
+    ax = energy_line(spec, _rows(5)).axes[0]
+    assert ax.get_ylabel() == "energy ∫|u|² dt [rad²/s]"
+    ax.figure.canvas.draw()
+    assert all(float(t).is_integer() for t in ax.get_xticks())
+    assert energy_unit("custom") == ""
+    colorbar = energy_map({**_spec(), "energy_unit": "rad²/s"}, _rows(6)).axes[1]
+    assert colorbar.get_ylabel() == "energy ∫|u|² dt [rad²/s]"

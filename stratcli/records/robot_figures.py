@@ -142,7 +142,7 @@ def stroboscope_figure(
         ax.set_title(
             f"leg {k + 1}: {leg_method(plan, k)}"
             + (f" ({locked} locked)" if locked else "")
-            + f"\nt = {leg.t0:g} to {leg.t0 + leg.duration:g} s",
+            + f"\nt = {leg.t0:.4g} to {leg.t0 + leg.duration:.4g} s",
             fontsize=9,
         )
         if panel % cols == 0:

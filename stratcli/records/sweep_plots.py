@@ -87,6 +87,20 @@ def _failed_marks(ax, spec, rows) -> None:
         ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
 
 
+def _energy_label(spec: dict[str, Any]) -> str:
+    """The energy axis' label, with its unit where the sweep knows it (spec.json's
+    `energy_unit`: rad²/s for robots with joints, as the ranking figure says)."""
+    unit = spec.get("energy_unit")  # (absent from older sweeps' spec.json)
+    return "energy ∫|u|² dt" + (f" [{unit}]" if unit else "")
+
+
+def _whole(ax_axis, values) -> None:
+    """Ticks at whole numbers only, on an axis whose values all are (harmonics, a seed):
+    a sweep of planner.basis.harmonics over 2..5 had ticks at 2.5 and 3.5."""
+    if len(values) and all(float(v).is_integer() for v in values):
+        ax_axis.set_major_locator(MaxNLocator(integer=True))
+
+
 def _label(spec: dict[str, Any], i: int) -> str:
     """Axis `i`'s key with its unit where the sweep knows it: "goal.q1 (rad)"."""
     units = spec.get("units") or []  # (spec.json of older sweeps has none)
@@ -121,7 +135,7 @@ def energy_map(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
         norm = LogNorm(finite.min(), finite.max())
     mesh = ax.pcolormesh(_edges(xs), _edges(ys), np.ma.masked_invalid(grid), norm=norm,
                          cmap="viridis", shading="flat")  # fmt: skip
-    fig.colorbar(mesh, ax=ax, label="energy ∫|u|² dt")
+    fig.colorbar(mesh, ax=ax, label=_energy_label(spec))
     _finish_map(ax, spec, rows)
     return fig
 
@@ -171,7 +185,8 @@ def energy_line(spec: dict[str, Any], rows: dict[int, dict]) -> Figure:
     if not any(v == v for v in e):  # an empty plot otherwise, its y-axis ±0.04
         _no_task_ok(ax, ax.set_yticks)
     ax.set_xlabel(_label(spec, 0))
-    ax.set_ylabel("energy ∫|u|² dt")
+    _whole(ax.xaxis, xs)
+    ax.set_ylabel(_energy_label(spec))
     ax.set_title(_title(spec, rows), fontsize=9)
     return fig
 

@@ -118,6 +118,11 @@ _UNIT_OF = (  # the last part of a key that is no coordinate -> its unit
 )
 
 
+def energy_unit(model_kind: str | None) -> str:
+    """The energy's unit (∫|u|² dt of joint rates: rad²/s), or "" for a custom model's."""
+    return "rad²/s" if model_kind in _ANGLES else ""
+
+
 def unit_of(key: str, model_kind: str | None) -> str:
     """The unit of the values at `key` for an axis label ("rad", "s", "m"), or "" where it is
     not known (a custom model's coordinates, a dimensionless setting)."""

@@ -34,7 +34,7 @@ from ..records import sweepdir
 from ..records.rundir import write_run
 from ..wording import counted
 from .executors import ExecutorInfo, local_executor
-from .keys import unit_of
+from .keys import energy_unit, unit_of
 from .spec import Sweep
 from .worker import own_planners, run_task
 
@@ -76,6 +76,10 @@ def tally(summary: dict[str, Any], path: Path) -> str:
     )
 
 
+def _model_kind(sweep: Sweep) -> str | None:
+    return (sweep.base.get("model") or {}).get("kind")
+
+
 def spec_document(sweep: Sweep) -> dict[str, Any]:
     """spec.json: what the sweep is (its digest is what --resume checks)."""
     return {
@@ -85,7 +89,8 @@ def spec_document(sweep: Sweep) -> dict[str, Any]:
         "mode": sweep.mode,
         "kind": sweep.kind,
         "keys": list(sweep.keys),
-        "units": [unit_of(key, (sweep.base.get("model") or {}).get("kind")) for key in sweep.keys],
+        "units": [unit_of(key, _model_kind(sweep)) for key in sweep.keys],
+        "energy_unit": energy_unit(_model_kind(sweep)),
         "axes": [list(a) for a in sweep.axes],
         "count": sweep.count,
         "random": sweep.random.model_dump() if sweep.random else None,
