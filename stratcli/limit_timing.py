@@ -80,15 +80,16 @@ def _three_digits(x: float, up: bool) -> float:
 def _retimed(why: str, factor: float, s: float | None, meets: str) -> str:
     """The advice for a plan re-timed `why` (too slow for its budget, too fast for a rate
     or acceleration limit; joint limits and clearances do not depend on the speed): the
-    re-timing `factor` of this plan that meets it, "or more" / "or less" (`meets` begins
+    re-timing `factor` of this plan that meets it, "at least" / "at most" (`meets` begins
     with which), rounded to stay true; first, where the call's speed-up `s` is known, that
     of the plan given it (a user re-times that plan again, not the failed one)."""
     up = meets.startswith("more")
-    this = f"time_scaled by {_three_digits(factor, up=up):g} or"
+    bound, verb = "at least" if up else "at most", meets.split(" ", 1)[1]
+    this = f"time_scaled by {bound} {_three_digits(factor, up=up):g}"
     if s is None:
-        return f"re-timed {why}: this plan {this} {meets}"
-    first = f"time_scaled by {s:g} where {_three_digits(s * factor, up=up):g} or {meets}"
-    return f"re-timed {why}: {first} (this plan {this} {meets.split()[0]})"
+        return f"re-timed {why}: this plan {this} {verb}"
+    first = f"time_scaled by {s:g}, where {bound} {_three_digits(s * factor, up=up):g} {verb}"
+    return f"re-timed {why}: {first} (this plan {this.replace('by', 'again by', 1)})"
 
 
 def enforce(plan, c: Constraints):

@@ -109,13 +109,13 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     # (10x faster: every leg's rates 10x and accelerations 100x, over both limits)
     more = "leg 1's acceleration limit, leg 2's rate limit, leg 2's acceleration limit"
     assert re.search(rf"at t = [0-9.]+ s \(and 3 more limits: {more}\)", faster.message)
-    assert "this plan time_scaled by" in faster.message  # the factor for this plan
+    assert "this plan time_scaled again by" in faster.message  # the factor for this plan
     # the advice is to run it slower, by how much (not the vias or harmonics of a plan that
     # was planned off its limits: joint limits and clearances do not change with the speed)
     assert "via configurations" not in faster.message
-    found = re.search(r"time_scaled by 10 where ([0-9.e+-]+) or less meets every rate and "
-                      r"acceleration limit \(this plan time_scaled by ([0-9.e+-]+) or less\)",
-                      faster.message)  # fmt: skip
+    found = re.search(r"time_scaled by 10, where at most ([0-9.e+-]+) meets every rate and "
+                      r"acceleration limit \(this plan time_scaled again by at most "
+                      r"([0-9.e+-]+)\)", faster.message)  # fmt: skip
     given, factor = float(found[1]), float(found[2])
     # exactly 1 and 0.1: the plan ran at its rate limit, sped up 10 times (a new user was
     # offered 0.499 for 2 times, the exact 0.5 rounded down from 0.49999999999999994); the
@@ -128,8 +128,8 @@ def test_time_scaled_verifies_a_constrained_plan_again():
     still = stratcli.time_scaled(faster, 0.5)  # 5x the plan: still too fast
     assert not still.ok and still.message.startswith(still.constraints.violated)
     assert still.message.endswith(
-        "time_scaled by 0.5 where 0.1 or less meets every rate and acceleration limit (this "
-        "plan time_scaled by 0.2 or less)"
+        "time_scaled by 0.5, where at most 0.1 meets every rate and acceleration limit (this "
+        "plan time_scaled again by at most 0.2)"
     )
     # slowed back within the limit: ok, and no message of the violation left behind
     back = stratcli.time_scaled(faster, 0.1)

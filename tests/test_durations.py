@@ -189,8 +189,8 @@ def test_a_budget_the_rate_limits_cannot_meet_fails_and_its_advice_meets_it(tmp_
     assert not slower.ok and slower.constraints.violation["limit"] == "total_duration"
     assert slower.message == (
         f"the plan runs {2 * budget:.4g} s, more than planner.total_duration = {budget:g} s; "
-        "re-timed too slow for its budget: time_scaled by 0.5 where 1 or more fits it (this "
-        "plan time_scaled by 2 or more)"
+        "re-timed too slow for its budget: time_scaled by 0.5, where at least 1 fits it (this "
+        "plan time_scaled again by at least 2)"
     )
     again = time_scaled(slower, 2.0)
     assert again.ok and again.message == "" and again.duration == pytest.approx(budget)
