@@ -13,6 +13,7 @@ from matplotlib.collections import LineCollection
 from PIL import Image
 from typer.testing import CliRunner
 
+import stratcli
 import stratcli.records.plots as plots
 import stratcli.simulate as simulate
 from stratcli.cli import app
@@ -480,3 +481,24 @@ def test_the_stroboscope_marks_each_legs_closest_approach_to_an_obstacle():
         (label,) = [x.get_text() for x in ax.texts if x.get_text().startswith("closest")]
         assert label.startswith(f"closest approach: margin {gap.min():.3g}, near t = "), label
         assert f"t = {traj.t[s][n]:.4g} s" in label
+
+
+def test_a_lie_legs_stroboscope_poses_are_mid_step():
+    """A Lie leg's loops close at its step boundaries, where evenly spaced poses landed: the
+    leg looked still while its joints swung. Its poses are now the middle of evenly chosen
+    steps (between its start and end), and a record samples 24 a step."""
+    from stratcli.records.robot_figures import _instants
+    from stratcli.records.run import SAMPLES_PER_PIECE
+    from stratcli.simulate import sample
+
+    plan = stratcli.plan(ROOT / "scenarios" / "sim3_hybrid.toml", check=False)
+    leg = plan.legs[2]
+    assert leg.method == "lie" and len(leg.pieces) > 2
+    traj = sample(plan, SAMPLES_PER_PIECE * len(leg.pieces) + 1)
+    s = traj.leg_slice(2)
+    idx = _instants(leg, traj.t, s, 10)
+    assert idx[0] == s.start and idx[-1] == s.stop - 1
+    for i in idx[1:-1]:  # each inside a step, half way through it (to a sample spacing)
+        local = traj.t[i] - leg.t0
+        step = next(p for p in leg.pieces if p.t0 <= local <= p.t0 + p.duration)
+        assert abs(local - (step.t0 + step.duration / 2)) <= traj.t[s][1] - traj.t[s][0]

@@ -72,6 +72,19 @@ def _tips(geo: dict[str, np.ndarray]) -> np.ndarray:
     return geo["distal"][:, last]
 
 
+def _instants(leg, t: np.ndarray, s: slice, snapshots: int) -> np.ndarray:
+    """Sample indices of a leg's stroboscope poses: evenly spaced, but a leg of several
+    pieces (a Lie leg's steps) at the middle of evenly chosen pieces, between its start and
+    end: its loops close at the step boundaries, where evenly spaced poses landed, and the
+    leg looked still while its joints swung by radians."""
+    if len(leg.pieces) <= 1:
+        return np.unique(np.linspace(s.start, s.stop - 1, snapshots).round().astype(int))
+    picked = np.unique(np.linspace(0, len(leg.pieces) - 1, snapshots - 2).round().astype(int))
+    mids = [leg.t0 + leg.pieces[k].t0 + 0.5 * leg.pieces[k].duration for k in picked]
+    inner = s.start + np.clip(np.searchsorted(t[s], mids), 0, s.stop - s.start - 1)
+    return np.unique([s.start, *inner, s.stop - 1])
+
+
 def stroboscope_figure(
     plan: SequencePlan, traj: Trajectory, title: str = "", snapshots: int = 10
 ) -> Figure:
@@ -120,7 +133,7 @@ def stroboscope_figure(
         k = int(shown[panel])
         leg = plan.legs[k]
         s = traj.leg_slice(k)
-        idx = np.unique(np.linspace(s.start, s.stop - 1, snapshots).round().astype(int))
+        idx = _instants(leg, traj.t, s, snapshots)
         w = np.linspace(0.0, 1.0, len(idx))[1:-1]
         fading = [tuple((1 - x) * ARM_LIGHT + x * ARM_DARK) for x in w]
         draw_poses(ax, geo, idx[1:-1], fading, lw=1.2, zorder=2, edge_alpha=0.55)

@@ -17,6 +17,8 @@ from .model_files import model_files
 from .rundir import run_name, write_run
 from .trajectory import sample
 
+SAMPLES, SAMPLES_PER_PIECE = 200, 24  # a leg's re-integrated samples in a record, at least
+
 
 def _jsonable(value: Any) -> Any:
     """NaN (a goal entry "*") becomes null; tuples become lists."""
@@ -46,7 +48,8 @@ def record_files(
     """Name → content of every file of the run directory (plots as `fmt`: png, svg or pdf;
     a comparison's `ranking` chart of its document; a URDF robot's URDF, `model_files`).
 
-    The trajectory is re-integrated densely (≥ 200 samples per leg) for the MCAP log and the
+    The trajectory is re-integrated densely (≥ 200 samples per leg, 24 a piece of a Lie leg's
+    steps: a 40-step leg's end-effector path was a jagged polyline) for the MCAP log and the
     plots; both are built in memory so the run directory can be written atomically. The
     figures are drawn by the drawing process where the command started one (`drawing`),
     else here; the MCAP log is built meanwhile, and its copy of the manifest added once they
@@ -54,7 +57,8 @@ def record_files(
     """
     phases = manifest.setdefault("phases", {})
     with phase(phases, "sample"):
-        traj = sample(plan)
+        pieces = max((len(leg.pieces) for leg in plan.legs), default=1)
+        traj = sample(plan, max(SAMPLES, SAMPLES_PER_PIECE * pieces + 1))
     title = task.scenario.name
     wall = time.perf_counter()
     drawn = drawing.ask(plan, traj, title, animation, fmt, ranking)
