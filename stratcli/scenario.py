@@ -34,7 +34,7 @@ from .models.specs import (
 )
 from .models.system import System
 from .planners import PLANNERS
-from .planners.base import ENTRY_POINTS, PLUGINS, load_plugins
+from .planners.plugins import ENTRY_POINTS, PLUGINS, load_plugins
 from .results import none_to_nan
 from .scenario_checks import (
     acceleration_problems,

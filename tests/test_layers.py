@@ -24,8 +24,8 @@ SCENARIO = (
     "stratcli.schema_problems",
     "stratcli.task",
     "stratcli.tomlread",
-    "stratcli.tomlwrite",
-)
+)  # (tomlwrite, a standard-library TOML writer of plain dicts, is a leaf the engine may use:
+# `time_scaled` writes a plan's new planner.time_scale into its scenario text)
 RECORDS = ("stratcli.records",)
 SWEEP = ("stratcli.sweep",)
 API = ("stratcli.api", "stratcli.regress")

@@ -261,7 +261,7 @@ class LiePlanner(LegPlanner):
 
 
 DRIFT = 0.5  # rad: a free coordinate that moved this far is named in a failed leg's message
-DRIFTED = "free coordinates drifted"  # `stratified.failure_message` puts it first
+DRIFTED = "free coordinates drifted"  # `leg_failures.failure_message` puts it first
 
 
 def _drifted(system, start, end, goal, targets) -> str:
