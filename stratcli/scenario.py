@@ -52,7 +52,7 @@ from .settings import (
     LieSettings,
     PlannerSettings,
 )
-from .stratified import LegSpec, check_legs
+from .stratified import LegSpec, check_legs, pinned_vias
 from .task import Task
 from .tomlread import parse_toml, raise_non_finite, read_source, reject_non_finite
 
@@ -373,6 +373,7 @@ def _resolve(
     if problems := evaluator_problems(system, p.evaluator, strata):
         raise InputError(problems)
 
+    legs = pinned_vias(system, legs)  # a free via coordinate that later legs keep locked
     check_legs(system, start, legs, settings)
     return Task(scenario, system, start, goal, legs, settings, source, text, constraints, base_dir)
 

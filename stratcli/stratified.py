@@ -354,6 +354,25 @@ def _distinct(a: float, b: float) -> tuple[str, str]:
     return repr(a), repr(b)
 
 
+def pinned_vias(system: System, legs: list[LegSpec]) -> list[LegSpec]:
+    """`legs` with a via's free ("*") coordinate set where the legs after it keep that
+    coordinate locked up to a goal that gives it: the one value that reaches that goal (a
+    free q1 before an S1 leg ended where leg 1 left it, 1.24 rad from the goal, status ok).
+    A given value that differs is `check_legs`' to refuse."""
+    out = list(legs)
+    n = system.n
+    for j in range(len(out) - 1, 0, -1):  # from the last leg back: its start is via j - 1
+        goal = np.asarray(out[j].goal, dtype=float)  # (a via pinned a step before included)
+        moved = set(system.stratum(out[j].stratum).free(n))
+        kept = [c for c in range(n) if c not in moved and np.isfinite(goal[c])]
+        before = np.array(out[j - 1].goal, dtype=float)
+        free = [c for c in kept if np.isnan(before[c])]  # locked on leg j: start = end
+        if free:
+            before[free] = goal[free]
+            out[j - 1] = replace(out[j - 1], goal=before)
+    return out
+
+
 def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings: PlannerSettings):
     """Problems found before planning: locked coordinates asked to move, too few coefficients.
 

@@ -194,3 +194,30 @@ def test_a_free_joint_at_a_via_is_held_so_the_plan_is_the_searchs():
     newton = plan_run(task.with_changes({"planner.objective": "newton"}), check=False).result
     q2 = outcome.result.legs[0].end[1]
     assert q2 == pytest.approx(newton.legs[0].end[1], abs=1e-8)  # held there
+
+
+def test_a_free_via_coordinate_that_later_legs_keep_locked_takes_the_goals_value():
+    """Task D with q1 free at its via: leg 2 (S1) locks q1, so the plan ended where leg 1
+    left it, 1.24 rad from the goal, with every leg's error tiny and status ok."""
+    from stratcli.models.presets import preset
+    from stratcli.stratified import LegSpec, pinned_vias
+
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d.toml").read_text())
+    raw["legs"][0]["goal"] = ["*", "pi/3", 0, "-pi/12"]
+    task = load_scenario(raw)
+    assert task.legs[0].goal[0] == pytest.approx(-np.pi / 3)  # pinned to the goal's q1
+    plan = plan_run(task, check=False).result
+    assert plan.ok
+    np.testing.assert_allclose(plan.end, task.goal, atol=task.settings.tolerance)
+    # through two legs that lock it, and a given value left alone (check_legs judges it)
+    system, nan = preset("one-arm"), np.nan
+    legs = [
+        LegSpec("S3", np.array([nan, 0.2, 0.0, nan])),
+        LegSpec("S1", np.array([nan, 0.3, 0.1, nan])),
+        LegSpec("S1", np.array([-1.0, 0.4, 0.2, 0.1])),
+    ]
+    pinned = pinned_vias(system, legs)
+    assert [leg.goal[0] for leg in pinned] == [-1.0, -1.0, -1.0]
+    assert all(np.isnan(leg.goal[3]) for leg in pinned[:2])  # θ moves on every stratum
+    given = [legs[0], LegSpec("S1", np.array([0.5, 0.3, 0.1, nan])), legs[2]]
+    assert pinned_vias(system, given)[1].goal[0] == 0.5
