@@ -162,3 +162,20 @@ def test_a_urdf_leg_out_of_reach_fails_without_continuation_naming_stratum_and_d
     assert leg.iterations <= budget  # Newton's own attempts only: no continuation after them
     assert "S1 cannot move rz from the leg's start" in leg.message
     assert "no continuation tried" in leg.message
+
+
+def test_a_coordinate_free_at_the_via_before_is_no_distance_to_steer():
+    """Sim 3 with theta free at both vias: the check read leg 3's start theta as 0 and warned
+    of an ill-conditioned leg at ~1.2e4 (planned at 0.78): where it starts is not known."""
+    import tomllib
+
+    from conftest import ROOT
+
+    raw = tomllib.loads((ROOT / "scenarios" / "sim3_hybrid.toml").read_text())
+    for leg in raw["legs"][:-1]:
+        leg["goal"][-1] = "*"
+    task = load_scenario(raw)
+    doc = check_document(task.system, [leg.stratum for leg in task.legs], task.start,
+                         samples=5, legs=task.legs)  # fmt: skip
+    assert not doc["warnings"], doc["warnings"]
+    assert doc["legs"][2]["reach"]["weak"] is False  # still estimated: q2 and q3 are known
