@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .planner_contract import OWN
 from .planners.lie import DRIFTED
 from .results import LegPlan
 from .settings import PlannerSettings
@@ -17,6 +18,8 @@ def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
     tolerance = settings.tolerance
     head, _, advice = leg.status.value.partition("; ")
     where = f"leg {leg.index + 1} on {leg.stratum}"
+    if leg.message.startswith(OWN):  # a planner of one's own missed: its advice is not ours
+        return f"{where}: {leg.message}"
     if leg.status is Status.NUMERICAL_FAILURE:
         return f"{where} was {head} ({leg.message}); {advice}"
     if leg.status is Status.DIVERGED:

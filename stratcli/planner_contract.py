@@ -18,9 +18,27 @@ import numpy as np
 from .planners.base import LegOutcome, LegPlanner, LegProblem
 from .status import Status
 
-__all__ = ["checked_outcome", "is_own", "noted"]
+__all__ = ["OWN", "PlannerContractError", "checked_outcome", "fault", "is_own", "noted"]
 
 NUMERICAL = (ArithmeticError, np.linalg.LinAlgError)  # a model's, whoever's planner ran it
+OWN = "leg planner "  # how its messages begin (`leg_failures` gives no advice of ours then)
+RAISED_BY = f"raised by {OWN}"  # the note `noted` adds
+
+
+class PlannerContractError(TypeError):
+    """A planner of one's own returned what `LegPlanner.plan` may not (a TypeError)."""
+
+
+def fault(exc: BaseException) -> str | None:
+    """The line the command line prints where a planner of one's own broke (its exception,
+    or its contract; its traceback shown above it), else None."""
+    if isinstance(exc, PlannerContractError):
+        return str(exc)
+    note = next((n for n in getattr(exc, "__notes__", ()) if n.startswith(RAISED_BY)), None)
+    if note is None:
+        return None
+    head = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+    return f"{type(exc).__name__}{': ' + head if head else ''} ({note}; the traceback above is its)"
 
 
 def is_own(planner: LegPlanner) -> bool:
@@ -29,12 +47,12 @@ def is_own(planner: LegPlanner) -> bool:
 
 
 def _name(planner: LegPlanner, method: str) -> str:
-    return f"leg planner {method!r} ({type(planner).__name__}.plan)"
+    return f"{OWN}{method!r} ({type(planner).__name__}.plan)"
 
 
 def noted(exc: BaseException, planner: LegPlanner, method: str, where: str) -> None:
     """Note on `exc`, raised by a user's planner, which planner and leg raised it."""
-    exc.add_note(f"raised by {_name(planner, method)} planning {where}")
+    exc.add_note(f"{RAISED_BY}{_name(planner, method)[len('leg planner ') :]} planning {where}")
 
 
 def checked_outcome(
@@ -50,17 +68,17 @@ def checked_outcome(
     """
     name = _name(planner, method)
     if not isinstance(out, LegOutcome):
-        raise TypeError(f"{name} returned {type(out).__name__}, not a LegOutcome")
+        raise PlannerContractError(f"{name} returned {type(out).__name__}, not a LegOutcome")
     shape = (len(problem.stratum.active), problem.basis.size)
     t = 0.0
     for k, piece in enumerate(out.pieces):
         if np.shape(piece.coefficients) != shape:
-            raise TypeError(
+            raise PlannerContractError(
                 f"{name}: piece {k} has coefficients of shape {np.shape(piece.coefficients)}, "
                 f"not {shape} (active inputs x basis functions)"
             )
         if abs(piece.t0 - t) > 1e-9 * max(1.0, t):
-            raise TypeError(f"{name}: piece {k} starts at {piece.t0:g} s, not {t:g} s")
+            raise PlannerContractError(f"{name}: piece {k} starts at {piece.t0:g} s, not {t:g} s")
         t += piece.duration
     if not out.pieces or not out.status.ok:
         return out

@@ -270,20 +270,25 @@ def _resolve(
                     f"unknown stratum {name!r} (this model has: {', '.join(system.strata)})",
                 )
             )
+    # planners of one's own named by a leg: their modules imported first, and any module
+    # that could not be (even where another supplied the method) a problem of its own, first
+    unknown = any(entry.method not in PLANNERS for entry in scenario.legs or [])
+    plugins = [Problem(*p) for p in load_plugins()] if unknown else []
+    problems[:0] = plugins
     for i, entry in enumerate(scenario.legs or []):
         where = f"legs[{i}]"
-        plugins = load_plugins() if entry.method not in PLANNERS else []
         if entry.method not in PLANNERS:
             known = " or ".join(repr(m) for m in PLANNERS)
             got = f"(got {entry.method!r})"
             message = suggested(f"must be {known} {got}", entry.method)
-            if message.endswith(")"):  # no name close to it: how one's own is found
+            if plugins:  # (its module may be the one that failed)
+                message += f"; a module of {PLUGINS} or {ENTRY_POINTS} failed to import"
+            elif message.endswith(")"):  # no name close to it: how one's own is found
                 message += (
                     f"; a planner of your own: import its module first, or name the module in "
                     f"{PLUGINS} or under the entry points {ENTRY_POINTS}"
                 )
             problems.append(Problem(f"{where}.method", message))
-            problems += [Problem(*p) for p in plugins if Problem(*p) not in problems]
             continue
         if entry.stratum not in system.strata:
             problems.append(

@@ -58,3 +58,48 @@ def test_a_scenario_names_a_planner_whose_module_the_variable_names(tmp_path):
     doc = json.loads(planned.stdout)
     assert [leg["method"] for leg in doc["legs"]] == ["newton", "lsq-plugin"]
     assert doc["status"] == "ok"
+
+
+RAISER = """
+from stratcli.planners import LegPlanner, NewtonPlanner
+
+
+class Raiser(LegPlanner):
+    method = "raiser-plugin"
+
+    def plan(self, problem):
+        raise RuntimeError("my bug")
+
+    def missing_coefficients(self, problem):
+        return NewtonPlanner().missing_coefficients(problem)
+"""
+
+
+def test_a_broken_planner_module_or_a_bug_in_one_is_named_exit_2(tmp_path):
+    """A bug in one's own planner ended `plan` with ~80 lines of traceback (stratplan's
+    frames) and exit 1, the code of a leg that did not converge; a module that failed to
+    import was skipped silently where another module supplied the method."""
+    (tmp_path / "myplanners.py").write_text(MODULE)
+    (tmp_path / "raising.py").write_text(RAISER)
+    (tmp_path / "broken.py").write_text('raise ImportError("boom")\n')
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    (tmp_path / "mine.toml").write_text(
+        text.replace('stratum = "S1"', 'stratum = "S1"\nmethod = "lsq-plugin"')
+    )
+    (tmp_path / "bug.toml").write_text(
+        text.replace('stratum = "S1"', 'stratum = "S1"\nmethod = "raiser-plugin"')
+    )
+    both = _run(tmp_path, "check", "mine.toml", modules="broken,myplanners")
+    assert both.returncode == 2
+    assert both.stderr.strip() == (
+        "error: mine.toml: STRATPLAN_PLANNERS: cannot import 'broken' (ImportError: boom)"
+    )
+    bug = _run(tmp_path, "plan", "bug.toml", "-q", modules="raising")
+    assert bug.returncode == 2
+    lines = bug.stderr.strip().splitlines()
+    assert lines[0] == "Traceback (most recent call last):" and "raising.py" in lines[1]
+    assert not any("stratcli" in line for line in lines[:-1])  # its own frames only
+    assert lines[-1] == (
+        "error: RuntimeError: my bug (raised by leg planner 'raiser-plugin' (Raiser.plan) "
+        "planning leg 2 on S1; the traceback above is its)"
+    )

@@ -36,7 +36,8 @@ def test_summary_of_a_plan_is_what_regress_keeps(shipped_plans):
     """summary_of(plan) is `summarise` without its planning (on the cheapest scenario: the
     others are not planned twice)."""
     _, outcome = shipped_plans["unicycle"]
-    assert summary_of(outcome.result) == summarise(ROOT / "scenarios" / "unicycle.toml")
+    summary = {**summary_of(outcome.result), "message": ""}  # (a failed plan's: not compared)
+    assert summary == summarise(ROOT / "scenarios" / "unicycle.toml")
 
 
 def test_regress_replays_auto_mode_unscaled_as_it_does_legs(tmp_path):
@@ -173,3 +174,38 @@ def test_a_new_scenario_that_fails_is_a_regression_a_new_one_that_plans_is_not()
     (new,) = compare({"a": failed}, {}, tolerances)
     assert (new.now, new.regression) == ("new, failed", True)
     assert compare({"a": failed}, {"a": failed}, tolerances) == []  # taken in by --update
+
+
+def test_a_failed_scenario_says_why_in_the_log_and_the_json(tmp_path):
+    """`regress` said `planned fails: failed` and `now new, failed`, never the plan's own
+    message (which leg, how far, what to try)."""
+    scen = tmp_path / "scen"
+    scen.mkdir()
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    text = text.replace("tolerance = 1e-3", "tolerance = 1e-3\nmax_iterations = 1\nrestarts = 0")
+    shutil.copy(ROOT / "scenarios" / "unicycle.toml", scen / "u.toml")
+    base = tmp_path / "baseline.json"
+    assert (
+        runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--update"]).exit_code
+        == 0
+    )
+    (scen / "fails.toml").write_text(text)
+    out = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--quiet"])
+    assert out.exit_code == 1
+    (line,) = out.stderr.strip().splitlines()
+    assert line.startswith(
+        "regression: fails: scenario: baseline absent, now new, failed (leg 1 on S3"
+    )
+    doc = json.loads(
+        runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--json"]).stdout
+    )
+    assert doc["results"]["fails"]["message"].startswith("leg 1 on S3 did not reach its goal")
+    assert (
+        "message"
+        not in json.loads(
+            (
+                runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--update"]),
+                base.read_text(),
+            )[1]
+        )["scenarios"]["fails"]
+    )  # the baseline keeps what it compares

@@ -31,6 +31,7 @@ class RegressReport:
     updated: bool  # the baseline was rewritten from this run
     results: dict[str, dict[str, Any]] = field(default_factory=dict)  # each scenario's summary
     seconds: dict[str, float] = field(default_factory=dict)  # each scenario's planning (wall)
+    messages: dict[str, str] = field(default_factory=dict)  # a failed plan's, by scenario
 
     @property
     def regressions(self) -> int:
@@ -52,7 +53,11 @@ class RegressReport:
                 "regressions": self.regressions,
                 "differences": [asdict(d) for d in self.differences],
                 "results": {
-                    name: {**summary, "seconds": self.seconds.get(name)}
+                    name: {
+                        **summary,
+                        "seconds": self.seconds.get(name),
+                        "message": self.messages.get(name, ""),
+                    }
                     for name, summary in self.results.items()
                 },
             }
@@ -101,17 +106,19 @@ def regress(
             if not update:
                 raise
     tasks = _load_all(paths)  # a bad file is found before minutes of planning, not after
-    now, seconds = {}, {}
+    now, seconds, messages = {}, {}, {}
     for path in paths:
         clock = time.perf_counter()
         now[path.stem] = summarise(tasks[path], jobs=jobs)
         seconds[path.stem] = time.perf_counter() - clock
+        if message := now[path.stem].pop("message", ""):  # why it failed: said, not compared
+            messages[path.stem] = message
         if progress is not None:
-            progress(path.stem, now[path.stem], seconds[path.stem])
+            progress(path.stem, {**now[path.stem], "message": message}, seconds[path.stem])
     diffs = compare_baseline(now, old, tolerances)
     if update:
         baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")
-    return RegressReport(len(now), baseline, tolerances, diffs, update, now, seconds)
+    return RegressReport(len(now), baseline, tolerances, diffs, update, now, seconds, messages)
 
 
 def _load_all(paths: list[Path]) -> dict[Path, Task]:
@@ -143,7 +150,8 @@ def summarise(path: Path | Task, jobs: int | None = None) -> dict[str, Any]:
     Returns
     -------
     dict
-        status, total_energy, errors and energies (one per leg).
+        status, total_energy, errors and energies (one per leg), and a failed plan's
+        message (not compared: a CI log says why).
     """
     from ..scenario import load_scenario  # start-up speed (module comment)
     from .planning import plan_auto, plan_run
@@ -153,4 +161,4 @@ def summarise(path: Path | Task, jobs: int | None = None) -> dict[str, Any]:
         result = plan_run(task, check=False, time_scale=1.0).result
     else:  # auto mode ([decompose], no [[legs]]): the best candidate sequence
         result = plan_auto(task, check=False, time_scale=1.0, jobs=jobs).best.result
-    return summary_of(result)
+    return {**summary_of(result), "message": "" if result.ok else result.message}

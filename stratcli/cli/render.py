@@ -110,7 +110,8 @@ SHOWN_PROBLEMS = 50  # lines of bad input printed, at most (the library's error 
 
 @contextmanager
 def reported(scenario: Path | None = None) -> Iterator[None]:
-    """Map errors to exit codes: bad input 2, not controllable 3 (naming `scenario`), a
+    """Map errors to exit codes: bad input 2 (a planner of one's own that raised or broke its
+    contract too: its traceback, then one line), not controllable 3 (naming `scenario`), a
     record that could not be written 4."""
     try:
         yield
@@ -131,6 +132,24 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
     except RecordError as exc:
         error("error", str(exc))  # it says what could not be written, and where
         raise typer.Exit(4) from None
+    except Exception as exc:  # a planner of one's own (STRATPLAN_PLANNERS) that broke
+        from ..planner_contract import fault
+
+        line = fault(exc)
+        if line is None:
+            raise
+        import traceback
+
+        tb = exc.__traceback__  # its own frames only (stratplan's are no help to its author)
+        while tb is not None and tb.tb_frame.f_globals.get("__name__", "").startswith(
+            ("stratcli", "typer", "click", "contextlib")
+        ):
+            tb = tb.tb_next
+        if tb is not None:
+            text = "".join(traceback.format_exception(type(exc), exc, tb))
+            err_console.print(escape(text.rstrip()), highlight=False)
+        error("error", line)
+        raise typer.Exit(2) from None
 
 
 def fmt(x: float | None) -> str:

@@ -270,12 +270,14 @@ def regress_report(report) -> None:
 
 
 def regress_failures(report) -> None:
-    """`regress --quiet`: one line on stderr per regression, so a failing CI job says why."""
+    """`regress --quiet`: one line on stderr per regression, so a failing CI job says why
+    (a plan that failed: its message too)."""
     for d in report.differences:
         if d.regression:
+            why = report.messages.get(d.scenario)
             render.err_console.print(
                 f"regression: {escape(d.scenario)}: {d.quantity}: baseline {_show(d.baseline)}, "
-                f"now {_show(d.now)}",
+                f"now {_show(d.now)}" + (f" ({escape(why)})" if why else ""),
                 highlight=False,
                 soft_wrap=True,
             )
@@ -290,10 +292,12 @@ def regress_progress(quiet: bool):
 
     def planned(name: str, summary: dict, seconds: float) -> None:
         status = "[green]ok[/]" if summary.get("status") == "ok" else "[red]failed[/]"
+        why = f" · {escape(summary['message'])}" if summary.get("message") else ""
         render.err_console.print(
             f"planned {escape(name)}: {status} · energy {fmt(summary.get('total_energy'))} · "
-            f"{seconds:.1f} s",
+            f"{seconds:.1f} s{why}",
             highlight=False,
+            soft_wrap=True,
         )
 
     return planned
