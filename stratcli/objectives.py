@@ -150,9 +150,34 @@ def plan_with_objective(
         return newton
     say("energy search: re-chaining the legs from the best start")
     final = chain_legs(system, start, legs, settings, initial=coefficients)
-    final = replace(final, optimisation=search, notes=(*final.notes, *_re_planned(final, legs)))
+    held = _held_note(system, legs, targets, endpoints, nominal)
+    final = replace(
+        final, optimisation=search, notes=(*final.notes, *_re_planned(final, legs), *held)
+    )
     chosen = final if final.ok and final.total_energy <= newton.total_energy else newton
     return _short_of_a_minimum(chosen, search) if exact else _one_start(chosen, settings)
+
+
+def _held_note(system, legs, targets, endpoints, nominal) -> list[str]:
+    """The note of the free via coordinates the energy search held where the Newton plan put
+    them (`stacked.held_coordinates`): a new user found a via with q2 free cost more than
+    one that gives it, with nothing saying q2 had not been optimised."""
+    from .planners.stacked import HELD_NOTE, held_coordinates
+
+    held = held_coordinates(system, legs, targets, endpoints)
+    parts = [
+        f"leg {i + 1}'s via "
+        + ", ".join(f"{system.states[c]} {nominal[i + 1][c]:.4g}" for c in coordinates)
+        for i, coordinates in enumerate(held)
+        if coordinates.size
+    ]
+    if not parts:
+        return []
+    return [
+        f"{HELD_NOTE}{'; '.join(parts)} where the Newton plan put "
+        f"{'them' if sum(map(len, held)) > 1 else 'it'} (a joint left free at a via is not "
+        "optimised: the legs after it would move; give it a value to choose it)"
+    ]
 
 
 def _re_planned(plan: SequencePlan, legs: list[LegSpec]) -> list[str]:

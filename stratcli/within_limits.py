@@ -14,6 +14,7 @@ from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.constrained import NotSearchable, constrained_search
 from .planners.energy import SEARCHED
+from .planners.stacked import HELD_NOTE
 from .stratified import NUMERICAL_ERRORS, chain_legs, held_vias, nominal_starts, seeded
 
 __all__ = ["STALLED", "candidate_within_limits", "re_planned", "within_limits"]
@@ -142,11 +143,12 @@ def within_limits(system, start, legs, settings, plan, constraints, progress=Non
     )
     hint = _more_starts_hint(settings, plan.total_energy, final.total_energy)
     hint += _below_free(settings, plan.total_energy, final.total_energy)
+    held = [n for n in plan.notes if n.startswith(HELD_NOTE)]  # (held by this search too)
     return replace(
         final,
         legs=legs_found,
         optimisation=plan.optimisation,
-        notes=(*final.notes, *notes, *hint),
+        notes=(*final.notes, *held, *notes, *hint),
     )
 
 

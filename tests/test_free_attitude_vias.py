@@ -62,6 +62,9 @@ def _searched(task):
     outcome = plan_run(task, check=False)
     plan = outcome.result
     assert plan.ok, plan.message
+    joints = task.system.n - (3 if getattr(task.system, "spatial", None) else 1)  # then θ/R
+    held = any(n.startswith("the energy search held") for n in plan.notes)
+    assert held == any(np.isnan(leg.goal[:joints]).any() for leg in task.legs[:-1])
     best = plan.optimisation.starts[plan.optimisation.best]
     assert plan.total_energy == pytest.approx(best.energy, rel=1e-9)
     assert not any("re-chained" in note for note in plan.notes)
@@ -193,7 +196,9 @@ def test_a_free_joint_at_a_via_is_held_so_the_plan_is_the_searchs():
     verify(task, outcome.document)
     newton = plan_run(task.with_changes({"planner.objective": "newton"}), check=False).result
     q2 = outcome.result.legs[0].end[1]
-    assert q2 == pytest.approx(newton.legs[0].end[1], abs=1e-8)  # held there
+    assert q2 == pytest.approx(newton.legs[0].end[1], abs=1e-8)  # held there, and said so
+    (note,) = [n for n in outcome.result.notes if n.startswith("the energy search held")]
+    assert note.startswith(f"the energy search held leg 1's via q2 {q2:.4g} where the Newton")
 
 
 def test_a_free_via_coordinate_that_later_legs_keep_locked_takes_the_goals_value():

@@ -21,9 +21,10 @@ from ..endpoint import make_endpoint
 from ..models.system import System
 from .base import goal_residual
 
-__all__ = ["StackedProblem", "null_space"]
+__all__ = ["HELD_NOTE", "StackedProblem", "held_coordinates", "null_space"]
 
 ROTATION = "rotation"  # a leg chained to the one before by its attitude (`_chained`)
+HELD_NOTE = "the energy search held "  # how the note of `held_coordinates` begins
 ENERGY_RANK_TOL = 1e-12  # energy directions below this (relative) change no control
 
 
@@ -81,7 +82,7 @@ class StackedProblem:
             for leg, s in zip(legs, starts, strict=True)
         ]
         self.chained = _chained(self.endpoints, targets)
-        self.legs, self.targets = _held(system, legs, targets, self.endpoints, self.chained)
+        self.legs, self.targets = _held(system, legs, targets, self.endpoints)
         self.goals = [
             np.asarray(leg.goal)[t] for leg, t in zip(self.legs, self.targets, strict=True)
         ]
@@ -254,7 +255,21 @@ def _chained(endpoints, targets) -> list:
     return out
 
 
-def _held(system: System, legs, targets, endpoints, chained):
+def held_coordinates(system: System, legs, targets, endpoints) -> list[np.ndarray]:
+    """Per via (every leg but the last), the coordinates the search holds (`_held`): free
+    there, moved by the leg, not carried into the next leg by `_chained`."""
+    chained = _chained(endpoints, targets)
+    out = []
+    for leg, t, link, after in zip(
+        legs[:-1], targets[:-1], chained[1:], endpoints[1:], strict=True
+    ):
+        carried = np.arange(after.k, after.k + 3) if link == ROTATION else link
+        moved = np.asarray(system.stratum(leg.stratum).free(system.n), dtype=int)
+        out.append(np.setdiff1d(moved, np.union1d(t, [] if carried is None else carried)))
+    return out
+
+
+def _held(system: System, legs, targets, endpoints):
     """The legs and targets searched: a via's free coordinates that the next leg does not
     chain (`_chained`: a joint, or any coordinate of an ODE-path leg) are held where the
     plan the search starts from left them (the next leg's nominal start), so that the next
@@ -262,16 +277,12 @@ def _held(system: System, legs, targets, endpoints, chained):
     that ignores them, and re-chaining its controls re-planned the next leg (task D with q2
     free at its via: 96.00 where holding gives a plan whose energy is the search's)."""
     out_legs, out_targets = list(legs), list(targets)
-    for i, (leg, t, link) in enumerate(zip(legs[:-1], targets[:-1], chained[1:], strict=True)):
-        after = endpoints[i + 1]
-        carried = np.arange(after.k, after.k + 3) if link == ROTATION else link
-        moved = np.asarray(system.stratum(leg.stratum).free(system.n), dtype=int)
-        held = np.setdiff1d(moved, np.union1d(t, [] if carried is None else carried))
+    for i, held in enumerate(held_coordinates(system, legs, targets, endpoints)):
         if held.size:
-            goal = np.array(leg.goal, dtype=float)
-            goal[held] = after.q0[held]
-            out_legs[i] = replace(leg, goal=goal)
-            out_targets[i] = np.union1d(t, held).astype(int)
+            goal = np.array(legs[i].goal, dtype=float)
+            goal[held] = endpoints[i + 1].q0[held]
+            out_legs[i] = replace(legs[i], goal=goal)
+            out_targets[i] = np.union1d(targets[i], held).astype(int)
     return out_legs, out_targets
 
 
