@@ -52,7 +52,7 @@ def _name(planner: LegPlanner, method: str) -> str:
 
 def noted(exc: BaseException, planner: LegPlanner, method: str, where: str) -> None:
     """Note on `exc`, raised by a user's planner, which planner and leg raised it."""
-    exc.add_note(f"{RAISED_BY}{_name(planner, method)[len('leg planner ') :]} planning {where}")
+    exc.add_note(f"raised by {_name(planner, method)} planning {where}")
 
 
 def checked_outcome(
@@ -62,9 +62,9 @@ def checked_outcome(
 
     Raises
     ------
-    TypeError
-        Not a `LegOutcome`, or a piece whose coefficients are not (active inputs, basis
-        size) or whose times do not tile the leg.
+    PlannerContractError
+        (a TypeError) Not a `LegOutcome`, or a piece whose coefficients are not (active
+        inputs, basis size) or whose times do not tile the leg.
     """
     name = _name(planner, method)
     if not isinstance(out, LegOutcome):
