@@ -129,8 +129,8 @@ stratum = "S12"
 method = "lie"
 goal = [0, "pi/4", "pi/6", "*", "-pi/24"]
 [[legs]]
-stratum = "S34"
-"""
+stratum = "S3"
+"""  # (leg 2 moves q4: were it locked there, q4 at the via would take the goal's value)
 
 
 def test_a_failed_lie_leg_names_the_free_coordinate_that_drifted():
