@@ -50,3 +50,20 @@ def test_a_failed_plans_stroboscope_is_stamped_failed_its_message_under_the_pane
     fine = plan_run(task.with_changes({"planner.max_iterations": None}), check=False).result
     ok = spatial_stroboscope_figure(fine, sample(fine, samples_per_leg=30), "arm3")
     assert fine.ok and "FAILED" not in [t.get_text() for t in ok.texts]
+
+
+def test_the_stroboscopes_axes_say_where_they_point():
+    """Its axes read "principal axis 1 [m]", saying nothing of the direction; now the world
+    direction of each, and the points are projected on that same direction."""
+    import re
+
+    import numpy as np
+
+    from stratcli.records.spatial_figures import _axis_label, spatial_stroboscope_figure
+
+    assert _axis_label(np.array([0.98, 0.05, -0.17]), 0) == "principal axis 1: 0.98x−0.17z [m]"
+    task = load_scenario(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
+    plan = plan_run(task.with_changes({"planner": {"objective": "newton"}}), check=False).result
+    fig = spatial_stroboscope_figure(plan, sample(plan, samples_per_leg=30), "arm3")
+    for label in (fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel(), fig.axes[1].get_ylabel()):
+        assert re.fullmatch(r"principal axis [123]: −?[0-9.]+[xyz]([+−][0-9.]+[xyz])* \[m\]", label)

@@ -67,6 +67,18 @@ def reach(plan, q) -> float:
     return float(max(np.linalg.norm(p) for p, _ in poses.values()))
 
 
+def _axis_label(v: np.ndarray, index: int) -> str:
+    """A principal axis named by its world direction, "principal axis 1: 0.98x - 0.17z [m]"
+    (the components of at least 0.1; "principal axis 1" alone said nothing of where it
+    points); its largest component is positive (the figure's axes are so chosen)."""
+    terms = [(c, name) for c, name in zip(v, "xyz", strict=True) if abs(c) >= 0.1]
+    text = "".join(
+        f"{'−' if c < 0 else '+' if k else ''}{abs(c):.2g}{name}"
+        for k, (c, name) in enumerate(terms)
+    )
+    return f"principal axis {index + 1}: {text} [m]"
+
+
 def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
     """The stroboscope of a URDF robot's motion on its two principal planes."""
     picks = []
@@ -80,6 +92,7 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
         raise ValueError("non-finite samples")
     centre = points.mean(axis=0)
     _, _, Vt = np.linalg.svd(points - centre, full_matrices=False)
+    Vt = Vt * np.sign(Vt[np.arange(len(Vt)), np.abs(Vt).argmax(axis=1)])[:, None]  # (labels)
     planes = ((0, 1), (0, 2))
     band = message_band(plan, 10.0)  # a failed plan's message, under the panels
     fig = Figure(figsize=(10, 5 + band))
@@ -100,8 +113,8 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
         com = -centre @ Vt[[a, b]].T
         ax.plot(*com, marker="+", color="k", ms=10, label="system CoM (fixed)")
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel(f"principal axis {a + 1} [m]")
-        ax.set_ylabel(f"principal axis {b + 1} [m]")
+        ax.set_xlabel(_axis_label(Vt[a], a))
+        ax.set_ylabel(_axis_label(Vt[b], b))
         ax.grid(alpha=0.3)
     for k, leg in enumerate(plan.legs):
         axes[0].plot([], [], color=COLORS[k % len(COLORS)], label=f"leg {k + 1} ({leg.stratum})")
