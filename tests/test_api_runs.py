@@ -22,6 +22,7 @@ def test_plan_returns_the_result_document_and_write_record_writes_it(tmp_path):
     assert json.loads((run_dir / "result.json").read_text()) == outcome.document
     assert json.loads((run_dir / "manifest.json").read_text())["command"] == ["notebook"]
     assert api.list_runs(tmp_path)[0]["run"] == run_dir.name
+    assert api.list_runs(tmp_path)[0]["path"] == str(run_dir)  # (a script shows or loads it)
     record, _ = api.read_run(run_dir)
     assert record.result == outcome.document
 

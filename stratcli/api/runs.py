@@ -345,11 +345,13 @@ def list_runs(out: Path, on_damaged: Callable[[str], None] | None = None) -> lis
     Returns
     -------
     list of dict
-        One row per record: run, started, scenario, status, total_energy.
+        One row per record: run (its folder's name), path (the folder, for `show` or
+        `load_run`), started, scenario, status, total_energy.
     """
     return [
         {
             "run": r.path.name,
+            "path": str(r.path),
             "started": r.started,
             "scenario": r.result.get("scenario"),
             "status": r.result.get("status"),
