@@ -266,6 +266,10 @@ def compare(
             outcomes[k] = Outcome(k, cand, None, "failed", reason, str(exc))
             advance(1)
             continue
+        if outside := _vias_outside(system, cand, constraints):
+            outcomes[k] = Outcome(k, cand, None, "failed", outside[0], "; ".join(outside))
+            advance(1)
+            continue
         valid.append(k)
     for cand in candidates:
         for leg in cand.legs:
@@ -327,6 +331,24 @@ def compare(
         reference_duration=reference,
         screen=screen_result,
     )
+
+
+def _vias_outside(system: System, cand: Candidate, constraints) -> list[str]:
+    """Where a candidate's via breaks a joint limit or a clearance, one line each: no plan
+    of it exists (a via on an obstacle was searched for 3.4 s, its stall advising more
+    harmonics, and a candidate with the same via bounded as if it could win), as a
+    scenario's own vias are refused before planning."""
+    if constraints is None:
+        return []
+    from .body_clearances import check_configuration
+
+    return [
+        f"{p.path}: {p.message}"
+        for i, leg in enumerate(cand.legs[:-1])
+        for p in check_configuration(
+            system, leg.goal, constraints, f"via {i + 1} (after {leg.stratum})"
+        )
+    ]
 
 
 def _bounded(k, cand, bound) -> Outcome:

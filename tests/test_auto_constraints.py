@@ -204,3 +204,16 @@ def test_a_candidate_that_stalls_in_the_default_basis_is_planned_with_more_harmo
     assert {tuple(r["sequence"]) for r in failed} == {tuple(o.candidate.sequence) for o in retried}
     assert all("stalled" in r["reason"] for r in failed)
     assert kept.document["rows"][0]["energy"] == best["energy"]
+
+
+def test_a_candidate_whose_via_touches_an_obstacle_fails_before_planning():
+    """A via on an obstacle was searched for 3.4 s (the stall advising more harmonics) and a
+    candidate with the same via was bounded as if it could win; a scenario's own via there
+    is refused before planning, and so is the candidate's now."""
+    obstacle = {"shape": "circle", "centre": [1.63, 0.85], "radius": 0.08}
+    task = _auto("newton", clearance=0.02, obstacles=[obstacle])
+    outcome = stratcli.compare_sequences(task, jobs=1)
+    touched = [o for o in outcome.comparison.outcomes if o.candidate.legs[0].stratum == "S1"]
+    assert touched and all(o.status == "failed" and o.plan is None for o in touched)
+    for o in touched:
+        assert o.reason.startswith("via 1 (after S1): the robot touches an obstacle here: link 3")
