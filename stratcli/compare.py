@@ -30,6 +30,7 @@ planned, at its own duration) is reported beside it.
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
@@ -172,6 +173,11 @@ class Comparison:
         if self.criterion == "energy" and not self.equal_durations:
             label += f" at an equal total duration of {self.reference_duration:g} s"
         if not best.ok:
+            if _outside_only(best) is not None:  # it reached every goal: a limit failed it
+                return (
+                    "no sequence stayed within the limits; the nearest was "
+                    f"{best.candidate.label} {best.candidate.strategy} ({best.reason})"
+                )
             return (
                 "no sequence reached the goal; the one that got furthest was "
                 f"{best.candidate.label} {best.candidate.strategy} ({best.reason})"
@@ -437,8 +443,10 @@ def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:
 
     Sequences that reached the goal by `criterion`, then total energy, then fewer legs, then
     enumeration order; then those the screen bounded (not planned), by their bound; failed
-    ones after them: more legs planned first, then the smaller error of the leg that failed,
-    then enumeration order (rejected before planning: last).
+    ones after them: more legs planned first, those that reached every goal but broke a limit
+    by how far (`_outside_only`: among six such, the last leg's errors of ~1e-14 had decided),
+    then the smaller error of the leg that failed, then enumeration order (rejected before
+    planning: last).
     """
 
     def ok_key(o: Outcome):
@@ -447,9 +455,12 @@ def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:
 
     def failed_key(o: Outcome):
         if o.plan is None or not o.plan.legs:
-            return (1, 0, math.inf, o.index)
+            return (1, 0, 0, math.inf, o.index)
         reached = sum(leg.converged for leg in o.plan.legs)
-        return (0, -reached, o.plan.legs[-1].error, o.index)
+        by = _outside_only(o)
+        if by is not None:
+            return (0, -reached, 0, by, o.index)
+        return (0, -reached, 1, o.plan.legs[-1].error, o.index)
 
     ok = sorted((o for o in outcomes if o.ok), key=ok_key)
     bounded = sorted(
@@ -458,6 +469,25 @@ def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:
     )
     failed = sorted((o for o in outcomes if o.status == "failed"), key=failed_key)
     return [o.index for o in (*ok, *bounded, *failed)]
+
+
+STALLED_BY = re.compile(r"still violated by ([0-9.]+(?:e[-+]?[0-9]+)?)")  # `constrained`'s stall
+
+
+def _outside_only(o: Outcome) -> float | None:
+    """How far past a limit a failed candidate is that reached every goal, or None (it did
+    not reach them, or no limit failed it): where its constrained search stalled, as its
+    row says (`still violated by 0.202 rad`), else its kept plan's first violation."""
+    plan = o.plan
+    if plan is None or not plan.legs or not all(leg.converged for leg in plan.legs):
+        return None
+    if len(plan.legs) != len(o.candidate.legs) or plan.constraints is None:
+        return None
+    stalled = STALLED_BY.search(o.message or "")
+    if stalled is not None:
+        return float(stalled[1])
+    by = (plan.constraints.violation or {}).get("by")
+    return None if by is None else float(by)
 
 
 def compile_strata(system: System, names) -> float:

@@ -176,3 +176,27 @@ def test_a_tie_with_the_next_sequence_says_what_broke_it_or_that_rounding_did():
     assert _tie(best, outcome(81.83, 81.83, (1, 2)), "energy") == (
         " (a tie, broken by the order of the candidates)"
     )
+
+
+def test_candidates_failed_only_by_a_limit_rank_by_how_far_they_stalled_outside():
+    """Six candidates reached every goal and broke a limit: the last legs' errors (1.1e-14,
+    1.6e-14, ...) decided their order, and the message said 'no sequence reached the goal;
+    the one that got furthest' of the one 0.421 rad outside, where another was 0.202."""
+    from types import SimpleNamespace
+
+    from stratcli.compare import Comparison, Outcome, rank
+
+    def failed(k, by, error):
+        legs = [SimpleNamespace(converged=True, error=error)] * 2
+        plan = SimpleNamespace(legs=legs, constraints=SimpleNamespace(violation={"by": 9.0}))
+        cand = SimpleNamespace(legs=[None, None], label=f"(S{k})", strategy="conservative")
+        message = f"the constrained search stalled on leg 1: q2 still violated by {by} rad"
+        return Outcome(k, cand, plan, "failed", message, message)
+
+    outcomes = [failed(0, 0.421, 1e-14), failed(1, 0.202, 4e-14), failed(2, 0.3, 2e-14)]
+    order = rank(outcomes, "energy")
+    assert order == [1, 2, 0]
+    comparison = Comparison(outcomes, order, "energy", 1, 6, 6, 0.0, False)
+    assert comparison.choice().startswith(
+        "no sequence stayed within the limits; the nearest was (S1)"
+    )
