@@ -85,6 +85,9 @@ def test_axes_are_labelled_with_the_units_the_sweep_knows():
     ]
     assert unit_of("constraints.obstacles[0].centre[1]", "planar-manipulator") == "m"
     assert unit_of("goal.x", "custom") == "" and unit_of("planner.tolerance", "preset") == ""
+    # a per-joint table's entry as its list form (the joint's name named no unit)
+    assert unit_of("constraints.joint_limits.q2[0]", "preset") == "rad"
+    assert unit_of("constraints.max_rate.u1", "urdf") == "rad/s"
 
 
 def test_a_1d_grids_energy_axis_is_log_only_across_a_decade_and_keeps_its_label():

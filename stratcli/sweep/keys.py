@@ -129,6 +129,8 @@ def unit_of(key: str, model_kind: str | None) -> str:
     robot = model_kind in _ANGLES  # else the model's own units, unknown here
     if is_coordinate(key):
         return "rad" if robot else ""
-    last = next(p for p in reversed(_parts(key)) if isinstance(p, str))
-    unit = next((unit for names, unit in _UNIT_OF if last in names), "")
+    # the nearest part that names a quantity: "constraints.joint_limits.q2[0]" is in rad as
+    # "constraints.joint_limits[1]" is (its last part, a joint's name, named no unit)
+    names = [p for p in reversed(_parts(key)) if isinstance(p, str)]
+    unit = next((unit for part in names for known, unit in _UNIT_OF if part in known), "")
     return unit if unit == "s" or robot else ""
