@@ -836,3 +836,34 @@ def test_compare_sequences_in_a_log_says_it_is_alive(tmp_path, newton, monkeypat
     assert lines and lines[-1].startswith("planning sequences: 6 of 6 (")
     quiet = runner.invoke(cli.app, [*args, "--out", str(tmp_path / "q"), "--quiet"])
     assert quiet.exit_code == 0 and "planning sequences" not in quiet.stderr
+
+
+def test_show_of_a_time_scaled_auto_record_says_its_comparison_is_as_planned(tmp_path):
+    """`plan --time-scale 2` in auto mode says its choice is 'as planned, before time scaling
+    by 2'; `show` printed the comparison's energies under the scaled total without it."""
+    text = (ROOT / "scenarios" / "sim4_auto.toml").read_text()
+    (tmp_path / "auto.toml").write_text(text)
+    task = load_scenario(tmp_path / "auto.toml")
+    mine = task.with_changes({"planner.objective": "newton", "decompose.max_length": 2})
+    from stratcli.tomlwrite import dumps
+
+    (tmp_path / "auto.toml").write_text(dumps(mine.scenario.model_dump(exclude_none=True)))
+    out = tmp_path / "runs"
+    planned = runner.invoke(
+        cli.app,
+        [
+            "plan",
+            str(tmp_path / "auto.toml"),
+            "--time-scale",
+            "2",
+            "--jobs",
+            "1",
+            "--out",
+            str(out),
+            "-q",
+        ],
+    )
+    assert planned.exit_code == 0, planned.output
+    (run_dir,) = out.iterdir()
+    shown = " ".join(runner.invoke(cli.app, ["show", str(run_dir)]).output.split())
+    assert "(all of them: comparison.json, as planned, before time scaling by 2)" in shown

@@ -381,9 +381,12 @@ def run_record(record, log: dict | None) -> None:
         out_console.print(f"[bold red]failed:[/] {escape(message)}", highlight=False)
     if record.comparison is not None:  # the plan is the best of a comparison: which and why
         rows = record.comparison.get("rows", [])
+        scale = record.result.get("time_scale", 1.0)  # its rows are as planned (as `plan` says)
+        scaled = f", as planned, before time scaling by {scale:g}" if scale != 1.0 else ""
         say(
             f"best of {counted(len(rows), 'candidate sequence')}: "
-            f"{escape(record.comparison.get('choice', '?'))} (all of them: comparison.json)"
+            f"{escape(record.comparison.get('choice', '?'))} (all of them: comparison.json"
+            f"{scaled})"
         )
     if log:
         topics = ", ".join(f"{t} {n}" for t, n in log["topics"].items())
