@@ -147,7 +147,7 @@ def test_when_no_candidate_keeps_the_limits_the_failed_best_is_still_time_scaled
     from stratcli.api.auto import auto_choice
 
     sentence = auto_choice(outcome)
-    assert "no sequence reached the goal" in sentence and "chose no" not in sentence
+    assert "no sequence stayed within the limits" in sentence and "chose no" not in sentence
 
 
 @pytest.mark.slow

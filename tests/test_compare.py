@@ -156,7 +156,7 @@ def test_a_tie_with_the_next_sequence_says_what_broke_it_or_that_rounding_did():
     word of how; the values differed by 7e-13."""
     from types import SimpleNamespace
 
-    from stratcli.compare import _tie
+    from stratcli.comparison_values import _tie
 
     def outcome(value, energy, legs):
         return SimpleNamespace(

@@ -24,7 +24,7 @@ def ranking(task, doc: dict) -> None:
 
     A scenario compared with both strategies shows each row's strategy under its sequence.
     """
-    from ..compare import CRITERION_LABELS  # here, not at the top: start-up speed
+    from ..comparison_values import CRITERION_LABELS  # here, not at the top: start-up speed
 
     s = task.settings
     reference = doc.get("reference_duration_s")

@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from matplotlib.transforms import offset_copy
 
-from ..compare import CRITERION_LABELS
+from ..comparison_values import CRITERION_LABELS
 from .figure_common import LOG_RATIO, fixed_margins, plain_log_labels, save_figure
 
 __all__ = ["ranking_figure", "ranking_png"]
