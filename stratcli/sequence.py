@@ -23,12 +23,12 @@ from .results import (
     Optimisation,
     Switch,
     Timings,
-    checked_times,
     frozen_array,
 )
 from .settings import PlannerSettings
 from .simulate import Trajectory, sample
 from .status import Status
+from .time_axis import checked_times
 
 __all__ = ["SequencePlan"]
 
