@@ -38,7 +38,7 @@ from .interrupts import Interrupted, install, pending, raised
 HANDLED = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
 
 
-_state = {"raised": False, "done": False}
+_state = {"done": False}
 
 
 class ClosedPipeSafe:
@@ -84,11 +84,9 @@ class ClosedPipeSafe:
 def _on_signal(signum: int, frame) -> None:
     if _state["done"]:  # the command has finished (exit, atexit): no stack left to unwind
         _finish_interrupted(signum)
-    if _state["raised"]:  # a second signal while unwinding: stop now
+    if raised(signum):  # a second signal while unwinding: stop now
         _leave(signum)
-    _state["raised"] = True
-    raised(signum)  # (caught by code that goes on: `checkpoint` and the end raise it again)
-    raise Interrupted(signum)
+    raise Interrupted(signum)  # (caught by code that goes on: `checkpoint` raises it again)
 
 
 def _leave(signum: int) -> None:

@@ -49,9 +49,11 @@ def install() -> None:
         sys.unraisablehook = _hook
 
 
-def raised(signum: int) -> None:
-    """Note that the signal handler raises `Interrupted` for `signum` (the entry point's)."""
+def raised(signum: int) -> bool:
+    """Note that the signal handler raises `Interrupted` for `signum` (the entry point's);
+    whether it had raised one before (a second signal while unwinding)."""
     _raised.append(signum)
+    return len(_raised) > 1
 
 
 def pending() -> int | None:
