@@ -131,8 +131,8 @@ def check_document(
             estimate = None
             if leg.ok:  # a coordinate the via before leaves free starts where it is not known:
                 # not a distance to steer (θ free at a via read as 0 warned of a leg at 1.2e4)
-                aim = np.where(np.isnan(via), leg.configuration, spec.goal)
-                aim[np.isnan(spec.goal)] = np.nan
+                unknown = np.isnan(via) & ~np.isnan(spec.goal)
+                aim = np.where(unknown, leg.configuration, spec.goal)
                 estimate = reach(system, leg.stratum, leg.configuration, aim, spec.duration)
             if estimate is not None and estimate.weak:
                 warnings.append(_weak_leg(system, leg.index, estimate, leg.configuration, spec))

@@ -111,10 +111,10 @@ def regress(
         clock = time.perf_counter()
         now[path.stem] = summarise(tasks[path], jobs=jobs)
         seconds[path.stem] = time.perf_counter() - clock
+        if progress is not None:
+            progress(path.stem, now[path.stem], seconds[path.stem])
         if message := now[path.stem].pop("message", ""):  # why it failed: said, not compared
             messages[path.stem] = message
-        if progress is not None:
-            progress(path.stem, {**now[path.stem], "message": message}, seconds[path.stem])
     diffs = compare_baseline(now, old, tolerances)
     if update:
         baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")

@@ -82,7 +82,7 @@ class StackedProblem:
             for leg, s in zip(legs, starts, strict=True)
         ]
         self.chained = _chained(self.endpoints, targets)
-        self.legs, self.targets = _held(system, legs, targets, self.endpoints)
+        self.legs, self.targets = _held(system, legs, targets, self.endpoints, self.chained)
         self.goals = [
             np.asarray(leg.goal)[t] for leg, t in zip(self.legs, self.targets, strict=True)
         ]
@@ -255,10 +255,11 @@ def _chained(endpoints, targets) -> list:
     return out
 
 
-def held_coordinates(system: System, legs, targets, endpoints) -> list[np.ndarray]:
+def held_coordinates(system: System, legs, targets, endpoints, chained=None) -> list[np.ndarray]:
     """Per via (every leg but the last), the coordinates the search holds (`_held`): free
-    there, moved by the leg, not carried into the next leg by `_chained`."""
-    chained = _chained(endpoints, targets)
+    there, moved by the leg, not carried into the next leg by `_chained` (`chained`, where
+    the caller has it)."""
+    chained = _chained(endpoints, targets) if chained is None else chained
     out = []
     for leg, t, link, after in zip(
         legs[:-1], targets[:-1], chained[1:], endpoints[1:], strict=True
@@ -269,7 +270,7 @@ def held_coordinates(system: System, legs, targets, endpoints) -> list[np.ndarra
     return out
 
 
-def _held(system: System, legs, targets, endpoints):
+def _held(system: System, legs, targets, endpoints, chained):
     """The legs and targets searched: a via's free coordinates that the next leg does not
     chain (`_chained`: a joint, or any coordinate of an ODE-path leg) are held where the
     plan the search starts from left them (the next leg's nominal start), so that the next
@@ -277,7 +278,7 @@ def _held(system: System, legs, targets, endpoints):
     that ignores them, and re-chaining its controls re-planned the next leg (task D with q2
     free at its via: 96.00 where holding gives a plan whose energy is the search's)."""
     out_legs, out_targets = list(legs), list(targets)
-    for i, held in enumerate(held_coordinates(system, legs, targets, endpoints)):
+    for i, held in enumerate(held_coordinates(system, legs, targets, endpoints, chained)):
         if held.size:
             goal = np.array(legs[i].goal, dtype=float)
             goal[held] = endpoints[i + 1].q0[held]
