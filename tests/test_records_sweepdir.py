@@ -44,21 +44,23 @@ def test_the_table_is_in_task_order_and_reads_back_exactly(tmp_path):
 
 def test_prepare_refuses_an_existing_or_different_sweep(tmp_path):
     spec = {"format": sweepdir.FORMAT, "digest": "a"}
-    assert sweepdir.prepare(tmp_path / "s", spec, "text", resume=False) == {}
+    assert sweepdir.prepare(tmp_path / "s", spec, {"sweep.toml": "text"}, resume=False) == {}
     assert sweepdir.is_sweep_dir(tmp_path / "s")
     assert (tmp_path / "s" / sweepdir.FILE_TEXT).read_text() == "text"
     with pytest.raises(InputError) as info:  # Python's words: the arguments, not the flags
-        sweepdir.prepare(tmp_path / "s", spec, "text", resume=False)
+        sweepdir.prepare(tmp_path / "s", spec, {"sweep.toml": "text"}, resume=False)
     assert str(info.value) == (
         f"out={str(tmp_path / 's')!r}: already holds a sweep, unfinished (0 tasks done); "
         "add resume=True to finish it, or choose another out"
     )
     with pytest.raises(InputError, match="another sweep file"):
-        sweepdir.prepare(tmp_path / "s", {**spec, "digest": "b"}, "text", resume=True)
-    assert sweepdir.prepare(tmp_path / "s", spec, "text", resume=True) == {}
+        sweepdir.prepare(
+            tmp_path / "s", {**spec, "digest": "b"}, {"sweep.toml": "text"}, resume=True
+        )
+    assert sweepdir.prepare(tmp_path / "s", spec, {"sweep.toml": "text"}, resume=True) == {}
     (tmp_path / "f").write_text("")
     with pytest.raises(InputError, match="not a directory"):
-        sweepdir.prepare(tmp_path / "f", spec, "text", resume=False)
+        sweepdir.prepare(tmp_path / "f", spec, {"sweep.toml": "text"}, resume=False)
 
 
 def test_finished_means_every_row_and_a_summary_that_counts_them(tmp_path):

@@ -9,23 +9,30 @@ loaded) under the file's own name, and its `scenario.toml` is the scenario as gi
 replaced in the text itself (comments and layout kept) where that provably changes nothing
 else; otherwise the scenario is written out again from its parsed form (`tomlwrite`).
 `manifest.json` gets `urdf`: the file's name in the record, its sha256 and where it came from.
+
+A sweep directory is made self-contained alike (`sweep_files`): beside its `sweep.toml` the
+base scenario as `scenario.toml` (and its URDF), the copy's `sweep.scenario` naming it, so
+that `stratplan sweep <dir>/sweep.toml` plans the same tasks wherever the directory is.
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import re
 import tomllib
 from pathlib import Path
 from typing import Any
 
 from .. import tomlwrite
+from ..errors import InputError
 
-__all__ = ["FALLBACK_NAME", "model_files", "with_model_path"]
+__all__ = ["FALLBACK_NAME", "SCENARIO_FILE", "model_files", "sweep_files", "with_model_path"]
 
 FALLBACK_NAME = "robot.urdf"  # when the file's own name is taken or not a plain name
 _PLAIN = re.compile(r"^[A-Za-z0-9_+-][A-Za-z0-9_.+-]{0,99}$")
-_PATH = re.compile(r"""\bpath(\s*=\s*)("(?:[^"\\\n]|\\.)*"|'[^'\n]*')""")
+SCENARIO_FILE = "scenario.toml"  # a sweep directory's copy of its base scenario
+_STRING = r"""(\s*=\s*)("(?:[^"\\\n]|\\.)*"|'[^'\n]*')"""
 
 
 def model_files(task, taken: set[str]) -> tuple[str, dict[str, str], dict[str, Any]] | None:
@@ -43,9 +50,7 @@ def model_files(task, taken: set[str]) -> tuple[str, dict[str, str], dict[str, A
     if robot is None:
         return None
     source = str(getattr(task.scenario.model, "path", "") or robot.path)
-    name = Path(source).name
-    if not _PLAIN.match(name) or name in taken or name == "scenario.toml":
-        name = FALLBACK_NAME
+    name = _urdf_name(source, {*taken, SCENARIO_FILE})
     text = with_model_path(task.text, name)
     entry = {
         "file": name,
@@ -56,15 +61,20 @@ def model_files(task, taken: set[str]) -> tuple[str, dict[str, str], dict[str, A
 
 
 def with_model_path(text: str, path: str) -> str:
-    """The scenario TOML `text` with `[model] path` set to `path`, nothing else changed.
+    """The scenario TOML `text` with `[model] path` set to `path`, nothing else changed."""
+    return _with_string(text, ("model", "path"), path)
 
-    The string after a `path =` is replaced where the result parses to the same scenario
-    but for that value; when no occurrence does, the parsed scenario is written out again.
+
+def _with_string(text: str, keys: tuple[str, ...], value: str) -> str:
+    """The TOML `text` with the string at `keys` set to `value`, nothing else changed.
+
+    The string after a `<last key> =` is replaced where the result parses to the same tables
+    but for that value; when no occurrence does, the parsed tables are written out again.
     """
     original = tomllib.loads(text)
-    wanted = {**original, "model": {**original["model"], "path": path}}
-    literal = '"' + path.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    for match in _PATH.finditer(text):
+    wanted = _replaced(original, keys, value)
+    literal = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    for match in re.finditer(r"\b" + re.escape(keys[-1]) + _STRING, text):
         candidate = text[: match.start(2)] + literal + text[match.end(2) :]
         try:
             if tomllib.loads(candidate) == wanted:
@@ -72,3 +82,57 @@ def with_model_path(text: str, path: str) -> str:
         except tomllib.TOMLDecodeError:
             continue
     return tomlwrite.dumps(wanted)
+
+
+def _replaced(tables: dict[str, Any], keys: tuple[str, ...], value: Any) -> dict[str, Any]:
+    head, *rest = keys
+    return {**tables, head: _replaced(tables[head], tuple(rest), value) if rest else value}
+
+
+def _urdf_name(path: str, taken: set[str]) -> str:
+    name = Path(path).name
+    return name if _PLAIN.match(name) and name not in taken else FALLBACK_NAME
+
+
+def sweep_files(sweep, taken: set[str]) -> dict[str, str]:
+    """A sweep directory's copies: {file name: text} of its `sweep.toml` (the sweep file as
+    given, TOML) and, where the sweep file names its base scenario by a path, of that
+    scenario as `scenario.toml`, the copy's `sweep.scenario` naming it; a URDF base's robot
+    under its own name (`taken`: the directory's other names), the copies naming it.
+
+    Parameters
+    ----------
+    sweep : sweep.spec.Sweep
+        The loaded sweep (its `text`, `base_text` and `base`: a URDF path there is absolute).
+    taken : set of str
+        The sweep directory's other file names.
+    """
+    try:
+        raw = tomllib.loads(sweep.text)
+    except tomllib.TOMLDecodeError:  # a .json sweep file: the copy is its TOML
+        raw = json.loads(sweep.text)
+        text = tomlwrite.dumps(raw)
+    else:
+        text = sweep.text
+    files: dict[str, str] = {}
+    model = sweep.base.get("model") or {}
+    urdf = model.get("path") if model.get("kind") == "urdf" else None
+    if urdf is not None:
+        name = _urdf_name(urdf, {*taken, SCENARIO_FILE, "sweep.toml"})
+        try:
+            files[name] = Path(urdf).read_text(encoding="utf-8")
+        except (OSError, UnicodeError) as exc:  # (read when the sweep was loaded)
+            raise InputError(f"{urdf}: cannot read the base scenario's URDF ({exc})") from None
+    inline = (raw.get("sweep") or {}).get("scenario") is None
+    if not inline and sweep.base_text is not None:
+        scenario = sweep.base_text
+        if urdf is not None:
+            try:
+                scenario = with_model_path(scenario, name)
+            except tomllib.TOMLDecodeError:  # a .json base: its tables as TOML
+                scenario = tomlwrite.dumps(_replaced(json.loads(scenario), ("model", "path"), name))
+        files[SCENARIO_FILE] = scenario
+        text = _with_string(text, ("sweep", "scenario"), SCENARIO_FILE)
+    elif inline and urdf is not None:
+        text = _with_string(text, ("scenario", "model", "path"), name)
+    return {"sweep.toml": text, **files}

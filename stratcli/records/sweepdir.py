@@ -2,7 +2,8 @@
 
 Layout of ``SWEEPDIR``::
 
-    sweep.toml      the sweep file as given          spec.json   what --resume must match
+    sweep.toml      the sweep file as given, naming   spec.json   what --resume must match
+    scenario.toml   its base scenario's copy (and a URDF base's robot: `model_files`)
     rows.jsonl      one JSON object per finished task, appended and fsync'd as it completes
     results.csv     the rows in task order (written at the end, rewritten by --resume)
     sweep.json      summary: counts, success rate, executor and workers, wall time
@@ -37,6 +38,8 @@ TABLE = "results.csv"
 SUMMARY = "sweep.json"
 FILE_TEXT = "sweep.toml"
 FORMAT = "stratplan.sweep/1"
+RECORDS_DIR = "records"
+NAMES = (ROWS, SPEC, TABLE, SUMMARY, FILE_TEXT, RECORDS_DIR, CLAIM)  # none a copy may take
 # the columns after the task's inputs, in order; compare mode adds "ranking"
 COLUMNS = (
     "status",
@@ -94,7 +97,9 @@ def write_atomic(path: Path, data: bytes) -> None:
     _fsync_dir(path.parent)
 
 
-def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> dict[int, dict]:
+def prepare(
+    out: Path, spec: dict[str, Any], files: dict[str, str], resume: bool
+) -> dict[int, dict]:
     """Create (or, with `resume`, reopen) the sweep directory; the rows already in it.
 
     Raises
@@ -108,7 +113,7 @@ def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> di
         raise InputError([Problem("out", "not a directory", given=str(out))])
     existing = out / SPEC
     if not existing.exists() and out.is_dir():
-        _refuse_foreign_files(out)
+        _refuse_foreign_files(out, set(files))
     if existing.exists():
         try:
             found = json.loads(existing.read_text())
@@ -130,7 +135,8 @@ def prepare(out: Path, spec: dict[str, Any], file_text: str, resume: bool) -> di
         return read_rows(out / ROWS)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        write_atomic(out / FILE_TEXT, file_text.encode())
+        for name, text in files.items():  # (before spec.json, which makes it a sweep's)
+            write_atomic(out / name, text.encode())
         write_atomic(out / SPEC, (json.dumps(spec, indent=2) + "\n").encode())
     except OSError as exc:
         why = f"cannot write there ({exc.strerror or exc})"
@@ -191,13 +197,14 @@ def _already(out: Path, spec: dict[str, Any]) -> Problem:
     )
 
 
-def _refuse_foreign_files(out: Path) -> None:
+def _refuse_foreign_files(out: Path, ours: set[str]) -> None:
     """A sweep is not written among other files (run records, say): `out` must be empty, or
-    hold only what a sweep killed at its very start left (sweep.toml, temporary files)."""
+    hold only what a sweep killed at its very start left (`ours`: its copies of the sweep
+    file and base scenario; temporary files)."""
     foreign = sorted(
         p.name
         for p in out.iterdir()
-        if p.name not in (FILE_TEXT, CLAIM)
+        if p.name not in (*ours, FILE_TEXT, CLAIM)
         and not (p.name.startswith(".") and p.name.endswith(".tmp"))
     )
     if foreign:

@@ -24,7 +24,10 @@ if TYPE_CHECKING:
 __all__ = ["checked_base", "tasks_as_tables"]
 
 
-def _base(spec: SweepFile, folder: Path, problems: list[Problem]) -> tuple[dict | None, str]:
+def _base(
+    spec: SweepFile, folder: Path, problems: list[Problem]
+) -> tuple[dict | None, str, str | None]:
+    """The base scenario's tables, how messages name it and its file's text (None: inline)."""
     given = [spec.sweep.scenario is not None, spec.scenario is not None]
     if sum(given) != 1:
         problems.append(
@@ -32,18 +35,18 @@ def _base(spec: SweepFile, folder: Path, problems: list[Problem]) -> tuple[dict 
             if not any(given)
             else Problem("sweep.scenario", "give a path or a [scenario] table, not both")
         )
-        return None, ""
+        return None, "", None
     if spec.scenario is not None:
-        return _urdf_from(copy.deepcopy(spec.scenario), folder), "scenario"
+        return _urdf_from(copy.deepcopy(spec.scenario), folder), "scenario", None
     path = folder / spec.sweep.scenario
     try:
         text = read_scenario_text(path)
-        return _urdf_from(parse_toml(text, str(path)), path.parent), spec.sweep.scenario
+        return _urdf_from(parse_toml(text, str(path)), path.parent), spec.sweep.scenario, text
     except InputError as exc:  # say which file: the path is relative to the sweep file
         given, read = spec.sweep.scenario, os.path.normpath(path)
         where = given if read == os.path.normpath(given) else f"{given} ({read})"
         problems.extend(Problem("sweep.scenario", f"{where}: {p.message}") for p in exc.problems)
-        return None, ""
+        return None, "", None
 
 
 def tasks_as_tables(source: Mapping[str, Any]) -> Mapping[str, Any]:
@@ -88,7 +91,7 @@ def checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) ->
     s = spec.sweep
     if pruned & {("sweep", "scenario"), ("scenario",)}:
         return Base(None, None, False, pruned, problems)
-    base, where = _base(spec, folder, problems)
+    base, where, text = _base(spec, folder, problems)
     if base is None:
         return Base(None, None, False, pruned, problems)
     mode = s.mode
@@ -139,7 +142,7 @@ def checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) ->
     if applied:
         check_scenario(base, field="sweep.set", problems=problems)
     loads = len(problems) == before and ("sweep", "set") not in pruned
-    return Base(base, states, loads, pruned, problems)
+    return Base(base, states, loads, pruned, problems, text=text)
 
 
 def _no_legs(where: str, given: bool = True) -> Problem:

@@ -31,6 +31,7 @@ from typing import Any
 from ..errors import InputError, Problem
 from ..interrupts import checkpoint
 from ..records import sweepdir
+from ..records.model_files import sweep_files
 from ..records.rundir import write_run
 from ..wording import counted
 from .executors import ExecutorInfo, local_executor
@@ -171,7 +172,8 @@ def run_sweep(
         raise InputError([Problem("records", f"one of {', '.join(RECORDS)} (got {records!r})")])
     out = Path(out)
     clock, started = time.perf_counter(), datetime.now(UTC)
-    rows = sweepdir.prepare(out, spec_document(sweep), sweep.text, resume)
+    files = sweep_files(sweep, set(sweepdir.NAMES))
+    rows = sweepdir.prepare(out, spec_document(sweep), files, resume)
     rows = {k: v for k, v in rows.items() if 0 <= k < sweep.count}
     finished = _finished(out, rows, sweep.count) if resume else None
     if finished is not None:  # nothing to plan: the summary as written, files untouched

@@ -119,6 +119,8 @@ class Sweep:
     text: str
     states: tuple[str, ...]
     reference_energy: float | None
+    base_text: str | None = None  # the base scenario file's text as given (None: inline)
+    robot_sha256: str | None = None  # a URDF base's robot as loaded (`_robot_content`)
 
     @property
     def count(self) -> int:
@@ -136,7 +138,7 @@ class Sweep:
             "kind": self.kind,
             "keys": self.keys,
             "axes": self.axes,
-            "base": self.base,
+            "base": _robot_content(self.base, self.robot_sha256),
             "random": self.random.model_dump() if self.random else None,
             "rows": self.rows,
         }
@@ -329,5 +331,25 @@ def _resolve(
     return Sweep(
         s.name, s.description, s.mode, s.check, s.exhaustive, given[0].replace("task", "tasks"),
         keys, tuple(axes), base.scenario, random, tuple(rows), source, text, base.states,
-        float(reference) if isinstance(reference, int | float) else None,
+        float(reference) if isinstance(reference, int | float) else None, base.text,
+        _robot_sha256(base.scenario),
     )  # fmt: skip
+
+
+def _robot_sha256(base: dict[str, Any]) -> str | None:
+    """The SHA-256 of a URDF base's robot file (None: another model, or unreadable)."""
+    model = base.get("model")
+    if not (isinstance(model, dict) and model.get("kind") == "urdf"):
+        return None
+    try:
+        return hashlib.sha256(Path(model["path"]).read_bytes()).hexdigest()
+    except (OSError, TypeError, ValueError):
+        return None
+
+
+def _robot_content(base: dict[str, Any], sha256: str | None) -> dict[str, Any]:
+    """`base` with a URDF model's path replaced by its robot's SHA-256: the robot decides the
+    tasks, not where its file lies (a sweep directory's copy names its own; `sweep_files`)."""
+    if sha256 is None:
+        return base
+    return {**base, "model": {**base["model"], "path": f"sha256:{sha256}"}}

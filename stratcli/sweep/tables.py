@@ -41,6 +41,7 @@ class Base:
     pruned: set[tuple] = field(default_factory=set)  # file locations the schema refused
     problems: list[Problem] = field(default_factory=list)
     hidden: tuple[str, ...] = ()  # scenario paths with problems: keys there are not checked
+    text: str | None = None  # the base scenario file's text (None: an inline [scenario])
 
     def key_problem(self, key: str, where: str) -> bool:
         """Whether `key` names no place in the base scenario (reported); False if unknown."""
