@@ -47,6 +47,8 @@ __all__ = [
     "check_configuration",
     "rate_limited",
     "resolve",
+    "resolved_constraints",
+    "rooms",
     "verify",
 ]
 
@@ -234,6 +236,12 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
     )  # fmt: skip
 
 
+def resolved_constraints(plan) -> Constraints:
+    """A plan's [constraints] table (`plan.constraints.spec`, as result.json records it)
+    resolved on its model again (limits per coordinate)."""
+    return resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
+
+
 # --------------------------------------------------------------------------------------------
 # Margins on a dense re-integration
 # --------------------------------------------------------------------------------------------
@@ -244,6 +252,39 @@ def _first(values: np.ndarray, t: np.ndarray) -> tuple[float, float]:
     return float(values[k]), float(t[k])
 
 
+def rooms(system, c: Constraints, q, u, du) -> dict[str, np.ndarray]:
+    """The room left to each limit at every sample: (N, columns) arrays by result.json's
+    margin name ("joint_limit": per limited coordinate, "rate" and "acceleration": per input,
+    "self_clearance" and "obstacle_clearance": the smallest clearance, one column), present
+    where the constraints ask for them; negative where a limit is broken.
+
+    Parameters
+    ----------
+    system : System
+        The model (its `robot` carries the collision geometry).
+    c : Constraints
+        The resolved [constraints] table.
+    q, u, du : numpy.ndarray
+        (N, n) configurations, (N, m) controls and their derivatives, sample by sample.
+    """
+    found: dict[str, np.ndarray] = {}
+    limited = np.isfinite(c.lower) | np.isfinite(c.upper)
+    if limited.any():
+        found["joint_limit"] = np.minimum(q - c.lower, c.upper - q)[:, limited]
+    if c.max_rate is not None:
+        found["rate"] = c.max_rate - np.abs(u)
+    if c.max_acceleration is not None:
+        found["acceleration"] = c.max_acceleration - np.abs(du)
+    robot = getattr(system, "robot", None)
+    if c.geometric and robot is not None:
+        own, world = clearances(robot, q, c)
+        if c.self_collision:
+            found["self_clearance"] = own[:, None]
+        if c.circles or c.boxes:
+            found["obstacle_clearance"] = world[:, None]
+    return found
+
+
 def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintReport:
     """Smallest margins per leg on an independent re-integration (`samples` per leg) and the
     first violation, named by limit, leg and time."""
@@ -251,44 +292,32 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
     robot = getattr(plan.system, "robot", None)
     margins, violated, violation = [], "", None
     others: list[str] = []  # the violations after the first
+    limited = np.flatnonzero(np.isfinite(c.lower) | np.isfinite(c.upper))
+    units = {"rate": "rad/s", "acceleration": "rad/s²"}
     for leg in plan.legs:
         sel = trajectory.leg == leg.index
-        t, q, u, du = trajectory.t[sel], trajectory.q[sel], trajectory.u[sel], trajectory.du[sel]
+        t, q = trajectory.t[sel], trajectory.q[sel]
+        room = rooms(plan.system, c, q, trajectory.u[sel], trajectory.du[sel])
         found: dict[str, tuple[float, float, str]] = {}
-        limited = np.isfinite(c.lower) | np.isfinite(c.upper)
-        if limited.any():
-            room = np.minimum(q - c.lower, c.upper - q)[:, limited]
-            k = int(np.unravel_index(np.argmin(room), room.shape)[1])
-            j = int(np.flatnonzero(limited)[k])
-            name = plan.coordinates[j]
-            urdf = f"{URDF_LIMIT} {name} [{c.lower[j]:.3g}, {c.upper[j]:.3g}]"
-            what = urdf if j in c.from_urdf else f"the joint limits of {name}"
-            found["joint_limit"] = (*_first(room[:, k], t), what)
-        for key, limit, values, unit in (
-            ("rate", c.max_rate, u, "rad/s"),
-            ("acceleration", c.max_acceleration, du, "rad/s²"),
-        ):
-            if limit is not None:
-                room = limit - np.abs(values)
-                j = int(np.unravel_index(np.argmin(room), room.shape)[1])
-                found[key] = (
-                    *_first(room[:, j], t),
-                    f"the {key} limit of {plan.inputs[j]} ({limit[j]:g} {unit})",
-                )
-        if c.geometric and robot is not None:
-            own, world = clearances(robot, q, c)
-            for key, values, what, wanted in (
-                ("self_clearance", own, "self-collision", c.self_collision),
-                ("obstacle_clearance", world, "an obstacle", bool(c.circles or c.boxes)),
-            ):
-                if not wanted:
-                    continue
-                value, when = _first(values, t)
+        for key, values in room.items():
+            k = int(np.unravel_index(np.argmin(values), values.shape)[1])
+            value, when = _first(values[:, k], t)
+            if key == "joint_limit":
+                j = int(limited[k])
+                name = plan.coordinates[j]
+                urdf = f"{URDF_LIMIT} {name} [{c.lower[j]:.3g}, {c.upper[j]:.3g}]"
+                what = urdf if j in c.from_urdf else f"the joint limits of {name}"
+            elif key in units:
+                limit = c.max_rate if key == "rate" else c.max_acceleration
+                what = f"the {key} limit of {plan.inputs[k]} ({limit[k]:g} {units[key]})"
+            else:
+                obstacles = key == "obstacle_clearance"
+                what = "an obstacle" if obstacles else "self-collision"
                 if value < -VIOLATION_TOL:  # which bodies (and obstacle)
-                    k = int(np.argmin(values))
-                    pair, _ = closest_pair(robot, q[k], c, obstacles=key == "obstacle_clearance")
+                    index = int(np.argmin(values[:, 0]))
+                    pair, _ = closest_pair(robot, q[index], c, obstacles=obstacles)
                     what = f"{what} ({pair})"
-                found[key] = (value, when, what)
+            found[key] = (value, when, what)
         margins.append(LegMargins(**{k: v[0] for k, v in found.items()}))
         for key, (value, when, what) in found.items():
             if value >= -VIOLATION_TOL:

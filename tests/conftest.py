@@ -239,7 +239,10 @@ def _run(name: str, evaluator: str | None = None) -> Run:
     if "objective" in {f.name for f in dataclasses.fields(task.settings)}:
         changes["objective"] = "newton"  # the paper's method: fast; these tests need any plan
     settings = dataclasses.replace(task.settings, **changes)
-    plan = plan_sequence(task.system, task.start, task.legs, settings)
+    if task.constraints is None:
+        plan = plan_sequence(task.system, task.start, task.legs, settings)
+    else:  # the search, the time scaling and the verification of [constraints]
+        plan = plan_run(task, check=False).result
     assert plan.ok
     traj = sample(plan)
     doc = json.loads(json.dumps(result_document(plan, name, task.model_name)))  # as on disk
@@ -266,7 +269,13 @@ def biped() -> Run:
     return _run("biped", evaluator="auto")
 
 
-@pytest.fixture(params=["one_arm", "two_arm", "biped"])
+@pytest.fixture(scope="session")
+def obstacles() -> Run:
+    """sim4_task_d_obstacles: one-arm, 2 legs around two obstacles ([constraints]: /margins)."""
+    return _run("sim4_task_d_obstacles")
+
+
+@pytest.fixture(params=["one_arm", "two_arm", "biped", "obstacles"])
 def any_run(request) -> Run:
     return request.getfixturevalue(request.param)
 

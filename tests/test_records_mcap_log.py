@@ -17,6 +17,7 @@ from conftest import (
 from mcap.reader import make_reader
 
 import stratcli.simulate as simulate
+from stratcli.api.planning import plan_run
 from stratcli.objectives import plan_sequence
 from stratcli.records.mcap_log import _json, _log_time, epoch_ns, mcap_bytes
 from stratcli.records.mcap_schemas import SCHEMA_NAMES
@@ -62,6 +63,8 @@ def test_mcap_channels_schemas_and_counts(any_run):
     expected = {"/state", "/controls", "/legs", "/summary"}
     if manipulator:
         expected |= {"/tf", "/scene"}
+    if any_run.plan.constraints is not None:
+        expected |= {"/margins"}
     assert set(topics) == expected
     counts = {
         ch.topic: summary.statistics.channel_message_counts.get(ch.id, 0) for ch in topics.values()
@@ -78,6 +81,7 @@ def test_mcap_channels_schemas_and_counts(any_run):
     assert counts["/state"] == counts["/controls"] == any_run.traj.size >= 200 * legs
     assert counts["/legs"] == legs + len(any_run.plan.switches)
     assert counts["/summary"] == 1
+    assert counts.get("/margins", counts["/state"]) == counts["/state"]
     if manipulator:
         assert counts["/tf"] == counts["/state"]
         assert counts["/scene"] == 1
@@ -149,6 +153,46 @@ def test_mcap_legs_and_summary(any_run):
     ((_, summary),) = mcap_messages(any_run.data, "/summary")
     assert summary["status"] == "ok" and summary["total_energy"] == doc["total_energy"]
     assert [summary["end"][c] for c in doc["coordinates"]] == doc["end"]
+    assert summary["objective"] == doc["objective"] and summary["time_scale"] == doc["time_scale"]
+    limits = doc.get("constraints")
+    for k, msg in enumerate(legs):  # result.json's margins of the leg, where it has them
+        leg_doc = limits["legs"][k] if limits else {}
+        assert msg.get("margins", {}) == {k: v for k, v in leg_doc.items() if v is not None}
+
+
+def test_margins_are_the_room_to_each_limit_at_every_sample():
+    """/margins against the limits measured here from /state and /controls (joint limits of
+    ±π, rate 0.5, acceleration 1), and each leg's smallest clearance against result.json's."""
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d_rate_limited.toml")
+    plan = plan_run(task, check=False).result  # the time scaling and verification too
+    assert plan.ok and plan.constraints is not None
+    traj = sample(plan)
+    doc = json.loads(json.dumps(result_document(plan, "rate", task.model_name)))
+    data = mcap_bytes(plan, traj, doc, {"started": STARTED}, task.text, "rate")
+    margins = [msg for _, msg in mcap_messages(data, "/margins")]
+    states = [msg for _, msg in mcap_messages(data, "/state")]
+    controls = [msg for _, msg in mcap_messages(data, "/controls")]
+    assert len(margins) == len(states) == traj.size
+    joints = ("q1", "q2", "q3")
+    for m, s, c in zip(margins, states, controls, strict=True):
+        assert (m["t"], m["leg"], m["stratum"]) == (s["t"], s["leg"], s["stratum"])
+        room = min(min(s["q"][j] + np.pi, np.pi - s["q"][j]) for j in joints)
+        assert m["joint_limit"] == pytest.approx(room, abs=1e-12)
+        assert m["rate"] == pytest.approx(0.5 - max(abs(v) for v in c["u"].values()), abs=1e-12)
+        accel = 1.0 - max(abs(v) for v in c["du"].values())
+        assert m["acceleration"] == pytest.approx(accel, abs=1e-12)
+        assert set(m) == {"t", "leg", "stratum", "joint_limit", "rate", "acceleration"}
+    for k, leg in enumerate(doc["constraints"]["legs"]):  # 2000 other samples a leg there
+        rates = [m["rate"] for m in margins if m["leg"] == k]
+        assert min(rates) == pytest.approx(leg["rate"], abs=1e-3)
+
+
+def test_obstacle_margins_are_the_clearances_result_json_measures(obstacles):
+    margins = [msg for _, msg in mcap_messages(obstacles.data, "/margins")]
+    assert margins and all(set(m) == {"t", "leg", "stratum", "obstacle_clearance"} for m in margins)
+    for k, leg in enumerate(obstacles.doc["constraints"]["legs"]):
+        low = min(m["obstacle_clearance"] for m in margins if m["leg"] == k)
+        assert low == pytest.approx(leg["obstacle_clearance"], abs=2e-3)  # 2000 other samples
 
 
 def test_failed_run_is_logged_up_to_the_failing_leg():

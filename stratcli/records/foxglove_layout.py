@@ -10,6 +10,7 @@ them (`{"direction", "first", "second", "splitPercentage"}`; a leaf is a panel i
 | 3-D | `3D!motion` | `/tf` and `/scene` from above, following `world` (or `base`) |
 | Plot | `Plot!controls` | `/controls.u.<input>` for every input |
 | Plot | `Plot!configuration` | `/state.q.<coordinate>` for every coordinate |
+| Plot | `Plot!margins` | plans with [constraints]: `/margins.<kind>`, the room to each limit |
 | State Transitions | `StateTransitions!stratum` | `/state.stratum` and `/state.leg` |
 
 A URDF robot's 3-D panel draws the robot from `run.mcap`'s `/robot_description` topic (the
@@ -32,6 +33,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ..sequence import SequencePlan
+from .mcap_margins import logged_kinds
 from .trajectory import Trajectory, world_geometry
 
 __all__ = [
@@ -43,13 +45,14 @@ __all__ = [
     "shows_robot",
 ]
 
-THREE_D, CONTROLS, CONFIGURATION, STRATUM = (
+THREE_D, CONTROLS, CONFIGURATION, MARGINS, STRATUM = (
     "3D!motion",
     "Plot!controls",
     "Plot!configuration",
+    "Plot!margins",
     "StateTransitions!stratum",
 )
-LAYOUT_PANELS = (THREE_D, CONTROLS, CONFIGURATION, STRATUM)
+LAYOUT_PANELS = (THREE_D, CONTROLS, CONFIGURATION, MARGINS, STRATUM)
 
 
 def shows_robot(plan: SequencePlan, traj: Trajectory) -> bool:
@@ -148,6 +151,7 @@ def foxglove_layout(
     follow: Literal["world", "base"] = "world",
     distance: float = 5.0,
     urdf: bool = False,
+    margins: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """The Foxglove layout of a run (a JSON-ready dict).
 
@@ -160,6 +164,8 @@ def foxglove_layout(
     distance : the 3-D camera's distance (zoom), in the model's length unit.
     urdf : a URDF robot: the 3-D panel draws it from the log's `/robot_description` topic
         (perspective view).
+    margins : the fields of the log's `/margins` (`mcap_margins.margin_kinds`); none: no
+        margins panel.
 
     Returns
     -------
@@ -179,7 +185,14 @@ def foxglove_layout(
             "isSynced": True,
         },
     }
-    charts = _split("column", CONTROLS, _split("column", CONFIGURATION, STRATUM, 70), 38)
+    lower: Any = STRATUM
+    if margins:
+        title = "Margins to the limits (< 0: broken)"
+        config[MARGINS] = _plot(title, [_series(f"/margins.{k}", k) for k in margins])
+        lower = _split("column", MARGINS, STRATUM, 70)
+    charts = _split(
+        "column", CONTROLS, _split("column", CONFIGURATION, lower, 55 if margins else 70), 38
+    )
     tree: Any = charts
     if robot:
         config[THREE_D] = _three_d(follow, distance, urdf)
@@ -211,12 +224,13 @@ def run_layout(
     """
     system = plan.system
     robot = shows_robot(plan, traj)
+    margins = logged_kinds(plan, traj)
     if getattr(system, "spatial", None) is not None and traj.size:  # a URDF robot
         from .spatial_figures import reach
 
         distance = round(4.0 * max(reach(plan, traj.q[0]), 0.25), 3)
         states, inputs = tuple(system.states), tuple(system.inputs)
-        return foxglove_layout(states, inputs, True, follow, distance, urdf=True)
+        return foxglove_layout(states, inputs, True, follow, distance, True, margins)
     distance = 5.0
     if robot:
         geo = world_geometry(system.robot, traj.q[:1])
@@ -224,7 +238,8 @@ def run_layout(
         reach = float(np.nanmax(np.abs(points))) if np.isfinite(points).any() else math.nan
         if math.isfinite(reach) and reach > 0:
             distance = round(4.0 * reach, 3)
-    return foxglove_layout(tuple(system.states), tuple(system.inputs), robot, follow, distance)
+    states, inputs = tuple(system.states), tuple(system.inputs)
+    return foxglove_layout(states, inputs, robot, follow, distance, margins=margins)
 
 
 def message_paths(layout: dict[str, Any]) -> dict[str, list[str]]:

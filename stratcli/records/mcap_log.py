@@ -8,6 +8,7 @@ Every channel is JSON-encoded with a JSON Schema:
 | `/controls` | `stratplan.Controls` | one per sample: `t`, `leg`, `stratum`, `u`, `du` |
 | `/legs` | `stratplan.Leg` | `kind: "leg"` at each leg's start, `kind: "switch"` at each switch |
 | `/summary` | `stratplan.Summary` | one, at the end: status, energies, end point, ... |
+| `/margins` | `stratplan.Margins` | plans with [constraints]: per sample, the room to each limit |
 | `/tf` | `foxglove.FrameTransforms` | manipulators, URDF robots: per sample, world → base → links |
 | `/scene` | `foxglove.SceneUpdate` | manipulators, URDF robots: once, base, links, tip paths |
 | `/robot_description` | `std_msgs/String` | URDF robots: once, the URDF's text (`data`) |
@@ -46,6 +47,7 @@ from mcap.writer import Writer
 from .. import __version__
 from ..sequence import SequencePlan
 from .foxglove_layout import ROBOT_DESCRIPTION, run_layout, shows_robot
+from .mcap_margins import MARGINS, MARGINS_SCHEMA, margin_message, margin_rows
 from .mcap_scene import frame_transforms, link_frames, scene_update
 from .mcap_schemas import (
     FRAME_TRANSFORMS_SCHEMA,
@@ -229,6 +231,9 @@ def mcap_log(
     log = _Log(writer)
     for topic, schema in own_schemas(states, inputs).items():
         log.channel(topic, schema)
+    kinds, margins = margin_rows(plan, traj)
+    if kinds:
+        log.channel(MARGINS, MARGINS_SCHEMA)
     manipulator = shows_robot(plan, traj)
     spatial = is_spatial(plan) and traj.size > 0  # a URDF robot: /tf after its links
     if manipulator or spatial:
@@ -268,6 +273,8 @@ def mcap_log(
         log.write(ROBOT_DESCRIPTION, at(t_first), {"data": system.spatial.text})
         log.write("/scene", at(t_first), spatial_scene(plan, traj.q, at(t_first)))
     legs_doc = result_doc.get("legs", [])
+    limits = result_doc.get("constraints") or {}
+    leg_margins = limits.get("legs") or []
     switches = {sw["after_leg"]: sw for sw in result_doc.get("switches", [])}
     for k, leg in enumerate(plan.legs):
         doc = legs_doc[k]
@@ -284,6 +291,7 @@ def mcap_log(
                     "goal": _named_values(states, doc["goal"]),
                     "end": _named_values(states, doc["end"]),
                     "coefficients": piece["coefficients"],
+                    "margins": leg_margins[k] if k < len(leg_margins) else None,
                 }
             ),
         )
@@ -301,6 +309,8 @@ def mcap_log(
                     "du": _named_values(inputs, traj.du[i]),
                 },
             )
+            if kinds:
+                log.write(MARGINS, ns, margin_message(head, kinds, margins[i]))
             if manipulator:
                 log.write("/tf", ns, frame_transforms(geo, frames, i, ns))
             elif spatial and (tf := spatial_transforms(plan, traj.q[i], ns)) is not None:
@@ -336,6 +346,8 @@ def mcap_log(
                 "start": _named_values(states, result_doc["start"]),
                 "goal": _named_values(states, result_doc["goal"]),
                 "end": _named_values(states, result_doc["end"] or [None] * len(states)),
+                "duration_set_by": limits.get("duration_set_by") or None,
+                "violated": limits.get("violated") or None,
             }
         ),
     )
@@ -368,6 +380,7 @@ _LEG_KEYS = (
     "attempts",
     "free_coefficients",
     "energy",
+    "strategy",
 )
 _SUMMARY_KEYS = (
     "model",
@@ -380,4 +393,6 @@ _SUMMARY_KEYS = (
     "soft_start",
     "full_stop",
     "tolerance",
+    "objective",
+    "time_scale",
 )

@@ -29,6 +29,7 @@ SCHEMA_NAMES = {
     "/controls": "stratplan.Controls",
     "/legs": "stratplan.Leg",
     "/summary": "stratplan.Summary",
+    "/margins": "stratplan.Margins",
     "/tf": "foxglove.FrameTransforms",
     "/scene": "foxglove.SceneUpdate",
     "/robot_description": "std_msgs/String",
@@ -41,6 +42,7 @@ SCHEMA_NAMES = {
 _NUMBER = {"type": "number"}
 _STRING = {"type": "string"}
 _INTEGER = {"type": "integer"}
+_MARGIN_NAMES = ("joint_limit", "rate", "acceleration", "self_clearance", "obstacle_clearance")
 
 
 def _named(names: tuple[str, ...], value: dict, description: str) -> dict:
@@ -86,6 +88,13 @@ def own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, d
         "attempts": _INTEGER,
         "free_coefficients": _INTEGER,
         "energy": _NUMBER,
+        "strategy": {"type": "string", "description": "how the leg was planned (result.json)"},
+        "margins": _named(
+            _MARGIN_NAMES,
+            _NUMBER,
+            "kind leg, plans with [constraints]: smallest room to each limit over the leg on "
+            "2000 re-integrated samples (result.json's constraints.legs)",
+        ),
         "coefficients": _named(
             inputs,
             {"type": "array", "items": _NUMBER},
@@ -115,6 +124,10 @@ def own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, d
         "start": _named(states, _NUMBER, "start configuration"),
         "goal": _named(states, _NUMBER, "goal (a coordinate left out: not prescribed)"),
         "end": _named(states, _NUMBER, "configuration reached"),
+        "objective": _STRING,
+        "time_scale": {"type": "number", "description": "s of result.json: 1 unless rescaled"},
+        "duration_set_by": {"type": "string", "description": "the limit that set the duration"},
+        "violated": {"type": "string", "description": "the first limit broken, if any"},
     }
     return {
         "/state": _schema(

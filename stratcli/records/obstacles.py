@@ -9,7 +9,7 @@ from matplotlib.patches import Circle, Polygon
 
 from ..body_clearances import clearances
 from ..clearance import point_polygon_distance
-from ..constraints import ConstraintsSpec, resolve
+from ..constraints import resolved_constraints
 from ..models.geometry import world_geometry
 from ..sequence import SequencePlan
 from .figure_common import FAILED_COLOR
@@ -22,11 +22,6 @@ __all__ = [
     "obstacle_points",
     "resolved_constraints",
 ]
-
-
-def resolved_constraints(plan: SequencePlan):
-    """The plan's [constraints] table resolved on its model (limits per coordinate)."""
-    return resolve(ConstraintsSpec.model_validate(plan.constraints.spec), plan.system)
 
 
 OBSTACLE_STYLE = {"facecolor": "#f5b7b1", "edgecolor": FAILED_COLOR, "hatch": "///", "lw": 1.0}
