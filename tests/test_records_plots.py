@@ -502,3 +502,23 @@ def test_a_lie_legs_stroboscope_poses_are_mid_step():
         local = traj.t[i] - leg.t0
         step = next(p for p in leg.pieces if p.t0 <= local <= p.t0 + p.duration)
         assert abs(local - (step.t0 + step.duration / 2)) <= traj.t[s][1] - traj.t[s][0]
+
+
+def test_a_curve_constant_but_for_rounding_is_drawn_flat():
+    """sim2's energy plan keeps q1, q3 and θ at 0 up to ~1e-14: matplotlib fitted their axes
+    to the noise, a full-height swing under a small '1e-14' offset label."""
+    plan = stratcli.plan(ROOT / "scenarios" / "sim2.toml")
+    traj = simulate.sample(plan)
+    fig = plots.configuration_figure(plan, traj, "t")
+    q = traj.q
+    flat = [i for i in range(q.shape[1]) if np.ptp(q[:, i]) < 1e-9]
+    moving = [i for i in range(q.shape[1]) if np.ptp(q[:, i]) > 0.1]
+    assert flat and moving
+    FigureCanvasAgg(fig).draw()
+    for i in flat:
+        low, high = fig.axes[i].get_ylim()
+        assert high - low >= 2.0 and low < q[0, i] < high
+        assert fig.axes[i].yaxis.get_major_formatter().get_offset() == ""
+    for i in moving:  # fitted to the curve as before
+        low, high = fig.axes[i].get_ylim()
+        assert high - low < 1.5 * np.ptp(q[:, i])

@@ -159,7 +159,12 @@ def runs_table(rows: list[dict], out: Path) -> None:
     wraps a long one, and a copied path stays one path.
     """
     if not rows:
-        render.out_console.print(f"no run records in {out}", highlight=False)
+        from ..records.sweepdir import is_sweep_dir
+
+        hint = ""
+        if is_sweep_dir(out):
+            hint = f" (a sweep directory: `stratplan show {out}` summarises it)"
+        render.out_console.print(f"no run records in {out}{hint}", highlight=False)
         return
     energies = [fmt(row["total_energy"]) for row in rows]
     width = max(len("energy"), *map(len, energies))

@@ -208,11 +208,33 @@ def _time_series(
         mark_off_inputs(plan, axes)
     if plan.constraints is not None:
         shade_limits(plan, traj, axes, kind)
+    _widen_flat(axes, values)
     if not plan.ok:
         title += " — FAILED"
     fig.suptitle(title, fontsize=11, fontweight="bold", color="k" if plan.ok else FAILED_COLOR)
     stamp_failed(fig, plan, band_at=0.15 * max(notes, 1) + 0.16 if band else None)
     return fig
+
+
+FLAT = 1e-9  # a curve whose values differ by less than this (relative) is drawn as flat
+
+
+def _widen_flat(axes: list[Any], values: np.ndarray) -> None:
+    """A curve constant but for rounding (q1 of a leg that locks it: 1e-14) on an axis wide
+    enough to show it flat: matplotlib fits the axis to the noise and draws ±2e-14 as a
+    full-height swing, its scale only in a small offset label."""
+    for i, ax in enumerate(axes):
+        finite = values[:, i][np.isfinite(values[:, i])]
+        if not finite.size:
+            continue
+        low, high = float(finite.min()), float(finite.max())
+        centre = 0.5 * (low + high)
+        if high - low > FLAT * max(1.0, abs(centre)):
+            continue
+        half = max(0.1 * abs(centre), 1.0)  # whole ticks: nothing moves here
+        bottom, top = ax.get_ylim()
+        ax.set_ylim(min(bottom, centre - half), max(top, centre + half))
+        ax.ticklabel_format(axis="y", useOffset=False)
 
 
 # --------------------------------------------------------------------------------------------

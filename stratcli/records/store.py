@@ -247,7 +247,8 @@ def list_records(out: Path, on_damaged: Callable[[str], None] | None = None) -> 
         Directory of run records.
     on_damaged : callable, optional
         Called with one line for each directory skipped as a damaged or incomplete record
-        (partial directories of runs still writing, or killed, are skipped silently).
+        (partial directories of runs still writing, or killed, and folders holding neither
+        result.json nor manifest.json are skipped silently).
 
     Returns
     -------
@@ -263,6 +264,8 @@ def list_records(out: Path, on_damaged: Callable[[str], None] | None = None) -> 
                     many = counted(len(inside), "run record")
                     on_damaged(f"{path} is a folder of {many}: `stratplan runs {path}` lists them")
                 continue
+            if not any((path / name).exists() for name in ("result.json", "manifest.json")):
+                continue  # no file of a record: some other folder, not a damaged record
             try:
                 records.append(read_record(path))
             except InputError as exc:
