@@ -80,7 +80,7 @@ def ranking(task, doc: dict) -> None:
             *energies,
             fmt(row["peak_control"]) if ok else "–",
             _number(row["excursion"], "{:.3f}") if ok else "–",
-            "–" if bound and slowed else _number(row["duration"], "{:g}"),
+            "–" if (bound and slowed) or not (ok or bound) else _number(row["duration"], "{:g}"),
             "–" if bound else f"{1e3 * row['planning_time_s']:.0f}",
             style=style,
         )

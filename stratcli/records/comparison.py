@@ -57,7 +57,7 @@ def _row(o: Outcome) -> dict[str, Any]:
         "reason": o.reason,
         "message": o.message,
         "energy": _num(o.energy),
-        "energy_equal_time": _num(o.energy_equal_time),
+        "energy_equal_time": _num(o.energy_equal_time) if o.ok else None,  # ranked rows
         "peak_control": _num(o.peak_control),
         "excursion": _num(o.excursion),
         "duration": _num(o.duration),
