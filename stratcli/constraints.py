@@ -58,10 +58,10 @@ VIOLATION_TOL = 1e-9  # a margin below -this is a violation (rounding of the geo
 MAX_OBSTACLES = 100
 Number = Annotated[float, BeforeValidator(parse_number)]  # an angle: "60deg", "1.2 rad" too
 Positive = Annotated[float, BeforeValidator(parse_number), Field(gt=0, le=1e6)]  # rad/s, rad/s²
-Length = Annotated[float, BeforeValidator(parse_length)]  # no unit read, an angle's neither
 PositiveLength = Annotated[float, BeforeValidator(parse_length), Field(gt=0, le=1e6)]
 NonNegativeLength = Annotated[float, BeforeValidator(parse_length), Field(ge=0, le=1e6)]
-Point = Annotated[list[Length], Field(min_length=2, max_length=2)]
+Coordinate = Annotated[float, BeforeValidator(parse_length), Field(ge=-1e6, le=1e6)]
+Point = Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
 
 
 class _Strict(BaseModel):
@@ -78,7 +78,7 @@ class BoxSpec(_Strict):
     shape: Literal["box"]
     centre: Point
     size: Annotated[list[PositiveLength], Field(min_length=2, max_length=2)]
-    rotation: Number = 0.0  # rad
+    rotation: Annotated[Number, Field(ge=-1e3, le=1e3)] = 0.0  # rad
 
 
 Limits = Annotated[list[Number], Field(min_length=2, max_length=2)]
@@ -152,6 +152,15 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
         joints = len(spatial.joint_names)
         lower[:joints], upper[:joints] = spatial.lower, spatial.upper
     limits = spec.joint_limits
+    if isinstance(limits, list) and not limits:  # (an empty list of pairs passes the schema)
+        problems.append(
+            Problem(
+                "constraints.joint_limits",
+                "empty: give [lower, upper] for every joint, one pair per joint, or a table "
+                "by name (q1 = [lower, upper])",
+            )
+        )
+        limits = None
     if isinstance(limits, dict):
         pairs = {}
         for name, pair in limits.items():

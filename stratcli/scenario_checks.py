@@ -12,6 +12,8 @@ import numpy as np
 from .continuity import eliminate, leg_constraints
 from .errors import Problem
 from .node_margins import searchable
+from .settings import MIN_DURATION
+from .wording import counted
 
 if TYPE_CHECKING:
     from .constraints import Constraints
@@ -112,6 +114,15 @@ def duration_problems(scenario: Scenario, legs: list[LegSpec]) -> list[Problem]:
     if any(leg.method != "newton" for leg in legs):
         problems.append(
             Problem("planner.durations", '"optimise" needs Newton legs (a Lie leg sets its own)')
+        )
+    least = len(legs) * MIN_DURATION  # every leg lasts at least MIN_DURATION
+    if p.total_duration is not None and legs and p.total_duration < least * (1 - 1e-12):
+        problems.append(
+            Problem(
+                "planner.total_duration",
+                f"{counted(len(legs), 'leg')} need at least {least:g} s ({MIN_DURATION:g} s "
+                f"each, the shortest leg there is; got {p.total_duration:g})",
+            )
         )
     return problems
 

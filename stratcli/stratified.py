@@ -197,9 +197,9 @@ def plan_next_leg(
             end=np.full(system.n, np.nan),
             pieces=(),
             error=float("inf"),
-            iterations=0,
+            iterations=getattr(exc, "iterations", 0),
             attempts=1,
-            energy=0.0,
+            energy=float("nan"),  # no plan: not the zero controls' 0
             free_coefficients=0,
             status=Status.DIVERGED if diverged else Status.NUMERICAL_FAILURE,
             message=(

@@ -465,6 +465,8 @@ def test_check_command_on_a_preset_prints_ranks_and_spanning_brackets():
     assert "[u2,u3]" in result.output
     bad = runner.invoke(app, ["check", "one-arm", "--at", "0, 1"])
     assert bad.exit_code == 2
+    huge = runner.invoke(app, ["check", "one-arm", "--samples", "100000000"])  # was 137: killed
+    assert huge.exit_code == 2 and "--samples" in huge.stderr and "100000" in huge.stderr
 
 
 AUTO = ROOT / "scenarios" / "sim4_auto.toml"

@@ -48,6 +48,15 @@ def _problems(raw: dict) -> list[str]:
         ({"clearance": float("nan")}, "constraints.clearance"),
         ({"obstacles": [{"shape": "circle", "centre": [0, 1]}]}, "constraints.obstacles"),
         ({"speed": 1.0}, "constraints.speed"),
+        ({"joint_limits": []}, "constraints.joint_limits: empty"),  # was a ValueError
+        (  # an overflow in the clearances, and a numerical failure, before
+            {"obstacles": [{"shape": "circle", "centre": [1e160, 1.3], "radius": 0.1}]},
+            "constraints.obstacles[0].centre[0]: must be at most 1e+06",
+        ),
+        (
+            {"obstacles": [{"shape": "box", "centre": [2, 0], "size": [1, 1], "rotation": 1e300}]},
+            "constraints.obstacles[0].rotation",
+        ),
         ({"clearance": 0.05}, "constraints.clearance: applies to self_collision = true and"),
         ({"link_radius": 0.1}, "constraints.link_radius: applies to self_collision = true and"),
     ],

@@ -132,12 +132,15 @@ def test_optimised_durations_where_the_search_stalls_in_the_default_basis_get_mo
         ({"total_duration": 3.0}, "planner.total_duration"),
         ({"durations": "optimise", "total_duration": -1.0}, "planner.total_duration"),
         ({"durations": "free"}, "planner.durations"),
+        # two legs of at least 1e-3 s each: planned, the equal split was a traceback
+        ({"durations": "optimise", "total_duration": 0.001}, "planner.total_duration: 2 legs"),
     ],
 )
 def test_bad_duration_settings_name_their_field(planner, field):
     with pytest.raises(InputError) as info:
         load_scenario(_task_d(**planner))
-    assert any(p.path.startswith(field) for p in info.value.problems), info.value.problems
+    lines = [f"{p.path}: {p.message}" for p in info.value.problems]
+    assert any(line.startswith(field) for line in lines), lines
 
 
 def _rate_limited(**planner) -> dict:

@@ -356,6 +356,9 @@ def test_the_weak_stratum_runaway_is_abandoned_as_diverged():
     assert f"(limit {COORDINATE_RUNAWAY:g})" in plan.message
     assert "try another stratum" in plan.message and "auto mode" in plan.message
     assert plan.to_dict()["legs"][0]["status"] == "diverged"
+    # no plan: no energy (it was the zero controls' 0.0), and the iterations it ran
+    assert np.isnan(leg.energy) and plan.to_dict()["legs"][0]["energy"] is None
+    assert f"after {leg.iterations} iterations" in plan.message and leg.iterations > 0
 
 
 def test_the_weak_stratum_with_a_small_turn_still_plans():

@@ -42,6 +42,9 @@ def _not_finite(stratum: str, q: np.ndarray, sampled: bool) -> str:
     )
 
 
+MAX_SAMPLES = 100_000  # configurations `check` samples at most (1e6 took 1 GB and 13 s)
+
+
 def _vec(q: np.ndarray) -> list[float]:
     return [float(x) for x in np.asarray(q, dtype=float)]
 

@@ -305,7 +305,9 @@ def check(
             "for a preset or a URDF)."
         ),
     ] = None,
-    samples: Annotated[int, typer.Option(min=0, help="Sampled configurations.")] = 100,
+    samples: Annotated[
+        int, typer.Option(min=0, max=100_000, help="Sampled configurations (api MAX_SAMPLES).")
+    ] = 100,
     degree: Annotated[int, typer.Option(min=1, max=3, help="Lie bracket degree (1-3).")] = 2,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the sampled configurations.")] = 0,
     json_output: Json = False,

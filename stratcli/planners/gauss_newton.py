@@ -37,9 +37,9 @@ class SearchDiverged(Exception):
     leg with `Status.DIVERGED`. Raised by `damped_gauss_newton` when the caller passes no
     `diverged` check of its own."""
 
-    def __init__(self, coordinate: int, detail: str):
+    def __init__(self, coordinate: int, detail: str, iterations: int = 0):
         super().__init__(f"coordinate {coordinate + 1} {detail}")
-        self.coordinate, self.detail = coordinate, detail
+        self.coordinate, self.detail, self.iterations = coordinate, detail, iterations
 
 
 @dataclass(frozen=True)
@@ -155,7 +155,8 @@ def damped_gauss_newton(
             if diverged is None:
                 ran = runaway(payload, first)
                 if ran:
-                    raise SearchDiverged(ran[0], f"{ran[1]} after {iterations} iterations")
+                    detail = f"{ran[1]} after {iterations} iterations"
+                    raise SearchDiverged(ran[0], detail, iterations)
             elif reason := diverged(payload):
                 return GaussNewtonResult(z, err, iterations, payload, reason)
             if J_new is None:
