@@ -166,19 +166,40 @@ def validation_problems(
         shown = "" if kind == "missing" or "(got " in msg else f" (got {_short(err['input'])})"
         problem = Problem(where, suggested(f"{msg}{shown}", err.get("input")))
         if loc != raw:  # one form of several: grouped by the value they are forms of
-            value = raw[: next(i for i, item in enumerate(raw) if _form(item, models))]
-            alternatives.setdefault(value, []).append((kind, problem, msg, shown))
+            at = next(i for i, item in enumerate(raw) if _form(item, models))
+            # a form that a part of the value is not even of the type of (a number's parser
+            # given a list: max_rate = [1, 0, 1] is no number) does not fit the value
+            misfit = kind in _WRONG_TYPE or (
+                isinstance(err.get("input"), list | dict) and msg.startswith(NOT_A_NUMBER)
+            )
+            depth = len(raw) - at  # how far into the value this form got before its error
+            form = (kind, problem, msg, shown, raw[at], misfit, depth)
+            alternatives.setdefault(raw[:at], []).append(form)
             continue
         if kind == "missing":
             missing.append(problem)
         out.append(problem)
     for found in alternatives.values():
-        fitting = [p for kind, p, _, _ in found if kind not in _WRONG_TYPE]
-        out.extend(dict.fromkeys(fitting) if fitting else _one_of(found))
+        out.extend(_fitting(found))
     # a key misspelt is not also missing: `task.gaol: unknown key: did you mean 'goal'?`
     # says it all, without `task.goal: required field is missing` beside it
     dropped = {p for p in missing if p.path in meant}
     return [p for p in out if p not in dropped]
+
+
+def _fitting(found: list[tuple]) -> list[Problem]:
+    """The problems of the forms that fit a value best, of (kind, problem, message, value
+    shown, form, misfit, depth) of each error: forms without a misfit (a part of the value
+    not even of their type), and of those the ones that got furthest into the value (a list
+    of pairs with one short pair is a list of pairs: `[1]: must have at least 2 entries`,
+    not also a pair `must have at most 2 entries, not 3`); else one line naming them all."""
+    misfits = {f[4] for f in found if f[5]}
+    fitting = [f for f in found if f[4] not in misfits]
+    if not fitting:
+        return _one_of([f[:4] for f in found])
+    reach = {form: min(f[6] for f in fitting if f[4] == form) for form in {f[4] for f in fitting}}
+    furthest = max(reach.values())
+    return list(dict.fromkeys(f[1] for f in fitting if reach[f[4]] == furthest))
 
 
 def _one_of(forms: list[tuple]) -> list[Problem]:
@@ -186,6 +207,12 @@ def _one_of(forms: list[tuple]) -> list[Problem]:
     valid dictionary (got 2.5)", where each form said its own ("must be a valid list (got
     2.5)", then "must be a valid dictionary (got 2.5)"). `forms`: (kind, problem, its message
     without the value shown, the value shown) of each."""
+    forms = [  # a number's parser given another type: "must be a number" as a form
+        (k, p, "must be a number", m[m.rfind(" (got ") :] if " (got " in m else s)
+        if m.startswith(NOT_A_NUMBER)
+        else (k, p, m, s)
+        for k, p, m, s in forms
+    ]
     problems = list(dict.fromkeys(p for _, p, _, _ in forms))
     wanted = list(dict.fromkeys(msg.removeprefix("must be ") for _, _, msg, _ in forms))
     shown = {s for _, _, _, s in forms}
@@ -202,6 +229,7 @@ def file_location(loc: tuple, models: set[str] | None = None) -> tuple:
     return tuple(item for item in loc if not _form(item, models))
 
 
+NOT_A_NUMBER = "expected a number or an expression"  # `parse_number`'s refusal of a type
 _WRONG_TYPE = {
     "list_type", "dict_type", "model_type", "model_attributes_type", "float_type", "int_type",
     "string_type", "bool_type", "is_instance_of", "dataclass_type", "tuple_type",

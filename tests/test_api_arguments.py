@@ -55,7 +55,7 @@ BAD_CALLS = {
                lambda: stratcli.plan(UNICYCLE, jobs=0)),
     "degree 7": (InputError, r"^degree: must be an integer from 1 to 3 \(got 7\)$",
                  lambda: stratcli.check_controllability("one-arm", degree=7)),
-    "samples -1": (InputError, r"^samples: must be an integer of at least 0 \(got -1\)$",
+    "samples -1": (InputError, r"^samples: must be an integer from 0 to 100000 \(got -1\)$",
                    lambda: stratcli.check_controllability("one-arm", samples=-1)),
     "seed -1": (InputError, r"^seed: must be an integer from 0 to 9223372036854775807 \(got -1\)$",
                 lambda: stratcli.check_controllability("one-arm", seed=-1)),

@@ -48,7 +48,7 @@ CASES = {
     ),
     "samples -1": (
         ["check", "one-arm", "--samples", "-1"],
-        "error: --samples: must be at least 0 (got -1)",
+        "error: --samples: must be from 0 to 100000 (got -1)",
     ),
     "format jpg": (
         ["plan", TASK_D, "--format", "jpg"],

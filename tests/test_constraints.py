@@ -481,3 +481,21 @@ def test_compare_sequences_and_auto_mode_warn_of_joint_limits_past_a_full_turn(t
             x for x in result.output.splitlines() if x.startswith(warned)
         ]
         assert warned in result.output, command
+
+
+@pytest.mark.parametrize(
+    ("constraints", "line"),
+    [  # a value of several forms: only the form it is of speaks (the number's parser spoke too)
+        ({"max_rate": [1, 0, 1]}, "constraints.max_rate[1]: must be more than 0 (got 0)"),
+        (
+            {"joint_limits": [[-1, 1], [-1], [-1, 1]]},  # pairs, one short: not "at most 2"
+            "constraints.joint_limits[1]: must have at least 2 entries, not 1 (got [-1])",
+        ),
+        (
+            {"max_rate": {"u1": 1}},
+            "constraints.max_rate: must be a number or a valid list (got {'u1': 1})",
+        ),
+    ],
+)
+def test_a_value_of_several_forms_is_told_by_the_form_it_is_of(constraints, line):
+    assert _problems(_task_d(**constraints)) == [line]
