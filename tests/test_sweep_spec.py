@@ -133,6 +133,12 @@ BAD = [
      "ranges = { \"goal.q1\" = [0, 1] }\n", "sweep: give only one of"),
     ("[sweep.random]\ncount = 2\nranges = { \"goal.q1\" = [1, 0] }\n", "low must be below high"),
     ("[sweep.random]\ncount = 0\nranges = { \"goal.q1\" = [0, 1] }\n", "sweep.random.count"),
+    (  # names are not drawn: it said "in 'l-C0': unknown name 'l'"
+        "[sweep.random]\ncount = 2\nranges = { \"planner.continuity\" = [\"l-C0\", \"lr-C1\"] }\n",
+        'sweep.random.ranges."planner.continuity": a random range draws a number between two '
+        "bounds, and planner.continuity takes names ('l-C0'): vary it over a list in "
+        "[sweep.grid] or [[sweep.task]]",
+    ),
     (  # an integer setting's range with a bound that is not an integer
         "[sweep.random]\ncount = 2\nranges = { \"planner.restarts\" = [0, 2.5] }\n",
         'sweep.random.ranges."planner.restarts"[1]: ',

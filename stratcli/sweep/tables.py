@@ -128,6 +128,13 @@ def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[An
         if ("sweep", "random", "ranges", key) in base.pruned:
             continue
         known = not base.key_problem(key, where)  # whatever the bounds are: every problem
+        if known and base.loads and pair and _takes_names(base, key, pair[0]):
+            why = (
+                f"a random range draws a number between two bounds, and {key} takes names "
+                f"({pair[0]!r}): vary it over a list in [sweep.grid] or [[sweep.task]]"
+            )
+            base.problems.append(Problem(where, why))
+            continue
         bounds = [number(v, f"{where}[{i}]", base.problems) for i, v in enumerate(pair)]
         if known and len(pair) == 2 and _integer_setting(base, key, pair):
             bounds = [int(v) for v in pair]
@@ -142,6 +149,16 @@ def random_ranges(ranges: dict[str, list[Any]], base: Base) -> dict[str, list[An
             base.problems += _once(found, where, "both bounds")
         out[key] = bounds
     return out
+
+
+def _takes_names(base: Base, key: str, value: Any) -> bool:
+    """Whether `value` is a name (no number) that the scenario takes at `key`
+    (planner.continuity = "l-C0"): a random range of names was read as two expressions."""
+    if not isinstance(value, str) or number(value, "", []) is not None:
+        return False
+    found: list[Problem] = []
+    check_value(base.scenario, key, value, base.states, "", found)
+    return not found
 
 
 def _integer_setting(base: Base, key: str, pair: list[Any]) -> bool:
