@@ -275,6 +275,7 @@ def _resolve(
     unknown = any(entry.method not in PLANNERS for entry in scenario.legs or [])
     plugins = [Problem(*p) for p in load_plugins()] if unknown else []
     problems[:0] = plugins
+    spans = False  # a leg of more basis periods than the basis can take
     for i, entry in enumerate(scenario.legs or []):
         where = f"legs[{i}]"
         if entry.method not in PLANNERS:
@@ -334,6 +335,7 @@ def _resolve(
                 else (legs[-1].duration)
             )
             if duration / p.basis.period > MAX_PERIODS_PER_LEG:
+                spans = True  # (one line for every such leg of the same duration)
                 problems.append(
                     Problem(
                         f"{where}.duration" if entry.duration else "planner.basis.period",
@@ -353,7 +355,8 @@ def _resolve(
         if entry.method != "lie" and entry.lie is not None:
             problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
     problems.extend(duration_problems(scenario, legs))
-    problems.extend(periodic_problems(scenario, system, legs))
+    if not spans:  # (a basis of such periods is degenerate: its conditions say nothing)
+        problems.extend(periodic_problems(scenario, system, legs))
     problems.extend(acceleration_problems(scenario))
     vias = [(f"legs[{i}].goal", leg.goal) for i, leg in enumerate(legs[:-1])]
     problems.extend(attitude_problems(system, [*vias, ("task.goal", goal)]))
@@ -366,7 +369,7 @@ def _resolve(
         if goal is not None:
             problems.extend(check_configuration(system, goal, constraints, "task.goal"))
     if problems:
-        raise InputError(problems)
+        raise InputError(list(dict.fromkeys(problems)))  # (each leg's same line: once)
     settings = p
     # auto mode: every stratum the decomposition may use, so that it cannot plan on one
     # where the evaluator asked for does not run

@@ -188,7 +188,9 @@ def _periodic_problem(scenario, system, legs, i, cons) -> Problem:
             name = system.inputs[k]
             break
     last = i == len(legs) - 1
-    why = "full_stop ends it at 0" if last else f"leg {i + 2} does not use it"
+    why = f"leg {i + 2} does not use it"
+    if last:  # (without full_stop nothing fixes its end but a degenerate basis)
+        why = "full_stop ends it at 0" if p.full_stop else "its conditions fix its end"
     periods = leg.duration / p.basis.period
     own = scenario.legs[i].duration is not None
     return Problem(
