@@ -81,11 +81,14 @@ def read_scenario_text(path: str | Path, limit: int = MAX_BYTES, kind: str = "sc
     if len(data) > limit:
         raise InputError(f"file is larger than {limit} bytes; a {kind} is a small file", source)
     try:
-        return data.decode("utf-8")
+        text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise InputError(
             f"not UTF-8 text: byte 0x{data[exc.start]:02x} at offset {exc.start}", source
         ) from None
+    if (nul := text.find("\x00")) >= 0:  # TOML's message quoted the raw bytes
+        raise InputError(f"not a text file: a NUL byte at offset {nul}", source)
+    return text.removeprefix("\ufeff")  # a byte-order mark (Windows editors): not TOML's
 
 
 def _nesting_depth(text: str) -> int:
@@ -299,6 +302,7 @@ def _with_line(message: str, text: str) -> str:
     if found is None or not 1 <= int(found.group(1)) <= len(lines):
         return message
     line = lines[int(found.group(1)) - 1].strip()
+    line = "".join(c if c.isprintable() else repr(c)[1:-1] for c in line)  # (shown, escaped)
     line = line if len(line) <= 80 else line[:77] + "..."
     twice = " (a key given twice)" if message.startswith("Cannot overwrite a value") else ""
     return f"{message[: found.start()].rstrip()}{twice} {found.group(0)[:-1]}: {line})"

@@ -295,6 +295,20 @@ def test_error_lines_name_the_problem(tmp_path):
         load_scenario(_write(tmp_path, 99, b"a =\xff 1"))
     with pytest.raises(InputError, match="not a regular file"):
         load_scenario("/dev/zero")
+    # a binary file: named so, not its bytes echoed to the terminal in TOML's message
+    with pytest.raises(InputError, match=r": not a text file: a NUL byte at offset 0$"):
+        load_scenario(_write(tmp_path, 98, b"\x00\x01\x02abc"))
+    with pytest.raises(InputError, match=r"at line 1, column 5: a = \\x07b\)$"):
+        load_scenario(_write(tmp_path, 97, b"a = \x07b"))  # a control character, escaped
+
+
+def test_a_byte_order_mark_is_no_part_of_the_scenario(tmp_path):
+    """Windows editors start UTF-8 files with one: 'Invalid statement (at line 1, column 1:
+    name = ...)' showed the line, its first character invisible."""
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert load_scenario(path).text == text
 
 
 @pytest.mark.parametrize(
