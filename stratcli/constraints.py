@@ -335,6 +335,8 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
                 others.append(f"leg {leg.index + 1}'s {WORDS[key]}")
                 continue
             unit = UNITS.get(key, "")  # clearances: in the model's own length unit
+            if key == "joint_limit" and not _angles(plan.system):
+                unit = ""  # a custom model's coordinates: its own units
             violated = (
                 f"leg {leg.index + 1} ({leg.stratum}) violates {what} by "
                 f"{-value:.3g}{unit} at t = {when:.3f} s"
@@ -347,6 +349,13 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
         c.spec, tuple(margins), samples, violated, violation=violation,
         joint_limits=_joint_limits(plan.coordinates, c),
     )  # fmt: skip
+
+
+def _angles(system) -> bool:
+    """Whether the model's limited coordinates are angles (manipulators, URDF robots)."""
+    return (
+        getattr(system, "robot", None) is not None or getattr(system, "spatial", None) is not None
+    )
 
 
 def _joint_limits(names, c: Constraints) -> dict[str, dict]:

@@ -39,6 +39,7 @@ from .results import none_to_nan
 from .scenario_checks import (
     acceleration_problems,
     attitude_problems,
+    cushion_problems,
     duration_problems,
     lie_problems,
     periodic_problems,
@@ -368,6 +369,8 @@ def _resolve(
             problems.extend(check_configuration(system, leg.goal, constraints, f"legs[{i}].goal"))
         if goal is not None:
             problems.extend(check_configuration(system, goal, constraints, "task.goal"))
+        if goal is not None and not problems:  # (inside the limits, but not by enough)
+            problems.extend(cushion_problems(system, legs, constraints))
     if problems:
         raise InputError(list(dict.fromkeys(problems)))  # (each leg's same line: once)
     settings = p

@@ -11,7 +11,7 @@ import numpy as np
 
 from .continuity import eliminate, leg_constraints
 from .errors import Problem
-from .node_margins import searchable
+from .node_margins import CUSHION, searchable
 from .settings import MIN_DURATION
 from .wording import counted
 
@@ -202,3 +202,27 @@ def _periodic_problem(scenario, system, legs, i, cons) -> Problem:
         f"0 ({why}); use a period that does not divide the leg's duration (the paper's "
         "2.17 s) or another duration",
     )
+
+
+def cushion_problems(system, legs: list[LegSpec], constraints) -> list[Problem]:
+    """A leg's goal on (or within `CUSHION` of) a joint limit of a coordinate the leg moves:
+    the constrained search keeps every margin `CUSHION` inside at its nodes, the leg's end
+    among them, so no plan exists (a goal y = 1 under limits ±1 took 4.4 s to stall)."""
+    problems = []
+    lower, upper = constraints.lower, constraints.upper
+    for i, leg in enumerate(legs):
+        where = "task.goal" if i == len(legs) - 1 else f"legs[{i}].goal"
+        for j in system.stratum(leg.stratum).free(system.n):
+            q = leg.goal[j]
+            for bound in (lower[j], upper[j]):
+                if np.isfinite(q) and np.isfinite(bound) and abs(q - bound) < CUSHION:
+                    problems.append(
+                        Problem(
+                            where,
+                            f"{system.states[j]} = {q:.6g} is {abs(q - bound):.3g} from its "
+                            f"limit {bound:g}: a plan keeps {CUSHION:g} inside the limits along "
+                            f"the leg that ends there (leg {i + 1}), so it cannot end there; put "
+                            f"it at least {CUSHION:g} inside",
+                        )
+                    )
+    return problems

@@ -29,3 +29,19 @@ def test_too_many_basis_periods_is_said_once_and_alone():
         "planner.basis.period: a leg of 1 s spans 1e+09 basis periods (at most 1000); use a "
         "longer period or a shorter leg"
     ]
+
+
+def test_a_goal_on_a_joint_limit_is_refused_before_planning():
+    """The search keeps its margins 0.002 inside at every node, the leg's end among them: a
+    goal y = 1 under limits of ±1 stalled after 4.4 s (three bases tried)."""
+    raw = tomllib.loads((TASK_D.parent / "unicycle.toml").read_text())
+    raw["constraints"] = {"joint_limits": [-1, 1]}
+    assert raw["task"]["goal"][1] == 1
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    (problem,) = info.value.problems
+    assert problem.path == "task.goal" and problem.message.startswith(
+        "y = 1 is 0 from its limit 1: a plan keeps 0.002 inside the limits"
+    )
+    raw["constraints"] = {"joint_limits": [-1.01, 1.01]}  # 0.01 inside: planned as before
+    assert load_scenario(raw).constraints is not None

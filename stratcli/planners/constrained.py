@@ -138,7 +138,11 @@ class _Search(Descent):
                 break
         worst = int(np.argmin(g))
         leg, what = self.margins.labels[worst]
-        unit = " rad" if what.startswith("the joint limits") else ""  # else the model's length
+        angles = (
+            self.margins.robot is not None
+            or getattr(self.margins.system, "spatial", None) is not None
+        )
+        unit = " rad" if what.startswith("the joint limits") and angles else ""  # else its own
         self.stalled = (
             f"the constrained search stalled on leg {leg + 1}: {what} still violated by "
             f"{max(PUSH - g[worst], 0.0):.3g}{unit} at its nodes"
