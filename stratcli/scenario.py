@@ -91,7 +91,7 @@ class LegEntry(_Strict):
 
 
 class ReferenceSpec(_Strict):
-    energy: Annotated[float, Strict()] | None = None
+    energy: Annotated[float, Strict(), Field(ge=0)] | None = None  # an energy: ∫ Σ u² dt
     source: str = Field("", max_length=1000)
 
 

@@ -88,8 +88,10 @@ def _tags(cls: Any, field: str | None = None) -> tuple[str, ...]:
 
 
 _PATTERNS = {  # the schema's patterns, in words
-    r"^[A-Za-z0-9_.-]+$": "must be letters, digits, '_', '.' and '-' only, no spaces (it names "
-    "the run records and files)",
+    r"^[A-Za-z0-9_.-]+$": "must be ASCII letters, digits, '_', '.' and '-' only, no spaces (it "
+    "names the run records and files)",
+    r"^[A-Za-z_][A-Za-z0-9_]*$": "must be a name of ASCII letters, digits and '_', not starting "
+    "with a digit (it is used in expressions and as a column name)",
 }
 _BOUNDS = {  # pydantic's bound errors, in words
     "greater_than": "more than",
@@ -142,6 +144,8 @@ def validation_problems(
         if kind == "string_pattern_mismatch":  # pydantic: "String should match pattern '^[...'"
             pattern = str(err.get("ctx", {}).get("pattern", ""))
             msg = _PATTERNS.get(pattern, f"must match the pattern {pattern}")
+        if kind == "string_too_long" and "ctx" in err:  # "String should have at most 100..."
+            msg = f"must be at most {err['ctx'].get('max_length')} characters long"
         if kind in ("too_short", "too_long") and "ctx" in err:  # "List should have at least..."
             ctx = err["ctx"]
             bound = ctx.get("min_length", ctx.get("max_length"))

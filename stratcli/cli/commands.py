@@ -306,7 +306,8 @@ def check(
         ),
     ] = None,
     samples: Annotated[
-        int, typer.Option(min=0, max=100_000, help="Sampled configurations (api MAX_SAMPLES).")
+        int,
+        typer.Option(min=0, max=100_000, help="Random configurations checked besides --at."),
     ] = 100,
     degree: Annotated[int, typer.Option(min=1, max=3, help="Lie bracket degree (1-3).")] = 2,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the sampled configurations.")] = 0,

@@ -276,10 +276,12 @@ def plan_summary(doc: dict) -> None:
     for note in doc.get("notes") or []:
         if note not in failure:  # (the failure line below says it: once is enough)
             out_console.print(f"note: {escape(note)}", highlight=False)
-    if margins := limit_margins(doc.get("constraints")):
-        urdf = doc.get("model") == "urdf"
-        out_console.print(limits_asked(doc.get("constraints"), urdf), highlight=False)
-        out_console.print(margins, highlight=False)
+    if doc.get("constraints") and (
+        asked := limits_asked(doc["constraints"], doc.get("model") == "urdf")
+    ):
+        out_console.print(escape(asked), highlight=False)
+        if margins := limit_margins(doc["constraints"]):
+            out_console.print(margins, highlight=False)
     for i, leg in enumerate((doc.get("attitude") or {}).get("legs") or []):  # URDF robots
         if leg.get("audit"):
             a, err = leg["audit"], leg.get("goal_error")

@@ -334,6 +334,8 @@ def limit_margins(report: dict | None) -> str:
             if margins.get(key) is not None
         ]
         legs.append(f"leg {i + 1}: {', '.join(found) or 'none limited'}")
+    if not any(m.get(key) is not None for m in report["legs"] for key, _, _ in MARGINS):
+        return ""  # an empty [constraints] table: no margin to show
     samples = report.get("samples_per_leg")
     clearance = (report.get("spec") or {}).get("clearance")
     measured = any(
@@ -385,7 +387,7 @@ def limits_asked(report: dict | None, urdf: bool = False) -> str:
         elif value:  # ("within its per-joint limits" read as a URDF's velocity limits)
             each = ", ".join(f"{v:g}" for v in value)
             parts.append(f"{what} at most {each} {unit}, input by input (the table's)")
-    return "limits: " + "; ".join(parts) if parts else ""
+    return "limits: " + ("; ".join(parts) if parts else "none (the [constraints] table sets none)")
 
 
 def _is_pair(value) -> bool:
