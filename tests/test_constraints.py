@@ -183,6 +183,16 @@ def test_the_terminal_shows_each_legs_smallest_margins(tmp_path):
     assert "limits: joints within [-3, 3] rad; rate at most 0.8 rad/s" in result.output
 
 
+def test_an_empty_constraints_table_says_it_sets_no_limit(tmp_path):
+    """It printed a blank line where the limits go, and margins of 'none limited'."""
+    path = tmp_path / "empty.toml"
+    path.write_text(TASK_D.read_text() + "\n[constraints]\n")
+    result = runner.invoke(app, ["plan", str(path), "--out", str(tmp_path), "--no-animation"])
+    assert result.exit_code == 0, result.output
+    assert "limits: none (the [constraints] table sets none)" in result.output.splitlines()
+    assert "smallest margins" not in result.output and "\n\n" not in result.output
+
+
 def test_the_margins_line_says_clearances_are_beyond_the_clearance_asked(tmp_path):
     """A self-clearance margin of 0.02 means 0.02 beyond the clearance, not bodies 0.02
     apart: the line says so, with the clearance the table asked for."""

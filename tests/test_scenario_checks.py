@@ -45,3 +45,29 @@ def test_a_goal_on_a_joint_limit_is_refused_before_planning():
     )
     raw["constraints"] = {"joint_limits": [-1.01, 1.01]}  # 0.01 inside: planned as before
     assert load_scenario(raw).constraints is not None
+
+
+@pytest.mark.parametrize(
+    ("change", "line"),
+    [
+        ({"name": "задача_д"}, "name: must be ASCII letters, digits, '_', '.' and '-' only"),
+        ({"name": "a" * 120}, "name: must be at most 100 characters long (got "),
+        ({"reference": {"energy": -5.0}}, "reference.energy: must be at least 0 (got -5"),
+    ],
+)
+def test_schema_messages_say_the_rule_in_words(change, line):
+    raw = tomllib.loads(TASK_D.read_text())
+    raw.update(change)
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    lines = [f"{p.path}: {p.message}" for p in info.value.problems]
+    assert any(x.startswith(line) for x in lines), lines
+
+
+def test_a_custom_models_coordinate_name_rule_is_in_words():
+    raw = tomllib.loads((TASK_D.parent / "unicycle.toml").read_text())
+    raw["model"]["states"] = ["x", "y", "θ"]
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    messages = [p.message for p in info.value.problems]
+    assert any(m.startswith("must be a name of ASCII letters, digits and '_'") for m in messages)
