@@ -124,11 +124,11 @@ def optimise_durations(
         f"{equal.total_energy:.6g} at equal durations ({total / k:.4g} s each), "
         f"{100 * (1 - free / equal.total_energy):.1f} % less"
         if equal.ok
-        else "equal durations could not be planned"
+        else f"none at equal durations ({total / k:.4g} s each: that plan failed)"
     )
     note = (
         f"durations optimised within the {total:g} s budget over {len(plans)} plans of the "
-        f"sequence: {chosen} s; energy {free:.6g} against {reference}"
+        f"sequence: {chosen} s; energy {free:.6g}, against {reference}"
     )
     if best is not optimum and not best.message:  # searched within the [constraints] limits
         kept = ", ".join(f"{leg.duration:.4g}" for leg in best.legs)
