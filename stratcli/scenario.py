@@ -76,8 +76,17 @@ class _Strict(BaseModel):
     model_config = STRICT
 
 
+def _parse_start(value: Any) -> float:
+    if isinstance(value, str) and value.strip() == "*":
+        raise ValueError(
+            '"*" (free) is for goals and vias; the start is where the robot is: give every '
+            "coordinate"
+        )
+    return parse_number(value)
+
+
 class TaskSpec(_Strict):
-    start: list[Annotated[Coordinate, BeforeValidator(parse_number)]] = Field(max_length=1000)
+    start: list[Annotated[Coordinate, BeforeValidator(_parse_start)]] = Field(max_length=1000)
     goal: list[Target] = Field(max_length=1000)
 
 
@@ -185,6 +194,10 @@ def from_raw(
         scenario = Scenario.model_validate(raw)
     except ValidationError as exc:
         problems = hinted(validation_problems(exc, root=Scenario), raw)
+        if system is not None:  # a URDF robot's configurations by name: named as written
+            from .models.spatial_scenario import named_paths
+
+            problems = named_paths(problems, given, system)
 
         def recheck(kept: dict[str, Any]) -> None:
             _resolve(Scenario.model_validate(kept), "", "", system, base_dir)

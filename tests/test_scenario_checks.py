@@ -71,3 +71,22 @@ def test_a_custom_models_coordinate_name_rule_is_in_words():
         load_scenario(raw)
     messages = [p.message for p in info.value.problems]
     assert any(m.startswith("must be a name of ASCII letters, digits and '_'") for m in messages)
+
+
+@pytest.mark.parametrize(
+    ("start", "line"),
+    [  # named as written, where they were task.start[3] (and "*" three lines of syntax)
+        ({"attitude": [1e300, 0, 0]}, "task.start.attitude[0]: must be at most 10000"),
+        ({"attitude": "*"}, 'task.start.attitude: "*" (free) is for goals and vias; the start'),
+        ({"j2": "*"}, 'task.start.j2: "*" (free) is for goals and vias'),
+    ],
+)
+def test_a_urdf_configuration_by_name_has_its_problems_named_as_written(start, line):
+    path = TASK_D.parent / "spatial" / "arm3_reorient.toml"
+    raw = tomllib.loads(path.read_text())
+    raw["task"]["start"] = {**raw["task"]["start"], **start}
+    raw["model"]["path"] = str(path.parent / raw["model"]["path"])
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    lines = [f"{p.path}: {p.message}" for p in info.value.problems]
+    assert len(lines) == 1 and lines[0].startswith(line), lines

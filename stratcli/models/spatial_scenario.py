@@ -5,6 +5,7 @@ into lists in coordinate order (`spatial.configuration_list`)."""
 from __future__ import annotations
 
 import copy
+import re
 from difflib import get_close_matches
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,7 @@ from ..errors import InputError, Problem
 from .specs import UrdfModel, build_system
 from .system import System
 
-__all__ = ["configuration_list", "prepare_urdf"]
+__all__ = ["configuration_list", "named_paths", "prepare_urdf"]
 
 
 def prepare_urdf(raw: dict[str, Any], base_dir: Path | None) -> tuple[dict, System | None]:
@@ -142,3 +143,37 @@ def attitudes(system, places):
     for where, q, *rest in places:
         if q is not None:
             yield where, np.asarray(q, dtype=float)[k : k + 3], *rest
+
+
+_INDEXED = re.compile(r"^(task\.(?:start|goal)|legs\[\d+\]\.goal)\[(\d+)\]$")
+
+
+def named_paths(problems: list[Problem], given: dict[str, Any], system) -> list[Problem]:
+    """`problems` of a URDF scenario with a configuration given by name named as written:
+    `task.start.attitude[0]`, not `task.start[3]` (the list `configuration_list` made of it);
+    an attitude "*" whose three components all fail the same way is one problem."""
+    joints = system.spatial.joint_names
+    out: list[Problem] = []
+    for p in problems:
+        found = _INDEXED.match(p.path)
+        table = _configuration(given, found.group(1)) if found else None
+        if not isinstance(table, dict):
+            out.append(p)
+            continue
+        k = int(found.group(2))
+        key = "rpy" if "rpy" in table else "attitude"
+        name = joints[k] if k < len(joints) else f"{key}[{k - len(joints)}]"
+        if k >= len(joints) and isinstance(table.get(key), str):
+            name = key  # "*" for the whole attitude: one problem
+        out.append(Problem(f"{found.group(1)}.{name}", p.message, p.given, p.flag_message))
+    return list(dict.fromkeys(out))
+
+
+def _configuration(given: dict[str, Any], path: str) -> Any:
+    if path.startswith("task."):
+        task = given.get("task")
+        return task.get(path[5:]) if isinstance(task, dict) else None
+    legs = given.get("legs")
+    i = int(path[5 : path.index("]")])
+    leg = legs[i] if isinstance(legs, list) and i < len(legs) else None
+    return leg.get("goal") if isinstance(leg, dict) else None
