@@ -64,9 +64,22 @@ def _walk(root: Any, loc: tuple) -> tuple[Any, tuple] | None:
             continue
         tagged = [m for m in members if item in _tags(m)]
         if not tagged:
-            return None
+            values = _dict_values(ann)  # a key of a table of any keys (sweep.grid's)
+            if values is None:
+                return None
+            ann = values
+            kept.append(item)
+            continue
         ann = tagged[0]  # a union's member, chosen by its tag: not a key of the file
     return ann, tuple(kept)
+
+
+def _dict_values(ann: Any) -> Any:
+    """The value annotation of a `dict[str, V]` (through Annotated and Optional), or None."""
+    if get_origin(ann) is dict:
+        return get_args(ann)[1]
+    found = [v for a in get_args(ann) if (v := _dict_values(a)) is not None]
+    return found[0] if len(found) == 1 else None
 
 
 def _members(ann: Any) -> list[Any]:
@@ -141,6 +154,8 @@ def validation_problems(
             msg = f"must be {_BOUNDS[kind]} {limit}"
         if kind == "missing":
             msg = "required field is missing"
+        if kind in ("model_type", "model_attributes_type"):  # "... or instance of Linspace"
+            msg = "must be a valid dictionary"
         if kind == "string_pattern_mismatch":  # pydantic: "String should match pattern '^[...'"
             pattern = str(err.get("ctx", {}).get("pattern", ""))
             msg = _PATTERNS.get(pattern, f"must match the pattern {pattern}")
@@ -187,6 +202,8 @@ def validation_problems(
         out.extend(_fitting(found))
     # a key misspelt is not also missing: `task.gaol: unknown key: did you mean 'goal'?`
     # says it all, without `task.goal: required field is missing` beside it
+    # (one form's missing key too: `linspace` of a grid axis, a list or a table)
+    missing += [p for p in out if p.message == "required field is missing"]
     dropped = {p for p in missing if p.path in meant}
     return [p for p in out if p not in dropped]
 

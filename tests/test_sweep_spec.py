@@ -133,6 +133,15 @@ BAD = [
      "ranges = { \"goal.q1\" = [0, 1] }\n", "sweep: give only one of"),
     ("[sweep.random]\ncount = 2\nranges = { \"goal.q1\" = [1, 0] }\n", "low must be below high"),
     ("[sweep.random]\ncount = 0\nranges = { \"goal.q1\" = [0, 1] }\n", "sweep.random.count"),
+    (  # a key of a grid axis's table: the typo's hint, and not also "linspace: missing"
+        "[sweep.grid]\n\"goal.q1\" = { linspce = [0, 1, 3] }\n",
+        'sweep.grid."goal.q1".linspce: unknown key: did you mean \'linspace\'? (allowed: '
+        "linspace)",
+    ),
+    (  # it said "... or instance of Linspace"
+        "[sweep.grid]\n\"goal.q1\" = -1.0\n",
+        'sweep.grid."goal.q1": must be a valid list or a valid dictionary (got -1.0)',
+    ),
     (  # names are not drawn: it said "in 'l-C0': unknown name 'l'"
         "[sweep.random]\ncount = 2\nranges = { \"planner.continuity\" = [\"l-C0\", \"lr-C1\"] }\n",
         'sweep.random.ranges."planner.continuity": a random range draws a number between two '
@@ -526,3 +535,11 @@ def test_a_linspace_point_that_is_zero_but_for_rounding_is_zero(tmp_path):
     body = '[sweep.grid]\n"goal.theta" = { linspace = ["-pi/4", "pi/12", 5] }\n'
     values = [t.inputs["goal.theta"] for t in load_sweep(write(tmp_path, body)).tasks()]
     assert values[3] == 0.0 and values == pytest.approx(np.linspace(-np.pi / 4, np.pi / 12, 5))
+
+
+def test_a_misspelt_key_of_a_grid_axis_is_one_line(tmp_path):
+    path = write(tmp_path, '[sweep.grid]\n"goal.q1" = { linspce = [0, 1, 3] }\n')
+    with pytest.raises(InputError) as exc:
+        load_sweep(path)
+    (line,) = str(exc.value).splitlines()  # not also "linspace: required field is missing"
+    assert line.endswith("linspce: unknown key: did you mean 'linspace'? (allowed: linspace)")
