@@ -522,3 +522,21 @@ def test_a_curve_constant_but_for_rounding_is_drawn_flat():
     for i in moving:  # fitted to the curve as before
         low, high = fig.axes[i].get_ylim()
         assert high - low < 1.5 * np.ptp(q[:, i])
+
+
+def test_ranking_failure_labels_show_what_differs_and_the_legend_what_they_share():
+    """Clipped at 60 characters, every label read 'the constrained search stalled on leg 1:
+    the joint limits of …': the same words, what told them apart cut off."""
+    shared = "the constrained search stalled on leg 1: the joint limits of"
+    doc = _ranking_doc([60.0, None, None])
+    doc["rows"][1]["reason"] = f"{shared} q1 still violated by 0.23 rad at its nodes"
+    doc["rows"][2]["reason"] = f"{shared} q3 still violated by 0.41 rad at its nodes"
+    fig = ranking_figure(doc)
+    (ax,) = fig.axes
+    texts = [t.get_text() for t in ax.texts if t.get_text().startswith(" failed: ")]
+    assert texts == [
+        " failed: … q1 still violated by 0.23 rad at its nodes",
+        " failed: … q3 still violated by 0.41 rad at its nodes",
+    ]
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert f"failed: {shared} …" in labels

@@ -50,6 +50,21 @@ _KEYS = {
 }
 
 
+def _shared_words(reasons: list[str]) -> str:
+    """The words every failure reason starts with, where they differ after them and the
+    shared part is long enough to hide what differs once clipped ("the constrained search
+    stalled on leg 1: the joint limits of" q1 / q3 ...): "" otherwise."""
+    distinct = list(dict.fromkeys(reasons))
+    if len(distinct) < 2:
+        return ""
+    words = [r.split(" ") for r in distinct]
+    n = 0
+    while all(len(w) > n + 1 for w in words) and len({w[n] for w in words}) == 1:
+        n += 1
+    shared = " ".join(words[0][:n])
+    return shared if n >= 3 and len(shared) >= REASON_CHARS // 3 else ""
+
+
 def _clipped(text: str, width: int) -> str:
     """`text`, or its words that fit in `width` characters and an ellipsis (a word cut in
     the middle read as another: "self-collision stil", "an obstacle still v")."""
@@ -113,13 +128,15 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
             x, i, text := f" ≥ {_short(b)}", va="center", fontsize=VALUE_SIZE, color=BOUNDED_COLOR
         )
         ends[text] = max(x, ends.get(text, x))
-    failed = False
-    for i, r in enumerate(rows):
-        if i in ok or i in bounds:
-            continue
-        failed = True
-        reason = " failed: " + _clipped(r["reason"] or r["status"], REASON_CHARS)
-        ax.text(floor, i, reason, va="center", fontsize=VALUE_SIZE, color=FAILED_COLOR)
+    reasons = {
+        i: r["reason"] or r["status"] for i, r in enumerate(rows) if i not in ok and i not in bounds
+    }
+    failed = bool(reasons)
+    shared = _shared_words(list(reasons.values()))  # said once, in the legend
+    for i, reason in reasons.items():
+        own = "… " + reason[len(shared) :].lstrip() if shared else reason
+        text = " failed: " + _clipped(own, REASON_CHARS)
+        ax.text(floor, i, text, va="center", fontsize=VALUE_SIZE, color=FAILED_COLOR)
     if log:
         ax.set_xscale("log")
         plain_log_labels(ax.xaxis, minor=ratio < 1000)  # 2 and 5 too, up to three decades
@@ -159,7 +176,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     if failed:
         from matplotlib.lines import Line2D
 
-        handles.append(Line2D([], [], color=FAILED_COLOR, ls="none", marker="$x$", label="failed"))
+        label = f"failed: {_clipped(shared, REASON_CHARS)} …" if shared else "failed"
+        handles.append(Line2D([], [], color=FAILED_COLOR, ls="none", marker="$x$", label=label))
     span = "from 0" if math.isinf(ratio) else f"{ratio:,.3g}×"
     relation = ">" if log else "≤"
     scale = f"{'log' if log else 'linear'} scale: values span {span} ({relation} {LOG_RATIO:g}×)"
