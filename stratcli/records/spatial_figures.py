@@ -57,6 +57,29 @@ def _poses(plan, traj, indices):
     return drawn
 
 
+def _tip_paths(plan, traj) -> list[np.ndarray]:
+    """Each leg's end-effector path (the link farthest down the tree from the base: the
+    last link of the longest chain) at every sample, (samples, 3)."""
+    robot = plan.system.spatial
+    k = robot.n_joints
+    parents = {j.child: j.parent for j in robot.summary.joints}
+
+    def depth(name: str) -> int:
+        return 0 if name not in parents else 1 + depth(parents[name])
+
+    tip = max(parents, key=depth, default=robot.base)
+    paths = []
+    for leg in range(len(plan.legs)):
+        s = traj.leg_slice(leg)
+        q = traj.q[s.start : s.stop]
+        paths.append(
+            np.array([robot.link_poses(x[:k], so3.exp(x[k:]))[tip][0] for x in q])
+            if len(q)
+            else np.zeros((0, 3))
+        )
+    return paths
+
+
 def reach(plan, q) -> float:
     """The largest distance of a link origin from the system CoM at configuration q (m)."""
     robot = plan.system.spatial
@@ -87,6 +110,7 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
         if s.stop > s.start:
             picks += [(k, int(i)) for i in np.linspace(s.start, s.stop - 1, INSTANTS_PER_LEG)]
     drawn = _poses(plan, traj, [i for _, i in picks])
+    tips = _tip_paths(plan, traj)  # per leg: (samples, 3), as the planar figure draws them
     points = np.concatenate([p for p, *_ in drawn])
     if not np.all(np.isfinite(points)):
         raise ValueError("non-finite samples")
@@ -103,13 +127,21 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
             position = (n % INSTANTS_PER_LEG + 1) / INSTANTS_PER_LEG
             color = COLORS[leg % len(COLORS)]
             alpha = 0.15 + 0.85 * position
-            ends = n % INSTANTS_PER_LEG in (0, INSTANTS_PER_LEG - 1)  # the base: a leg's ends
-            for lines, c, width in (((base if ends else []), "0.45", 0.7), (segments, color, 1.5)):
+            first, last = n % INSTANTS_PER_LEG == 0, n % INSTANTS_PER_LEG == INSTANTS_PER_LEG - 1
+            style = "--" if first else "-"  # a leg's start dashed, its end solid and wider
+            arm = 2.4 if last else 1.7 if first else 1.2
+            for lines, c, width in (
+                ((base if first or last else []), "0.45", 0.7),
+                (segments, color, arm),
+            ):
                 if not lines:
                     continue
                 x = np.array(lines) - centre  # (segments, 2 ends, 3)
                 xy = x @ Vt[[a, b]].T
-                ax.plot(xy[:, :, 0].T, xy[:, :, 1].T, color=c, alpha=alpha, lw=width)
+                ax.plot(xy[:, :, 0].T, xy[:, :, 1].T, color=c, alpha=alpha, lw=width, ls=style)
+        for leg, path in enumerate(tips):
+            xy = (path - centre) @ Vt[[a, b]].T
+            ax.plot(*xy.T, color=COLORS[leg % len(COLORS)], lw=1.0, ls=":", alpha=0.9)
         com = -centre @ Vt[[a, b]].T
         ax.plot(*com, marker="+", color="k", ms=10, label="system CoM (fixed)")
         ax.set_aspect("equal", adjustable="datalim")
@@ -118,6 +150,9 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
         ax.grid(alpha=0.3)
     for k, leg in enumerate(plan.legs):
         axes[0].plot([], [], color=COLORS[k % len(COLORS)], label=f"leg {k + 1} ({leg.stratum})")
+    axes[0].plot([], [], color="0.3", lw=1.7, ls="--", label="start of leg")
+    axes[0].plot([], [], color="0.3", lw=2.4, label="end of leg")
+    axes[0].plot([], [], color="0.3", lw=1.0, ls=":", label="end-effector path")
     axes[0].plot([], [], color="0.45", lw=0.6, label="base (box of its inertia)")
     axes[0].legend(loc="best", fontsize=8)
     fig.suptitle(
