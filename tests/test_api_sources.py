@@ -118,7 +118,7 @@ def test_a_path_with_an_equals_sign_is_a_path(tmp_path):
     assert task.source == str(folder / "s.toml")
     assert stratcli.check_controllability(str(folder / "s.toml"), samples=0).controllable
     assert load_sweep(str(write(folder, GRID))).count == 6
-    with pytest.raises(InputError, match=r"^<text>: name: must be letters"):  # not a name
+    with pytest.raises(InputError, match=r"^<text>: name: must be ASCII letters"):  # not a name
         stratcli.load_scenario('name = "one line"')
 
 
