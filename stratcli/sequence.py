@@ -247,7 +247,9 @@ class SequencePlan:
             return True
         if not isinstance(other, SequencePlan):
             return NotImplemented
-        return _scenario_of(self) == _scenario_of(other) and self.to_dict() == other.to_dict()
+        return _scenario_of(self) == _scenario_of(other) and _timeless(self.to_dict()) == _timeless(
+            other.to_dict()
+        )
 
     def __hash__(self) -> int:  # of what equal plans share, cheaply
         return hash((self.scenario, self.planned_legs, len(self.legs)))
@@ -276,16 +278,27 @@ class SequencePlan:
         return plan_from_document(cls, doc, settings, model)
 
 
+def _timeless(doc: Any) -> Any:
+    """A result document without how long its parts took (each energy-search start's
+    `seconds`): the same task planned twice is the same plan."""
+    if isinstance(doc, dict):
+        return {k: _timeless(v) for k, v in doc.items() if k != "seconds"}
+    if isinstance(doc, list):
+        return [_timeless(v) for v in doc]
+    return doc
+
+
 def _scenario_of(plan: SequencePlan) -> Any:
-    """What plans compare of their scenarios: the text, or a URDF robot's tables without the
-    [model] path and with the URDF's own text: a record names its copy of the URDF
-    (`records.model_files`), so a plan read back with `load_run` differed from the plan."""
-    if plan.model.name != "urdf":
-        return plan.scenario_text
+    """What plans compare of their scenarios: its tables (the file's comments and layout
+    aside: a scenario from a file and the same from a dict plan the same), a URDF robot's
+    without the [model] path and with the URDF's own text: a record names its copy of the
+    URDF (`records.model_files`), so a plan read back with `load_run` differed from the plan."""
     try:
         tables = tomllib.loads(plan.scenario_text)
     except tomllib.TOMLDecodeError:
         return plan.scenario_text
+    if plan.model.name != "urdf":
+        return tables
     model = {k: v for k, v in (tables.get("model") or {}).items() if k != "path"}
     robot = getattr(plan.system, "spatial", None)
     return {**tables, "model": model}, getattr(robot, "text", None)

@@ -70,7 +70,12 @@ def _with_time_scale(text: str, scale: float) -> str:
     tables = tomllib.loads(text)
     if tables.get("planner", {}).get("time_scale", 1.0) == scale:
         return text  # (as it was: plans compare their scenarios' text)
-    tables.setdefault("planner", {})["time_scale"] = float(scale)
+    planner = tables.setdefault("planner", {})
+    planner["time_scale"] = float(scale)
+    if scale == 1.0:  # back at the default: as a scenario that never set it
+        del planner["time_scale"]
+        if not planner:
+            del tables["planner"]
     return dumps(tables)
 
 

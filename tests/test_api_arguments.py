@@ -257,6 +257,8 @@ def test_reprs_are_short_and_say_name_status_energy_and_legs(plan):
     assert repr(comparison) == f"ComparisonOutcome('auto': 3 candidate sequences, best {text})"
     assert plan == stratcli.time_scaled(plan, 1.0)  # by value: the same plan, a new object
     assert plan != stratcli.time_scaled(plan, 2.0)
+    # there and back: time_scale 1 is the default again, not a line the scenario never had
+    assert stratcli.time_scaled(stratcli.time_scaled(plan, 2.0), 0.5) == plan
 
 
 def test_numpy_scalars_are_passed_on_as_python_numbers_the_records_can_write(tmp_path):

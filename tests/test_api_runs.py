@@ -29,8 +29,11 @@ def test_plan_returns_the_result_document_and_write_record_writes_it(tmp_path):
 
 def test_plans_are_equal_by_value_as_values_should_be(tmp_path):
     """A plan equals its pickle and its record read back (== was identity: a plan compared
-    with its own round trip was unequal); the same scenario planned again differs in its
-    times, and equal plans hash alike."""
+    with its own round trip was unequal), and the same scenario planned again (from its file
+    or a dict of its tables: the times its starts took aside, which made it unequal); equal
+    plans hash alike, and another task's plan is another plan."""
+    import tomllib
+
     import pickle
 
     plan = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
@@ -38,7 +41,11 @@ def test_plans_are_equal_by_value_as_values_should_be(tmp_path):
     assert again == plan and hash(again) == hash(plan) and not (again != plan)
     assert api.load_run(api.write_record(tmp_path, plan, animation=False)) == plan
     replanned = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
-    assert replanned != plan and replanned.total_energy == plan.total_energy
+    assert replanned == plan and hash(replanned) == hash(plan)
+    tables = tomllib.loads((ROOT / "scenarios" / "sim4_task_d.toml").read_text())
+    assert api.plan_run(load_scenario(tables)).result == plan  # no comments, other layout
+    tables["planner"]["tolerance"] = 1e-4
+    assert api.plan_run(load_scenario(tables)).result != plan
     assert plan != plan.to_dict() and {plan: 1}[again] == 1
 
 
