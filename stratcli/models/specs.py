@@ -63,7 +63,7 @@ FieldEntry = Annotated[str | float, BeforeValidator(_field_entry)]
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
 
 
-STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 
 
 class _Strict(BaseModel):
