@@ -69,6 +69,10 @@ def checked_outcome(
     name = _name(planner, method)
     if not isinstance(out, LegOutcome):
         raise PlannerContractError(f"{name} returned {type(out).__name__}, not a LegOutcome")
+    if not isinstance(out.strategy, str) or not out.strategy:
+        raise PlannerContractError(f"{name}: strategy must be a non-empty string")
+    if out.strategy == "newton" and method != "newton":  # the default: not what planned it
+        out = replace(out, strategy=method)
     shape = (len(problem.stratum.active), problem.basis.size)
     t = 0.0
     for k, piece in enumerate(out.pieces):

@@ -188,6 +188,11 @@ def test_a_planner_of_ones_own_plans_the_legs_that_name_it(
     assert plan.ok and [leg.method for leg in plan.legs] == ["patient-test"] * len(legs)
     assert patient_planner.legs == len(legs)  # it planned them, once each
     verify(mine, plan.to_dict())  # re-integrated independently: every leg at its goal
+    # its outcomes left strategy at its default, "newton": recorded as what planned them,
+    # and the record valid by stratplan's own schema (a strategy of its own was refused)
+    assert [leg["strategy"] for leg in plan.to_dict()["legs"]] == ["patient-test"] * len(legs)
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(plan.to_dict(), stratcli.record_schema("result"))
     notes = " ".join(plan.notes)
     if objective == "energy":  # not a Lie leg: the note names the method
         assert "does not apply: every leg uses method 'patient-test'" in notes

@@ -155,7 +155,31 @@ def goal_residual(endpoint, end, J, aim, targets):
 
 @dataclass(frozen=True, eq=False)
 class LegOutcome:
-    """What a leg planner returns; `stratified` turns it into a `LegPlan`."""
+    """What a leg planner returns; `stratified` turns it into a `LegPlan`.
+
+    Attributes
+    ----------
+    pieces : tuple of Piece
+        The leg's controls: one piece (a Newton leg) or one per step (a Lie leg), each with
+        coefficients (active inputs, basis size) and times tiling the leg from 0.
+    end : numpy.ndarray
+        The configuration its controls reach (n,) (a planner of one's own: re-computed).
+    error : float
+        The distance of `end` from the leg's goal, in the leg's targets.
+    iterations, attempts : int
+        What the search took (reported; 0 and 1 where that means nothing).
+    status : Status
+        `Status.SUCCESS` where the goal is reached within the tolerance, else why not.
+    free_coefficients : int
+        The coefficients left free by the continuity conditions.
+    evaluator : str
+        How the end point was computed ("quadrature", "ode", "magnus", ...).
+    message : str
+        Why it failed ("" when it did not).
+    strategy : str
+        What reached the goal: "newton", "continuation" or "constrained" for stratplan's
+        own; a planner of one's own that leaves the default gets its method name.
+    """
 
     pieces: tuple[Piece, ...]
     end: np.ndarray
