@@ -32,9 +32,8 @@ def test_plans_are_equal_by_value_as_values_should_be(tmp_path):
     with its own round trip was unequal), and the same scenario planned again (from its file
     or a dict of its tables: the times its starts took aside, which made it unequal); equal
     plans hash alike, and another task's plan is another plan."""
-    import tomllib
-
     import pickle
+    import tomllib
 
     plan = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
     again = pickle.loads(pickle.dumps(plan))
