@@ -34,6 +34,7 @@ class FourierBasis:
 
     @property
     def size(self) -> int:
+        """Coefficients per input: λ0, H sines and H cosines."""
         return 2 * self.harmonics + 1
 
     @cached_property

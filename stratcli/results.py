@@ -28,6 +28,7 @@ from .arguments import flag
 from .controls import FourierBasis, energy
 from .status import Status
 from .time_axis import checked_times
+from .values import ByValue
 from .wording import counted
 
 __all__ = [
@@ -59,8 +60,10 @@ def frozen_array(x: Any) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class Piece:
+class Piece(ByValue):
     """Controls of one piece: Fourier coefficients (m_active, 2H+1) on [0, duration]."""
+
+    _hashed = ("t0", "duration")
 
     t0: float  # leg-local start time
     duration: float
@@ -75,8 +78,8 @@ class Piece:
 
 
 @dataclass(frozen=True, eq=False)
-class LegPlan:
-    """One planned (or failed) leg.
+class LegPlan(ByValue):
+    """One planned (or failed) leg; legs compare by value (every field).
 
     Attributes
     ----------
@@ -99,6 +102,7 @@ class LegPlan:
         `attempts` are then its iterations, plus any Newton polish of the leg, and starts).
     """
 
+    _hashed = ("index", "stratum", "duration")
     index: int
     stratum: str
     method: str
@@ -202,9 +206,11 @@ class LegPlan:
 
 
 @dataclass(frozen=True, eq=False)
-class Switch:
+class Switch(ByValue):
     """The instant between leg `after_leg` and the next (0-based), with the control jumps
     `u_next(0) − u_prev(T)` of all inputs and of their derivatives."""
+
+    _hashed = ("time", "after_leg")
 
     time: float
     after_leg: int

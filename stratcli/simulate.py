@@ -25,6 +25,7 @@ import numpy as np
 
 from .odeint import OutOfSteps, dop853
 from .results import LegPlan
+from .values import ByValue
 
 if TYPE_CHECKING:  # the plan type holds a sampler; only its annotations are needed here
     from .sequence import SequencePlan
@@ -37,9 +38,9 @@ MAX_EVALUATIONS = 50_000  # per leg or Lie piece; DOP853 takes 12 per step
 
 
 @dataclass(frozen=True, eq=False)
-class Trajectory:
+class Trajectory(ByValue):
     """Samples of a motion on the real time axis; unpacks as ``t, q, u = trajectory`` (and
-    indexes so: ``trajectory[1]`` is q).
+    indexes so: ``trajectory[1]`` is q). A value: read-only arrays, equal by their samples.
 
     Attributes
     ----------
@@ -60,6 +61,19 @@ class Trajectory:
     leg: np.ndarray
     strata: tuple[str, ...]
     notes: tuple[str, ...] = ()
+    _hashed = ("strata", "size")
+
+    def __post_init__(self) -> None:
+        self._read_only()
+
+    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
+        self.__dict__.update(state)
+        self._read_only()
+
+    def _read_only(self) -> None:
+        for array in (self.t, self.q, self.u, self.du, self.leg):
+            if isinstance(array, np.ndarray):
+                array.setflags(write=False)
 
     def __iter__(self):
         return iter((self.t, self.q, self.u))

@@ -118,3 +118,12 @@ def test_load_run_of_the_runs_folder_names_the_latest_record_in_it(tmp_path):
         api.load_run(tmp_path)
     with pytest.raises(InputError, match="notes is not a complete run record: missing "):
         api.load_run(tmp_path / "notes")
+
+
+def test_a_record_asked_into_a_file_says_it_is_a_file(tmp_path):
+    from stratcli.errors import RecordError
+
+    plan = api.plan_run(load_scenario(ROOT / "scenarios" / "unicycle.toml")).result
+    (tmp_path / "afile").write_text("")
+    with pytest.raises(RecordError, match=r"afile: it is a file, not a directory$"):
+        api.write_record(tmp_path / "afile", plan, animation=False)

@@ -14,7 +14,7 @@ from ..wording import counted
 
 UNUSED_LEGS = (
     "the scenario's [[legs]] are not used here: its task.start -> task.goal is decomposed "
-    "afresh (stratplan plan plans the legs)"
+    "afresh (`stratplan plan`, or `stratcli.plan`, plans the legs)"
 )
 
 

@@ -31,6 +31,8 @@ class CheckReport:
 
     @property
     def controllable(self) -> bool:
+        """Whether the check passed (exit code 0): every leg's stratum spans what it steers,
+        or (without legs) every stratum is strongly controllable (eq. 4)."""
         return bool(self.document["controllable"])
 
     def __repr__(self) -> str:  # the dataclass's prints the whole document (kB)
@@ -45,6 +47,7 @@ class CheckReport:
 
     @property
     def problems(self) -> list[str]:
+        """One sentence per failed check (empty when `controllable`)."""
         return list(self.document["problems"])
 
 

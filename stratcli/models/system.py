@@ -224,10 +224,12 @@ class System:
 
     @property
     def n(self) -> int:
+        """Number of coordinates (the configuration's length)."""
         return len(self.states)
 
     @property
     def m(self) -> int:
+        """Number of inputs (controls)."""
         return len(self.inputs)
 
     def stratum(self, name: str) -> Stratum:

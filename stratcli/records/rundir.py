@@ -196,6 +196,8 @@ def write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
     RecordError
         The directory could not be written; the partial directory has been removed.
     """
+    if Path(out).exists() and not Path(out).is_dir():  # ("File exists" said nothing)
+        raise RecordError(f"cannot write the run record in {out}: it is a file, not a directory")
     try:
         return _write_run(out, name, files)
     except RecordError:

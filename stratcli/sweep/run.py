@@ -62,6 +62,7 @@ class SweepOutcome:
 
     @property
     def complete(self) -> bool:
+        """Whether every task has its row (a worker that died leaves some: resume)."""
         return not self.missing
 
     def __repr__(self) -> str:  # the dataclass's prints every row (kB per 10 tasks)
