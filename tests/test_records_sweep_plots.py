@@ -84,7 +84,8 @@ def test_axes_are_labelled_with_the_units_the_sweep_knows():
         "s",
     ]
     assert unit_of("constraints.obstacles[0].centre[1]", "planar-manipulator") == "m"
-    assert unit_of("goal.x", "custom") == "" and unit_of("planner.tolerance", "preset") == ""
+    assert unit_of("goal.x", "custom") == "" and unit_of("planner.tolerance", "preset") == "rad"
+    assert unit_of("planner.tolerance", "custom") == ""  # (the scenario format: rad, per leg)
     # a per-joint table's entry as its list form (the joint's name named no unit)
     assert unit_of("constraints.joint_limits.q2[0]", "preset") == "rad"
     assert unit_of("constraints.max_rate.u1", "urdf") == "rad/s"

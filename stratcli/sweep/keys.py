@@ -112,7 +112,7 @@ _ANGLES = ("preset", "planar-manipulator", "urdf")  # model kinds whose coordina
 _UNIT_OF = (  # the last part of a key that is no coordinate -> its unit
     (("duration", "leg_duration", "total_duration", "period", "step_duration"), "s"),
     (("clearance", "link_radius", "centre", "radius", "size", "mount"), "m"),
-    (("joint_limits", "rotation"), "rad"),
+    (("joint_limits", "rotation", "tolerance"), "rad"),  # tolerance: of the goal error
     (("max_rate",), "rad/s"),
     (("max_acceleration",), "rad/s²"),
 )
