@@ -78,12 +78,16 @@ def test_comparisons_and_decompositions_are_equal_by_value_as_values_should_be()
     out = stratcli.compare_sequences(ROOT / "scenarios" / "sim4_auto.toml", jobs=1)
     again = pickle.loads(pickle.dumps(out))
     assert again == out and not (again != out)
+    assert hash(again) == hash(out) and hash(out.best) == hash(out.best.result)  # (unhashable)
     bounded = [o for o in out.comparison.outcomes if o.screened]
     assert bounded and all(np.isnan(o.energy) for o in bounded)  # NaN still means unknown
     assert {o: 1 for o in out.comparison.outcomes}[again.comparison.outcomes[0]] == 1
     dec = stratcli.decompose(ROOT / "scenarios" / "sim4_auto.toml")
     assert dec == stratcli.decompose(ROOT / "scenarios" / "sim4_auto.toml")
     assert dec == pickle.loads(pickle.dumps(dec))
+    assert hash(dec) == hash(pickle.loads(pickle.dumps(dec)))
+    report = stratcli.check_controllability("one-arm", samples=3)
+    assert {report: 1}[pickle.loads(pickle.dumps(report))] == 1
     legs = dec.decomposition.candidates[0].legs
     leg = legs[0]
     assert hash(leg) == hash(pickle.loads(pickle.dumps(leg)))

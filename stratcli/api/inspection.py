@@ -29,6 +29,9 @@ class CheckReport:
     title: str  # "preset <name>", "URDF <file>" or "<scenario> (<model> model)"
     seconds: float
 
+    def __hash__(self) -> int:  # (the document is a dict: equal reports share their title)
+        return hash(self.title)
+
     @property
     def controllable(self) -> bool:
         """Whether the check passed (exit code 0): every leg's stratum spans what it steers,

@@ -41,6 +41,9 @@ class PlanOutcome:
     def __repr__(self) -> str:  # the fields' reprs run to many kB (scenario text, models)
         return f"PlanOutcome({self.result!r})"
 
+    def __hash__(self) -> int:  # (the document is a dict: equal outcomes share their plan)
+        return hash(self.result)
+
 
 @dataclass(frozen=True, repr=False)
 class ComparisonOutcome:
@@ -63,6 +66,9 @@ class ComparisonOutcome:
         """Some sequence reached the goal."""
         return self.best.ok
 
+    def __hash__(self) -> int:  # (the document is a dict: equal outcomes share these)
+        return hash((self.task, self.best))
+
     def __repr__(self) -> str:
         candidates = len(self.decomposition.candidates)
         return (
@@ -80,6 +86,9 @@ class DecompositionOutcome:
     settings: AutoSettings
     decomposition: Decomposition
     document: dict[str, Any]  # what `stratplan decompose --json` prints
+
+    def __hash__(self) -> int:  # (the document is a dict: equal outcomes share their task)
+        return hash(self.task)
 
     def __repr__(self) -> str:  # the dataclass's runs to many kB (task, every candidate)
         sequences = [f"({', '.join(c.sequence)})" for c in self.decomposition.candidates]
