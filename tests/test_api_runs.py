@@ -55,8 +55,12 @@ def test_a_urdf_plan_equals_its_record_read_back(tmp_path):
     scenario = ROOT / "scenarios" / "spatial" / "arm3_reorient.toml"
     plan = api.plan_run(load_scenario(scenario).with_changes({"planner.objective": "newton"}))
     plan = plan.result
-    back = api.load_run(api.write_record(tmp_path / "a", plan, animation=False))
+    run = api.write_record(tmp_path / "a", plan, animation=False)
+    back = api.load_run(run)
     assert 'path = "arm3.urdf"' in back.scenario_text and back.scenario_text != plan.scenario_text
+    # resolved.json names the record's copy too (it named the original, absolute)
+    assert json.loads((run / "resolved.json").read_text())["model"]["path"] == "arm3.urdf"
+    assert load_scenario(run / "resolved.json").system.spatial.text == plan.system.spatial.text
     assert back == plan and hash(back) == hash(plan)
     moved = tmp_path / "robot"
     moved.mkdir()

@@ -76,6 +76,8 @@ def record_files(
     if urdf := model_files(task, {*files, *later, "motion.gif"}):
         files["scenario.toml"], copy, manifest["urdf"] = urdf
         files.update(copy)
+        resolved = files["resolved.json"]  # names the copy too (it named the original file)
+        resolved["model"] = {**resolved["model"], "path": manifest["urdf"]["file"]}
     with phase(phases, "run.mcap"):  # while the figures are drawn; its manifest after them
         # the record's scenario.toml: a URDF robot's names the record's copy of its URDF
         scenario = files["scenario.toml"]
