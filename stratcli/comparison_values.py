@@ -206,10 +206,11 @@ def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:
 
     Sequences that reached the goal by `criterion`, then total energy, then fewer legs, then
     enumeration order; then those the screen bounded (not planned), by their bound; failed
-    ones after them: more legs planned first, those that reached every goal but broke a limit
-    by how far (`_outside_only`: among six such, the last leg's errors of ~1e-14 had decided),
-    then the smaller error of the leg that failed, then enumeration order (rejected before
-    planning: last).
+    ones after them: those that reached every goal but broke a limit first, by how far
+    (`_outside_only`: among six such, the last leg's errors of ~1e-14 had decided, and then
+    the number of legs: a 3-leg sequence 0.824 outside ranked above a 2-leg one 0.502
+    outside), then the others, more legs planned first, then the smaller error of the leg
+    that failed, then enumeration order (rejected before planning: last).
     """
 
     def ok_key(o: Outcome):
@@ -218,12 +219,12 @@ def rank(outcomes: Sequence[Outcome], criterion: str) -> list[int]:
 
     def failed_key(o: Outcome):
         if o.plan is None or not o.plan.legs:
-            return (1, 0, 0, math.inf, o.index)
-        reached = sum(leg.converged for leg in o.plan.legs)
+            return (2, 0, math.inf, o.index)
         by = _outside_only(o)
-        if by is not None:
-            return (0, -reached, 0, by, o.index)
-        return (0, -reached, 1, o.plan.legs[-1].error, o.index)
+        if by is not None:  # every goal reached: by how far, whatever the sequence's length
+            return (0, 0, by, o.index)
+        reached = sum(leg.converged for leg in o.plan.legs)
+        return (1, -reached, o.plan.legs[-1].error, o.index)
 
     ok = sorted((o for o in outcomes if o.ok), key=ok_key)
     bounded = sorted(

@@ -186,16 +186,18 @@ def test_candidates_failed_only_by_a_limit_rank_by_how_far_they_stalled_outside(
 
     from stratcli.compare import Comparison, Outcome, rank
 
-    def failed(k, by, error):
-        legs = [SimpleNamespace(converged=True, error=error)] * 2
+    def failed(k, by, error, n=2):
+        legs = [SimpleNamespace(converged=True, error=error)] * n
         plan = SimpleNamespace(legs=legs, constraints=SimpleNamespace(violation={"by": 9.0}))
-        cand = SimpleNamespace(legs=[None, None], label=f"(S{k})", strategy="conservative")
+        cand = SimpleNamespace(legs=[None] * n, label=f"(S{k})", strategy="conservative")
         message = f"the constrained search stalled on leg 1: q2 still violated by {by} rad"
         return Outcome(k, cand, plan, "failed", message, message)
 
     outcomes = [failed(0, 0.421, 1e-14), failed(1, 0.202, 4e-14), failed(2, 0.3, 2e-14)]
     order = rank(outcomes, "energy")
     assert order == [1, 2, 0]
+    # whatever their lengths: a 3-leg sequence 0.824 outside ranked above a 2-leg one 0.502
+    assert rank([failed(0, 0.824, 1e-14, n=3), failed(1, 0.502, 1e-14)], "energy") == [1, 0]
     comparison = Comparison(outcomes, order, "energy", 1, 6, 6, 0.0, False)
     assert comparison.choice().startswith(
         "no sequence stayed within the limits; the nearest was (S1)"
