@@ -129,6 +129,14 @@ def closest_pair(robot, q: np.ndarray, c: Constraints, obstacles: bool) -> tuple
     return name, float(d[0])
 
 
+def _digits(value: float, bound: float) -> int:
+    """Significant digits (at least 4) that tell `value` from `bound` apart when printed."""
+    for d in range(4, 17):
+        if f"{value:.{d}g}" != f"{bound:.{d}g}":
+            return d
+    return 17
+
+
 def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> list[Problem]:
     """Problems (naming `where`) if configuration q breaks a joint limit or a clearance:
     the start and every via must be inside the limits for a plan to exist."""
@@ -136,11 +144,13 @@ def check_configuration(system, q: np.ndarray, c: Constraints, where: str) -> li
     q = np.asarray(q, dtype=float)
     for i, name in enumerate(system.states):
         if np.isfinite(q[i]) and not c.lower[i] <= q[i] <= c.upper[i]:
+            bound = c.lower[i] if q[i] < c.lower[i] else c.upper[i]
+            d = _digits(q[i], bound)  # (-2.0943951 outside -2.094395: not "-2.094", "-2.0944")
             problems.append(
                 Problem(
                     where,
-                    f"{name} = {q[i]:.4g} is outside its limits [{c.lower[i]:g}, "
-                    f"{c.upper[i]:g}] ("  # where they come from (an attitude is no joint)
+                    f"{name} = {q[i]:.{d}g} is outside its limits [{c.lower[i]:.{d}g}, "
+                    f"{c.upper[i]:.{d}g}] ("  # where they come from (an attitude is no joint)
                     + (
                         "the URDF's joint limits"
                         if i in c.from_urdf

@@ -90,3 +90,12 @@ def test_a_urdf_configuration_by_name_has_its_problems_named_as_written(start, l
         load_scenario(raw)
     lines = [f"{p.path}: {p.message}" for p in info.value.problems]
     assert len(lines) == 1 and lines[0].startswith(line), lines
+
+
+def test_a_value_just_outside_a_limit_is_printed_with_the_digits_that_show_it():
+    """'joint_4 = -2.094 is outside its limits [-2.0944, 2.0944]' read as inside."""
+    raw = tomllib.loads((TASK_D.parent / "sim4_task_d_constrained.toml").read_text())
+    raw["task"]["goal"][1] = 2.50000001
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    assert "q2 = 2.50000001 is outside its limits [-2.5, 2.5]" in str(info.value)
