@@ -151,7 +151,7 @@ def parse_scenario(text: str, source: str = "<scenario>", base_dir: Path | None 
     return from_raw(parse_toml(text, source), text, source, base_dir)
 
 
-def _nulls_as_free(raw: dict[str, Any]) -> dict[str, Any]:
+def nulls_as_free(raw: dict[str, Any]) -> dict[str, Any]:
     """`raw` with a null goal entry (how resolved.json and result.json write "*") as "*", so
     that a record's resolved.json loads, and is recorded as TOML, as its scenario did."""
 
@@ -178,7 +178,7 @@ def from_raw(
             "(README: Scenarios)",
             source,
         )
-    raw = _nulls_as_free(raw)
+    raw = nulls_as_free(raw)
     if non_finite := reject_non_finite(raw):  # with every other problem of the file
         raise_non_finite(raw, non_finite, lambda r: from_raw(r, None, source, base_dir), source)
     base_dir = (base_dir or Path.cwd()).absolute()  # as now: `with_changes` may run elsewhere
@@ -402,4 +402,12 @@ def _resolve(
     return Task(scenario, system, start, goal, legs, settings, source, text, constraints, base_dir)
 
 
-__all__ = ["PRESETS", "Scenario", "Task", "build_system", "load_scenario", "parse_scenario"]
+__all__ = [
+    "PRESETS",
+    "Scenario",
+    "Task",
+    "build_system",
+    "load_scenario",
+    "nulls_as_free",
+    "parse_scenario",
+]

@@ -245,6 +245,13 @@ def read_source(
     return tables, text, where, path.parent
 
 
+def file_tables(text: str, path: Path, where: str) -> dict[str, Any]:
+    """The tables of a scenario or sweep file's `text`: JSON for a `.json` path, else TOML."""
+    if Path(path).suffix.lower() == ".json":
+        return _json_tables(text, where)
+    return parse_toml(text, where)
+
+
 def _json_tables(text: str, where: str) -> dict[str, Any]:
     """The tables of a JSON scenario or sweep file (as a dict source: TOML's structure)."""
     import json

@@ -73,3 +73,18 @@ def test_an_inline_urdf_base_names_the_copy_and_an_edited_robot_changes_the_dige
     robot.write_text(robot.read_text().replace("<robot", "<!-- edited -->\n<robot", 1))
     assert sweep.digest == digest  # the robot as loaded
     assert load_sweep(tmp_path / "s.toml").digest != digest
+
+
+def test_a_json_base_a_records_resolved_json_is_read_and_copied_as_toml(tmp_path):
+    """`stratplan plan RUN/resolved.json` worked, a sweep over it was 'not valid TOML'."""
+    import stratcli
+
+    plan = stratcli.plan(ROOT / "scenarios" / "sim4_task_d.toml")
+    run = stratcli.write_record(tmp_path / "runs", plan, animation=False)
+    text = f'[sweep]\nname = "t"\nscenario = "{run / "resolved.json"}"\n{GRID}'
+    (tmp_path / "s.toml").write_text(text)
+    sweep = load_sweep(tmp_path / "s.toml")
+    moved = _copied(sweep, tmp_path / "out")
+    tomllib.loads((moved / SCENARIO_FILE).read_text())  # TOML, not the JSON as given
+    copy = load_sweep(moved / "sweep.toml")
+    assert copy.digest == sweep.digest

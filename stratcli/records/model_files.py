@@ -26,6 +26,7 @@ from typing import Any
 
 from .. import tomlwrite
 from ..errors import InputError
+from ..scenario import nulls_as_free
 
 __all__ = ["FALLBACK_NAME", "SCENARIO_FILE", "model_files", "sweep_files", "with_model_path"]
 
@@ -126,11 +127,12 @@ def sweep_files(sweep, taken: set[str]) -> dict[str, str]:
     inline = (raw.get("sweep") or {}).get("scenario") is None
     if not inline and sweep.base_text is not None:
         scenario = sweep.base_text
+        try:
+            tomllib.loads(scenario)
+        except tomllib.TOMLDecodeError:  # a .json base (a record's resolved.json): as TOML
+            scenario = tomlwrite.dumps(nulls_as_free(json.loads(scenario)))
         if urdf is not None:
-            try:
-                scenario = with_model_path(scenario, name)
-            except tomllib.TOMLDecodeError:  # a .json base: its tables as TOML
-                scenario = tomlwrite.dumps(_replaced(json.loads(scenario), ("model", "path"), name))
+            scenario = with_model_path(scenario, name)
         files[SCENARIO_FILE] = scenario
         text = _with_string(text, ("sweep", "scenario"), SCENARIO_FILE)
     elif inline and urdf is not None:

@@ -12,9 +12,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError, Problem, UnusedLegsWarning
-from ..scenario import load_scenario
+from ..scenario import load_scenario, nulls_as_free
 from ..scenario_keys import assign
-from ..tomlread import parse_toml, read_scenario_text
+from ..tomlread import file_tables, parse_toml, read_scenario_text
 from .keys import check_scenario, check_value, value_of
 from .tables import Base, base_states
 
@@ -41,12 +41,23 @@ def _base(
     path = folder / spec.sweep.scenario
     try:
         text = read_scenario_text(path)
-        return _urdf_from(parse_toml(text, str(path)), path.parent), spec.sweep.scenario, text
+        tables = _no_nulls(nulls_as_free(file_tables(text, path, str(path))))  # resolved.json
+        return _urdf_from(tables, path.parent), spec.sweep.scenario, text
     except InputError as exc:  # say which file: the path is relative to the sweep file
         given, read = spec.sweep.scenario, os.path.normpath(path)
         where = given if read == os.path.normpath(given) else f"{given} ({read})"
         problems.extend(Problem("sweep.scenario", f"{where}: {p.message}") for p in exc.problems)
         return None, "", None
+
+
+def _no_nulls(value: Any) -> Any:
+    """JSON tables without their null keys (a record's resolved.json writes a default as
+    null; TOML has no null and its copy leaves the key out: one base, one digest)."""
+    if isinstance(value, dict):
+        return {k: _no_nulls(v) for k, v in value.items() if v is not None}
+    if isinstance(value, list):
+        return [_no_nulls(v) for v in value]
+    return value
 
 
 def tasks_as_tables(source: Mapping[str, Any]) -> Mapping[str, Any]:
