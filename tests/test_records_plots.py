@@ -303,14 +303,14 @@ def test_ranking_shows_a_bounded_row_as_its_bound_not_as_a_failure():
 def test_ranking_clips_a_long_failure_reason_at_a_word_with_an_ellipsis():
     reason = (
         "the constrained search stalled on leg 1: self-collision still violated by 0.194 at "
-        "its nodes"
+        "its nodes, after three starts and a basis of five harmonics"
     )
     doc = _ranking_doc([60.0, None])
     doc["rows"][1]["reason"] = reason
     (ax,) = ranking_figure(doc).axes
     (text,) = [t.get_text() for t in ax.texts if t.get_text().startswith(" failed: ")]
     shown = text.removeprefix(" failed: ")
-    assert shown.endswith(" …") and len(shown) <= 60
+    assert shown.endswith(" …") and len(shown) <= 100
     kept = shown.removesuffix(" …")
     assert reason.startswith(kept) and reason[len(kept)] == " "  # whole words only
 
@@ -525,18 +525,16 @@ def test_a_curve_constant_but_for_rounding_is_drawn_flat():
 
 
 def test_ranking_failure_labels_show_what_differs_and_the_legend_what_they_share():
-    """Clipped at 60 characters, every label read 'the constrained search stalled on leg 1:
-    the joint limits of …': the same words, what told them apart cut off."""
-    shared = "the constrained search stalled on leg 1: the joint limits of"
+    """Clipped, every label read 'the constrained search stalled on leg 1: the joint limits
+    of …': the same words, what told them apart cut off. The shared words end a phrase."""
+    shared = "the constrained search stalled on leg 1:"
     doc = _ranking_doc([60.0, None, None])
-    doc["rows"][1]["reason"] = f"{shared} q1 still violated by 0.23 rad at its nodes"
-    doc["rows"][2]["reason"] = f"{shared} q3 still violated by 0.41 rad at its nodes"
+    own = "the joint limits of {} still violated by {} rad at its nodes, after three starts"
+    doc["rows"][1]["reason"] = f"{shared} {own.format('q1', 0.23)}"
+    doc["rows"][2]["reason"] = f"{shared} {own.format('q3', 0.41)}"
     fig = ranking_figure(doc)
     (ax,) = fig.axes
     texts = [t.get_text() for t in ax.texts if t.get_text().startswith(" failed: ")]
-    assert texts == [
-        " failed: … q1 still violated by 0.23 rad at its nodes",
-        " failed: … q3 still violated by 0.41 rad at its nodes",
-    ]
+    assert texts == [f" failed: … {own.format('q1', 0.23)}", f" failed: … {own.format('q3', 0.41)}"]
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert f"failed: {shared} …" in labels

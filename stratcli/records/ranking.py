@@ -20,7 +20,7 @@ from .figure_common import LOG_RATIO, fixed_margins, plain_log_labels, save_figu
 
 __all__ = ["ranking_figure", "ranking_png"]
 
-REASON_CHARS = 60  # of a failed sequence's reason beside its row
+REASON_CHARS = 100  # of a failed sequence's reason beside its row (the bars' width holds it)
 
 
 def _short(x: float) -> str:
@@ -61,8 +61,10 @@ def _shared_words(reasons: list[str]) -> str:
     n = 0
     while all(len(w) > n + 1 for w in words) and len({w[n] for w in words}) == 1:
         n += 1
+    while n and not words[0][n - 1].endswith((":", ";", ",")):  # a phrase's end, not "leg"
+        n -= 1
     shared = " ".join(words[0][:n])
-    return shared if n >= 3 and len(shared) >= REASON_CHARS // 3 else ""
+    return shared if n >= 3 and len(shared) >= 20 else ""
 
 
 def _clipped(text: str, width: int) -> str:
@@ -181,6 +183,8 @@ def ranking_figure(doc: dict[str, Any]) -> Figure:
     span = "from 0" if math.isinf(ratio) else f"{ratio:,.3g}×"
     relation = ">" if log else "≤"
     scale = f"{'log' if log else 'linear'} scale: values span {span} ({relation} {LOG_RATIO:g}×)"
+    if not ok and not bounds:  # (an empty 0-1 axis "spanning 1x")
+        scale = "no values: every sequence failed"
     legend = dict(loc="lower center", bbox_to_anchor=(0.5, 0.0), fontsize=8, title=scale)
     legend.update(title_fontsize=8, frameon=False)
     ncols = len(handles)
