@@ -377,6 +377,9 @@ def test_show_reads_the_record_back(tmp_path, monkeypatch):
     assert by_name.exit_code == 0 and by_name.output == shown.output.replace(
         str(run), f"runs/{run.name}"
     )
+    monkeypatch.chdir(runs / run.name)  # from inside it: its name, not "run  · started"
+    here = runner.invoke(app, ["show", "."])
+    assert here.exit_code == 0 and f"run {run.name} · started" in here.output
 
 
 def test_show_refuses_missing_and_incomplete_records(tmp_path):

@@ -7,6 +7,8 @@ import shutil
 import tomllib
 from pathlib import Path
 
+import pytest
+
 from stratcli import tomlwrite
 from stratcli.records import sweepdir
 from stratcli.records.model_files import SCENARIO_FILE, sweep_files
@@ -88,3 +90,17 @@ def test_a_json_base_a_records_resolved_json_is_read_and_copied_as_toml(tmp_path
     tomllib.loads((moved / SCENARIO_FILE).read_text())  # TOML, not the JSON as given
     copy = load_sweep(moved / "sweep.toml")
     assert copy.digest == sweep.digest
+
+
+def test_a_sweep_directorys_summary_given_as_the_sweep_file_is_one_line(tmp_path):
+    """`stratplan sweep OUT/sweep.json` printed a line per summary key."""
+    from stratcli.errors import InputError
+
+    out = tmp_path / "out"
+    (out).mkdir()
+    (out / sweepdir.SPEC).write_text("{}")
+    (out / sweepdir.SUMMARY).write_text('{"name": "t", "counts": {}}')
+    with pytest.raises(InputError) as info:
+        load_sweep(out / sweepdir.SUMMARY)
+    assert len(info.value.problems) == 1
+    assert "not a sweep file: the sweep file is" in str(info.value)

@@ -398,7 +398,8 @@ def run_record(record, log: dict | None) -> None:
     planning = "?" if planning is None else f"{1e3 * planning:.0f}"
     code = m.get("exit_code")  # optional fields: "?" where a record lacks them
     say(
-        f"run {record.path.name} · started {m.get('started', '?')} · planning {planning} ms · "
+        f"run {record.path.resolve().name} · started {m.get('started', '?')} · "
+        f"planning {planning} ms · "
         f"stratplan {m.get('stratplan', '?')} · exit code {'?' if code is None else code}"
     )
     files = sorted(p.name for p in record.path.iterdir())

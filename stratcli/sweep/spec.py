@@ -226,6 +226,7 @@ def load_sweep(source: str | Path | Mapping[str, Any], name: str | None = None) 
     """
     if isinstance(source, Mapping):
         source = tasks_as_tables(source)
+    _not_a_summary(source)
     raw, text, where, folder = read_source(source, name, "sweep")
     if text is None:  # a dict: recorded as the TOML file it stands for
         try:
@@ -334,6 +335,21 @@ def _resolve(
         float(reference) if isinstance(reference, int | float) else None, base.text,
         _robot_sha256(base.scenario),
     )  # fmt: skip
+
+
+def _not_a_summary(source: Any) -> None:
+    """A sweep directory's sweep.json (its summary) given for the sweep file: one line, not
+    a line per summary key (`sweep: required field is missing`, `schema: unknown key` ...)."""
+    from ..records.sweepdir import FILE_TEXT, SUMMARY, is_sweep_dir
+
+    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source):
+        path = Path(source)
+        if path.name == SUMMARY and is_sweep_dir(path.parent):
+            raise InputError(
+                f"the summary of the sweep in {path.parent}, not a sweep file: the sweep file "
+                f"is {path.parent / FILE_TEXT} beside it",
+                str(path),
+            )
 
 
 def _robot_sha256(base: dict[str, Any]) -> str | None:
