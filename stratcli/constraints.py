@@ -157,7 +157,7 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
             Problem(
                 "constraints.joint_limits",
                 "empty: give [lower, upper] for every joint, one pair per joint, or a table "
-                "by name (q1 = [lower, upper])",
+                f"by name ({system.states[0]} = [lower, upper])",
             )
         )
         limits = None

@@ -33,6 +33,7 @@ from .stratified import (
 )
 from .urdf_limits import stalled_too
 from .within_limits import STALLED, re_planned, within_limits
+from .wording import counted
 
 __all__ = ["plan_sequence", "plan_with_objective", "stalled", "with_more_harmonics"]
 
@@ -226,7 +227,8 @@ def _short_of_a_minimum(plan, search):
     note = (
         f"the energy search stopped short of a minimum: its best start ({best.kind}, of "
         f"{count} start{'s' if count != 1 else ''}) ended at its {best.stopped} after "
-        f"{best.iterations} SQP iterations with projected gradient {best.projected_gradient:.1g}"
+        f"{counted(best.iterations, 'SQP iteration')} with projected gradient "
+        f"{best.projected_gradient:.1g}"
         ", so the energy may be far above the least; more starts (planner.starts), other "
         "strata or auto mode ([decompose]) may find lower"
     )

@@ -262,8 +262,8 @@ def plan_summary(doc: dict) -> None:
         rechained = f"; re-chained: {fmt(free)}" if moved and (kept or not head) else ""
         out_console.print(
             f"{head}energy-optimal over all legs together: start {best['index'] + 1} of "
-            f"{len(opt['starts'])} ({start_kind(best, opt['starts'])}: {best['iterations']} "
-            "SQP iterations"
+            f"{len(opt['starts'])} ({start_kind(best, opt['starts'])}: "
+            f"{counted(best['iterations'], 'SQP iteration')}"
             f"{', ' + best['stopped'] if best.get('stopped') else ''}, "
             f"projected gradient {best['projected_gradient']:.0e}); the starts ended at "
             f"{energies}{rechained}; plain Newton: {fmt(opt['newton_energy'])}"
