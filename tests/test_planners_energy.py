@@ -44,7 +44,7 @@ def test_a_search_stopped_short_of_a_minimum_says_so(task_d, monkeypatch):
     assert plan.ok and best.stopped == "iteration limit"
     assert best.feasible and not best.converged
     (note,) = [n for n in plan.notes if "short of a minimum" in n]
-    assert "iteration limit after 1 SQP iterations" in note and "planner.starts" in note
+    assert "iteration limit after 1 SQP iteration with" in note and "planner.starts" in note
 
 
 @pytest.mark.parametrize("name", ["sim4_task_b", "sim4_task_d", "sim2"])
