@@ -129,6 +129,10 @@ BAD = [
     ("[sweep.grid]\n\"goal.q1\" = [1, \"abc\"]\n", 'sweep.grid."goal.q1"[1]:'),
     ("[sweep.grid]\n\"planner.continuity\" = [\"C7\"]\n", 'sweep.grid."planner.continuity"[0]'),
     ("[sweep.grid]\n\"goal.q1\" = { linspace = [0, 1, 0] }\n", "linspace[2]: must be a whole"),
+    (  # it said "at least 3 entries" (read as 3 or more) and, with 4, "at most 3"
+        "[sweep.grid]\n\"goal.q1\" = { linspace = [0, 1] }\n",
+        "linspace: must be [start, stop, count]: 3 values, not 2",
+    ),
     ("[sweep.grid]\n\"goal.q1\" = { linspace = [0, 1, 2] }\n[sweep.random]\ncount = 2\n"
      "ranges = { \"goal.q1\" = [0, 1] }\n", "sweep: give only one of"),
     ("[sweep.random]\ncount = 2\nranges = { \"goal.q1\" = [1, 0] }\n", "low must be below high"),

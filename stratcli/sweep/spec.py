@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, Field, ValidationError
 
 from .. import tomlwrite
 from ..errors import InputError, Problem
@@ -58,9 +58,15 @@ MODES = ("legs", "auto", "compare")
 Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)]
 
 
+def _start_stop_count(value: list[Any]) -> list[Any]:
+    if len(value) != 3:  # (pydantic's "at least 3 entries" read as "3 or more")
+        raise ValueError(f"must be [start, stop, count]: 3 values, not {len(value)}")
+    return value
+
+
 class Linspace(BaseModel):
     model_config = STRICT
-    linspace: list[Any] = Field(min_length=3, max_length=3)
+    linspace: Annotated[list[Any], AfterValidator(_start_stop_count)]
 
 
 class RandomSpec(BaseModel):
