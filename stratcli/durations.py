@@ -100,7 +100,9 @@ def optimise_durations(
     k = len(legs)
     equal = planned(np.zeros(k - 1))
     if k == 1:
-        return _inside(system, start, legs, [equal], settings, constraints, progress)[0]
+        return _budget_advice(
+            _inside(system, start, legs, [equal], settings, constraints, progress)[0]
+        )
     scale = equal.total_energy if equal.ok else 1.0
     minimize(
         energy,
@@ -115,7 +117,7 @@ def optimise_durations(
     )
     ok = [p for p in plans.values() if p.ok]
     if not ok:
-        return equal
+        return _budget_advice(equal)
     optimum = min(ok, key=lambda p: p.total_energy)
     free = optimum.total_energy
     best, inside = _inside(system, start, legs, [optimum, equal], settings, constraints, progress)
@@ -141,6 +143,15 @@ def optimise_durations(
             f"equal ones (inside: {found}): kept {kept} s, energy {best.total_energy:.6g}"
         )
     return replace(best, notes=(*best.notes, note))
+
+
+def _budget_advice(plan: SequencePlan) -> SequencePlan:
+    """A failed plan's advice of "a longer leg" as what sets the legs' durations here."""
+    longer = "a longer leg"
+    if plan.ok or longer not in (plan.message or ""):
+        return plan
+    message = plan.message.replace(longer, "a larger planner.total_duration (the legs share it)")
+    return replace(plan, message=message)
 
 
 def timed_as(legs: list[LegSpec], plan: SequencePlan) -> list[LegSpec]:

@@ -198,3 +198,19 @@ def test_a_budget_the_rate_limits_cannot_meet_fails_and_its_advice_meets_it(tmp_
     again = time_scaled(slower, 2.0)
     assert again.ok and again.message == "" and again.duration == pytest.approx(budget)
     assert time_scaled(outcome.result, 1.0).ok  # the plan given: a speed-up of 1 fits
+
+
+def test_a_failed_plan_of_optimised_durations_advises_the_budget_not_a_longer_leg():
+    """The legs' durations come from total_duration there: 'a longer leg' named nothing the
+    scenario sets."""
+    import dataclasses
+
+    from stratcli.durations import _budget_advice
+    from stratcli.objectives import plan_sequence
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_c.toml")
+    settings = dataclasses.replace(task.settings, max_iterations=1, restarts=0, objective="newton")
+    failed = plan_sequence(task.system, task.start, task.legs, settings)
+    assert not failed.ok and "a longer leg" in failed.message
+    advised = _budget_advice(failed).message
+    assert "a longer leg" not in advised and "a larger planner.total_duration" in advised
