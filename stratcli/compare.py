@@ -1,4 +1,4 @@
-"""Plan every candidate sequence of a decomposition and rank them (DESIGN §5.5).
+"""Plan every candidate sequence of a decomposition and rank them.
 
 `compare` plans the candidates (sharing work through `trie`: prefixes once with the Newton
 objective, identical sequences once otherwise, sub-tries in parallel processes), measures

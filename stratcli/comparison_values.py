@@ -1,6 +1,6 @@
 """The values of a comparison of candidate sequences (`compare`): each candidate's `Outcome`,
 the `Comparison` of them all, and their ranking (`rank`): by the criterion among those that
-reached the goal, then the screen's bounded ones, then the failed ones (DESIGN §5.5).
+reached the goal, then the screen's bounded ones, then the failed ones.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Controls are linear in the coefficients, so every condition at a switch is a row
 `C λ = c` (eq. 25). They are eliminated once per leg with an orthonormal null-space basis,
 `λ = λp + N z` (eq. 26-29), and the planner iterates in `z`.
 
-Modes (DESIGN §3): `none`; `l-C0`/`l-C1`: a leg starts where the previous leg's controls
+Modes: `none`; `l-C0`/`l-C1`: a leg starts where the previous leg's controls
 ended (inputs new on this leg start at 0); `lr-C0`/`lr-C1`: additionally, inputs the next leg
 does not use end at 0. `C1` adds the same conditions on the derivatives. `soft_start` and
 `full_stop` ask `u = u' = 0` at the very start and the very end.

@@ -1,4 +1,4 @@
-"""Controllability of strata and sequences (paper eq. 2 and 4, DESIGN §6).
+"""Controllability of strata and sequences (paper eq. 2 and 4).
 
 * **Strong controllability (eq. 4)** of a stratum at `q`: its generators and their Lie brackets
   up to a degree, restricted to the stratum's free coordinates, have rank `dim S` (the number

@@ -1,4 +1,4 @@
-"""Task decomposer (paper §5.3, DESIGN §5): from a start and a goal to candidate sequences.
+"""Task decomposer (paper §5.3): from a start and a goal to candidate sequences.
 
 Pure functions, no I/O. For a task `q0 → qd` on a stratified system:
 

@@ -1,6 +1,6 @@
 """End-point map `k(λ)` of one leg and its Jacobian `∂k/∂λ` (paper eq. 15, 19).
 
-Two evaluators with one interface (DESIGN §1):
+Two evaluators with one interface:
 
 * `QuadratureEndpoint`: when every non-constant row of `G` depends only on constant-row
   (explicit) coordinates, as for all space manipulators (`A` does not depend on `θ`), the
@@ -44,7 +44,7 @@ def gauss_legendre(nodes: int, duration: float) -> tuple[np.ndarray, np.ndarray]
 def node_count(coefficients: np.ndarray, duration: float, basis: FourierBasis) -> int:
     """Nodes needed for ~1e-12 accuracy: the integrand oscillates with the joint speed.
 
-    A fixed rule is not enough: at |λ| ≈ 20 a 64-node rule was 2e-3 rad off (DESIGN §1).
+    A fixed rule is not enough: at |λ| ≈ 20 a 64-node rule was 2e-3 rad off.
     The speed bound is Σ_k max|u_k| sampled on a fine grid (the coefficients themselves can
     be large and cancel: the basis is far from orthogonal on a leg shorter than its period).
     """

@@ -1,7 +1,7 @@
 """End point and Jacobian of a spatial leg: joints in closed form, the attitude on SO(3).
 
 The joints are closed-form integrals of the Fourier controls (`q(t) = q0 + C Ψ(t) λ`); the
-base attitude obeys `Ṙ = R [ξ]×` with the body-frame rate `ξ = S_ω(q) u` (SPATIAL.md), and is
+base attitude obeys `Ṙ = R [ξ]×` with the body-frame rate `ξ = S_ω(q) u`, and is
 integrated with the 4th-order Magnus method with two Gauss points per step::
 
     Ω_k = h/2 (ξ1 + ξ2) + (√3 h²/12) ξ1 × ξ2,     R_{k+1} = R_k exp([Ω_k]×).

@@ -1,4 +1,4 @@
-"""Scenario files: TOML validated with pydantic, resolved into a planning task (DESIGN §8).
+"""Scenario files: TOML validated with pydantic, resolved into a planning task.
 
 Every problem is reported as one line `file: field.path: message (got value)`; nothing is
 evaluated as code (angles such as "pi/3" or "60deg" go through the safe expression parser).

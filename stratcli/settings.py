@@ -74,7 +74,7 @@ class PlannerSettings:
 
     Attributes
     ----------
-    continuity : concatenation conditions at switches (DESIGN §3): none, l-C0, l-C1, lr-C0,
+    continuity : concatenation conditions at switches: none, l-C0, l-C1, lr-C0,
         lr-C1.
     soft_start, full_stop : ``u = u' = 0`` at the very start / end of the sequence.
     tolerance : goal error (Euclidean over the coordinates a leg steers) counted as reached.

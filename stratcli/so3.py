@@ -1,6 +1,6 @@
 """The rotation group SO(3): exponential and logarithm, their Jacobians, quaternions, RPY.
 
-Conventions (SPATIAL.md): a rotation `R` maps base-frame vectors to world-frame vectors; its
+Conventions: a rotation `R` maps base-frame vectors to world-frame vectors; its
 rotation vector `φ = log(R)` (rad, world frame) has `R = exp([φ]×)`. Quaternions are
 `(w, x, y, z)` with `w ≥ 0`. Roll-pitch-yaw `(r, p, y)` follows URDF/ROS:
 `R = Rz(y) Ry(p) Rx(r)` (fixed axes x, then y, then z). The right Jacobian `J_r(φ)` relates

@@ -2,7 +2,7 @@
 
 `chain_legs` is the only loop over legs: each leg starts at the configuration the previous
 one actually reached, and its boundary conditions take the previous leg's final control
-values (DESIGN §3). `plan_next_leg` is its body, also used by the comparison trie (which plans
+values. `plan_next_leg` is its body, also used by the comparison trie (which plans
 shared prefixes once); `assemble` builds the plan value from planned legs (switches, status,
 message). `objectives.plan_sequence` applies the objective over a whole sequence.
 """

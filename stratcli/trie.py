@@ -1,4 +1,4 @@
-"""The prefix trie of candidate sequences and the processes that plan it (DESIGN §5.5).
+"""The prefix trie of candidate sequences and the processes that plan it.
 
 Planning work is shared, not repeated. With the paper's Newton method legs are planned one
 after the other, and a leg's outcome depends only on what came before it (its start

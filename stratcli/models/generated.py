@@ -2,7 +2,7 @@
 
 `ArrayFunction` evaluates a sympy array at many points, filling only its nonzero entries;
 `FusedRows` evaluates a stratum's quadrature rows with their first and second derivatives
-in one generated function (DESIGN §1). Both can be rebuilt from the disk cache without sympy.
+in one generated function. Both can be rebuilt from the disk cache without sympy.
 """
 
 from __future__ import annotations
@@ -107,7 +107,7 @@ def keep_function(key: str | None, function: ArrayFunction, **beside: Any) -> No
 class FusedRows:
     """The quadrature rows `G_Q(q)` and their first and second derivatives along the explicit
     coordinates `explicit` (the stratum's moving ones), each order one numpy function with
-    common subexpressions shared (DESIGN §1).
+    common subexpressions shared.
 
     On the few hundred quadrature nodes of a leg the cost is the number of numpy operations,
     not the array length, so fusing the derivatives with the rows (and stacking rather than

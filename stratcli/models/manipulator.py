@@ -1,4 +1,4 @@
-"""Planar free-floating manipulators from physical parameters as stratified systems (DESIGN §7).
+"""Planar free-floating manipulators from physical parameters as stratified systems.
 
 `q = (q_1..q_k, θ)`, `q_j' = u_j`, `θ' = Σ A_j(q) u_j` with `A = f/f_θ` from angular-momentum
 conservation (MODELS.md §1-3). The numeric strata evaluate `A`, `∂A/∂q` and the contracted

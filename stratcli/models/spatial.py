@@ -1,4 +1,4 @@
-"""Spatial free-floating manipulators from URDF, built on Pinocchio (SPATIAL.md).
+"""Spatial free-floating manipulators from URDF, built on Pinocchio.
 
 The configuration is `(R, q)`: base attitude `R ∈ SO(3)` and the angles `q` of the revolute
 joints (Pinocchio's order, which is the URDF's depth-first order). A plan's coordinates are

@@ -85,7 +85,7 @@ class CustomStratum(_Strict):
 
 
 class CustomModel(_Strict):
-    """A driftless system from expressions: one vector field per input (DESIGN §7)."""
+    """A driftless system from expressions: one vector field per input."""
 
     kind: Literal["custom"]
     states: list[Name] = Field(min_length=1)
@@ -160,7 +160,7 @@ class PlanarModel(_Strict):
 
 
 class UrdfModel(_Strict):
-    """A spatial free-floating manipulator from a URDF (SPATIAL.md; needs `stratplan[spatial]`).
+    """A spatial free-floating manipulator from a URDF (needs `stratplan[spatial]`).
 
     `path` is relative to the scenario file (made absolute when the scenario is read); `base`
     is the free-flying link (the URDF's root); `strata` are lock sets of joint names (default:

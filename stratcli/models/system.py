@@ -1,7 +1,7 @@
 """Driftless control-affine systems `q' = G(q) u` and their strata (paper eq. 1, 14).
 
 A `System` holds the vector fields symbolically (sympy). For each stratum (`CompiledStratum`)
-it finds the structure the quadrature evaluator exploits (DESIGN §1): *explicit* coordinates,
+it finds the structure the quadrature evaluator exploits: *explicit* coordinates,
 whose rows of `G` are constant so that `q_E(t) = q_E(0) + C_E ∫u`, and *quadrature*
 coordinates, whose rows depend on explicit coordinates only, so that their end value is a
 plain integral. Vectorised numpy functions are generated once: the quadrature rows with their

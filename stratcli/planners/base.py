@@ -69,7 +69,7 @@ class LegProblem:
     targets : coordinates steered to the goal (unlocked and prescribed).
     duration : leg length, s (a Lie leg: length of one step).
     basis : Fourier control basis.
-    continuity : concatenation mode (DESIGN §3).
+    continuity : concatenation mode.
     previous : values and derivatives of all inputs at the previous leg's end; None for the
         first leg.
     next_active : inputs of the next leg; None for the last leg.

@@ -7,7 +7,7 @@ coefficients `z` left by the boundary conditions (eq. 28). Robustness:
 * backtracking on γ: a step is accepted only if the error decreases, so it never grows;
 * start from constant controls that move the explicit coordinates (the joints) straight to
   their goal, plus a small seeded perturbation: at λ = 0 the θ row of J is a combination of
-  the joint rows, so a least-squares step would ignore θ (DESIGN §4);
+  the joint rows, so a least-squares step would ignore θ;
 * after two attempts stalled, a short continuation (`continuation.py`: intermediate goals
   along the straight line from the start to the goal, each solved from the previous
   solution; at most `EARLY_STEPS` steps and three attempts' iterations): where the line is

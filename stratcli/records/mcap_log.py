@@ -1,4 +1,4 @@
-"""`run.mcap`: the planned motion as an MCAP log that opens in Foxglove (DESIGN §10).
+"""`run.mcap`: the planned motion as an MCAP log that opens in Foxglove.
 
 Every channel is JSON-encoded with a JSON Schema:
 

@@ -1,7 +1,7 @@
 """`/tf` of a spatial (URDF) plan: world → base → links, frames named after the URDF links.
 
 Foxglove's 3-D panel draws a URDF itself and moves its links from `FrameTransforms` whose
-`child_frame_id`s are the link names (SPATIAL.md), the URDF's text being the one message of
+`child_frame_id`s are the link names, the URDF's text being the one message of
 `/robot_description`; the URDF is also attached, under the name of the record's copy. Each sample's
 configuration is the re-integrated `(q, log R)`; the base sits at `−R c(q)` (the system CoM
 is the world origin). Link poses come from Pinocchio's forward kinematics. A URDF made for
