@@ -41,10 +41,12 @@ from .wording import counted
 
 __all__ = [
     "KEPT_FREE",
+    "MARGIN_KINDS",
     "VERIFY_SAMPLES",
     "Constraints",
     "ConstraintsSpec",
     "check_configuration",
+    "margin_kinds",
     "rate_limited",
     "resolve",
     "resolved_constraints",
@@ -261,6 +263,23 @@ def _first(values: np.ndarray, t: np.ndarray) -> tuple[float, float]:
     return float(values[k]), float(t[k])
 
 
+MARGIN_KINDS = ("joint_limit", "rate", "acceleration", "self_clearance", "obstacle_clearance")
+
+
+def margin_kinds(system, c: Constraints) -> tuple[str, ...]:
+    """The margins `c` asks for on `system`, in `MARGIN_KINDS`' order (result.json's names;
+    clearances only where the model carries a robot's geometry)."""
+    geometric = c.geometric and getattr(system, "robot", None) is not None
+    asked = {
+        "joint_limit": bool((np.isfinite(c.lower) | np.isfinite(c.upper)).any()),
+        "rate": c.max_rate is not None,
+        "acceleration": c.max_acceleration is not None,
+        "self_clearance": geometric and c.self_collision,
+        "obstacle_clearance": geometric and bool(c.circles or c.boxes),
+    }
+    return tuple(k for k in MARGIN_KINDS if asked[k])
+
+
 def rooms(system, c: Constraints, q, u, du) -> dict[str, np.ndarray]:
     """The room left to each limit at every sample: (N, columns) arrays by result.json's
     margin name ("joint_limit": per limited coordinate, "rate" and "acceleration": per input,
@@ -276,22 +295,19 @@ def rooms(system, c: Constraints, q, u, du) -> dict[str, np.ndarray]:
     q, u, du : numpy.ndarray
         (N, n) configurations, (N, m) controls and their derivatives, sample by sample.
     """
+    kinds = margin_kinds(system, c)
     found: dict[str, np.ndarray] = {}
-    limited = np.isfinite(c.lower) | np.isfinite(c.upper)
-    if limited.any():
+    if "joint_limit" in kinds:
+        limited = np.isfinite(c.lower) | np.isfinite(c.upper)
         found["joint_limit"] = np.minimum(q - c.lower, c.upper - q)[:, limited]
-    if c.max_rate is not None:
+    if "rate" in kinds:
         found["rate"] = c.max_rate - np.abs(u)
-    if c.max_acceleration is not None:
+    if "acceleration" in kinds:
         found["acceleration"] = c.max_acceleration - np.abs(du)
-    robot = getattr(system, "robot", None)
-    if c.geometric and robot is not None:
-        own, world = clearances(robot, q, c)
-        if c.self_collision:
-            found["self_clearance"] = own[:, None]
-        if c.circles or c.boxes:
-            found["obstacle_clearance"] = world[:, None]
-    return found
+    if "self_clearance" in kinds or "obstacle_clearance" in kinds:
+        own, world = clearances(system.robot, q, c)
+        found.update(self_clearance=own[:, None], obstacle_clearance=world[:, None])
+    return {k: found[k] for k in kinds}
 
 
 def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintReport:

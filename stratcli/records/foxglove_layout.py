@@ -164,7 +164,7 @@ def foxglove_layout(
     distance : the 3-D camera's distance (zoom), in the model's length unit.
     urdf : a URDF robot: the 3-D panel draws it from the log's `/robot_description` topic
         (perspective view).
-    margins : the fields of the log's `/margins` (`mcap_margins.margin_kinds`); none: no
+    margins : the fields of the log's `/margins` (`constraints.margin_kinds`); none: no
         margins panel.
 
     Returns

@@ -7,7 +7,8 @@ result.json's margin names: `joint_limit` (rad, over the limited coordinates), `
 (rad/s) and `acceleration` (rad/s², over the inputs), `self_clearance` and
 `obstacle_clearance` (surface distance less the clearance, the model's length unit); negative
 where a limit is broken (`constraints.rooms`). result.json's per-leg margins come from a denser
-re-integration (2000 samples a leg), so a leg's smallest value here is at least that margin.
+re-integration (2000 samples a leg, at other instants), so a leg's smallest value here is near
+that margin, above or below it by what the curve does between the two sets of samples.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..constraints import Constraints, resolved_constraints, rooms
+from ..constraints import MARGIN_KINDS, margin_kinds, resolved_constraints, rooms
 from ..sequence import SequencePlan
 from .trajectory import Trajectory
 
@@ -24,13 +25,12 @@ __all__ = [
     "MARGINS",
     "MARGINS_SCHEMA",
     "logged_kinds",
-    "margin_kinds",
     "margin_message",
     "margin_rows",
 ]
 
 MARGINS = "/margins"
-_KINDS = {  # result.json's margin names, with their descriptions and units
+_DESCRIBED = {  # result.json's margin names (`MARGIN_KINDS`), with their descriptions
     "joint_limit": "room to the nearest joint limit [rad]",
     "rate": "room to the nearest rate limit [rad/s]",
     "acceleration": "room to the nearest acceleration limit [rad/s²]",
@@ -46,30 +46,16 @@ MARGINS_SCHEMA = {
         "t": {"type": "number", "description": "time [s] on the motion's axis"},
         "leg": {"type": "integer", "description": "leg index (0-based, as in result.json)"},
         "stratum": {"type": "string"},
-        **{key: {"type": "number", "description": text} for key, text in _KINDS.items()},
+        **{key: {"type": "number", "description": _DESCRIBED[key]} for key in MARGIN_KINDS},
     },
 }
-
-
-def margin_kinds(c: Constraints, system) -> tuple[str, ...]:
-    """The margins `c` asks for, in `_KINDS`' order (the fields `/margins` has)."""
-    asked = {
-        "joint_limit": bool((np.isfinite(c.lower) | np.isfinite(c.upper)).any()),
-        "rate": c.max_rate is not None,
-        "acceleration": c.max_acceleration is not None,
-        "self_clearance": c.geometric and c.self_collision,
-        "obstacle_clearance": c.geometric and bool(c.circles or c.boxes),
-    }
-    robot = getattr(system, "robot", None)
-    geometric = ("self_clearance", "obstacle_clearance")
-    return tuple(k for k, on in asked.items() if on and (robot is not None or k not in geometric))
 
 
 def logged_kinds(plan: SequencePlan, traj: Trajectory) -> tuple[str, ...]:
     """The fields of the log's `/margins` (none: a plan without [constraints] or samples)."""
     if plan.constraints is None or not traj.size:
         return ()
-    return margin_kinds(resolved_constraints(plan), plan.system)
+    return margin_kinds(plan.system, resolved_constraints(plan))
 
 
 def margin_rows(plan: SequencePlan, traj: Trajectory) -> tuple[tuple[str, ...], np.ndarray]:

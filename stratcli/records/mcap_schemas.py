@@ -16,6 +16,8 @@ of a failed plan) is therefore left out of its message, never written as `null`.
 
 from __future__ import annotations
 
+from ..constraints import MARGIN_KINDS
+
 __all__ = [
     "FRAME_TRANSFORMS_SCHEMA",
     "ROBOT_DESCRIPTION_SCHEMA",
@@ -42,7 +44,6 @@ SCHEMA_NAMES = {
 _NUMBER = {"type": "number"}
 _STRING = {"type": "string"}
 _INTEGER = {"type": "integer"}
-_MARGIN_NAMES = ("joint_limit", "rate", "acceleration", "self_clearance", "obstacle_clearance")
 
 
 def _named(names: tuple[str, ...], value: dict, description: str) -> dict:
@@ -90,7 +91,7 @@ def own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, d
         "energy": _NUMBER,
         "strategy": {"type": "string", "description": "how the leg was planned (result.json)"},
         "margins": _named(
-            _MARGIN_NAMES,
+            MARGIN_KINDS,
             _NUMBER,
             "kind leg, plans with [constraints]: smallest room to each limit over the leg on "
             "2000 re-integrated samples (result.json's constraints.legs)",
