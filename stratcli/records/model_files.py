@@ -104,7 +104,8 @@ def sweep_files(sweep, taken: set[str]) -> dict[str, str]:
     Parameters
     ----------
     sweep : sweep.spec.Sweep
-        The loaded sweep (its `text`, `base_text` and `base`: a URDF path there is absolute).
+        The loaded sweep (its `text`, `base_text`, `robot_text` and `base`: a URDF path
+        there is absolute).
     taken : set of str
         The sweep directory's other file names.
     """
@@ -120,10 +121,9 @@ def sweep_files(sweep, taken: set[str]) -> dict[str, str]:
     urdf = model.get("path") if model.get("kind") == "urdf" else None
     if urdf is not None:
         name = _urdf_name(urdf, {*taken, SCENARIO_FILE, "sweep.toml"})
-        try:
-            files[name] = Path(urdf).read_text(encoding="utf-8")
-        except (OSError, UnicodeError) as exc:  # (read when the sweep was loaded)
-            raise InputError(f"{urdf}: cannot read the base scenario's URDF ({exc})") from None
+        if sweep.robot_text is None:  # (read when the sweep was loaded; it loaded)
+            raise InputError(f"{urdf}: cannot read the base scenario's URDF")
+        files[name] = sweep.robot_text
     inline = (raw.get("sweep") or {}).get("scenario") is None
     if not inline and sweep.base_text is not None:
         scenario = sweep.base_text

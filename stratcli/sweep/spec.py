@@ -126,7 +126,7 @@ class Sweep:
     states: tuple[str, ...]
     reference_energy: float | None
     base_text: str | None = None  # the base scenario file's text as given (None: inline)
-    robot_sha256: str | None = None  # a URDF base's robot as loaded (`_robot_content`)
+    robot_text: str | None = None  # a URDF base's robot as loaded (digest, and the copy)
 
     @property
     def count(self) -> int:
@@ -144,7 +144,7 @@ class Sweep:
             "kind": self.kind,
             "keys": self.keys,
             "axes": self.axes,
-            "base": _robot_content(self.base, self.robot_sha256),
+            "base": _robot_content(self.base, self.robot_text),
             "random": self.random.model_dump() if self.random else None,
             "rows": self.rows,
         }
@@ -339,7 +339,7 @@ def _resolve(
         s.name, s.description, s.mode, s.check, s.exhaustive, given[0].replace("task", "tasks"),
         keys, tuple(axes), base.scenario, random, tuple(rows), source, text, base.states,
         float(reference) if isinstance(reference, int | float) else None, base.text,
-        _robot_sha256(base.scenario),
+        _robot_text(base.scenario),
     )  # fmt: skip
 
 
@@ -358,20 +358,22 @@ def _not_a_summary(source: Any) -> None:
             )
 
 
-def _robot_sha256(base: dict[str, Any]) -> str | None:
-    """The SHA-256 of a URDF base's robot file (None: another model, or unreadable)."""
+def _robot_text(base: dict[str, Any]) -> str | None:
+    """A URDF base's robot file, read once with the sweep (None: another model, or
+    unreadable): its digest and the sweep directory's copy are of the same text."""
     model = base.get("model")
     if not (isinstance(model, dict) and model.get("kind") == "urdf"):
         return None
     try:
-        return hashlib.sha256(Path(model["path"]).read_bytes()).hexdigest()
+        return Path(model["path"]).read_text(encoding="utf-8")
     except (OSError, TypeError, ValueError):
         return None
 
 
-def _robot_content(base: dict[str, Any], sha256: str | None) -> dict[str, Any]:
+def _robot_content(base: dict[str, Any], text: str | None) -> dict[str, Any]:
     """`base` with a URDF model's path replaced by its robot's SHA-256: the robot decides the
     tasks, not where its file lies (a sweep directory's copy names its own; `sweep_files`)."""
-    if sha256 is None:
+    if text is None:
         return base
+    sha256 = hashlib.sha256(text.encode("utf-8")).hexdigest()
     return {**base, "model": {**base["model"], "path": f"sha256:{sha256}"}}
