@@ -8,12 +8,12 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
-from typing import Any
+from dataclasses import dataclass
 
 from .decomposition import Candidate
 from .screen import Screen
 from .sequence import SequencePlan
+from .values import ByValue  # a value: NaN (not known) equals NaN
 
 __all__ = ["CRITERIA", "CRITERION_LABELS", "TIE", "Comparison", "Outcome", "rank"]
 
@@ -27,8 +27,8 @@ CRITERION_LABELS = {
 TIE = 1e-9  # relative: values that differ by less are a tie but for rounding (`_tie`)
 
 
-@dataclass(frozen=True)
-class Outcome:
+@dataclass(frozen=True, eq=False)
+class Outcome(ByValue):
     """One candidate, planned (or not), with the quantities it is ranked by."""
 
     index: int  # position among the candidates (enumeration order)
@@ -51,11 +51,6 @@ class Outcome:
     @property
     def ok(self) -> bool:
         return self.status == "ok"
-
-    def __eq__(self, other: object) -> bool:  # a value: NaN (not known) equals NaN
-        if not isinstance(other, Outcome):
-            return NotImplemented
-        return all(_same(getattr(self, f.name), getattr(other, f.name)) for f in fields(self))
 
     def __hash__(self) -> int:  # of what equal outcomes share (NaN hashes by identity)
         return hash((self.index, self.candidate, self.status, self.rank))
@@ -90,8 +85,8 @@ class Outcome:
         }[criterion]
 
 
-@dataclass(frozen=True)
-class Comparison:
+@dataclass(frozen=True, eq=False)
+class Comparison(ByValue):
     """All outcomes, their ranking and what sharing and parallelism did."""
 
     outcomes: list[Outcome]  # enumeration order
@@ -119,11 +114,6 @@ class Comparison:
     @property
     def legs_saved(self) -> int:
         return self.legs_requested - self.legs_planned
-
-    def __eq__(self, other: object) -> bool:  # a value: no reference duration (NaN) alike
-        if not isinstance(other, Comparison):
-            return NotImplemented
-        return all(_same(getattr(self, f.name), getattr(other, f.name)) for f in fields(self))
 
     __hash__ = None  # its outcomes are a list
 
@@ -169,13 +159,6 @@ class Comparison:
                 "value"
             )
         return text
-
-
-def _same(a: Any, b: Any) -> bool:
-    """Equal, NaN counting as equal to NaN (a quantity that is not known)."""
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    return a == b
 
 
 def _show(x: float, criterion: str) -> str:
