@@ -169,7 +169,7 @@ class LegPlan(ByValue):
         Returns
         -------
         ndarray
-            Shape (len(t), m), also for a single time.
+            Shape (len(t), m), or (m,) for a single time (as `SequencePlan.controls`).
 
         Raises
         ------
@@ -180,8 +180,8 @@ class LegPlan(ByValue):
             `t` not a number or array of numbers, `derivative` not True or False.
         """
         flag("derivative", derivative)
-        t = checked_times(t, self.duration, "the leg (times from its start: plan.controls "
-                          "takes the plan's)")[0]  # fmt: skip
+        t, single = checked_times(t, self.duration, "the leg (times from its start: "
+                                  "plan.controls takes the plan's)")  # fmt: skip
         out = np.zeros((t.size, self.n_inputs))
         starts = np.array([p.t0 for p in self.pieces])
         which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.pieces) - 1)
@@ -191,7 +191,7 @@ class LegPlan(ByValue):
                 local = t[sel] - piece.t0
                 phi = self.basis.derivatives(local) if derivative else self.basis.values(local)
                 out[np.ix_(sel, list(self.active))] = np.atleast_2d(phi) @ piece.coefficients.T
-        return out
+        return out[0] if single else out
 
     def end_controls(self) -> tuple[np.ndarray, np.ndarray]:
         """Values and derivatives of all inputs at the leg's end (the next leg's start).

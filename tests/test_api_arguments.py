@@ -156,9 +156,11 @@ def test_controls_refuse_times_outside_the_plan_but_not_rounding(plan):
         )
     inside = plan.controls([-1e-12 * T, 0.0, T / 2, T, T * (1 + 1e-12)])
     assert inside.shape == (5, len(plan.inputs)) and np.all(np.isfinite(inside))
-    end = plan.legs[-1].controls(plan.legs[-1].duration)[0]
+    end = plan.legs[-1].controls(plan.legs[-1].duration)
     np.testing.assert_allclose(inside[3], end, rtol=0, atol=1e-12)
     assert plan.controls(T / 2).shape == (len(plan.inputs),)  # one time: one vector
+    assert plan.legs[0].controls(0.0).shape == (len(plan.inputs),)  # a leg's too
+    assert plan.legs[0].controls([0.0]).shape == (1, len(plan.inputs))
     np.testing.assert_allclose(plan.controls(np.float64(T / 2)), inside[2], rtol=0, atol=1e-12)
     for t in ("1", ["0.5", "1"], True, None):  # a string was read as the number it spells
         _raises(
@@ -206,7 +208,7 @@ def test_a_legs_controls_refuse_the_plans_time_and_wrong_types(plan):
         _raises(TypeError, r"^derivative: must be True or False \(got 'no'", call)
     # the plan's last instant, within rounding of the plan but past the leg's: the leg's end
     end = plan.controls(plan.duration * (1 + 1e-12))
-    np.testing.assert_allclose(end, leg.controls(T)[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(end, leg.controls(T), rtol=0, atol=1e-12)
 
 
 def test_leg_slice_of_a_leg_the_trajectory_has_not_is_an_index_error(plan):
