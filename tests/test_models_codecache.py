@@ -56,7 +56,6 @@ def test_a_damaged_entry_is_generated_again(cache_home):
 
 def test_the_key_follows_the_fields(cache_home):
     a, b = one_arm(), one_arm()
-    b.parameters = {}  # same model
     s = a.strata["S1"]
     assert codecache.key("one-arm", a.states, "S1", a.fields_on(s)) == codecache.key(
         "one-arm", b.states, "S1", b.fields_on(s)

@@ -586,3 +586,22 @@ def test_a_tasks_legs_cannot_be_changed_in_place():
 
     again = pickle.loads(pickle.dumps(task))
     assert isinstance(again.legs, tuple) and again == task
+
+
+def test_a_shared_model_cannot_be_renamed_or_given_another_robot():
+    """`preset(name)` is one object for every task of that model: `task.system.name = ...`
+    renamed it in every plan after (and `robot = ...` changed their physics and collision
+    geometry). Its fields are set once; a copy or an unpickled model is guarded alike."""
+    import copy
+    import pickle
+
+    import stratcli
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    assert task.system is stratcli.preset("one-arm")
+    for system in (task.system, pickle.loads(pickle.dumps(task.system)), copy.copy(task.system)):
+        for name, value in (("name", "renamed"), ("robot", None), ("states", ())):
+            with pytest.raises(AttributeError, match=rf"\.{name} is read-only .*shared"):
+                setattr(system, name, value)
+    assert stratcli.preset("one-arm").name == "one-arm"
+    assert load_scenario(ROOT / "scenarios" / "sim4_task_d.toml") == task

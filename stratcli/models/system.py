@@ -183,6 +183,12 @@ class CompiledStratum:
         return self.quadrature_terms is not None
 
 
+# `System` fields that cannot be rebound once set (`fields` is the subclasses' lazy property)
+_SET_ONCE = frozenset(
+    {"name", "states", "inputs", "strata", "parameters", "description", "robot", "identity"}
+)
+
+
 @dataclass
 class System:
     """A driftless control-affine system with named coordinates, inputs and strata."""
@@ -206,6 +212,16 @@ class System:
             f"{type(self).__name__}({self.name!r}: coordinates {', '.join(self.states)}; "
             f"inputs {', '.join(self.inputs)}; strata {', '.join(self.strata)})"
         )
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        """A model's fields are set once: `preset(name)` is one object shared by every task
+        of that model, so `task.system.name = ...` would rename it in every plan."""
+        if name in _SET_ONCE and name in self.__dict__:
+            raise AttributeError(
+                f"{type(self).__name__}.{name} is read-only (a model may be shared by many "
+                f"tasks, every preset is): build another model instead"
+            )
+        object.__setattr__(self, name, value)
 
     def __getstate__(self) -> dict:
         """Pickled without its compiled functions (lambdified code does not pickle); they
