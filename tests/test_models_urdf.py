@@ -46,6 +46,34 @@ def test_a_floating_joint_from_a_world_link_says_to_remove_it(tmp_path):
     assert str(err.value).endswith("supported yet)")
 
 
+def test_a_root_link_named_world_is_refused_as_the_logs_inertial_frame(tmp_path):
+    """A simulator's URDF (world -> fixed -> bus) planned, and its run.mcap's /tf made
+    'world' its own parent while the base box stayed put in Foxglove."""
+    path = tmp_path / "r.urdf"
+    path.write_text(
+        '<robot name="r"><link name="world"/><link name="b"/><link name="c"/>'
+        + _joint("anchor", "fixed", "world", "b")
+        + _joint("j1", "revolute", "b", "c")
+        + "</robot>"
+    )
+    with pytest.raises(InputError) as err:
+        read_urdf(path)
+    assert str(err.value).endswith(
+        "the root link is named 'world', the name of the inertial frame: remove joint "
+        "'anchor' and link 'world' to make 'b' the root (a simulator's world link: here the "
+        "root is the free-flying base)"
+    )
+
+
+def test_a_link_defined_twice_is_named(tmp_path):
+    """It said a joint's child "is not a link in the file (links: a, b, b, ...)"."""
+    path = tmp_path / "r.urdf"
+    path.write_text(f'<robot name="r">{LINKS}<link name="b"/>{_joint("j", "revolute")}</robot>')
+    with pytest.raises(InputError) as err:
+        read_urdf(path)
+    assert str(err.value).endswith("link 'b' is defined twice (link names must differ)")
+
+
 def test_a_xacro_file_is_named_with_how_to_expand_it(tmp_path):
     """Robot descriptions often come as xacro: its macros named no link ("the parent of joint
     'j', 'a', is not a link in the file (links: )")."""

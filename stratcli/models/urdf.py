@@ -98,6 +98,9 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
             ".urdf`"
         )
     links = tuple(link.get("name", "") for link in root.findall("link"))
+    twice = sorted({name for name in links if links.count(name) > 1})
+    if twice:  # else a joint's child "is not a link in the file (links: a, a, ...)"
+        raise _fail(f"{path}: link {twice[0]!r} is defined twice (link names must differ)")
     for link in root.findall("link"):
         _check_inertial(path, link.get("name", "?"), link.find("inertial"))
     joints = []
@@ -142,12 +145,23 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
     roots = [link for link in links if link not in children]
     if len(roots) != 1:
         raise _fail(f"{path}: needs exactly one root link, found {len(roots)} ({roots[:5]})")
+    if roots[0] == WORLD:  # the log's inertial frame: /tf would make it its own parent
+        below = [j for j in joints if j.parent == WORLD]
+        hint = (
+            f"remove joint {below[0].name!r} and link {WORLD!r} to make {below[0].child!r} "
+            "the root (a simulator's world link: here the root is the free-flying base)"
+            if len(below) == 1
+            else "rename it"
+        )
+        raise _fail(f"{path}: the root link is named {WORLD!r}, the name of the inertial "
+                    f"frame: {hint}")  # fmt: skip
     summary = UrdfSummary(root.get("name", path.stem), links, roots[0], tuple(joints))
     if not summary.revolute:
         raise _fail(f"{path}: has no revolute joint")
     return text, summary
 
 
+WORLD = "world"  # the inertial frame's name in run.mcap's /tf (`records.mcap_spatial`)
 INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 
 
