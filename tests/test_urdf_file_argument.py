@@ -28,6 +28,29 @@ def test_models_describes_a_urdf_file_as_its_scenario_would():
     assert result.output.splitlines()[1:] == same.output.splitlines()[1:]  # the same model
 
 
+def test_models_json_of_a_urdf_has_the_numbers_its_description_states():
+    """`models FILE --json` left out the mass and the limits the table's description states:
+    they are there as numbers, the URDF's own (read here from its XML)."""
+    import json
+    import xml.etree.ElementTree as ET
+
+    result = CliRunner().invoke(app, ["models", str(ARM3), "--json"])
+    assert result.exit_code == 0, result.output
+    facts = json.loads(result.stdout)
+    assert facts["description"].startswith("URDF robot 'ff_arm3', 15 kg")
+    joints = [j for j in ET.parse(ARM3).getroot().findall("joint") if j.get("type") == "revolute"]
+    limits = {j.get("name"): j.find("limit") for j in joints}
+    assert facts["joint_limits"] == {
+        name: [float(e.get("lower")), float(e.get("upper"))] for name, e in limits.items()
+    }
+    assert facts["velocity_limits"] == {
+        name: float(e.get("velocity")) for name, e in limits.items()
+    }
+    masses = [float(m.get("value")) for m in ET.parse(ARM3).getroot().iter("mass")]
+    assert facts["mass"] == pytest.approx(sum(masses), rel=1e-12)
+    assert facts["base"] == "base"
+
+
 def test_check_takes_a_urdf_file_at_zero_joints_or_at():
     report = stratcli.check_controllability(ARM3, samples=3)
     assert report.title == "URDF arm3.urdf"

@@ -20,6 +20,7 @@ _NAMES = {
     "limit_warnings": "inspection",
     "preset_models": "inspection",
     "strata_table": "inspection",
+    "urdf_facts": "inspection",
     "ComparisonOutcome": "outcomes",
     "DecompositionOutcome": "outcomes",
     "PlanOutcome": "outcomes",
@@ -63,6 +64,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .inspection import limit_warnings as limit_warnings
     from .inspection import preset_models as preset_models
     from .inspection import strata_table as strata_table
+    from .inspection import urdf_facts as urdf_facts
     from .outcomes import ComparisonOutcome as ComparisonOutcome
     from .outcomes import DecompositionOutcome as DecompositionOutcome
     from .outcomes import PlanOutcome as PlanOutcome

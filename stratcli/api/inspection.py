@@ -9,6 +9,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..arguments import checked, integer, source
 from ..errors import InputError, NotControllableError, Problem
 from ..liealgebra import MAX_DEGREE
@@ -166,8 +168,9 @@ def check_controllability(
 
 
 def limit_warnings(task: Task) -> list[str]:
-    """What `plan`, `compare-sequences` and `check` warn of before planning: [constraints]
-    joint limits past a full turn (degrees written as numbers?) on a planar or URDF robot.
+    """What `plan`, `compare-sequences` and `check` warn of before planning: joint limits
+    (the [constraints] table's, a URDF's) and start, via or goal angles past a full turn
+    (degrees written as numbers?) on a planar or URDF robot.
 
     Parameters
     ----------
@@ -177,11 +180,11 @@ def limit_warnings(task: Task) -> list[str]:
     Returns
     -------
     list of str
-        One sentence per pair of such limits; empty without them.
+        One sentence per pair of such limits and per such configuration; empty without.
     """
-    from ..limit_units import degree_like_limits
+    from ..limit_units import degree_like_configurations, degree_like_limits
 
-    return degree_like_limits(task.constraints, task.system)
+    return degree_like_limits(task.constraints, task.system) + degree_like_configurations(task)
 
 
 def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | Task | System:
@@ -336,6 +339,41 @@ def strata_table(system: System) -> list[dict[str, Any]]:
             }
         )
     return rows
+
+
+def urdf_facts(system: System) -> dict[str, Any]:
+    """A URDF model's base, mass, joint limits and velocity limits (the numbers its
+    description states, for scripts: `stratplan models FILE --json`); {} for other models.
+
+    Parameters
+    ----------
+    system : System
+        A model.
+
+    Returns
+    -------
+    dict
+        base (link name), mass (kg), joint_limits (joint -> [lower, upper], rad) and
+        velocity_limits (joint -> rad/s, or None where the URDF gives none: Pinocchio's
+        placeholder, or 0).
+    """
+    robot = getattr(system, "spatial", None)
+    if robot is None:
+        return {}
+    names = robot.joint_names
+
+    def rate(v: float) -> float | None:
+        return float(v) if np.isfinite(v) and 0 < v < 1e6 else None
+
+    return {
+        "base": robot.base,
+        "mass": float(robot.mass),
+        "joint_limits": {
+            j: [float(lo), float(hi)]
+            for j, lo, hi in zip(names, robot.lower, robot.upper, strict=True)
+        },
+        "velocity_limits": {j: rate(v) for j, v in zip(names, robot.velocity, strict=True)},
+    }
 
 
 def _evaluator(cs) -> str:

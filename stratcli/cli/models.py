@@ -91,8 +91,10 @@ def _model_json(target: str) -> None:
             {
                 "model": name,
                 "of": target,
+                "description": system.description,
                 "coordinates": list(system.states),
                 "inputs": list(system.inputs),
                 "strata": api.strata_table(system),
+                **api.urdf_facts(system),
             }
         )
