@@ -383,6 +383,51 @@ def test_joint_limits_past_a_full_turn_warn_of_degrees_and_plan_as_written(
     assert spec["joint_limits"] == tomllib.loads(f"x = {limits}")["x"]
 
 
+def test_a_goal_angle_past_a_full_turn_warns_of_degrees(tmp_path):
+    """`goal = [.., 45, ..]` for a joint (45 rad, 7 turns) was checked with no word of degrees."""
+    written = 'goal = ["-pi/3", "pi/3", "pi/4", "-pi/12"]'
+    assert written in TASK_D.read_text()
+    path = tmp_path / "deg.toml"
+    path.write_text(TASK_D.read_text().replace(written, 'goal = ["-pi/3", "pi/3", 45, "-pi/12"]'))
+    warnings = runner.invoke(app, ["check", str(path)]).output.splitlines()
+    assert (
+        'warning: task.goal: q3 45 rad, past a full turn; if degrees were meant, write "45deg"'
+        in warnings
+    )
+    fine = runner.invoke(app, ["check", str(TASK_D)]).output
+    assert "past a full turn" not in fine
+
+
+def test_urdf_limits_and_rpy_angles_past_a_full_turn_are_named_as_degrees(tmp_path):
+    """A URDF's `lower="-140" upper="140"` (degrees) were enforced as radians without a word,
+    and `rpy = [4, 0, 8]` planned a turn of the base nobody meant."""
+    pytest.importorskip("pinocchio")
+    from stratcli.api import limit_warnings
+
+    urdf = (ROOT / "robots" / "arm3.urdf").read_text()
+    first = urdf.index('lower="')
+    end = urdf.index("/>", first)
+    robot = tmp_path / "deg.urdf"
+    robot.write_text(urdf[:first] + 'lower="-140" upper="140" effort="1" velocity="1"' + urdf[end:])
+    raw = tomllib.loads((ROOT / "scenarios" / "spatial" / "arm3_reorient.toml").read_text())
+    raw["model"]["path"] = str(robot)
+    raw["constraints"] = {}
+    warned = [w for w in limit_warnings(load_scenario(raw)) if w.startswith("model.path")]
+    assert warned == [
+        "model.path: the URDF limits j1 to [-140, 140] rad, 44.6 turns; a URDF's angles are "
+        "radians: if degrees were meant, convert them in the URDF (or set "
+        "constraints.joint_limits)"
+    ]
+    raw["constraints"] = {"joint_limits": {"j1": [-2, 2]}}  # overridden: the table's
+    assert not [w for w in limit_warnings(load_scenario(raw)) if w.startswith("model.path")]
+    raw["model"]["path"] = str(ROOT / "robots" / "arm3.urdf")
+    raw["task"]["goal"] = {"j1": 0, "j2": 0, "j3": 0, "rpy": [4, 0, 8]}
+    assert _problems(raw) == [
+        'task.goal.rpy[2]: 8 rad is past a full turn; if degrees were meant, write "8deg" '
+        "(roll, pitch and yaw are within -2pi ... 2pi)"
+    ]
+
+
 def _depth(p: np.ndarray, q: np.ndarray) -> float:
     """Independently: the shortest translation separating convex point sets p and q, as the
     smallest overlap of their projections over 7200 directions (brute force)."""

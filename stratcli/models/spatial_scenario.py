@@ -100,6 +100,15 @@ def configuration_list(table: dict, system: System, where: str) -> list:
         problems.append(Problem(f"{where}.{key}", f"needs 3 angles (rad), got {value!r}"))
         value = [0.0] * 3
     angles = [_angle(v, f"{where}.{key}[{i}]", problems) for i, v in enumerate(value)]
+    for i, a in enumerate(angles):  # roll, pitch and yaw are within a turn: degrees?
+        if key == "rpy" and a != "*" and abs(a) > 2 * np.pi:
+            problems.append(
+                Problem(
+                    f"{where}.rpy[{i}]",
+                    f"{a:g} rad is past a full turn; if degrees were meant, write "
+                    f'"{a:g}deg" (roll, pitch and yaw are within -2pi ... 2pi)',
+                )
+            )
     if problems:
         raise InputError(problems)
     if key == "rpy" and "*" not in angles:
