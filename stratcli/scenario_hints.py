@@ -35,6 +35,7 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
     model = raw.get("model")
     urdf = isinstance(model, dict) and model.get("kind") == "urdf"
     model_broken = any(p.path == "model" or p.path.startswith("model.") for p in problems)
+    kind_broken = any(p.path == "model.kind" for p in problems)  # which model is not known
     if model_broken and model is not None and not isinstance(model, _PLAIN):
         # a model object (`stratcli.preset(...)`, a `PlanarManipulator`): pydantic reads its
         # attributes and says `model.kind: is missing`, which does not say what to give
@@ -57,8 +58,12 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
                 "for auto mode to choose the legs, give a [decompose] table instead "
                 "(from Python: with_changes({'legs': None, 'decompose': {}}))"
             )
-        elif urdf and model_broken and _CONFIGURATION.match(p.path):
-            continue  # by name is right here: read once the model loads (its problem is listed)
+        elif (
+            model_broken
+            and _CONFIGURATION.match(p.path)
+            and (urdf or (kind_broken and isinstance(_at(raw, p.path), dict)))
+        ):  # by name may be right (a URDF robot's; `kind = "URDF"` may be one): read once
+            continue  # the model loads; its problem is listed
         elif p.message.startswith(_LIST) and _CONFIGURATION.match(p.path):
             order = _coordinates(raw.get("model"))
             if isinstance(_at(raw, p.path), str):  # "0, pi/4, 0, 0": one string, not a list

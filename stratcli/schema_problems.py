@@ -179,7 +179,12 @@ def validation_problems(
                 own = [t for m in _members(found[0]) for t in _tags(m, field)] if found else []
                 tags = ", ".join(own or KINDS)
             what = "is missing" if got is None else f"is {_short(got)}, not a {field}"
-            out.append(Problem(f"{where}.{field}", f"{what} (one of: {tags})"))
+            choices = tags.split(", ")
+            near = [t for t in choices if isinstance(got, str) and t.lower() == got.lower()]
+            if not near and isinstance(got, str):  # 'URDF', 'planar_manipulator'
+                near = difflib.get_close_matches(got.lower(), choices, n=1, cutoff=0.75)
+            meant = f": did you mean {near[0]!r}?" if near else ""
+            out.append(Problem(f"{where}.{field}", f"{what} (one of: {tags}){meant}"))
             continue
         # a validator's own message may show the value already (parse_number's do)
         shown = "" if kind == "missing" or "(got " in msg else f" (got {_short(err['input'])})"

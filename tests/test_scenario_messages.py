@@ -381,3 +381,20 @@ def test_the_schemas_and_the_models_problems_come_in_one_run():
     with pytest.raises(InputError) as info:
         load_scenario(raw)
     assert sorted(p.path for p in info.value.problems) == ["planner.soft_start", "task.goal[1]"]
+
+
+def test_a_kind_in_capitals_is_one_line_with_the_kind_meant(tmp_path):
+    """`kind = "URDF"` gave four lines: the kind, then each configuration by name "is for
+    URDF models only ... (fix the model first: ...)", the same problem three times more."""
+    raw = {
+        "name": "caps",
+        "model": {"kind": "URDF", "path": "robot.urdf"},
+        "task": {"start": {"j1": 0}, "goal": {"j1": 1}},
+        "legs": [{"stratum": "S1", "goal": {"j1": 0.5}}, {"stratum": "S2"}],
+    }
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    assert [p.render() for p in info.value.problems] == [
+        "model.kind: is 'URDF', not a kind (one of: preset, custom, planar-manipulator, urdf): "
+        "did you mean 'urdf'?"
+    ]
