@@ -73,6 +73,24 @@ def test_long_plans_are_plotted_without_per_leg_labels(unicycle_plan, monkeypatc
     assert len(fig.axes[0].texts) == 0
 
 
+def test_long_coordinate_names_label_their_panels_without_overlapping(unicycle_plan):
+    """A URDF's joint names (`u_shoulder_pitch [rad/s]`) ran each y label into the next
+    panel's: each label now stays within its own panel's height."""
+    _, plan = unicycle_plan
+    traj = simulate.sample(plan, 20)
+    names = tuple(f"u_very_long_joint_name_{i}" for i in range(len(plan.system.states)))
+    fig = plots._time_series(plan, traj, traj.q, names, "rad/s", "t", "configuration")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    for ax in fig.axes:
+        label = ax.yaxis.label.get_window_extent(renderer)
+        panel = ax.get_window_extent(renderer)
+        assert panel.y0 - 1 <= label.y0 and label.y1 <= panel.y1 + 1, ax.get_ylabel()
+    assert fig.axes[0].get_ylabel() == "u_very_long_joint_name_0\n[rad/s]"
+    short = plots._time_series(plan, traj, traj.q, plan.system.states, "rad", "t", "configuration")
+    assert short.axes[0].get_ylabel() == f"{plan.system.states[0]} [rad]"  # one line
+
+
 # --------------------------------------------------------------------------------------------
 # What a paper needs: units, leg methods, Lie steps, a FAILED stamp, the ranking's scale rule
 # --------------------------------------------------------------------------------------------

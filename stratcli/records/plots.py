@@ -164,6 +164,22 @@ def _decorate_time_axes(axes: list[Any], plan: SequencePlan) -> int:
     return notes
 
 
+PANEL_HEIGHT = 1.25  # in, a time series' panel (its gaps included)
+
+
+def _y_label(name: str, unit: str | None, height: float) -> tuple[str, float]:
+    """A panel's y label and its font size: on one line where it fits the panel's height,
+    else the name over its unit, smaller where a line still does not fit (a URDF's joint
+    names, `u_shoulder_pitch [rad/s]`, ran into the next panel's label)."""
+    label = f"{name} [{unit}]" if unit else name
+    fits = height * 72.0 / (9 * 0.62)  # characters of 9 pt along the panel, roughly
+    if len(label) <= fits:
+        return label, 9.0
+    lines = [name, f"[{unit}]"] if unit else [name]
+    longest = max(len(line) for line in lines)
+    return "\n".join(lines), max(6.0, min(9.0, 9.0 * fits / longest))
+
+
 def _time_series(
     plan: SequencePlan,
     traj: Trajectory,
@@ -174,7 +190,7 @@ def _time_series(
     kind: str,
 ) -> Figure:
     rows = len(names)
-    fig = Figure(figsize=(WIDTH, 1.05 + 1.25 * rows))
+    fig = Figure(figsize=(WIDTH, 1.05 + PANEL_HEIGHT * rows))
     axes = list(np.atleast_1d(fig.subplots(rows, 1, squeeze=False)[:, 0]))
     colors = [f"C{i % 10}" for i in range(rows)]
     labelled = len(plan.legs) <= MAX_LABELLED_LEGS
@@ -185,7 +201,8 @@ def _time_series(
                 ax.plot(traj.t[s], values[s, i], color=colors[i], linewidth=1.6, zorder=3)
         else:  # one line; a switch instant is sampled twice, so jumps still show
             ax.plot(traj.t, values[:, i], color=colors[i], linewidth=1.2, zorder=3)
-        ax.set_ylabel(f"{name} [{unit}]" if unit else name, fontsize=9)
+        text, size = _y_label(name, unit, PANEL_HEIGHT)
+        ax.set_ylabel(text, fontsize=size)
     notes = _decorate_time_axes(axes, plan)
     two_line = labelled and any(plan.legs[k].locked for k in range(len(plan.legs)))
     band = message_band(plan, WIDTH)  # a failed plan's message, under the plots
