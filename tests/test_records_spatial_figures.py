@@ -61,9 +61,19 @@ def test_the_stroboscopes_axes_say_where_they_point():
 
     from stratcli.records.spatial_figures import _axis_label, spatial_stroboscope_figure
 
-    assert _axis_label(np.array([0.98, 0.05, -0.17]), 0) == "principal axis 1: 0.98x−0.17z [m]"
+    assert (
+        _axis_label(np.array([0.98, 0.05, -0.17]), 0)
+        == "principal axis 1: 0.98x−0.17z, from the CoM [m]"
+    )
     task = load_scenario(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")
     plan = plan_run(task.with_changes({"planner": {"objective": "newton"}}), check=False).result
     fig = spatial_stroboscope_figure(plan, sample(plan, samples_per_leg=30), "arm3")
     for label in (fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel(), fig.axes[1].get_ylabel()):
-        assert re.fullmatch(r"principal axis [123]: −?[0-9.]+[xyz]([+−][0-9.]+[xyz])* \[m\]", label)
+        assert re.fullmatch(
+            r"principal axis [123]: −?[0-9.]+[xyz]([+−][0-9.]+[xyz])*, from the CoM \[m\]", label
+        )
+    # measured from the CoM, as they say (the origin of the poses drawn; the marker sat at
+    # minus the drawn points' mean)
+    for ax in fig.axes:
+        (com,) = [line for line in ax.lines if line.get_label() == "system CoM (fixed)"]
+        assert tuple(com.get_xydata()[0]) == (0.0, 0.0)

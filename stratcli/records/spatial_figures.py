@@ -99,7 +99,7 @@ def _axis_label(v: np.ndarray, index: int) -> str:
         f"{'−' if c < 0 else '+' if k else ''}{abs(c):.2g}{name}"
         for k, (c, name) in enumerate(terms)
     )
-    return f"principal axis {index + 1}: {text} [m]"
+    return f"principal axis {index + 1}: {text}, from the CoM [m]"
 
 
 def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
@@ -136,14 +136,13 @@ def spatial_stroboscope_figure(plan, traj, title: str = "") -> Figure:
             ):
                 if not lines:
                     continue
-                x = np.array(lines) - centre  # (segments, 2 ends, 3)
+                x = np.array(lines)  # (segments, 2 ends, 3), from the CoM (the origin)
                 xy = x @ Vt[[a, b]].T
                 ax.plot(xy[:, :, 0].T, xy[:, :, 1].T, color=c, alpha=alpha, lw=width, ls=style)
         for leg, path in enumerate(tips):
-            xy = (path - centre) @ Vt[[a, b]].T
+            xy = path @ Vt[[a, b]].T
             ax.plot(*xy.T, color=COLORS[leg % len(COLORS)], lw=1.0, ls=":", alpha=0.9)
-        com = -centre @ Vt[[a, b]].T
-        ax.plot(*com, marker="+", color="k", ms=10, label="system CoM (fixed)")
+        ax.plot(0.0, 0.0, marker="+", color="k", ms=10, label="system CoM (fixed)")
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel(_axis_label(Vt[a], a))
         ax.set_ylabel(_axis_label(Vt[b], b))
