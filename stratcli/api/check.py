@@ -64,7 +64,7 @@ def check_document(
     each leg's stratum spans the coordinates it steers. `controllable` decides exit code 3:
     for legs, every leg must be spanned; without legs, every stratum strongly controllable.
     Each spanned leg also gets a reachability estimate (`reach`, `stratcli.reachability`);
-    a leg expected to be ill-conditioned adds a sentence to `warnings` (no exit code)."""
+    a leg that may be ill-conditioned adds a sentence to `warnings` (no exit code)."""
     at = np.asarray(at, dtype=float)
     sampled = sample_configurations(system.n, samples, seed)
     Q = np.vstack([at, sampled])
@@ -209,7 +209,7 @@ def _reach_doc(system: System, r: Reach) -> dict:
 
 
 def _weak_leg(system: System, index: int, r: Reach, q: np.ndarray, spec) -> str:
-    """The warning of a leg expected to be ill-conditioned: why, and what to try instead."""
+    """The warning of a leg that may be ill-conditioned: why, and what to try instead."""
     why = (
         f"it needs third-order brackets at its start, σ_min {r.sigma:.2g}, and "
         f"|δ|/σ_min = {r.leverage:.3g} along that direction"
@@ -223,7 +223,8 @@ def _weak_leg(system: System, index: int, r: Reach, q: np.ndarray, spec) -> str:
         else "try a via configuration away from the start, or auto mode"
     )
     return (
-        f"leg {index + 1} on {r.stratum} is expected to be ill-conditioned: "
-        f"{system.states[r.hard]} is hard to move ({why}; predicted energy ~{r.energy:.2g}); "
-        f"{instead}"
+        f"leg {index + 1} on {r.stratum} may be ill-conditioned: at its start "
+        f"{system.states[r.hard]} is hard to move ({why}; energy ~{r.energy:.2g} if it stayed "
+        f"that hard: an estimate at the start, which the plan may beat by moving away from "
+        f"it); {instead}"
     )

@@ -80,7 +80,7 @@ def controllability_first(
 
     Each leg's stratum must span what the leg steers (or, in auto mode, the candidate strata
     together must reach every direction); Lie legs raise the bracket degree to theirs. Each
-    warning of the check (a leg expected to be ill-conditioned) is passed to `warn`.
+    warning of the check (a leg that may be ill-conditioned) is passed to `warn`.
     """
     clock = time.perf_counter()
     lie = [(leg.lie or task.settings.lie).degree for leg in task.legs if leg.method == "lie"]

@@ -343,7 +343,7 @@ def check(
 
 
 def _warning(message: str) -> None:
-    """One `warning:` line on stderr (a leg expected to be ill-conditioned, a joint limit
+    """One `warning:` line on stderr (a leg that may be ill-conditioned, a joint limit
     past a full turn)."""
     render.error("warning", message)
 
