@@ -176,6 +176,27 @@ def test_a_new_scenario_that_fails_is_a_regression_a_new_one_that_plans_is_not()
     assert compare({"a": failed}, {"a": failed}, tolerances) == []  # taken in by --update
 
 
+def test_a_failed_scenario_fixed_since_the_baseline_is_no_regression():
+    """A scenario taken in by --update as failed, then fixed, was a regression (exit 1): its
+    real energy is above what the stalled search had reached. Only a plan that succeeded
+    both times is held to its numbers; one that fails now is a regression by its status."""
+    tolerances = {"energy_rel": 1e-6, "error_abs": 1e-6}
+    ok = {"status": "ok", "total_energy": 8.3, "errors": [1e-9, 1e-9], "energies": [4.0, 4.3]}
+    stalled = {"status": "failed", "total_energy": 0.6, "errors": [0.5], "energies": [0.6]}
+    fixed = compare({"u": ok}, {"u": stalled}, tolerances)
+    assert [(d.quantity, d.regression) for d in fixed] == [
+        ("status", False),
+        ("total energy", False),
+        ("legs planned", False),
+    ]
+    broken = compare({"u": stalled}, {"u": ok}, tolerances)
+    assert [d.quantity for d in broken if d.regression] == ["status", "legs planned"]
+    worse = dict(ok, total_energy=9.0)  # both ok: held to the energy
+    assert [(d.quantity, d.regression) for d in compare({"u": worse}, {"u": ok}, tolerances)] == [
+        ("total energy", True)
+    ]
+
+
 def test_a_failed_scenario_says_why_in_the_log_and_the_json(tmp_path):
     """`regress` said `planned fails: failed` and `now new, failed`, never the plan's own
     message (which leg, how far, what to try)."""
