@@ -7,7 +7,9 @@ every `finally` (a half-written run directory is removed, worker processes are s
 then `main` prints one line, `interrupted` (SIGINT) or `terminated` (SIGTERM), and exits
 128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM. A record this process finished
 before the signal gets `"interrupted": true` and that exit code in its manifest.json. A second
-signal while unwinding leaves at once, with the same line and code. A signal the process
+signal while unwinding leaves at once, with the same line and code; the same signal within
+0.2 s of the first is the same interrupt delivered twice (`timeout -s INT` signals the command
+and then its process group) and is let be. A signal the process
 was started ignoring (`nohup`, `cmd &` in a script) stays ignored. A signal whose exception
 Python had to drop (it arrived inside a finaliser) is picked up by `stratcli.interrupts`.
 
@@ -33,7 +35,7 @@ import sys
 import threading
 
 from . import blas, lean_imports
-from .interrupts import Interrupted, install, pending, raised
+from .interrupts import Interrupted, echoed, install, pending, raised
 
 HANDLED = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
 
@@ -84,6 +86,8 @@ class ClosedPipeSafe:
 def _on_signal(signum: int, frame) -> None:
     if _state["done"]:  # the command has finished (exit, atexit): no stack left to unwind
         _finish_interrupted(signum)
+    if echoed(signum):  # the same interrupt delivered twice (to the process, its group)
+        return
     if raised(signum):  # a second signal while unwinding: stop now
         _leave(signum)
     raise Interrupted(signum)  # (caught by code that goes on: `checkpoint` raises it again)

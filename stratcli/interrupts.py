@@ -16,11 +16,14 @@ Outside the command line nothing is installed and `checkpoint` costs two list te
 
 import signal
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 _swallowed: list[int] = []
 _raised: list[int] = []  # signals whose `Interrupted` the handler raised (`raised`)
+_last = [0.0]  # when (time.monotonic) the handler last raised one
+ECHO = 0.2  # s: the same signal again this soon is the same interrupt (`echoed`)
 
 
 class Interrupted(BaseException):
@@ -53,7 +56,16 @@ def raised(signum: int) -> bool:
     """Note that the signal handler raises `Interrupted` for `signum` (the entry point's);
     whether it had raised one before (a second signal while unwinding)."""
     _raised.append(signum)
+    _last[0] = time.monotonic()
     return len(_raised) > 1
+
+
+def echoed(signum: int) -> bool:
+    """Whether `signum` arrives within `ECHO` of the same signal the handler raised for: one
+    interrupt delivered twice (`timeout -s INT` signals the command, then its process group),
+    not a second one asking to leave at once (which skipped the sweep's --resume line and
+    left its lock behind)."""
+    return bool(_raised) and _raised[-1] == signum and time.monotonic() - _last[0] < ECHO
 
 
 def pending() -> int | None:

@@ -208,9 +208,9 @@ def test_resume_refuses_another_sweep(reference, tmp_path):
         run_sweep(load_sweep(other), reference.out, jobs=1, resume=True)
 
 
-def _kill_after(command, out, rows: int, signum: int) -> tuple[int, str]:
-    """Run the sweep command until `rows` rows are written, then send it `signum`; its exit
-    code and what it printed on stderr."""
+def _kill_after(command, out, rows: int, signum: int, times: int = 1) -> tuple[int, str]:
+    """Run the sweep command until `rows` rows are written, then send it `signum` (`times`,
+    1 ms apart); its exit code and what it printed on stderr."""
     # SIGINT as a terminal's Ctrl-C delivers it, even where this test was started ignoring it
     proc = subprocess.Popen(
         command,
@@ -222,8 +222,24 @@ def _kill_after(command, out, rows: int, signum: int) -> tuple[int, str]:
     while len(read_rows(out / ROWS)) < rows and time.monotonic() < deadline:
         assert proc.poll() is None, "the sweep ended before it could be killed"
         time.sleep(0.01)
-    proc.send_signal(signum)
+    for i in range(times):  # (two at the same instant would be one pending signal)
+        time.sleep(0.001 if i else 0.0)
+        proc.send_signal(signum)
     return proc.wait(), proc.stderr.read()
+
+
+@pytest.mark.slow
+def test_one_interrupt_delivered_twice_still_says_how_to_resume(tmp_path):
+    """`timeout -s INT` signals the command and then its process group: two SIGINTs at once,
+    the second read as "leave now", so the --resume line was skipped and OUT/.writer left."""
+    path = write(tmp_path, KILLED_GRID, objective="energy")
+    out = tmp_path / "twice"
+    command = [sys.executable, "-m", "stratcli", "sweep", str(path), "--out", str(out)]
+    code, err = _kill_after([*command, "--jobs", "1"], out, 1, signal.SIGINT, times=2)
+    assert code == 130 and err.endswith("interrupted\n"), err
+    kept = len(read_rows(out / ROWS))
+    assert f"sweep: {kept} of 15 tasks kept in {out}; stratplan sweep" in err, err
+    assert not (out / ".writer").exists()
 
 
 @pytest.mark.slow
