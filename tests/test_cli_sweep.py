@@ -77,6 +77,10 @@ def test_show_of_an_unfinished_sweep_counts_its_rows(tmp_path):
     shown = runner.invoke(app, ["show", str(out)])
     assert shown.exit_code == 0 and "4 of 6 tasks done" in shown.output
     assert "not finished" in shown.output
+    jsonschema = pytest.importorskip("jsonschema")  # its --json is a sweep.json by its schema
+    doc = json.loads(runner.invoke(app, ["show", str(out), "--json"]).stdout)
+    jsonschema.validate(doc, stratcli.record_schema("sweep"))  # ('executor' was missing)
+    assert doc["done"] == 4 and doc["executor"] is None and doc["records_lost"] == []
     resumed = runner.invoke(app, ["sweep", str(path), "--out", str(out), "--resume"])
     assert resumed.exit_code == 0, resumed.output
     text = " ".join(resumed.output.split())

@@ -112,6 +112,20 @@ def run_sweep(
         )
 
 
+# sweep.json's keys about the run that wrote it, for rows no run has summarised (it was killed)
+UNSUMMARISED = {
+    "executor": None,
+    "wall_time_s": None,
+    "planned_this_run": None,
+    "resumed_rows": None,
+    "tasks_per_s": None,
+    "started": None,
+    "finished": None,
+    "records_lost": [],
+    "plots": [],
+}
+
+
 @checked(path=pathlike)
 def read_sweep(path: str | Path) -> SweepReport:
     """Read a sweep directory back (also one whose run was killed: its rows so far).
@@ -142,7 +156,7 @@ def read_sweep(path: str | Path) -> SweepReport:
     if not finished:  # the tasks without a row, as sweep.json lists them
         absent = (k for k in range(spec["count"]) if k not in rows)
         missing = list(islice(absent, MAX_LISTED))
-        summary = {**(summary or {}), **summarise(spec, rows, missing)}
+        summary = {**UNSUMMARISED, **(summary or {}), **summarise(spec, rows, missing)}
     return SweepReport(path, spec, rows, summary, finished)
 
 

@@ -152,7 +152,7 @@ def sweep(
     if json_output:
         render.print_json(outcome.summary)
     elif not quiet:
-        summary(outcome.summary, outcome.out, loaded.source)
+        summary(outcome.summary, outcome.out, loaded.source, again=again)
     if outcome.missing:
         render.error(
             "incomplete",
@@ -188,10 +188,13 @@ def _resume_hint(again: str, out: Path, count: int) -> Iterator[None]:
         raise
 
 
-def summary(doc: dict[str, Any], path: Path, source: str = "", at: str | None = None) -> None:
+def summary(
+    doc: dict[str, Any], path: Path, source: str = "", at: str | None = None, again=None
+) -> None:
     """A sweep's summary (sweep.json, or computed from the rows of an unfinished one);
     `source`: the sweep file it was made from, as given (spec.json's), for the resume hint,
-    which names it from here where its absolute path `at` is known and the file is there."""
+    which names it from here where its absolute path `at` is known and the file is there;
+    `again`: the resume command itself, where the sweep that ran says it with its options."""
     say = render.say
     fmt = render.fmt
     say(f"[bold]sweep {escape(str(doc['name']))}[/] ({doc['mode']} mode, {doc['kind']}): "
@@ -231,7 +234,7 @@ def summary(doc: dict[str, Any], path: Path, source: str = "", at: str | None = 
         words = ["stratplan", "sweep", file, "--out", str(path), "--resume"]
         if ex and ex.get("kind") == "dask" and ex.get("address"):  # where it ran, not locally
             words += ["--dask", str(ex["address"])]
-        again = shlex.join(words)
+        again = again or shlex.join(words)
         say(f"  missing  {doc['missing']} tasks ({escape(again)})")
     for name in ("results.csv", *doc.get("plots", [])):
         if (Path(path) / name).exists():
