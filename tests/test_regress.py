@@ -230,3 +230,15 @@ def test_a_failed_scenario_says_why_in_the_log_and_the_json(tmp_path):
             )[1]
         )["scenarios"]["fails"]
     )  # the baseline keeps what it compares
+
+
+@pytest.mark.parametrize(("where", "said"), [("nosuch", "no such directory"), ("f.toml", "a file")])
+def test_regress_of_no_folder_says_what_it_was_given(tmp_path, where, said):
+    """It said `no scenario files (*.toml) in nosuch`, as of an empty folder."""
+    (tmp_path / "f.toml").write_text("")
+    result = CliRunner().invoke(app, ["regress", str(tmp_path / where)])
+    assert result.exit_code == 2
+    assert result.output.strip() == (
+        f"error: {tmp_path / where}: {said}{', not a folder' if said == 'a file' else ''} "
+        "(regress replays the *.toml files of a folder)"
+    )

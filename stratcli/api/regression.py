@@ -95,6 +95,9 @@ def regress(
         Every difference beyond the baseline's tolerances; `.regressions` counts the ones
         that fail CI.
     """
+    if not Path(directory).is_dir():  # (it said "no scenario files (*.toml) in" it)
+        what = "a file, not a folder" if Path(directory).exists() else "no such directory"
+        raise InputError(f"{directory}: {what} (regress replays the *.toml files of a folder)")
     paths = sorted(Path(directory).glob("*.toml"))
     if not paths:
         raise InputError(f"no scenario files (*.toml) in {directory}")
