@@ -242,3 +242,21 @@ def test_regress_of_no_folder_says_what_it_was_given(tmp_path, where, said):
         f"error: {tmp_path / where}: {said}{', not a folder' if said == 'a file' else ''} "
         "(regress replays the *.toml files of a folder)"
     )
+
+
+def test_update_quiet_takes_the_differences_in_without_calling_them_regressions(tmp_path):
+    """`--update --quiet` printed `regression: ...` lines and exited 0, the baseline
+    rewritten: the lines said the opposite of what was done."""
+    shutil.copy(ROOT / "scenarios" / "unicycle.toml", tmp_path / "unicycle.toml")
+    args = ["regress", str(tmp_path), "--jobs", "1", "--update", "--quiet"]
+    assert CliRunner().invoke(app, args).exit_code == 0
+    text = (tmp_path / "unicycle.toml").read_text()
+    assert text.count("[planner]") == 1 and "objective" not in text
+    newton = text.replace("[planner]", '[planner]\nobjective = "newton"')
+    (tmp_path / "unicycle.toml").write_text(newton)  # a higher energy than the baseline's
+    plain = CliRunner().invoke(app, ["regress", str(tmp_path), "--jobs", "1", "--quiet"])
+    assert plain.exit_code == 1 and "regression: unicycle: total energy" in plain.output
+    taken = CliRunner().invoke(app, args)
+    assert taken.exit_code == 0 and "regression" not in taken.output, taken.output
+    again = CliRunner().invoke(app, ["regress", str(tmp_path), "--jobs", "1", "--quiet"])
+    assert again.exit_code == 0 and again.output == ""
