@@ -235,3 +235,30 @@ def test_fixed_joints_and_a_tool_tip_on_the_seven_joint_arm():
     (start,) = entities["path/link_7"]["lines"][0]["points"]
     p, R = _world_poses(tf)["link_7"]
     np.testing.assert_allclose(_xyz(start), p + R @ [0.0, 0.0, 0.145], atol=1e-12)
+
+
+def test_a_leaf_fixed_to_the_base_gets_no_tip_path(tmp_path):
+    """A camera on the bus (a fixed joint to the base) was drawn a 'tip path' in /scene,
+    which traced only the base's own turning; a tool fixed to the last link keeps its."""
+    from types import SimpleNamespace
+
+    from stratcli.models.spatial import load_spatial
+    from stratcli.records.mcap_spatial_scene import spatial_scene
+
+    text = (ROOT / "robots" / "arm3.urdf").read_text()
+    inertial = (
+        '<inertial><mass value="0.1"/>'
+        '<inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial>'
+    )
+    extra = (
+        f'<link name="camera">{inertial}</link><joint name="cam" type="fixed"><parent link="base"/>'
+        '<child link="camera"/><origin xyz="0.2 0 0.1"/></joint>'
+        f'<link name="tool">{inertial}</link><joint name="flange" type="fixed"><parent link="l3"/>'
+        '<child link="tool"/><origin xyz="0.1 0 0"/></joint></robot>'
+    )
+    (tmp_path / "cam.urdf").write_text(text.replace("</robot>", extra))
+    robot = load_spatial(tmp_path / "cam.urdf").spatial
+    plan = SimpleNamespace(system=SimpleNamespace(spatial=robot))
+    scene = spatial_scene(plan, np.zeros((2, robot.n_joints + 3)), 0)
+    paths = [e["id"] for e in scene["entities"] if e["id"].startswith("path/")]
+    assert paths == ["path/tool"]

@@ -17,7 +17,8 @@ parsed from the URDF's joint `<origin>`s (the child's origin in the parent's fra
 depend on the revolute joint's angle). A leaf link has no child joint: its cylinder runs to
 twice its centre of mass (the URDF's `<inertial><origin>`), the far end of a uniform rod
 hinged at the joint, and that end is its tip, whose path is drawn (a leaf without an offset
-centre of mass, a tool frame, is its own tip). Cylinders are 6 % of the longest segment or
+centre of mass, a tool frame, is its own tip; a leaf fixed to the base, a camera on the bus,
+has none). Cylinders are 6 % of the longest segment or
 base edge thick, as the planar links are.
 
 The base is the box of the base body's mass and principal moments of inertia
@@ -139,12 +140,19 @@ def link_segments(robot, coms: dict[str, np.ndarray] | None = None) -> dict[str,
 
 
 def _tips(robot, ends: dict[str, list[np.ndarray]]) -> dict[str, np.ndarray]:
-    """Each leaf link's tip in its frame: its one segment's end, else its origin."""
+    """Each leaf link's tip in its frame: its one segment's end, else its origin; not of a
+    leaf fixed to the base (a camera on the bus: its path would only trace the base's)."""
     children = {j.parent for j in robot.summary.joints}
+    joint_to = {j.child: j for j in robot.summary.joints}
+
+    def moves(name: str) -> bool:  # a revolute joint between it and the base
+        joint = joint_to.get(name)
+        return joint is not None and (joint.type == "revolute" or moves(joint.parent))
+
     return {
         name: (segments[0] if segments else np.zeros(3))
         for name, segments in ends.items()
-        if name not in children and name != robot.base
+        if name not in children and name != robot.base and moves(name)
     }
 
 
