@@ -333,3 +333,28 @@ def test_a_fork_while_another_thread_captures_does_not_hang_the_child():
     finally:
         release.set()
         thread.join()
+
+
+def test_a_link_of_mass_zero_with_inertia_is_refused(tmp_path):
+    """A typo'd mass (0 with the inertia kept) planned a robot without its bus's mass, drawn
+    as a box 8 m across (its size is its inertia over its mass)."""
+    inertial = (
+        '<inertial><mass value="{}"/><inertia ixx="{}" ixy="0" ixz="0" iyy="{}" iyz="0" izz="{}"/>'
+        "</inertial>"
+    )
+    for mass, inertia, refused in ((0, 1.0, True), (0, 0, False), (1.0, 1.0, False)):
+        body = inertial.format(mass, inertia, inertia, inertia)
+        path = tmp_path / "r.urdf"
+        path.write_text(
+            f'<robot name="r"><link name="a">{body}</link><link name="b"/><link name="c"/>'
+            f"{_joint('j', 'revolute')}{_joint('k', 'revolute', 'b', 'c')}</robot>"
+        )
+        if refused:
+            with pytest.raises(InputError) as err:
+                read_urdf(path)
+            assert str(err.value).endswith(
+                "link 'a': mass 0 with a non-zero inertia (a massless link has neither; is its "
+                "mass missing?)"
+            )
+        else:
+            read_urdf(path)

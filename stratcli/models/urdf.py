@@ -194,6 +194,11 @@ def _check_inertial(path: Path, link: str, inertial: ET.Element | None) -> None:
         raise _fail(f"{path}: link {link!r}: <inertia> needs six numbers ({given})")
     xx, xy, xz, yy, yz, zz = (e[0] for e in entries)
     matrix = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    if value[0] == 0 and np.abs(matrix).max() > 0:  # a body with inertia has mass
+        raise _fail(
+            f"{path}: link {link!r}: mass 0 with a non-zero inertia (a massless link has "
+            "neither; is its mass missing?)"
+        )
     smallest = float(np.linalg.eigvalsh(matrix)[0])
     if smallest < -1e-9 * float(np.abs(matrix).max()):  # relative: small links are small
         raise _fail(
