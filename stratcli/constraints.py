@@ -33,6 +33,7 @@ from .clearance import box_corners
 from .errors import InputError, Problem
 from .models.numbers import parse_length, parse_number
 from .models.specs import STRICT
+from .per_input import per_input
 from .results import ConstraintReport, LegMargins
 from .simulate import sample
 from .time_scaling import rate_limited
@@ -90,8 +91,8 @@ class ConstraintsSpec(_Strict):
     """The [constraints] table (all optional)."""
 
     joint_limits: Limits | list[Limits] | dict[str, Limits] | None = None
-    max_rate: Positive | list[Positive] | None = None
-    max_acceleration: Positive | list[Positive] | None = None
+    max_rate: Positive | list[Positive] | dict[str, Positive] | None = None
+    max_acceleration: Positive | list[Positive] | dict[str, Positive] | None = None
     self_collision: Annotated[bool, Strict()] = False
     clearance: NonNegativeLength = 0.0
     link_radius: PositiveLength = 0.05
@@ -126,16 +127,6 @@ class Constraints:
         return self.max_rate is not None or self.max_acceleration is not None
 
 
-def _per(value, count: int, what: str, path: str, problems: list[Problem]) -> np.ndarray | None:
-    if value is None:
-        return None
-    values = [value] * count if isinstance(value, float | int) else list(value)
-    if len(values) != count:
-        problems.append(Problem(path, f"give one number or {count} (one per {what})"))
-        return None
-    return np.asarray(values, dtype=float)
-
-
 def resolve(spec: ConstraintsSpec, system) -> Constraints:
     """Check the table against the model and resolve it per coordinate and input.
 
@@ -145,7 +136,7 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
         One problem per bad entry, each naming its field.
     """
     problems: list[Problem] = []
-    n, m = system.n, system.m
+    n = system.n
     robot = getattr(system, "robot", None)
     spatial = getattr(system, "spatial", None)  # a URDF robot: its joints come first
     joints = robot.n_joints if robot is not None else n  # limits apply to the joints
@@ -210,8 +201,8 @@ def resolve(spec: ConstraintsSpec, system) -> Constraints:
             fields.add(field)
             problems.append(Problem(field, f"lower {lo:g} must be below upper {hi:g}"))
         lower[i], upper[i] = lo, hi
-    rate = _per(spec.max_rate, m, "input", "constraints.max_rate", problems)
-    acc = _per(spec.max_acceleration, m, "input", "constraints.max_acceleration", problems)
+    rate = per_input(spec.max_rate, system, "constraints.max_rate", problems)
+    acc = per_input(spec.max_acceleration, system, "constraints.max_acceleration", problems)
     if not (spec.self_collision or spec.obstacles):  # the sizes of bodies nothing measures
         message = "applies to self_collision = true and to obstacles, and neither is set"
         if spec.clearance > 0:

@@ -209,6 +209,43 @@ def test_the_margins_line_says_clearances_are_beyond_the_clearance_asked(tmp_pat
     assert "limits: clearance 0.01 from itself (links as capsules of radius 0.05)" in result.output
 
 
+def test_rate_limits_by_name_limit_the_inputs_named_and_no_other(tmp_path):
+    """`max_rate = { q2 = 0.5 }` was refused ("must be a number or a valid list"): a motor
+    list names its joints. By a joint's or an input's name; the others have no limit, the
+    plan is slowed until the named one holds, and records and `show` say which."""
+    from stratcli import write_record
+
+    raw = _task_d(max_rate={"q2": 0.5, "u3": 2.0})
+    task = load_scenario(raw)
+    assert task.constraints.max_rate.tolist() == [np.inf, 0.5, 2.0]
+    outcome = plan_run(task, check=False)
+    assert outcome.result.ok, outcome.result.message
+    doc = outcome.document
+    u = np.concatenate(
+        [
+            [
+                controls(leg["pieces"][0], doc["inputs"], s)
+                for s in np.linspace(0, leg["duration"], 4001)
+            ]
+            for leg in doc["legs"]
+        ]
+    )
+    assert np.abs(u[:, 1]).max() <= 0.5 * (1 + 1e-6) and np.abs(u[:, 2]).max() <= 2.0 * (1 + 1e-6)
+    assert np.abs(u[:, 1]).max() == pytest.approx(0.5, rel=1e-4)  # slowed to it, no more
+    assert outcome.result.constraints.duration_set_by == "the rate limit of u2 (0.5 rad/s)"
+    assert all(np.isfinite(m.rate) for m in outcome.result.constraints.legs)
+    run = write_record(tmp_path, outcome)
+    shown = runner.invoke(app, ["show", str(run)]).output
+    assert "rate at most q2 0.5, u3 2 rad/s (the table's; others unlimited)" in shown
+    assert _problems(_task_d(max_rate={"q22": 1.0})) == [
+        "constraints.max_rate.q22: not an input or joint (did you mean 'q2'? q1, q2, q3, u1, "
+        "u2, u3)"
+    ]
+    assert _problems(_task_d(max_rate={})) == [
+        "constraints.max_rate: empty: name at least one input or joint"
+    ]
+
+
 def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():
     rest = {"soft_start": True, "full_stop": True}  # an acceleration limit needs both
     free_raw = _task_d()
@@ -546,10 +583,7 @@ def test_compare_sequences_and_auto_mode_warn_of_joint_limits_past_a_full_turn(t
             {"joint_limits": [[-1, 1], [-1], [-1, 1]]},  # pairs, one short: not "at most 2"
             "constraints.joint_limits[1]: must have at least 2 entries, not 1 (got [-1])",
         ),
-        (
-            {"max_rate": {"u1": 1}},
-            "constraints.max_rate: must be a number or a valid list (got {'u1': 1})",
-        ),
+        ({"max_rate": {"u1": 0}}, "constraints.max_rate.u1: must be more than 0 (got 0)"),
     ],
 )
 def test_a_value_of_several_forms_is_told_by_the_form_it_is_of(constraints, line):

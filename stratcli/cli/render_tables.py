@@ -384,6 +384,9 @@ def limits_asked(report: dict | None, urdf: bool = False) -> str:
         value = spec.get(key)
         if isinstance(value, int | float):
             parts.append(f"{what} at most {value:g} {unit}")
+        elif isinstance(value, dict) and value:  # by name: the others unlimited
+            each = ", ".join(f"{name} {v:g}" for name, v in value.items())
+            parts.append(f"{what} at most {each} {unit} (the table's; others unlimited)")
         elif value:  # ("within its per-joint limits" read as a URDF's velocity limits)
             each = ", ".join(f"{v:g}" for v in value)
             parts.append(f"{what} at most {each} {unit}, input by input (the table's)")
