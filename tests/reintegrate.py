@@ -83,7 +83,8 @@ def custom_rhs_factory(model: dict):
 
 
 def symbolic_manipulator_rhs(robot):
-    """θ' = A(q)·u from the exact symbolic derivation (MODELS.md §1), not the numpy closed forms."""
+    """θ' = A(q)·u from the exact symbolic derivation (docs/planar_model.md §1), not the numpy
+    closed forms."""
     from stratcli.models.connection_symbolic import connection_symbolic
 
     q = sp.symbols(f"q1:{robot.n_joints + 1}", real=True)

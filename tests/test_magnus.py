@@ -1,4 +1,4 @@
-"""The spatial end-point map: the golden case of SPATIAL.md, 4th order, an independent
+"""The spatial end-point map: the golden case of docs/spatial_model.md, 4th order, an independent
 integration on (joints, quaternion) and the Jacobian by finite differences."""
 
 from pathlib import Path
@@ -15,7 +15,7 @@ from stratcli.controls import FourierBasis
 from stratcli.models.spatial import load_spatial
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
-GOLDEN = {  # SPATIAL.md: final base rotation vector and position after the joint cycle
+GOLDEN = {  # docs/spatial_model.md: final base rotation vector and position after the joint cycle
     (1, 2): ([0.0, -0.006566044, 0.0], [0.001976985, 0.0, -0.002182199]),
     (0, 1): ([0.094376884, 0.002846003, 0.037572737], [-0.001147343, 0.015700905, 0.001692659]),
 }

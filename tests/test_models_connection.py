@@ -3,7 +3,7 @@
 The tests check the module against three references:
 
 * the paper's printed eq. 6 and eq. 11, re-typed here independently as coefficient tables;
-* the MODELS.md §4 test vectors and the §5 uniform-rod table;
+* the docs/planar_model.md §4 test vectors and the §5 uniform-rod table;
 * conservation of angular momentum in the world frame, using test-local forward kinematics.
 """
 
@@ -247,7 +247,7 @@ def test_contracted_first_derivatives_equal_dA(name):
 
 def test_models_md_test_vectors():
     r1, r2 = paper_one_arm(), paper_two_arm()
-    # f_θ values are printed with 6 decimals in MODELS.md §4.
+    # f_θ values are printed with 6 decimals in docs/planar_model.md §4.
     assert f_theta_and_f(r1, np.zeros(3))[0] == pytest.approx(11.610256, abs=5e-7)
     assert f_theta_and_f(r2, np.zeros(4))[0] == pytest.approx(13.833333, abs=5e-7)
     cases = [
@@ -290,7 +290,7 @@ def test_vectorised_over_leading_axes():
 
 
 def test_mirror_symmetry():
-    """A mirror-image arm pair gives A_arm2(q) = −A_arm1(swapped q) (MODELS.md §2)."""
+    """A mirror-image arm pair gives A_arm2(q) = −A_arm1(swapped q) (docs/planar_model.md §2)."""
     rng = np.random.default_rng(6)
     links = tuple(Link(*rng.uniform(0.5, 1.5, 2)) for _ in range(3))
     x, y, alpha = 0.7, 0.2, 0.4  # mirror about the base's y axis
@@ -340,7 +340,7 @@ def test_connection_symbolic_matches_numeric():
 
 
 def test_uniform_rod_constant_terms():
-    """MODELS.md §5: rod links (I = m l²/12) change only the constant terms."""
+    """docs/planar_model.md §5: rod links (I = m l²/12) change only the constant terms."""
     rods = {
         "one-arm": ([-519, -230, -49], Fraction("728.2")),
         "two-arm": ([-350, -73, 350, 73], Fraction(1498)),

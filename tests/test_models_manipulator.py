@@ -54,7 +54,7 @@ def test_rod_links_change_the_model():
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (2000, 4))
     Ap = ManipulatorSystem(paper).compiled("S1").quadrature_terms(q, 0)[0]
     Ar = ManipulatorSystem(rods).compiled("S1").quadrature_terms(q, 0)[0]
-    assert np.abs(Ap - Ar).max() > 0.1  # MODELS.md §5: up to 0.23
+    assert np.abs(Ap - Ar).max() > 0.1  # docs/planar_model.md §5: up to 0.23
 
 
 def test_contracted_terms_equal_the_full_derivatives():

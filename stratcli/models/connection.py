@@ -2,11 +2,11 @@
 
 Angular momentum conservation gives θ' = Σ_j A_j(q) q_j' with A_j = f_j / f_θ (paper sec. 3,
 eq. 5 and 10; the robot and its conventions are in `planar`). `connection` evaluates A and
-∂A/∂q from the closed forms in MODELS.md §3 (with `f_theta_and_f` and `connection_A`),
+∂A/∂q from the closed forms in docs/planar_model.md §3 (with `f_theta_and_f` and `connection_A`),
 vectorised, without sympy; `connection_gradient` and `connection_hessian` give the contracted
 first and second derivatives the energy objective needs, in O(n) and O(n²) per node. Arrays
 follow `planar`'s layout: per-link quantities (n, K), with the K evaluation points last. The
-exact symbolic derivation from MODELS.md §1 is `connection_symbolic`.
+exact symbolic derivation from docs/planar_model.md §1 is `connection_symbolic`.
 """
 
 from __future__ import annotations
@@ -29,12 +29,13 @@ __all__ = [
 ]
 
 # --------------------------------------------------------------------------------------------
-# Numeric evaluation (MODELS.md §3), vectorised over leading axes of q
+# Numeric evaluation (docs/planar_model.md §3), vectorised over leading axes of q
 # --------------------------------------------------------------------------------------------
 
 
 def _f_parts(st: Structure, o, p):
-    """p_c (each (K,)), S_j = Σ_{i∈D(j)} m_i (p_i − p_c), f_θ (K,) and f (n, K) (MODELS.md §3)."""
+    """p_c (each (K,)), S_j = Σ_{i∈D(j)} m_i (p_i − p_c), f_θ (K,) and f (n, K)
+    (docs/planar_model.md §3)."""
     (ox, oy), (px, py) = o, p
     pcx, pcy = (st.m @ px) / st.M, (st.m @ py) / st.M
     mPx, mPy = st.m_col * (px - pcx), st.m_col * (py - pcy)
@@ -48,7 +49,7 @@ def _f_parts(st: Structure, o, p):
 
 
 def f_theta_and_f(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Physical f_θ(q) with shape (...) and f_j(q) with shape (..., n) (MODELS.md §3).
+    """Physical f_θ(q) with shape (...) and f_j(q) with shape (..., n) (docs/planar_model.md §3).
 
     The paper prints 12·M times these values.
     """
@@ -73,7 +74,7 @@ def _connection_block(st: Structure, q: np.ndarray, v: np.ndarray | None = None)
     (ox, oy), (px, py) = o, p
     M = st.M
     # ∂p_i/∂q_k = s_k rot90(p_i − o_k) for i ∈ D(k), and rot90(a)·b = a × b. Summing the
-    # MODELS.md §3 derivatives over the distal sets gives
+    # docs/planar_model.md §3 derivatives over the distal sets gives
     #   c_k = Σ_{i∈D(k)} m_i (p_i − o_k) / M              so that ∂p_c/∂q_k = s_k rot90(c_k)
     #   ∂f_θ/∂q_k    = 2 s_k M c_k × (o_k − p_c)
     #   ∂(−f_j)/∂q_k = s_j s_k [W_jk × (2 o_k − o_j − p_c) + μ_jk o_k × (o_j + p_c)
@@ -202,7 +203,8 @@ def _second_derivatives(st: Structure, parts, v: np.ndarray, F: np.ndarray, g: n
 def connection(robot: PlanarManipulator, q: Any) -> tuple[np.ndarray, np.ndarray]:
     """A(q) (shape (..., n)) and dA (shape (..., n, n)), with dA[..., j, k] = ∂A_j/∂q_k.
 
-    The closed forms of MODELS.md §3, vectorised over the leading axes of q, with no sympy.
+    The closed forms of docs/planar_model.md §3, vectorised over the leading axes of q, with
+    no sympy.
     Points are processed in blocks of about 2.5e4 / n² columns. This keeps the (block, n, n)
     temporaries cache-sized, which is about 2x faster for K = 1000, n = 10.
     """

@@ -1,6 +1,6 @@
 """The connection A(q) of a planar free-floating manipulator, derived exactly with sympy.
 
-`derive_symbolic` follows the definitions of MODELS.md §1 (positions, `sympy.diff`, cross
+`derive_symbolic` follows the definitions of docs/planar_model.md §1 (positions, `sympy.diff`, cross
 products) and returns f_θ and f_j as trigonometric polynomials in the paper's form
 Σ c·cos(q_i + …) + const (`trig_canonical`, eq. 6 and 11); `connection_symbolic` divides them
 into A_j = f_j / f_θ. The numeric closed forms are in `stratcli.models.connection`; tests hold
@@ -104,7 +104,8 @@ def trig_canonical(expr: sp.Expr, q_symbols: Sequence[sp.Symbol]) -> sp.Expr:
 def derive_symbolic(
     robot: PlanarManipulator, q_symbols: Sequence[sp.Symbol]
 ) -> tuple[sp.Expr, list[sp.Expr]]:
-    """Exact physical f_θ(q) and [f_1(q), ..., f_n(q)] from angular momentum (MODELS.md §1).
+    """Exact physical f_θ(q) and [f_1(q), ..., f_n(q)] from angular momentum
+    (docs/planar_model.md §1).
 
     The derivation uses only the definitions::
 

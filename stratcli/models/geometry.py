@@ -2,8 +2,8 @@
 
 `world_geometry` turns configurations of a planar manipulator (joints, then the base angle θ)
 into inertial-frame points: base rectangle, joints and links. The inertial origin is the
-fixed system CM; a base-frame point x is at `R(θ) (x − p_c)` (MODELS.md §1). Records draw
-with it, and `constraints` measures clearances with it.
+fixed system CM; a base-frame point x is at `R(θ) (x − p_c)` (docs/planar_model.md §1, §6).
+Records draw with it, and `constraints` measures clearances with it.
 """
 
 from __future__ import annotations
@@ -25,10 +25,10 @@ __all__ = ["base_extent", "world_bodies", "world_geometry"]
 def base_extent(robot: PlanarManipulator) -> tuple[float, float]:
     """Half-extents (hx, hy) of the base rectangle along the base x and y axes.
 
-    The base is `a × b` (MODELS.md §2) but which side lies along the base x axis is not part
-    of the model. Choose the orientation that puts the arm mount points on the rectangle's
-    boundary: model 1 (a = 1, b = 0.6, mount at 0.3 on x) gives (0.3, 0.5). Without a size,
-    a square just reaching the farthest mount point is used.
+    The base is `a × b` (docs/planar_model.md §2, §6) but which side lies along the base x
+    axis is not part of the model. Choose the orientation that puts the arm mount points on
+    the rectangle's boundary: model 1 (a = 1, b = 0.6, mount at 0.3 on x) gives (0.3, 0.5).
+    Without a size, a square just reaching the farthest mount point is used.
     """
     mounts = np.array([arm.mount for arm in robot.arms], dtype=float)
     reach = float(np.max(np.abs(mounts))) if mounts.size else 0.0

@@ -1,9 +1,9 @@
 """Planar free-floating manipulators from physical parameters as stratified systems.
 
 `q = (q_1..q_k, θ)`, `q_j' = u_j`, `θ' = Σ A_j(q) u_j` with `A = f/f_θ` from angular-momentum
-conservation (MODELS.md §1-3). The numeric strata evaluate `A`, `∂A/∂q` and the contracted
-second derivatives with the vectorised closed forms of `connection` (no sympy, so 30-link
-chains are cheap); the symbolic fields are derived only when something asks for them (e.g.
+conservation (docs/planar_model.md §1-3). The numeric strata evaluate `A`, `∂A/∂q` and the
+contracted second derivatives with the vectorised closed forms of `connection` (no sympy, so
+30-link chains are cheap); the symbolic fields are derived only when something asks for them (e.g.
 Lie brackets).
 """
 

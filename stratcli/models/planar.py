@@ -8,7 +8,7 @@ constraint of the paper (sec. 3, eq. 5 and 10)::
 
 Everything is expressed in the base frame (origin at the base CM, rotated by θ). Joints are
 numbered arm by arm: arm 1's joints first (q1, q2, ...), then arm 2's, and so on. Joint j is the
-proximal joint of link j. The physics and sign conventions are given in MODELS.md §1-2.
+proximal joint of link j. The physics and sign conventions are given in docs/planar_model.md §1-2.
 
 This module describes the robot (`Link`, `Arm`, `Base`, `PlanarManipulator`, the paper's
 robots) and its vectorised base-frame kinematics (`link_geometry`). The connection A(q) and its
@@ -65,8 +65,8 @@ class Link:
     `com` is the distance of the link CM from the proximal joint, measured along the link. It
     defaults to `length / 2`. `inertia` is the moment of inertia about the link's own CM. It
     defaults to a uniform rod, `mass * length**2 / 12`. The paper's models use 1/3, which is not
-    the rod value (MODELS.md §5). Defaults are resolved at construction, so after construction
-    both fields are always floats.
+    the rod value (docs/planar_model.md §5). Defaults are resolved at construction, so after
+    construction both fields are always floats.
     """
 
     mass: float
@@ -100,7 +100,8 @@ class Arm:
       −1 gives the mirrored arm 2 of the paper's model 2.
 
     The orientation of link h relative to the base is
-    `β_h = zero_angle + sense·(q_1 + … + q_h)`, where the q are this arm's joints (MODELS.md §3).
+    `β_h = zero_angle + sense·(q_1 + … + q_h)`, where the q are this arm's joints
+    (docs/planar_model.md §3).
     """
 
     mount: tuple[float, float]
@@ -146,7 +147,7 @@ class Base:
 
     @classmethod
     def rectangle(cls, mass: float, a: float, b: float) -> Base:
-        """A uniform a×b rectangle: I0 = m(a² + b²)/12 (MODELS.md §2).
+        """A uniform a×b rectangle: I0 = m(a² + b²)/12 (docs/planar_model.md §2).
 
         Parameters
         ----------
@@ -206,13 +207,13 @@ class PlanarManipulator:
 
 
 # --------------------------------------------------------------------------------------------
-# The paper's robots (MODELS.md §2)
+# The paper's robots (docs/planar_model.md §2)
 # --------------------------------------------------------------------------------------------
 
 
 def _paper_link() -> Link:
     # Unit mass and length with CM at mid-length. The link inertia 1/3 is what the printed
-    # coefficients require (MODELS.md §4-5).
+    # coefficients require (docs/planar_model.md §4-5).
     return Link(mass=1.0, length=1.0, com=0.5, inertia=1.0 / 3.0)
 
 
@@ -240,7 +241,7 @@ def paper_two_arm() -> PlanarManipulator:
 
 
 # --------------------------------------------------------------------------------------------
-# Numeric kinematics (MODELS.md §3), vectorised over leading axes of q
+# Numeric kinematics (docs/planar_model.md §3), vectorised over leading axes of q
 # --------------------------------------------------------------------------------------------
 # Internally every per-link quantity is stored with shape (n, K), or (n, n, K) for pairs, with
 # the K evaluation points last. This makes numpy's inner loops long and contiguous; with the

@@ -136,7 +136,7 @@ class BaseSpec(_Strict):
 
 
 class PlanarModel(_Strict):
-    """A planar free-floating manipulator from physical parameters (MODELS.md).
+    """A planar free-floating manipulator from physical parameters (docs/planar_model.md).
 
     Masses in [1e-6, 1e6] kg, lengths and the base's a, b in [1e-6, 1e3] m, inertias in
     [0, 1e9] kg m² (the base's > 0), mounts within ±1e3 m, at most 8 arms and 24 links.
