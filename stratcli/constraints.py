@@ -301,9 +301,12 @@ def rooms(system, c: Constraints, q, u, du) -> dict[str, np.ndarray]:
     return {k: found[k] for k in kinds}
 
 
-def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintReport:
+def verify(
+    plan, c: Constraints, samples: int = VERIFY_SAMPLES, also: tuple[str, ...] = ()
+) -> ConstraintReport:
     """Smallest margins per leg on an independent re-integration (`samples` per leg) and the
-    first violation, named by limit, leg and time."""
+    first violation, named by limit, leg and time; `also`: limits of the whole plan broken
+    besides (its duration's budget), counted among the others where one of these is."""
     trajectory = sample(plan, samples)
     robot = getattr(plan.system, "robot", None)
     margins, violated, violation = [], "", None
@@ -350,6 +353,7 @@ def verify(plan, c: Constraints, samples: int = VERIFY_SAMPLES) -> ConstraintRep
             )
             violation = {"leg": leg.index + 1, "limit": key, "what": what}
             violation.update(by=-value, t=when)
+    others += list(also) if violated else []
     if others:
         violated += f" (and {counted(len(others), 'more limit')}: {', '.join(others)})"
     return ConstraintReport(

@@ -128,8 +128,14 @@ def optimise_durations(
         if equal.ok
         else f"none at equal durations ({total / k:.4g} s each: that plan failed)"
     )
+    budget = (  # a budget given is a limit (`limit_timing`); the legs' own sum is not
+        f"the {total:g} s budget"
+        if settings.total_duration is not None
+        else f"the legs' {total:g} s in all (no planner.total_duration: rate limits may slow "
+        "the plan past it)"
+    )
     note = (
-        f"durations optimised within the {total:g} s budget over {len(plans)} plans of the "
+        f"durations optimised within {budget} over {len(plans)} plans of the "
         f"sequence: {chosen} s; energy {free:.6g}, against {reference}"
     )
     if best is not optimum and not best.message:  # searched within the [constraints] limits

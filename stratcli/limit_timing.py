@@ -111,7 +111,11 @@ def enforce(plan, c: Constraints):
     if s < 1.0:
         plan = scale_time(plan, s)
         plan = replace(plan, notes=(*plan.notes, f"slowed {1 / s:.4g}x to meet {which}"))
-    report = replace(verify(plan, c), duration_set_by=which if s < 1.0 else "")
+    past = _past_budget(plan) if s < 1.0 else None  # broken besides a failure: said too
+    also = (
+        () if past is None else (f"planner.total_duration ({plan.duration:.4g} s > {past[0]:g} s)",)
+    )
+    report = replace(verify(plan, c, also=also), duration_set_by=which if s < 1.0 else "")
     over = _over_budget(plan, which) if s < 1.0 and report.ok else None
     if over is not None:
         report = replace(report, violated=over[0], violation=over[1])

@@ -50,6 +50,13 @@ def test_optimised_durations_beat_equal_ones_and_verify_independently():
     assert plan.total_energy <= equal.total_energy * (1 + 1e-9)
     assert any(note.startswith("durations optimised within the 2 s budget") for note in plan.notes)
     verify(task, outcome.document)  # goals, chaining, energies, continuity at the switch
+    # no budget given: the legs' own sum, which is no limit (a rate limit may slow past it)
+    unbounded = plan_run(load_scenario(_task_d(durations="optimise")), check=False).result
+    assert unbounded.total_energy == pytest.approx(plan.total_energy, rel=1e-12)
+    assert any(
+        n.startswith("durations optimised within the legs' 2 s in all (no planner.total_duration")
+        for n in unbounded.notes
+    )
 
 
 def _dense(task, doc, samples: int = 2000) -> np.ndarray:
@@ -214,3 +221,21 @@ def test_a_failed_plan_of_optimised_durations_advises_the_budget_not_a_longer_le
     assert not failed.ok and "a longer leg" in failed.message
     advised = _budget_advice(failed).message
     assert "a longer leg" not in advised and "a larger planner.total_duration" in advised
+
+
+def test_a_failed_plan_slowed_past_its_budget_counts_the_budget_among_its_broken_limits():
+    """A plan failed by a joint limit and slowed by a rate limit past planner.total_duration
+    named the joint limit alone: the 27.3 s against a 6 s budget appeared nowhere, so a user
+    who fixed the geometry met the budget only on the next run."""
+    from stratcli.constraints import ConstraintsSpec, resolve
+    from stratcli.limit_timing import enforce
+
+    task = load_scenario(_task_d(durations="optimise", total_duration=2.0))
+    free = plan_run(task, check=False).result  # no [constraints]: as planned
+    spec = ConstraintsSpec.model_validate({"joint_limits": [-0.5, 0.5], "max_rate": 0.2})
+    failed = enforce(free, resolve(spec, task.system))
+    assert not failed.ok and failed.duration > 2.0
+    report = failed.constraints
+    assert report.violation["limit"] == "joint_limit"  # the first broken, as before
+    assert f"planner.total_duration ({failed.duration:.4g} s > 2 s)" in report.violated
+    assert f"planner.total_duration ({failed.duration:.4g} s > 2 s)" in failed.message
