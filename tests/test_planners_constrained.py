@@ -528,6 +528,12 @@ def test_a_search_that_stalls_in_the_default_basis_is_planned_with_more_harmonic
     kept = plan_run(given, check=False).result
     assert not kept.ok and kept.message.startswith("the constrained search stalled on leg 1")
     assert not any("harmonics" in n for n in kept.notes)
+    # which bodies (it said "self-collision still violated", or "an obstacle" of several)
+    assert re.match(
+        r"the constrained search stalled on leg 1: (self-collision|an obstacle) \((link \d|the "
+        r"base) and [^)]+\) still violated by [0-9.]+ at its nodes",
+        kept.message,
+    ), kept.message
 
 
 LOOPS_IN_LIMITS = """

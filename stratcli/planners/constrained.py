@@ -45,6 +45,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..body_clearances import closest_pair
 from ..endpoint import QuadratureEndpoint
 from ..magnus import MagnusEndpoint
 from ..node_margins import CUSHION, NODES, NodeMargins
@@ -55,6 +56,7 @@ from .stacked import StackedProblem
 __all__ = ["NotSearchable", "Searched", "constrained_search"]
 
 PUSH = 1e-3  # the feasibility phase ends with every node margin at least this
+CLEARANCES = ("self-collision", "an obstacle")  # the node margins' kinds of clearance rows
 FEASIBILITY_ITERATIONS = 60
 DAMPING_MAX = 1e8  # relative Levenberg damping at which the feasibility phase gives up
 BARRIER_START = 1e-2  # μ0 as a fraction of the feasible plan's energy
@@ -138,6 +140,7 @@ class _Search(Descent):
                 break
         worst = int(np.argmin(g))
         leg, what = self.margins.labels[worst]
+        what = self._bodies(z, worst, what)
         angles = (
             self.margins.robot is not None
             or getattr(self.margins.system, "spatial", None) is not None
@@ -148,6 +151,18 @@ class _Search(Descent):
             f"{max(PUSH - g[worst], 0.0):.3g}{unit} at its nodes"
         )
         return False
+
+    def _bodies(self, z: np.ndarray, row: int, what: str) -> str:
+        """A clearance row's kind with the bodies (and obstacle) nearest touching at its node,
+        as the verification names them (`self-collision (link 1 and link 3)`): "an obstacle"
+        alone did not say which of three."""
+        m = self.margins
+        at = getattr(m, "_curvature_at", None)  # the last Jacobian's nodes, if at this z
+        if what not in CLEARANCES or m.robot is None or at is None or not np.array_equal(at[0], z):
+            return what
+        _, first, node, _, q, *_ = at
+        pair, _ = closest_pair(m.robot, q[node[row - first]], m.c, obstacles=what == "an obstacle")
+        return f"{what} ({pair})"
 
     # ---- 2. minimum energy inside the limits ------------------------------------------------
     def _barrier(self, z, mu: float, g=None):
