@@ -375,16 +375,25 @@ def evaluator_problems(system: System, evaluator: str, strata) -> list[Problem]:
 
 
 def make_endpoint(
-    cs: CompiledStratum, q0, basis: FourierBasis, duration: float, evaluator: str = "auto"
+    cs: CompiledStratum,
+    q0,
+    basis: FourierBasis,
+    duration: float,
+    evaluator: str = "auto",
+    tolerance: float | None = None,
 ) -> _Endpoint:
     """The quadrature path when the structure allows it (or when asked), else the ODE path.
 
     A stratum with an end-point map of its own (`endpoint`: spatial models, whose attitude is
-    integrated on SO(3) by the Magnus method) uses it unless the ODE path is asked for;
+    integrated on SO(3) by the Magnus method) uses it unless the ODE path is asked for, as
+    accurate as the leg's `tolerance` needs (`MagnusEndpoint.for_tolerance`);
     `evaluator_problems` refuses "quadrature" on them and "magnus" elsewhere."""
     own = getattr(cs, "endpoint", None)
     if own is not None and evaluator != "ode":
-        return own(q0, basis, duration)
+        ep = own(q0, basis, duration)
+        if tolerance is not None and hasattr(ep, "for_tolerance"):
+            ep.for_tolerance(tolerance)
+        return ep
     if evaluator == "ode" or (evaluator == "auto" and not cs.supports_quadrature):
         return OdeEndpoint(cs, q0, basis, duration)
     return QuadratureEndpoint(cs, q0, basis, duration)

@@ -37,6 +37,7 @@ ACCURACY = 5e-10  # rad: the Magnus error on the full steps (tests/test_magnus.p
 # Far from the goal the map is evaluated to 1e-5 of the last goal error (a Newton step
 # usually divides it by far more than 10), and the result kept if its accuracy is within
 # RELATIVE_ACCURACY of the goal error it finds.
+TOLERANCE_SHARE = 0.1  # of a leg's tolerance the map's error may take (`for_tolerance`)
 AIM_ACCURACY = 1e-5
 RELATIVE_ACCURACY = 1e-3
 COUPLING_REFERENCE = 0.6  # |S_ω| of the golden arm (robots/arm3.urdf), where it is calibrated
@@ -116,6 +117,7 @@ class MagnusEndpoint(_Endpoint):
         # set by a search that needs less (`sqp.Descent` far from a minimum): every evaluation
         # on the steps that reach this accuracy (rad), not only those far from the goal
         self.accuracy: float | None = None
+        self.full_accuracy = ACCURACY  # rad, of the full steps (`for_tolerance`)
 
     @cached_property
     def coupling(self) -> float:
@@ -135,6 +137,7 @@ class MagnusEndpoint(_Endpoint):
         # a bus heavy against its arm needs fewer steps than the golden arm (|S_ω| ≈ 0.6)
         phase *= max(1.0, (1.0 + speed) / 5.0) ** 0.25
         phase *= min(max(np.sqrt(self.coupling / COUPLING_REFERENCE), 0.5), 2.0)
+        phase *= (ACCURACY / self.full_accuracy) ** 0.25  # a tighter tolerance: more steps
         if not np.isfinite(phase):
             return MIN_STEPS
         return int(min(max(MIN_STEPS, np.ceil(STEPS_PER_RADIAN * phase)), 1 << 14))
@@ -182,8 +185,12 @@ class MagnusEndpoint(_Endpoint):
             end = np.full(self.q0.size, np.nan)
             return end, (np.full((end.size, self.n_coefficients), np.nan) if jacobian else None)
         full = self.steps(L)
-        if self.accuracy is not None and self.accuracy > ACCURACY and not self.steps_override:
-            steps = int(np.ceil(full * (ACCURACY / self.accuracy) ** 0.25))
+        if (
+            self.accuracy is not None
+            and self.accuracy > self.full_accuracy
+            and not self.steps_override
+        ):
+            steps = int(np.ceil(full * (self.full_accuracy / self.accuracy) ** 0.25))
             if max(MIN_STEPS, steps) < full:
                 end, march = self._end(L, max(MIN_STEPS, steps))
                 self._remember(L, end, march)
@@ -192,13 +199,19 @@ class MagnusEndpoint(_Endpoint):
         if coarse < full:
             end, march = self._end(L, coarse)
             error = np.linalg.norm(residual_on_group(end, None, *self._aim, self.k)[0])
-            if RELATIVE_ACCURACY * error >= ACCURACY * (full / coarse) ** 4:
+            if RELATIVE_ACCURACY * error >= self.full_accuracy * (full / coarse) ** 4:
                 self._remember(L, end, march)
                 return end.copy(), (self._jacobian(end, march) if jacobian else None)
         end, march = self._end(L, full)
         self._full = ((L.tobytes(), full), end.copy())
         self._remember(L, end, march)
         return end.copy(), (self._jacobian(end, march) if jacobian else None)
+
+    def for_tolerance(self, tolerance: float) -> None:
+        """Full steps that keep the map's error a tenth of the leg's `tolerance` where that is
+        below `ACCURACY` (the Magnus error falls as N⁻⁴): at 1e-10 a plan reported its legs
+        within it, measured on a map 3e-10 off (an independent integration's finding)."""
+        self.full_accuracy = min(ACCURACY, TOLERANCE_SHARE * float(tolerance))
 
     def jacobian_of_last(self, lam: np.ndarray):
         """End point and Jacobian of the last evaluation (`__call__`) at `lam` (one of the
@@ -219,8 +232,8 @@ class MagnusEndpoint(_Endpoint):
     def _coarse_steps(self, full: int) -> int:
         if self._aim is None or self.steps_override or not np.isfinite(self._error):
             return full
-        wanted = max(ACCURACY, AIM_ACCURACY * self._error)
-        coarse = int(np.ceil(full * (ACCURACY / wanted) ** 0.25))
+        wanted = max(self.full_accuracy, AIM_ACCURACY * self._error)
+        coarse = int(np.ceil(full * (self.full_accuracy / wanted) ** 0.25))
         return max(MIN_STEPS, coarse) if coarse < 0.8 * full else full
 
     def refined(self, lam: np.ndarray) -> np.ndarray:

@@ -254,6 +254,7 @@ def _endpoints(system: System, legs: list[LegSpec], settings: PlannerSettings) -
             settings.basis,
             leg.duration,
             settings.evaluator,
+            settings.tolerance,
         )
         for leg in legs
     ]

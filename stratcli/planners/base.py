@@ -132,6 +132,7 @@ class LegProblem:
             self.basis,
             self.duration if duration is None else duration,
             self.evaluator,
+            self.tolerance,
         )
 
     def error(self, q: np.ndarray) -> float:

@@ -78,7 +78,14 @@ class StackedProblem:
             ]
         )
         self.endpoints = [
-            make_endpoint(system.compiled(leg.stratum), s, basis, leg.duration, settings.evaluator)
+            make_endpoint(
+                system.compiled(leg.stratum),
+                s,
+                basis,
+                leg.duration,
+                settings.evaluator,
+                settings.tolerance,
+            )
             for leg, s in zip(legs, starts, strict=True)
         ]
         self.chained = _chained(self.endpoints, targets)
