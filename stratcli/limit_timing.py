@@ -88,7 +88,9 @@ def _retimed(why: str, factor: float, s: float | None, meets: str) -> str:
     this = f"time_scaled by {bound} {_three_digits(factor, up=up):g}"
     if s is None:
         return f"re-timed {why}: this plan {this} {verb}"
-    first = f"time_scaled by {s:g}, where {bound} {_three_digits(s * factor, up=up):g} {verb}"
+    limit = _three_digits(s * factor, up=up)
+    given = next((f"{s:.{d}g}" for d in range(6, 17) if f"{s:.{d}g}" != f"{limit:g}"), repr(s))
+    first = f"time_scaled by {given}, where {bound} {limit:g} {verb}"  # (1.000001 is not "1")
     return f"re-timed {why}: {first} (this plan {this.replace('by', 'again by', 1)})"
 
 

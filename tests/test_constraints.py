@@ -588,3 +588,13 @@ def test_compare_sequences_and_auto_mode_warn_of_joint_limits_past_a_full_turn(t
 )
 def test_a_value_of_several_forms_is_told_by_the_form_it_is_of(constraints, line):
     assert _problems(_task_d(**constraints)) == [line]
+
+
+def test_a_speed_up_just_past_the_limit_is_shown_with_the_digits_that_tell_it_apart():
+    """`time_scaled(plan, 1.000001)` of a plan at its rate limit said "time_scaled by 1,
+    where at most 1 meets every ... limit": the speed-up and its bound read the same."""
+    from stratcli.limit_timing import _retimed
+
+    said = _retimed("too fast for u1's rate limit", 1 / 1.000001, 1.000001, "less meets it")
+    assert said.startswith("re-timed too fast for u1's rate limit: time_scaled by 1.000001, where")
+    assert "time_scaled by 2, where at most 1 meets it" in _retimed("x", 0.5, 2.0, "less meets it")
