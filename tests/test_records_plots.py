@@ -448,6 +448,24 @@ def test_off_labels_mark_inputs_only_and_limits_show_on_the_configuration(constr
     assert any("rate limit" in t for t in _annotations(controls)) == bool(constraints)
 
 
+def test_a_limit_far_off_the_axis_is_said_in_its_panel():
+    """A rate limit far from its curve was left out (it would squash it): the panel of u2,
+    limited to 20 rad/s, showed no sign of having a limit at all."""
+    import tomllib
+
+    import stratcli
+
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d.toml").read_text())
+    raw["planner"]["objective"] = "newton"
+    raw["constraints"] = {"max_rate": [2.0, 20.0, 2.0]}
+    plan = stratcli.api.plan_run(stratcli.load_scenario(raw), check=False).result
+    controls = plots.controls_figure(plan, plan.sample(100))
+    said = [
+        [t.get_text() for t in ax.texts if "off the axis" in t.get_text()] for ax in controls.axes
+    ]
+    assert said == [[], ["rate limit -20 and 20 (off the axis)"], []]
+
+
 def test_figures_show_an_obstacle_far_from_the_robot_whole():
     import dataclasses
 

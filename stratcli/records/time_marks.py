@@ -91,6 +91,13 @@ def shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any], kind: st
                 ax.axhspan(*band, color=FAILED_COLOR, alpha=0.12, lw=0, zorder=1)
             ax.set_ylim(bottom, top)
             shown = True
+        far = [f"{v:g}" for v in (lo, hi) if np.isfinite(v) and v not in near]
+        if far:  # said, not drawn: a limit with no mark read as no limit
+            ax.text(
+                0.995, 0.96, f"{what} {' and '.join(far)} (off the axis)", transform=ax.transAxes,
+                ha="right", va="top", fontsize=7, color=FAILED_COLOR, zorder=6,
+                bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none", "pad": 1},
+            )  # fmt: skip
         room = np.minimum(values[:, i] - lo, hi - values[:, i])
         if np.isfinite(room).any():
             k = int(np.nanargmin(room))
