@@ -132,6 +132,31 @@ def test_the_stroboscope_marks_each_legs_closest_approach_between_the_robots_bod
     assert "closest approach (self)" in [t.get_text() for t in fig.legends[0].get_texts()]
 
 
+def test_the_closest_pose_shows_its_links_as_the_capsules_measured(constrained):
+    """The links were thin lines: nothing showed the capsules (radius 0.05) the clearances
+    are measured on. The closest pose's are drawn: every outline point at the radius from
+    its link's core, round both ends."""
+    from matplotlib.collections import PolyCollection
+
+    plan, traj, _ = constrained
+    fig = stroboscope_figure(plan, traj)
+    for leg, ax in enumerate(fig.axes[: len(plan.legs)]):
+        purple = to_rgba(SELF_COLOR)[:3]
+        (capsules,) = [
+            c for c in ax.collections
+            if isinstance(c, PolyCollection) and len(c.get_facecolor())
+            and np.allclose(c.get_facecolor()[0][:3], purple)
+        ]  # fmt: skip
+        s = traj.leg_slice(leg)
+        margins, geo = _self_margins(plan.system.robot, traj.q[s])
+        n = int(np.argmin(np.min([m for m in margins.values()], axis=0)))
+        outlines = capsules.get_paths()
+        assert len(outlines) == geo["proximal"].shape[1]  # one per link
+        for link, path in enumerate(outlines):
+            core = _point_segment(path.vertices, geo["proximal"][n, link], geo["distal"][n, link])
+            np.testing.assert_allclose(core, RADIUS, atol=1e-12)
+
+
 def test_a_plan_without_self_collision_has_no_such_mark(constrained):
     plan, traj, _ = constrained
     for spec in ({}, {"joint_limits": [-2.5, 2.5], "self_collision": False}):

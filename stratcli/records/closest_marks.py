@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from matplotlib.collections import PolyCollection
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
@@ -28,6 +29,7 @@ __all__ = [
     "SELF_COLOR",
     "SelfApproach",
     "body_name",
+    "draw_capsules",
     "has_self_collision",
     "legend_handles",
     "mark_closest",
@@ -124,6 +126,7 @@ def mark_closest(ax, plan: SequencePlan, traj: Trajectory, geo: dict, leg: int) 
             margin = min(margin, report.obstacle_clearance)
         draw_poses(ax, geo, np.array([s.start + k]), [FAILED_COLOR], lw=1.0, zorder=3,
                    linestyle="-.")  # fmt: skip
+        draw_capsules(ax, geo, s.start + k, resolved_constraints(plan).link_radius, FAILED_COLOR)
         ax.plot(*point, "x", color=FAILED_COLOR, ms=9, mew=2.2, zorder=8)
         when = traj.t[s.start + k]
         texts.append((f"closest approach: margin {margin:.3g}, near t = {when:.4g} s",
@@ -134,6 +137,8 @@ def mark_closest(ax, plan: SequencePlan, traj: Trajectory, geo: dict, leg: int) 
         if report is not None and report.self_clearance is not None:
             margin = min(margin, report.self_clearance)
         draw_poses(ax, geo, np.array([s.start + own.index]), [SELF_COLOR], lw=1.4, zorder=3.5)
+        draw_capsules(ax, geo, s.start + own.index, resolved_constraints(plan).link_radius,
+                      SELF_COLOR)  # fmt: skip
         x, y = own.points.T
         ax.plot(x, y, "-o", color=SELF_COLOR, lw=2.2, ms=4.5, zorder=8.5, solid_capstyle="butt")
         when = traj.t[s.start + own.index]
@@ -144,6 +149,23 @@ def mark_closest(ax, plan: SequencePlan, traj: Trajectory, geo: dict, leg: int) 
             text, (0.02, 0.02), xycoords="axes fraction", xytext=(0, LINE_PT * row),
             textcoords="offset points", fontsize=7.5, color=color, va="bottom", zorder=9,
         )  # fmt: skip
+
+
+def draw_capsules(ax, geo: dict, index: int, radius: float, color) -> None:
+    """The links at sample `index` as the capsules the clearances are measured on (each link's
+    segment thickened by `radius`, shaded): a drawn line alone hid how close they came."""
+    turn = np.linspace(-np.pi / 2, np.pi / 2, 13)
+    outlines = []
+    for a, b in zip(geo["proximal"][index], geo["distal"][index], strict=True):
+        d = b - a
+        angle = float(np.arctan2(d[1], d[0])) if np.any(d) else 0.0
+        ends = [(b, angle + turn), (a, angle + np.pi + turn)]  # a half circle round each end
+        outlines.append(
+            np.concatenate([p + radius * np.stack((np.cos(t), np.sin(t)), -1) for p, t in ends])
+        )
+    ax.add_collection(
+        PolyCollection(outlines, facecolors=color, edgecolors=color, alpha=0.15, lw=0.5, zorder=2.9)
+    )
 
 
 def legend_handles(plan: SequencePlan) -> list:
