@@ -605,3 +605,32 @@ def test_a_shared_model_cannot_be_renamed_or_given_another_robot():
                 setattr(system, name, value)
     assert stratcli.preset("one-arm").name == "one-arm"
     assert load_scenario(ROOT / "scenarios" / "sim4_task_d.toml") == task
+
+
+def test_a_field_with_abs_plans_without_a_traceback(tmp_path):
+    """`abs(x)` is an allowed function, but its derivative's derivative is a Dirac delta,
+    which numpy has no name for: every command ended in a 117-line NameError. The delta is
+    0 away from the kink; this Heisenberg-like system (the bracket's z is 2 + 0.5 sign(x),
+    never 0) plans onto its goal."""
+    import stratcli
+
+    raw = {
+        "name": "abs",
+        "model": {
+            "kind": "custom",
+            "states": ["x", "y", "z"],
+            "inputs": ["u1", "u2"],
+            "fields": {"u1": [1, 0, "-y"], "u2": [0, 1, "x + 0.5*abs(x)"]},
+            "strata": [{"name": "both", "active": ["u1", "u2"]}],
+        },
+        "task": {"start": [0.2, 0, 0], "goal": [0.2, 0, 0.5]},
+        "planner": {"objective": "newton"},
+        "legs": [{"stratum": "both"}],
+    }
+    plan = stratcli.plan(raw)
+    assert plan.ok, plan.message
+    import json
+
+    (tmp_path / "abs.json").write_text(json.dumps(raw))
+    result = CliRunner().invoke(app, ["check", str(tmp_path / "abs.json")])
+    assert result.exit_code == 0 and "Traceback" not in result.output, result.output

@@ -33,7 +33,7 @@ class ArrayFunction:
             self.shape = tuple(array.shape)
             flat = [array[idx] for idx in np.ndindex(*self.shape)]
             self.index = [i for i, e in enumerate(flat) if sp.sympify(e).is_zero is not True]
-            exprs = [flat[i] for i in self.index]
+            exprs = _no_deltas([flat[i] for i in self.index])
             self._func = sp.lambdify(symbols, exprs, modules="numpy", cse=True) if exprs else None
         else:
             self.shape, self.index = tuple(saved["shape"]), list(saved["index"])
@@ -75,6 +75,18 @@ class ArrayFunction:
             except (ArithmeticError, TypeError):
                 flat[self._flat] = self._func(*q)
         return out
+
+
+def _no_deltas(exprs: list) -> list:
+    """`exprs` with every Dirac delta 0: the derivative of `abs(x)` is `sign(x)`, whose own is
+    a delta at 0, which numpy has no name for (it raised NameError: 'DiracDelta' in the middle
+    of a plan); 0 everywhere but at the kink, where no numerical derivative is better."""
+    import sympy as sp
+
+    return [
+        e.replace(sp.DiracDelta, lambda *args: sp.S.Zero) if isinstance(e, sp.Basic) else e
+        for e in exprs
+    ]
 
 
 def _derivatives(exprs: list[sp.Expr], symbols: list[sp.Symbol]) -> list[sp.Expr]:
@@ -152,7 +164,7 @@ class FusedRows:
             import sympy as sp
 
             self._funcs[order] = sp.lambdify(
-                self._symbols, self._flats[order], modules="numpy", cse=True
+                self._symbols, _no_deltas(self._flats[order]), modules="numpy", cse=True
             )
         return self._funcs[order]
 
