@@ -22,6 +22,7 @@ from .node_margins import searchable
 from .planners import PLANNERS
 from .planners.energy import LOWEST_LEGS, optimise_energy
 from .planners.sqp import FIRST_ORDER_ITERATIONS, LOOSE_ABOVE
+from .quadrature_check import ode_checked
 from .sequence import SequencePlan
 from .settings import PlannerSettings
 from .stratified import (
@@ -87,7 +88,9 @@ def plan_sequence(
     """
     start = np.asarray(start, dtype=float)
     check_legs(system, start, legs, settings)  # once: the passes below plan the same legs
-    plan = plan_with_objective(system, start, legs, settings, warm_start, progress)
+    plan = ode_checked(
+        plan_with_objective(system, start, legs, settings, warm_start, progress), system
+    )
     if searchable(constraints) and plan.ok:
         plan = within_limits(system, start, legs, settings, plan, constraints, progress)
     return plan

@@ -634,3 +634,30 @@ def test_a_field_with_abs_plans_without_a_traceback(tmp_path):
     (tmp_path / "abs.json").write_text(json.dumps(raw))
     result = CliRunner().invoke(app, ["check", str(tmp_path / "abs.json")])
     assert result.exit_code == 0 and "Traceback" not in result.output, result.output
+
+
+def test_a_path_across_a_pole_of_the_fields_fails_instead_of_reaching_its_goal():
+    """z' = u2 / (x - 0.5) with x from 0 to 1: the quadrature summed across the pole and the
+    plan said ok (error 1e-13) while an ODE integration stops at x = 0.5. The leg is integrated
+    again and fails numerically, saying why; with the ODE evaluator it failed already."""
+    import stratcli
+    from stratcli.status import Status
+
+    raw = {
+        "name": "pole",
+        "model": {
+            "kind": "custom",
+            "states": ["x", "y", "z"],
+            "inputs": ["u1", "u2"],
+            "fields": {"u1": [1, 0, 0], "u2": [0, 1, "1/(x - 0.5)"]},
+            "strata": [{"name": "s", "active": ["u1", "u2"]}],
+        },
+        "task": {"start": [0, 0, 0], "goal": [1, 1, 0.3]},
+        "legs": [{"stratum": "s"}],
+    }
+    for objective in ("newton", "energy"):
+        plan = stratcli.plan({**raw, "planner": {"objective": objective}})
+        assert not plan.ok and plan.legs[0].status is Status.NUMERICAL_FAILURE
+        assert "an ODE integration of its controls breaks down on the way" in plan.message
+    clear = {**raw, "task": {"start": [2, 0, 0], "goal": [3, 1, 0.3]}}  # x far past the pole
+    assert stratcli.plan(clear).ok
