@@ -629,6 +629,33 @@ def test_plan_in_auto_mode_chooses_and_says_why(tmp_path, newton):
     assert printed["comparison"]["jobs"] == 1
 
 
+def test_auto_mode_with_a_free_goal_coordinate_plans_and_records_it_free(tmp_path, newton):
+    """A goal with "*" (theta free) planned every candidate, then died writing the chosen
+    sequence: `ValidationError ... goal.3 must be a finite number (got nan)`, exit 1, no
+    record. Its resolved.json keeps the coordinate free and plans the same sequence again."""
+    text = newton.read_text().replace(
+        'goal = ["-pi/3", "pi/3", "pi/4", "-pi/12"]', 'goal = ["-pi/3", "pi/3", "pi/4", "*"]'
+    )
+    assert '"*"' in text
+    newton.write_text(text)
+    out = tmp_path / "runs"
+    args = ["plan", str(newton), "--out", str(out), "--jobs", "1", "--quiet"]
+    result = runner.invoke(cli.app, args)
+    assert result.exit_code == 0, result.output
+    (run_dir,) = out.iterdir()
+    resolved = json.loads((run_dir / "resolved.json").read_text())
+    assert resolved["task"]["goal"][3] is None and resolved["legs"][-1]["goal"][3] is None
+    again = runner.invoke(
+        cli.app,
+        ["plan", str(run_dir / "resolved.json"), "--out", str(tmp_path / "again"), "--quiet"],
+    )
+    assert again.exit_code == 0, again.output
+    (replanned,) = (tmp_path / "again").iterdir()
+    first, second = (json.loads((d / "result.json").read_text()) for d in (run_dir, replanned))
+    assert [leg["stratum"] for leg in second["legs"]] == [leg["stratum"] for leg in first["legs"]]
+    assert second["total_energy"] == pytest.approx(first["total_energy"], rel=1e-9)
+
+
 BAD_DECOMPOSE = {
     "max_length": ("max_length = 3", "max_length = 0", "decompose.max_length: must be"),
     "strategy": (

@@ -10,6 +10,8 @@ from concurrent.futures import Executor
 from contextlib import contextmanager
 from datetime import UTC, datetime
 
+import numpy as np
+
 from ..arguments import checked, flag
 from ..decomposition import moved_coordinates, pi_fraction
 from ..errors import UnusedLegsWarning
@@ -220,7 +222,12 @@ def with_legs(task: Task, legs) -> Task:
     plain scenario that plans that sequence again. The [decompose] table that chose it is
     left out (a scenario gives one or the other); comparison.json keeps its settings."""
     entries = [
-        LegEntry(stratum=leg.stratum, method=leg.method, goal=list(leg.goal), duration=leg.duration)
+        LegEntry(
+            stratum=leg.stratum,
+            method=leg.method,
+            goal=[float(g) if np.isfinite(g) else "*" for g in leg.goal],  # NaN: free, "*"
+            duration=leg.duration,
+        )
         for leg in legs
     ]
     scenario = task.scenario.model_copy(update={"legs": entries, "decompose": None})
