@@ -656,6 +656,38 @@ def test_auto_mode_with_a_free_goal_coordinate_plans_and_records_it_free(tmp_pat
     assert second["total_energy"] == pytest.approx(first["total_energy"], rel=1e-9)
 
 
+def test_auto_mode_where_no_candidate_can_be_searched_fails_as_exhaustive_does(tmp_path, newton):
+    """Screened, a task whose every candidate has a leg with no plan even alone was bad input
+    (exit 2) naming one candidate's leg, with no record; --exhaustive failed it properly
+    (exit 1, the furthest sequence, a record). Now both fail the same way."""
+    strict = "tolerance = 1e-9\nmax_iterations = 1\nrestarts = 0"
+    energy = (
+        newton.read_text()
+        .replace('objective = "newton"\n', "")
+        .replace("tolerance = 1e-3", strict, 1)
+    )
+    newton.write_text(energy.replace('"-pi/12"]', "1.5]", 1))
+    codes = []
+    for extra in ([], ["--exhaustive"]):
+        out = tmp_path / f"runs{len(extra)}"
+        args = [
+            "compare-sequences",
+            str(newton),
+            "--max-length",
+            "2",
+            "--jobs",
+            "1",
+            "--out",
+            str(out),
+        ]
+        result = runner.invoke(cli.app, [*args, *extra, "--quiet"])
+        codes.append(result.exit_code)
+        assert "planning failed: no sequence reached the goal" in result.stderr, result.output
+        (run_dir,) = out.iterdir()
+        assert json.loads((run_dir / "result.json").read_text())["status"] == "failed"
+    assert codes == [1, 1]
+
+
 BAD_DECOMPOSE = {
     "max_length": ("max_length = 3", "max_length = 0", "decompose.max_length: must be"),
     "strategy": (

@@ -106,20 +106,30 @@ def compare_decomposition(
     `executor` (any concurrent.futures.Executor, e.g. a Dask cluster's: `sequences._cluster`):
     plan there instead of in `jobs` forked processes."""
     compile_time = compile_strata(task.system, decomposition.candidates_strata)
-    comparison = compare(
-        task.system,
-        task.start,
-        decomposition.candidates,
-        task.settings,
-        criterion=auto.criterion,
-        jobs=jobs,
-        progress=progress,
-        screen=None if exhaustive else SCREEN_TOP,
-        executor=executor,
-        constraints=task.constraints,
-        more_harmonics=not harmonics_given(task),
-    )
+
+    def ranked(screen):
+        return compare(
+            task.system,
+            task.start,
+            decomposition.candidates,
+            task.settings,
+            criterion=auto.criterion,
+            jobs=jobs,
+            progress=progress,
+            screen=screen,
+            executor=executor,
+            constraints=task.constraints,
+            more_harmonics=not harmonics_given(task),
+        )
+
+    comparison = ranked(None if exhaustive else SCREEN_TOP)
     best = comparison.best
+    if not exhaustive and (best is None or best.plan is None) and decomposition.candidates:
+        # the screen left no candidate searched (each has a leg with no plan even alone):
+        # searched after all, so that the failure is the one --exhaustive reports, with its
+        # furthest plan and record, not bad input naming one candidate
+        comparison = ranked(None)
+        best = comparison.best
     if best is None or best.plan is None:
         raise InputError(
             [Problem("decompose", best.message if best else "no candidate sequences")],
