@@ -42,6 +42,7 @@ from .scenario_checks import (
     cushion_problems,
     duration_problems,
     lie_problems,
+    lie_step_problems,
     periodic_problems,
 )
 from .scenario_hints import beside_refused, hinted
@@ -371,6 +372,7 @@ def _resolve(
     problems.extend(duration_problems(scenario, legs))
     if not spans:  # (a basis of such periods is degenerate: its conditions say nothing)
         problems.extend(periodic_problems(scenario, system, legs))
+        problems.extend(lie_step_problems(scenario, system, legs))
     problems.extend(acceleration_problems(scenario))
     vias = [(f"legs[{i}].goal", leg.goal) for i, leg in enumerate(legs[:-1])]
     problems.extend(attitude_problems(system, [*vias, ("task.goal", goal)]))

@@ -25,6 +25,7 @@ __all__ = [
     "attitude_problems",
     "duration_problems",
     "lie_problems",
+    "lie_step_problems",
     "periodic_problems",
 ]
 
@@ -170,6 +171,49 @@ def periodic_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
                 end[d, k] = row @ elim.particular if fixed else stand_in[d, k]
         previous = (end[0], end[1])
     return []
+
+
+def lie_step_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[Problem]:
+    """A Lie leg after another leg whose step lasts a whole number of basis periods (or
+    nearly) while its steps end at rest (`rest`, the default) under a continuity that carries
+    the controls of the inputs both legs use over: its first step's controls would end as
+    they start, continuing the leg before and ending at 0 ("boundary conditions are
+    inconsistent" at planning time, and the advice to move a via)."""
+    p = scenario.planner
+    if p.continuity == "none":
+        return []
+    problems = []
+    for i, leg in enumerate(legs):
+        lie = leg.lie or p.lie
+        if (
+            leg.method != "lie"
+            or i == 0
+            or not lie.rest
+            or legs[i - 1].stratum not in system.strata
+        ):
+            continue
+        before, now = (set(system.stratum(x.stratum).active) for x in (legs[i - 1], leg))
+        if not before & now:
+            continue  # no input carried over: every one starts the leg at 0
+        periods, b = lie.step_duration / p.basis.period, p.basis
+        ends = [
+            f(np.array([lie.step_duration])) - f(np.zeros(1)) for f in (b.values, b.derivatives)
+        ]
+        if round(periods) < 1 or max(np.abs(e).max() for e in ends) > 1e-8:
+            continue  # (the values and slopes at its ends differ: its own conditions hold)
+        own = scenario.legs is not None and i < len(scenario.legs) and scenario.legs[i].lie
+        where = f"legs[{i}].lie.step_duration" if own else "planner.lie.step_duration"
+        problems.append(
+            Problem(
+                where,
+                f"leg {i + 1}'s Lie steps last {lie.step_duration:g} s, {periods:.6g} basis "
+                f"period{'' if round(periods) == 1 else 's'} of {p.basis.period:g} s: a step's "
+                f"controls then end as they start, so its first cannot continue leg {i}'s "
+                f"under {p.continuity} and end at rest (lie.rest); use a step that is no whole "
+                "number of periods (the paper's 0.51 s)",
+            )
+        )
+    return problems
 
 
 def _periodic_problem(scenario, system, legs, i, cons) -> Problem:

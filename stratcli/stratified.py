@@ -257,6 +257,10 @@ def assemble(
     their control jumps, and the failure message of the first leg that failed."""
     switches = []
     for before, after in itertools.pairwise(planned):
+        if not (before.pieces and after.pieces):  # a leg that failed with no controls: no
+            none = np.full(len(system.inputs), np.nan)  # jump to measure (it read as one)
+            switches.append(Switch(after.t0, before.index, none, none.copy()))
+            continue
         u, du = before.end_controls()
         zero = np.array([0.0])
         switches.append(

@@ -174,3 +174,44 @@ def test_a_lie_leg_failing_either_way_keeps_the_energy_objectives_newton_legs(sc
     for leg, energy_plan_leg in zip(plan.legs[:2], full.legs[:2], strict=True):
         assert leg.energy == pytest.approx(energy_plan_leg.energy, rel=1e-9)
     assert "lie.degree = 3" not in plan.message and "more lie.max_steps" in plan.message
+
+
+def test_a_lie_step_of_a_whole_basis_period_is_refused_on_loading():
+    """Sim 3 with lie.step_duration = 2.17, the basis period: its steps' controls end as they
+    start, so the first cannot continue leg 2's and end at rest; planning failed with
+    "boundary conditions are inconsistent" and the advice to move a via, and the summary
+    showed a control jump of 0.66 at a switch to a leg with no controls."""
+    from conftest import ROOT
+
+    from stratcli.errors import InputError
+    from stratcli.scenario import load_scenario
+
+    text = (ROOT / "scenarios" / "sim3_hybrid.toml").read_text()
+    with pytest.raises(InputError) as info:
+        load_scenario(text.replace("step_duration = 0.51", "step_duration = 2.17", 1))
+    (problem,) = info.value.problems
+    assert problem.path == "planner.lie.step_duration"
+    assert problem.message.startswith("leg 3's Lie steps last 2.17 s, 1 basis period of 2.17 s")
+    load_scenario(text.replace("step_duration = 0.51", "step_duration = 2.0", 1))
+
+
+def test_a_switch_to_a_leg_without_controls_has_no_jump_to_measure():
+    """A leg that failed before its first step has no controls: its switch was measured
+    against zero controls (a jump of 0.66 in the summary line); it is not a number."""
+    from stratcli.stratified import assemble
+
+    plan = plan_sequence(
+        preset("one-arm"),
+        np.array([0.0, np.pi / 4, 0.0, 0.0]),
+        [
+            LegSpec("S3", np.array([-np.pi / 3, np.pi / 3, 0.0, 0.0])),
+            LegSpec("S1", np.array([-np.pi / 3, np.pi / 3, np.pi / 4, -np.pi / 12])),
+        ],
+        PlannerSettings(objective="newton"),
+    )
+    legs = [plan.legs[0], replace(plan.legs[1], pieces=())]
+    specs = [LegSpec(leg.stratum, leg.goal) for leg in plan.legs]
+    again = assemble(plan.system, plan.settings, plan.start, specs, legs)
+    (switch,) = again.switches
+    assert np.all(np.isnan(switch.jump)) and np.all(np.isnan(switch.jump_derivative))
+    assert np.all(np.isfinite(plan.switches[0].jump))  # a leg with controls: measured
