@@ -16,7 +16,8 @@ How `α` is chosen (`lie.alpha`): "energy" (default) solves eq. 22 and 23 togeth
 two are the same when the basis has as many fields as the leg has targets (two inputs,
 degree 2: the paper's models); with more fields (degree 3, or three inputs) the minimum-norm
 `α_d` asks for third-order brackets that are expensive to make, and "energy" lets the
-cheapest combination do the step (Sim 3's Lie leg, degree 3: energy 1.7 instead of 4.3·10³).
+cheapest combination do the step (Sim 3's Lie leg, degree 3: energy 1.56 instead of 946
+with "pinv"; not always: a base turn on S3 cost 1816 with "energy", 333 with "pinv").
 
 Every step is one piece of the leg, with local time `[0, step_duration]`. Its boundary
 conditions are those of a leg (`continuity.leg_constraints`): the first piece continues the
