@@ -150,8 +150,18 @@ def plan_with_objective(
         return replace(newton, notes=(*newton.notes, note[:400]))
     search = replace(search, newton_energy=newton.total_energy)
     newton = replace(newton, optimisation=search)
-    if coefficients is None:
-        return newton
+    if coefficients is None:  # said: the plan is not the minimum-energy one it was asked for
+        why = "; ".join(
+            f"{start.kind}: {start.stopped}"
+            + (f", {start.goal_error:.2g} off the goals" if np.isfinite(start.goal_error) else "")
+            for start in search.starts
+        )
+        note = (
+            f"the energy search ended on the goals from none of its "
+            f"{len(search.starts)} start{'s' if len(search.starts) != 1 else ''} ({why}): the "
+            "plan is plain Newton's, its energy not minimised"
+        )
+        return replace(newton, notes=(*newton.notes, note))
     say("energy search: re-chaining the legs from the best start")
     final = chain_legs(system, start, legs, settings, initial=coefficients)
     held = _held_note(system, legs, targets, endpoints, nominal)

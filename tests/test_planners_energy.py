@@ -47,6 +47,34 @@ def test_a_search_stopped_short_of_a_minimum_says_so(task_d, monkeypatch):
     assert "iteration limit after 1 SQP iteration with" in note and "planner.starts" in note
 
 
+def test_a_search_that_ends_on_the_goals_from_no_start_says_the_plan_is_newtons(
+    task_d, monkeypatch
+):
+    """A kinematic car on the ODE path: its one start was not restored onto the goals, and the
+    plan, plain Newton's, passed for the minimum-energy one (no note, no search line)."""
+    import stratcli.objectives as objectives
+
+    task = task_d[0]
+    real = objectives.optimise_energy
+
+    def none_feasible(*args, **kwargs):
+        _, search = real(*args, **kwargs)
+        lost = tuple(
+            replace(s, feasible=False, converged=False, stopped="not restored onto the goals")
+            for s in search.starts
+        )
+        return None, replace(search, starts=lost, best=None)
+
+    monkeypatch.setattr(objectives, "optimise_energy", none_feasible)
+    plan = plan_sequence(task.system, task.start, list(task.legs), task.settings)
+    newton = task_d[1]
+    assert plan.ok and plan.total_energy == pytest.approx(newton.total_energy, rel=1e-12)
+    (note,) = [n for n in plan.notes if n.startswith("the energy search ended on the goals")]
+    assert note.endswith("the plan is plain Newton's, its energy not minimised")
+    assert f"from none of its {len(plan.optimisation.starts)} starts" in note
+    assert "not restored onto the goals" in note
+
+
 @pytest.mark.parametrize("name", ["sim4_task_b", "sim4_task_d", "sim2"])
 def test_without_second_derivatives_the_search_still_converges(name, monkeypatch):
     """Legs whose end-point maps have no Hessian (URDF models, ODE-path legs) estimate the
