@@ -931,3 +931,42 @@ def test_show_of_a_time_scaled_auto_record_says_its_comparison_is_as_planned(tmp
     (run_dir,) = out.iterdir()
     shown = " ".join(runner.invoke(cli.app, ["show", str(run_dir)]).output.split())
     assert "(all of them: comparison.json, as planned, before time scaling by 2)" in shown
+
+
+CHAINED5 = """
+name = "chained5"
+[model]
+kind = "custom"
+states = ["x1", "x2", "x3", "x4", "x5"]
+inputs = ["u1", "u2"]
+[model.fields]
+u1 = [1, 0, "x2", "x3", "x4"]
+u2 = [0, 1, 0, 0, 0]
+[[model.strata]]
+name = "all"
+active = ["u1", "u2"]
+[task]
+start = [0, 0, 0, 0, 0]
+goal = [0, 0, 0, 0, 0.1]
+[[legs]]
+stratum = "all"
+"""
+
+
+def test_a_system_that_needs_degree_4_brackets_is_undecided_not_declared_uncontrollable(tmp_path):
+    """A chained form of 5 states is controllable with degree-4 brackets; the check, whose
+    brackets stop at degree 3, said "not stratified controllable" as a fact. It says up to
+    which degree, that such a system is not decided, and how to plan it (which works)."""
+    path = tmp_path / "chained5.toml"
+    path.write_text(CHAINED5)
+    checked = runner.invoke(cli.app, ["check", str(path)])
+    assert checked.exit_code == 3
+    (verdict,) = [line for line in checked.output.splitlines() if line.startswith("verdict:")]
+    assert (
+        "not stratified controllable (eq. 2, brackets up to degree 3: a system that needs"
+        in verdict
+    )
+    assert "plan --no-check tries it" in verdict
+    args = ["plan", str(path), "--no-check", "--objective", "newton", "--out", str(tmp_path / "r")]
+    planned = runner.invoke(cli.app, [*args, "--quiet"])
+    assert planned.exit_code == 0, planned.output

@@ -173,7 +173,7 @@ def check_document(
         problems.append(
             f"the strata {', '.join(seq.strata)} together reach only {int(rank)} of "
             f"{system.n} directions at q = ({', '.join(f'{x:.4g}' for x in q)}), even with "
-            "brackets across strata: not stratified controllable (eq. 2)"
+            "brackets across strata (up to degree 3): not stratified controllable (eq. 2)"
         )
     doc["problems"] = problems
     doc["model_problems"] = model_problems

@@ -149,12 +149,14 @@ def check_report(report) -> None:
     verdict = (
         "strongly controllable on every stratum (eq. 4)"
         if not weak
-        else f"not strongly controllable on {', '.join(weak)} (eq. 4)"
+        else f"not strongly controllable on {', '.join(weak)} (eq. 4, brackets up to degree 3)"
     )
     verdict += (
         "; stratified controllable (eq. 2" + (")" if eq2["holds"] else ", by switching)")
         if doc["stratified_controllable"]
-        else "; [red]not stratified controllable[/] (eq. 2)"
+        else "; [red]not stratified controllable[/] (eq. 2, brackets up to degree 3: a "
+        "system that needs higher ones, such as a chained form of 5 states, is not decided "
+        "here; plan --no-check tries it)"
     )
     if doc["legs"] is not None:
         legs_ok = all(leg["ok"] for leg in doc["legs"])
