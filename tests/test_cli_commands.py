@@ -970,3 +970,50 @@ def test_a_system_that_needs_degree_4_brackets_is_undecided_not_declared_uncontr
     args = ["plan", str(path), "--no-check", "--objective", "newton", "--out", str(tmp_path / "r")]
     planned = runner.invoke(cli.app, [*args, "--quiet"])
     assert planned.exit_code == 0, planned.output
+
+
+def test_a_leg_refused_for_a_coordinate_the_next_leg_locks_says_so(tmp_path):
+    """Leg 2 (x only) was refused for steering z with the advice 'goal "*"', which its goal
+    already had: leg 3 locks z, so leg 2 must end it where it stays. The line says that."""
+    path = tmp_path / "pinned.toml"
+    path.write_text(
+        """
+name = "pinned"
+[model]
+kind = "custom"
+states = ["x", "y", "z"]
+inputs = ["u1", "u2"]
+parameters = { k = 1 }
+[model.fields]
+u1 = [1, 0, "-k*y"]
+u2 = [0, 1, "k*x"]
+[[model.strata]]
+name = "lift"
+active = ["u1", "u2"]
+[[model.strata]]
+name = "flat"
+active = ["u1", "u2"]
+locked = ["z"]
+parameters = { k = 0 }
+[[model.strata]]
+name = "xonly"
+active = ["u1"]
+locked = ["y"]
+[task]
+start = [0, 0, 0]
+goal = [1, 1, 1]
+[[legs]]
+stratum = "lift"
+goal = [0, 0, 1]
+[[legs]]
+stratum = "xonly"
+goal = [1, 0, "*"]
+[[legs]]
+stratum = "flat"
+"""
+    )
+    result = runner.invoke(cli.app, ["check", str(path)])
+    assert result.exit_code == 3
+    assert 'goal "*"; not z, whatever its goal says: leg 3 locks it, so this leg ends it' in (
+        " ".join(result.output.split())
+    )

@@ -163,7 +163,9 @@ def check_document(
                     f"leg {leg.index + 1} on {leg.stratum}: its generators and brackets (up to "
                     f"degree {MAX_DEGREE}) span only {leg.failure_rank} of the {len(names)} "
                     f"coordinates it steers ({', '.join(names)}) at {where}; steer fewer "
-                    'coordinates on this leg (goal "*") or use another stratum'
+                    'coordinates on this leg (goal "*"'
+                    + _pinned(system, legs, leg.index, leg.targets)
+                    + ") or use another stratum"
                     + _inert(system, leg.stratum)
                 )
     elif not seq.controllable and not model_problems:
@@ -180,6 +182,22 @@ def check_document(
     doc["warnings"] = warnings
     doc["controllable"] = not problems and not model_problems
     return doc
+
+
+def _pinned(system: System, legs, index: int, targets) -> str:
+    """Which steered coordinates "*" cannot free: the next leg locks them, so this leg must
+    end them at the value they keep there (a new user's "*" was there already)."""
+    if index + 1 >= len(legs) or legs[index + 1].stratum not in system.strata:
+        return ""
+    locked = set(system.stratum(legs[index + 1].stratum).locked)
+    pinned = [system.states[j] for j in targets if j in locked]
+    if not pinned:
+        return ""
+    them = "it" if len(pinned) == 1 else "them"
+    return (
+        f"; not {', '.join(pinned)}, whatever its goal says: leg {index + 2} locks {them}, so "
+        f"this leg ends {them} where {them} must stay"
+    )
 
 
 def _inert(system: System, stratum: str) -> str:
