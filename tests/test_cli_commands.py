@@ -1017,3 +1017,24 @@ stratum = "flat"
     assert 'goal "*"; not z, whatever its goal says: leg 3 locks it, so this leg ends it' in (
         " ".join(result.output.split())
     )
+
+
+ONLY2 = """[[model.strata]]
+name = "only2"
+active = ["u2"]
+locked = ["x1", "x3", "x4", "x5"]
+"""
+
+
+def test_check_all_strata_shows_the_strata_no_leg_uses(tmp_path):
+    """`check FILE` showed only the strata the scenario's legs use: a stratum of the model
+    that could not be planned on stayed hidden. --all-strata shows every one (and its
+    verdict), the default the legs' strata, the legs checked either way."""
+    path = tmp_path / "three.toml"
+    path.write_text(CHAINED5.replace("[task]", ONLY2 + "[task]", 1))
+    rows = {}
+    for extra in ([], ["--all-strata"]):
+        doc = json.loads(runner.invoke(app, ["check", str(path), "--json", *extra]).stdout)
+        rows[bool(extra)] = [s["stratum"] for s in doc["strata"]]
+        assert [leg["leg"] for leg in doc["legs"]] == [1]
+    assert rows == {False: ["all"], True: ["all", "only2"]}

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import checked, integer, source
+from ..arguments import checked, flag, integer, source
 from ..errors import InputError, NotControllableError, Problem
 from ..liealgebra import MAX_DEGREE
 from ..models.numbers import parse_number
@@ -106,6 +106,7 @@ def controllability_first(
     samples=integer(0, MAX_SAMPLES),
     degree=integer(1, MAX_DEGREE),
     seed=integer(0, 2**63 - 1),
+    all_strata=flag,
 )
 def check_controllability(
     target: str | Path | Mapping[str, Any] | Task,
@@ -113,6 +114,7 @@ def check_controllability(
     samples: int = 100,
     degree: int = 2,
     seed: int = 0,
+    all_strata: bool = False,
 ) -> CheckReport:
     """Controllability of every stratum (paper eq. 4) and of the strata together (eq. 2).
 
@@ -130,6 +132,9 @@ def check_controllability(
         Lie bracket degree (1-3).
     seed : int
         Seed of the sampled configurations.
+    all_strata : bool
+        For a scenario, every stratum of its model (default: those its legs use, or its
+        [decompose] table's candidates).
 
     Returns
     -------
@@ -151,7 +156,8 @@ def check_controllability(
         system, legs, title, task = task, None, f"URDF {Path(target).name}", None
         strata, q = list(system.strata), [0.0] * system.n
     else:
-        system, legs, strata, q = task.system, task.legs or None, check_strata(task), task.start
+        system, legs, q = task.system, task.legs or None, task.start
+        strata = list(system.strata) if all_strata else check_strata(task)
         title = f"{task.scenario.name} ({task.model_name} model)"
     if at is not None:
         q = configuration(system, at)

@@ -311,6 +311,13 @@ def check(
     ] = 100,
     degree: Annotated[int, typer.Option(min=1, max=3, help="Lie bracket degree (1-3).")] = 2,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the sampled configurations.")] = 0,
+    all_strata: Annotated[
+        bool,
+        typer.Option(
+            "--all-strata",
+            help="For a scenario, every stratum of its model, not only those its legs use.",
+        ),
+    ] = False,
     json_output: Json = False,
 ) -> None:
     """Controllability of every stratum (paper eq. 4) and of the strata together (eq. 2).
@@ -318,7 +325,8 @@ def check(
     Per stratum: the rank of its generators and Lie brackets (up to DEGREE, on its free
     coordinates) and their smallest singular value, at the configuration and at SAMPLES
     sampled ones; where DEGREE falls short, third-order brackets are tried. For a scenario,
-    also whether each leg's stratum spans the coordinates the leg steers. Exits 0, 2 on bad
+    the strata its legs use (every one with --all-strata), and whether each leg's stratum
+    spans the coordinates the leg steers. Exits 0, 2 on bad
     input, 3 when the scenario's strata cannot do their legs (or the strata of a model or an
     auto-mode scenario do not reach every direction together), naming stratum and
     configuration.
@@ -326,7 +334,9 @@ def check(
     from .. import api  # start-up speed
 
     with render.reported():
-        report = api.check_controllability(target, at, samples=samples, degree=degree, seed=seed)
+        report = api.check_controllability(
+            target, at, samples=samples, degree=degree, seed=seed, all_strata=all_strata
+        )
     if json_output:
         render.print_json(report.document)
     else:
