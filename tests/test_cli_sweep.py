@@ -296,3 +296,26 @@ def test_a_compare_mode_row_ranks_the_searched_sequences_and_lists_the_bounded_a
     ranked, bounded = row["ranking"].split("; bounded: ")
     assert len(ranked.split(" > ")) == int(row["reached"])
     assert len(ranked.split(" > ")) + len(bounded.split("), (")) == int(row["candidates"])
+
+
+def test_strict_sweeps_exit_1_when_a_task_did_not_plan(tmp_path):
+    """A sweep with failed tasks exits 0 (a failed task is a row like any other): a CI job
+    could not fail on them. --strict exits 1 and says how many, --quiet or not."""
+    body = (
+        '[[sweep.task]]\n"planner.max_iterations" = 1\n"planner.restarts" = 0\n\n'
+        '[[sweep.task]]\n"planner.max_iterations" = 100\n"planner.restarts" = 11\n'
+    )
+    path = write(tmp_path, body)
+    plain = runner.invoke(
+        app, ["sweep", str(path), "--out", str(tmp_path / "a"), "--jobs", "1", "-q"]
+    )
+    assert plain.exit_code == 0, plain.output
+    counts = json.loads((tmp_path / "a" / "sweep.json").read_text())["counts"]
+    assert counts["ok"] == 1 and sum(counts.values()) == 2
+    args = ["sweep", str(path), "--out", str(tmp_path / "b"), "--jobs", "1", "-q", "--strict"]
+    strict = runner.invoke(app, args)
+    assert strict.exit_code == 1
+    assert strict.stderr.strip() == "failed: 1 task did not plan (--strict)"
+    ok = write(tmp_path, '[[sweep.task]]\n"planner.max_iterations" = 100\n', name="fine")
+    args = ["sweep", str(ok), "--out", str(tmp_path / "c"), "--jobs", "1", "-q", "--strict"]
+    assert runner.invoke(app, args).exit_code == 0

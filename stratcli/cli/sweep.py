@@ -108,6 +108,15 @@ def sweep(
     json_output: Annotated[
         bool, typer.Option("--json", metavar="", help="Print sweep.json instead of the summary.")
     ] = False,
+    strict: Annotated[
+        bool,
+        typer.Option(
+            "--strict",
+            metavar="",
+            help="Exit 1 when any task did not plan (for CI: a failed "
+            "task is otherwise a row like any other).",
+        ),
+    ] = False,
     quiet: Quiet = False,
 ) -> None:
     """Plan many tasks of one base scenario (a grid, random tasks or a table of them).
@@ -116,8 +125,8 @@ def sweep(
     OUT/rows.jsonl as it finishes (fsync'd), so a sweep that was killed continues with
     --resume. At the end: results.csv (one row per task, in task order), sweep.json (counts,
     success rate, executor, wall time) and plots. Exits 0 when every task has its row (a
-    task that failed is a row, with its status and message), 1 when tasks are missing
-    because a worker died (run again with --resume), 2 on a bad sweep file.
+    task that failed is a row, with its status and message; with --strict, 1), 1 when tasks
+    are missing because a worker died (run again with --resume), 2 on a bad sweep file.
     """
     import gc
 
@@ -158,7 +167,10 @@ def sweep(
             "incomplete",
             f"{len(outcome.missing)} tasks have no row (their worker died); {again} plans them",
         )
-    raise typer.Exit(1 if outcome.missing else 0)
+    failed = sum(n for status, n in outcome.summary["counts"].items() if status != "ok")
+    if strict and failed and not outcome.missing:  # (said, in a CI log, whatever --quiet)
+        render.error("failed", f"{counted(failed, 'task')} did not plan (--strict)")
+    raise typer.Exit(1 if outcome.missing or (strict and failed) else 0)
 
 
 def _again_command(file: Path, out: Path, jobs, dask, records) -> str:
