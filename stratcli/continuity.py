@@ -122,8 +122,9 @@ def eliminate(constraints: Constraints) -> Elimination:
     if residual > 1e-9 * (1.0 + float(np.abs(c).max())):
         raise ValueError(  # (continuity rows at both ends are dependent: periodic controls)
             f"boundary conditions are inconsistent (residual {residual:.2e}): over a whole "
-            "number of basis periods a control ends as it starts, so it cannot continue the "
-            "one before and end at 0; use a period that does not divide the leg or Lie step"
+            "number of basis periods, or nearly, a control ends as it starts, so it cannot "
+            "continue the one before and end at 0; use a period that does not divide the leg "
+            "or Lie step"
         )
     return Elimination(particular, Vt[rank:].T)
 

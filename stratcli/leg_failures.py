@@ -20,6 +20,10 @@ def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
     where = f"leg {leg.index + 1} on {leg.stratum}"
     if leg.message.startswith(OWN):  # a planner of one's own missed: its advice is not ours
         return f"{where}: {leg.message}"
+    if leg.status is Status.NUMERICAL_FAILURE and "boundary conditions are inconsistent" in (
+        leg.message
+    ):  # its own advice (the period) is the one: not "a via closer to the start"
+        return f"{where} was {head} ({leg.message})"
     if leg.status is Status.NUMERICAL_FAILURE:
         return f"{where} was {head} ({leg.message}); {advice}"
     if leg.status is Status.DIVERGED:

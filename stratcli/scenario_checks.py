@@ -174,14 +174,15 @@ def periodic_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
 
 
 def lie_step_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[Problem]:
-    """A Lie leg after another leg whose step lasts a whole number of basis periods (or
-    nearly) while its steps end at rest (`rest`, the default) under a continuity that carries
-    the controls of the inputs both legs use over: its first step's controls would end as
-    they start, continuing the leg before and ending at 0 ("boundary conditions are
-    inconsistent" at planning time, and the advice to move a via)."""
+    """A Lie leg after another leg whose first step's conditions contradict each other, as the
+    planner's own (`continuity.leg_constraints`, `eliminate`) find them: its steps end at rest
+    (`rest`, the default), and a step of a whole number of basis periods, or nearly, ends its
+    controls as it starts them, so the first cannot continue the leg before and end at 0
+    ("boundary conditions are inconsistent" at planning time, and the advice to move a via)."""
     p = scenario.planner
     if p.continuity == "none":
         return []
+    stand_in = np.random.default_rng(0).uniform(1.0, 2.0, (2, len(system.inputs)))
     problems = []
     for i, leg in enumerate(legs):
         lie = leg.lie or p.lie
@@ -192,25 +193,30 @@ def lie_step_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
             or legs[i - 1].stratum not in system.strata
         ):
             continue
-        before, now = (set(system.stratum(x.stratum).active) for x in (legs[i - 1], leg))
-        if not before & now:
-            continue  # no input carried over: every one starts the leg at 0
-        periods, b = lie.step_duration / p.basis.period, p.basis
-        ends = [
-            f(np.array([lie.step_duration])) - f(np.zeros(1)) for f in (b.values, b.derivatives)
-        ]
-        if round(periods) < 1 or max(np.abs(e).max() for e in ends) > 1e-8:
-            continue  # (the values and slopes at its ends differ: its own conditions hold)
+        before = np.zeros((2, len(system.inputs)))  # the inputs the leg before hands over
+        used = list(system.stratum(legs[i - 1].stratum).active)
+        before[:, used] = stand_in[:, used]
+        cons = leg_constraints(
+            p.basis, lie.step_duration, system.stratum(leg.stratum).active, system.inputs,
+            p.continuity, previous=(before[0], before[1]), next_active=None, soft_start=False,
+            full_stop=True,
+        )  # fmt: skip
+        try:
+            eliminate(cons)
+            continue
+        except ValueError:
+            pass
+        periods = lie.step_duration / p.basis.period
         own = scenario.legs is not None and i < len(scenario.legs) and scenario.legs[i].lie
         where = f"legs[{i}].lie.step_duration" if own else "planner.lie.step_duration"
         problems.append(
             Problem(
                 where,
                 f"leg {i + 1}'s Lie steps last {lie.step_duration:g} s, {periods:.6g} basis "
-                f"period{'' if round(periods) == 1 else 's'} of {p.basis.period:g} s: a step's "
-                f"controls then end as they start, so its first cannot continue leg {i}'s "
-                f"under {p.continuity} and end at rest (lie.rest); use a step that is no whole "
-                "number of periods (the paper's 0.51 s)",
+                f"period{'' if periods == 1 else 's'} of {p.basis.period:g} s: over a whole "
+                f"number of them, or nearly, a step's controls end as they start, so its first "
+                f"cannot continue leg {i}'s under {p.continuity} and end at rest (lie.rest); use "
+                "a step further from a whole number of periods (the paper's 0.51 s)",
             )
         )
     return problems

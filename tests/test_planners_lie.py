@@ -15,6 +15,7 @@ from stratcli.models.presets import preset
 from stratcli.objectives import plan_sequence
 from stratcli.records.result import result_document
 from stratcli.scenario import load_scenario
+from stratcli.status import Status
 from stratcli.stratified import LegSpec, PlannerSettings
 
 PI = np.pi
@@ -193,6 +194,8 @@ def test_a_lie_step_of_a_whole_basis_period_is_refused_on_loading():
     assert problem.path == "planner.lie.step_duration"
     assert problem.message.startswith("leg 3's Lie steps last 2.17 s, 1 basis period of 2.17 s")
     load_scenario(text.replace("step_duration = 0.51", "step_duration = 2.0", 1))
+    with pytest.raises(InputError):  # nearly a period: as inconsistent for the planner
+        load_scenario(text.replace("step_duration = 0.51", "step_duration = 2.171", 1))
 
 
 def test_a_switch_to_a_leg_without_controls_has_no_jump_to_measure():
@@ -215,3 +218,29 @@ def test_a_switch_to_a_leg_without_controls_has_no_jump_to_measure():
     (switch,) = again.switches
     assert np.all(np.isnan(switch.jump)) and np.all(np.isnan(switch.jump_derivative))
     assert np.all(np.isfinite(plan.switches[0].jump))  # a leg with controls: measured
+
+
+def test_a_plan_whose_leg_has_no_controls_writes_its_record(tmp_path):
+    """Its switch's jump is null in result.json, and run.mcap took abs() of it: a TypeError
+    traceback and no record for a Lie leg that failed before its first step."""
+    import dataclasses
+
+    from conftest import ROOT
+
+    import stratcli
+    from stratcli.api import plan_run
+    from stratcli.stratified import assemble
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml").with_changes(
+        {"planner": {"objective": "newton"}}
+    )
+    outcome = plan_run(task, check=False)
+    plan = outcome.result
+    legs = [plan.legs[0], replace(plan.legs[1], pieces=(), status=Status.NUMERICAL_FAILURE)]
+    failed = assemble(plan.system, plan.settings, plan.start, list(task.legs), legs)
+    failed = replace(failed, scenario=plan.scenario, scenario_text=plan.scenario_text)
+    broken = dataclasses.replace(outcome, result=failed, document=failed.to_dict())
+    run = stratcli.write_record(tmp_path, broken)
+    doc = stratcli.load_run(run).to_dict()
+    assert doc["status"] == "failed" and all(v is None for v in doc["switches"][0]["jump"].values())
+    assert (run / "run.mcap").stat().st_size > 0

@@ -317,7 +317,7 @@ def mcap_log(
                 log.write("/tf", ns, tf)
         if leg.index in switches:
             sw = switches[leg.index]
-            jumps = [abs(v) for v in sw["jump"].values()]
+            jumps = [abs(v) for v in sw["jump"].values() if v is not None]  # null: no controls
             log.write(
                 "/legs",
                 at(max(sw["time"], float(traj.t[s.stop - 1]))),
@@ -328,11 +328,16 @@ def mcap_log(
                         "after_leg": sw["after_leg"],
                         "jump": sw["jump"],
                         "jump_derivative": sw["jump_derivative"],
-                        "max_jump": max(jumps, default=0.0),
+                        "max_jump": max(jumps, default=None),  # (left out: none measured)
                     }
                 ),
             )
-    all_jumps = [abs(v) for sw in result_doc.get("switches", []) for v in sw["jump"].values()]
+    all_jumps = [
+        abs(v)
+        for sw in result_doc.get("switches", [])
+        for v in sw["jump"].values()
+        if v is not None
+    ]
     log.write(
         "/summary",
         max(log.last, at(traj.t[-1] if traj.size else 0.0)),
