@@ -37,11 +37,19 @@ def _by_name(value: dict, system, path: str, problems: list[Problem]) -> np.ndar
     if not value:
         problems.append(Problem(path, "empty: name at least one input or joint"))
         return None
+    named: dict[int, str] = {}  # input index: the key that named it
     for name, limit in value.items():
-        if name in inputs:
-            out[inputs.index(name)] = limit
-        elif name in driven:
-            out[driven.index(name)] = limit
+        k = inputs.index(name) if name in inputs else driven.index(name) if name in driven else -1
+        if k >= 0 and k in named:  # `{ q2 = 0.5, u2 = 1 }`: the last one won, silently
+            problems.append(
+                Problem(
+                    path,
+                    f"{named[k]} and {name} name the same input ({inputs[k]}): give one limit",
+                )
+            )
+        elif k >= 0:
+            named[k] = name
+            out[k] = limit
         else:
             names = ", ".join(driven + inputs)
             near = get_close_matches(name, driven + inputs, n=1)

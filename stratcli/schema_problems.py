@@ -221,7 +221,10 @@ def _fitting(found: list[tuple]) -> list[Problem]:
     not also a pair `must have at most 2 entries, not 3`); else one line naming them all."""
     misfits = {f[4] for f in found if f[5]}
     fitting = [f for f in found if f[4] not in misfits]
-    if not fitting:
+    if not fitting:  # a form whose own type the value is, erring inside it, is the one
+        inside = [f for f in found if f[6] > 1 and f[6] == max(g[6] for g in found)]
+        if inside:  # (`{ q2 = [1, 2] }` is a table of the by-name form, not a number)
+            return list(dict.fromkeys(f[1] for f in inside))
         return _one_of([f[:4] for f in found])
     reach = {form: min(f[6] for f in fitting if f[4] == form) for form in {f[4] for f in fitting}}
     furthest = max(reach.values())

@@ -244,6 +244,14 @@ def test_rate_limits_by_name_limit_the_inputs_named_and_no_other(tmp_path):
     assert _problems(_task_d(max_rate={})) == [
         "constraints.max_rate: empty: name at least one input or joint"
     ]
+    # one input named twice (a joint and the input that drives it): the last won, silently
+    assert _problems(_task_d(max_rate={"q2": 0.5, "u2": 1.0})) == [
+        "constraints.max_rate: q2 and u2 name the same input (u2): give one limit"
+    ]
+    # a bad value in the table is one line, the table's own (not also "expected a number")
+    assert _problems(_task_d(max_rate={"q2": [1, 2]})) == [
+        "constraints.max_rate.q2: expected a number or an expression such as 'pi/3' (got [1, 2])"
+    ]
 
 
 def test_rate_and_acceleration_limits_are_met_exactly_by_time_scaling():
