@@ -471,6 +471,11 @@ def test_urdf_limits_and_rpy_angles_past_a_full_turn_are_named_as_degrees(tmp_pa
         'task.goal.rpy[2]: 8 rad is past a full turn; if degrees were meant, write "8deg" '
         "(roll, pitch and yaw are within -2pi ... 2pi)"
     ]
+    raw["task"]["goal"]["rpy"] = [0, 0, "400deg"]  # degrees already: no advice to write them
+    assert _problems(raw) == [
+        "task.goal.rpy[2]: 6.98132 rad (400deg) is past a full turn; give it within a turn "
+        "(roll, pitch and yaw are within -2pi ... 2pi)"
+    ]
 
 
 def _depth(p: np.ndarray, q: np.ndarray) -> float:

@@ -65,6 +65,29 @@ def test_a_root_link_named_world_is_refused_as_the_logs_inertial_frame(tmp_path)
     )
 
 
+def test_a_robots_own_base_named_world_is_to_be_renamed_not_removed(tmp_path):
+    """A base with mass named 'world', or a 'world' joined by a revolute joint, was told to
+    be removed with its joint: following that deleted the robot's base and a joint."""
+    inertial = (
+        '<inertial><mass value="10"/>'
+        '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>'
+    )
+    for body, kind in ((inertial, "fixed"), ("", "revolute")):
+        path = tmp_path / "r.urdf"
+        path.write_text(
+            f'<robot name="r"><link name="world">{body}</link><link name="b"/><link name="c"/>'
+            + _joint("j0", kind, "world", "b")
+            + _joint("j1", "revolute", "b", "c")
+            + "</robot>"
+        )
+        with pytest.raises(InputError) as err:
+            read_urdf(path)
+        assert str(err.value).endswith(
+            "the root link is named 'world', the name of the inertial frame: rename it (the "
+            "base of the robot, the root, may have any other name)"
+        ), kind
+
+
 def test_a_link_defined_twice_is_named(tmp_path):
     """It said a joint's child "is not a link in the file (links: a, b, b, ...)"."""
     path = tmp_path / "r.urdf"

@@ -102,11 +102,17 @@ def configuration_list(table: dict, system: System, where: str) -> list:
     angles = [_angle(v, f"{where}.{key}[{i}]", problems) for i, v in enumerate(value)]
     for i, a in enumerate(angles):  # roll, pitch and yaw are within a turn: degrees?
         if key == "rpy" and a != "*" and abs(a) > 2 * np.pi:
+            unit = value[i] if isinstance(value[i], str) else ""  # "400deg": in degrees already
+            advice = (
+                f'if degrees were meant, write "{a:g}deg"'
+                if not any(u in unit.lower() for u in ("deg", "°"))
+                else "give it within a turn"
+            )
             problems.append(
                 Problem(
                     f"{where}.rpy[{i}]",
-                    f"{a:g} rad is past a full turn; if degrees were meant, write "
-                    f'"{a:g}deg" (roll, pitch and yaw are within -2pi ... 2pi)',
+                    f"{a:g} rad{f' ({value[i]})' if unit else ''} is past a full turn; "
+                    f"{advice} (roll, pitch and yaw are within -2pi ... 2pi)",
                 )
             )
     if problems:

@@ -147,11 +147,12 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
         raise _fail(f"{path}: needs exactly one root link, found {len(roots)} ({roots[:5]})")
     if roots[0] == WORLD:  # the log's inertial frame: /tf would make it its own parent
         below = [j for j in joints if j.parent == WORLD]
-        hint = (
+        massless = _mass(root, WORLD) == 0.0
+        hint = (  # a simulator's world link; a real base named so is renamed, not removed
             f"remove joint {below[0].name!r} and link {WORLD!r} to make {below[0].child!r} "
             "the root (a simulator's world link: here the root is the free-flying base)"
-            if len(below) == 1
-            else "rename it"
+            if len(below) == 1 and below[0].type == "fixed" and massless
+            else "rename it (the base of the robot, the root, may have any other name)"
         )
         raise _fail(f"{path}: the root link is named {WORLD!r}, the name of the inertial "
                     f"frame: {hint}")  # fmt: skip
@@ -159,6 +160,15 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
     if not summary.revolute:
         raise _fail(f"{path}: has no revolute joint")
     return text, summary
+
+
+def _mass(root: ET.Element, link: str) -> float:
+    """A link's mass from its `<inertial>` (0 without one; checked by `_check_inertial`)."""
+    for element in root.findall("link"):
+        mass = element.find("inertial/mass") if element.get("name") == link else None
+        if mass is not None:
+            return (_numbers(mass.get("value")) or [0.0])[0]
+    return 0.0
 
 
 WORLD = "world"  # the inertial frame's name in run.mcap's /tf (`records.mcap_spatial`)
