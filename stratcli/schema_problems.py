@@ -181,8 +181,9 @@ def validation_problems(
             what = "is missing" if got is None else f"is {_short(got)}, not a {field}"
             choices = tags.split(", ")
             near = [t for t in choices if isinstance(got, str) and t.lower() == got.lower()]
-            if not near and isinstance(got, str):  # 'URDF', 'planar_manipulator'
+            if not near and isinstance(got, str):  # 'URDF', 'planar_manipulator', 'planar'
                 near = difflib.get_close_matches(got.lower(), choices, n=1, cutoff=0.75)
+                near = near or [t for t in choices if got and t.startswith(got.lower())][:1]
             meant = f": did you mean {near[0]!r}?" if near else ""
             out.append(Problem(f"{where}.{field}", f"{what} (one of: {tags}){meant}"))
             continue

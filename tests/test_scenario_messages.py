@@ -398,3 +398,7 @@ def test_a_kind_in_capitals_is_one_line_with_the_kind_meant(tmp_path):
         "model.kind: is 'URDF', not a kind (one of: preset, custom, planar-manipulator, urdf): "
         "did you mean 'urdf'?"
     ]
+    raw["model"] = {"kind": "planar"}  # the start of one
+    with pytest.raises(InputError) as info:
+        load_scenario(raw)
+    assert info.value.problems[0].render().endswith("did you mean 'planar-manipulator'?")
