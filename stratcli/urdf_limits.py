@@ -28,6 +28,7 @@ __all__ = [
     "URDF_LIMIT",
     "outside_limits",
     "violation_advice",
+    "wider_than_urdf",
     "with_legs_noted_again",
     "with_limit_notes",
 ]
@@ -96,6 +97,27 @@ def outside_limits(task) -> list[str]:
     limits = _unverified_limits(task)
     found = _configurations(task, *limits) if limits else []
     return [f"{'; '.join(found)}; {REFUSED}"] if found else []
+
+
+def wider_than_urdf(task) -> list[str]:
+    """A sentence naming the joints whose [constraints] limits reach past the URDF's own (the
+    table overrides them, so a plan may drive a joint past its hardware stop)."""
+    robot = getattr(task.system, "spatial", None)
+    c = task.constraints
+    if robot is None or c is None:
+        return []
+    wider = [
+        f"{name} [{_fmt(c.lower[j])}, {_fmt(c.upper[j])}] (the URDF's "
+        f"[{_fmt(robot.lower[j])}, {_fmt(robot.upper[j])}])"
+        for j, name in enumerate(robot.joint_names)
+        if j not in c.from_urdf and (c.lower[j] < robot.lower[j] or c.upper[j] > robot.upper[j])
+    ]
+    if not wider:
+        return []
+    return [
+        f"constraints.joint_limits: wider than the URDF's own, which they override: "
+        f"{', '.join(wider)}"
+    ]
 
 
 def _unverified_limits(task) -> tuple[np.ndarray, np.ndarray, tuple] | None:

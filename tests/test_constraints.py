@@ -465,6 +465,11 @@ def test_urdf_limits_and_rpy_angles_past_a_full_turn_are_named_as_degrees(tmp_pa
     ]
     raw["constraints"] = {"joint_limits": {"j1": [-2, 2]}}  # overridden: the table's
     assert not [w for w in limit_warnings(load_scenario(raw)) if w.startswith("model.path")]
+    raw["constraints"] = {"joint_limits": {"j1": [-200, 2]}}  # past the URDF's own: said
+    assert (
+        "constraints.joint_limits: wider than the URDF's own, which they override: j1 [-200, 2] "
+        "(the URDF's [-140, 140])"
+    ) in limit_warnings(load_scenario(raw))
     raw["model"]["path"] = str(ROOT / "robots" / "arm3.urdf")
     raw["task"]["goal"] = {"j1": 0, "j2": 0, "j3": 0, "rpy": [4, 0, 8]}
     assert _problems(raw) == [

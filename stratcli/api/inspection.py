@@ -176,7 +176,8 @@ def check_controllability(
 def limit_warnings(task: Task) -> list[str]:
     """What `plan`, `compare-sequences` and `check` warn of before planning: joint limits
     (the [constraints] table's, a URDF's) and start, via or goal angles past a full turn
-    (degrees written as numbers?) on a planar or URDF robot.
+    (degrees written as numbers?) on a planar or URDF robot; a table's joint limits wider
+    than the URDF's own.
 
     Parameters
     ----------
@@ -189,8 +190,13 @@ def limit_warnings(task: Task) -> list[str]:
         One sentence per pair of such limits and per such configuration; empty without.
     """
     from ..limit_units import degree_like_configurations, degree_like_limits
+    from ..urdf_limits import wider_than_urdf
 
-    return degree_like_limits(task.constraints, task.system) + degree_like_configurations(task)
+    return (
+        degree_like_limits(task.constraints, task.system)
+        + degree_like_configurations(task)
+        + wider_than_urdf(task)
+    )
 
 
 def preset_or_scenario(target: str | Path | Mapping[str, Any] | Task) -> str | Task | System:
