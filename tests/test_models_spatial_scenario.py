@@ -71,6 +71,18 @@ def test_an_attitude_turning_by_more_than_pi_is_noted_with_the_rotation_reached(
     assert not any("turns by more than pi" in n for n in quiet.notes)
 
 
+def test_an_attitude_component_past_a_full_turn_is_noted_as_degrees_maybe(tmp_path):
+    """`attitude = [0, 0, 45]` (45° meant) was noted only as the rotation [0, 0, 1.018]."""
+    from stratcli.models.spatial_scenario import long_attitudes
+
+    (tmp_path / "s.toml").write_text(_text(goal='[0, 0, "*", 0, 0, 45]'))
+    (note,) = long_attitudes(load_scenario(tmp_path / "s.toml"))
+    assert note.endswith('; if degrees were meant, write ["0deg", "0deg", "45deg"]')
+    (tmp_path / "s.toml").write_text(_text(goal='[0, 0, "*", 0, 0, 4.0]'))  # within a turn
+    (note,) = long_attitudes(load_scenario(tmp_path / "s.toml"))
+    assert "degrees" not in note
+
+
 @pytest.mark.parametrize("attitude", ['["*", "*", 4.0]', '[2.5, "*", 2.5]'])
 def test_a_partly_free_attitude_longer_than_pi_is_refused(attitude):
     """Its fixed components can never be reached (log(R) is never longer than pi): it

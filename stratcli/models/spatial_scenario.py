@@ -140,9 +140,16 @@ def long_attitudes(task) -> list[str]:
             continue
         short = so3.log(so3.exp(phi))
         shown = lambda v: "[" + ", ".join(f"{x:.4g}" for x in np.round(v, 12) + 0.0) + "]"  # noqa: E731
+        degrees = (  # a component past a full turn: 45 for 45°?
+            "; if degrees were meant, write ["
+            + ", ".join(f'"{x:.4g}deg"' for x in np.round(phi, 12) + 0.0)
+            + "]"
+            if np.abs(phi).max() > 2 * np.pi
+            else ""
+        )
         out.append(
             f"{where}'s attitude {shown(phi)} turns by more than pi: it is the rotation "
-            f"{shown(short)}, which {reached} shows that one)"
+            f"{shown(short)}, which {reached} shows that one){degrees}"
         )
     return out
 
