@@ -1038,3 +1038,37 @@ def test_check_all_strata_shows_the_strata_no_leg_uses(tmp_path):
         rows[bool(extra)] = [s["stratum"] for s in doc["strata"]]
         assert [leg["leg"] for leg in doc["legs"]] == [1]
     assert rows == {False: ["all"], True: ["all", "only2"]}
+
+
+def test_a_rank_short_at_a_singularity_of_the_fields_says_so(tmp_path):
+    """A car starting at phi = pi/2 (tan(phi) = 1.6e16) was refused as "span only 1 of the 4
+    coordinates", as if brackets were missing; one field dwarfs the others there."""
+    path = tmp_path / "car.toml"
+    path.write_text(
+        """
+name = "car"
+[model]
+kind = "custom"
+states = ["x", "y", "theta", "phi"]
+inputs = ["v", "w"]
+[model.fields]
+v = ["cos(theta)", "sin(theta)", "tan(phi)", 0]
+w = [0, 0, 0, 1]
+[[model.strata]]
+name = "drive"
+active = ["v", "w"]
+[task]
+start = [0, 0, 0, "pi/2"]
+goal = [0, 0.5, 0, 0]
+[[legs]]
+stratum = "drive"
+"""
+    )
+    result = runner.invoke(cli.app, ["check", str(path)])
+    assert result.exit_code == 3
+    assert "its fields reach 1.6e+16 there: a singularity of the model" in " ".join(
+        result.output.split()
+    )
+    fine = path.read_text().replace('start = [0, 0, 0, "pi/2"]', "start = [0, 0, 0, 0.3]")
+    path.write_text(fine)
+    assert runner.invoke(cli.app, ["check", str(path)]).exit_code == 0

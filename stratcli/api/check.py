@@ -167,6 +167,7 @@ def check_document(
                     + _pinned(system, legs, leg.index, leg.targets)
                     + ") or use another stratum"
                     + _inert(system, leg.stratum)
+                    + _huge(system, leg.stratum, leg.failure)
                 )
     elif not seq.controllable and not model_problems:
         worst = int(np.argmin(seq.cross_rank if seq.cross_rank is not None else seq.sum_rank))
@@ -182,6 +183,25 @@ def check_document(
     doc["warnings"] = warnings
     doc["controllable"] = not problems and not model_problems
     return doc
+
+
+HUGE = 1e12  # a field this large where a rank falls short is near a singularity of it
+
+
+def _huge(system: System, stratum: str, q) -> str:
+    """Where the fields themselves are huge (tan(phi) at phi = pi/2: 1.6e16), the rank falls
+    short because one field dwarfs the others, not for want of brackets: say so."""
+    try:
+        G = system.compiled(stratum).G(np.asarray(q, dtype=float)[None])[0]
+    except Exception:  # (a failure to evaluate is reported as a model problem elsewhere)
+        return ""
+    largest = float(np.abs(G).max(initial=0.0))
+    if not np.isfinite(largest) or largest < HUGE:
+        return ""
+    return (
+        f"; its fields reach {largest:.2g} there: a singularity of the model (start or pass "
+        "away from it)"
+    )
 
 
 def _pinned(system: System, legs, index: int, targets) -> str:
