@@ -23,7 +23,8 @@ return: the ranking, and in `.best` the chosen sequence's `PlanOutcome`, its pla
 `.best.result`), `DecompositionOutcome` (`decompose`), `CheckReport`
 (`check_controllability`), `SweepOutcome` (`run_sweep`), `SweepReport` (`read_sweep`).
 Errors: `StratplanError`, `InputError`, `ModelError`, `NotControllableError`, `RecordError`
-(`write_record` could not write), `Problem`; warnings: `IllConditionedWarning`, `UnusedLegsWarning`.
+(`write_record` could not write), `Problem`; warnings: `IllConditionedWarning`, `LimitWarning`,
+`UnusedLegsWarning`.
 
 Arguments are checked before any work: a value of the wrong type raises `TypeError`, a value
 out of range or not one of the choices `InputError` (a `ValueError`); both name the argument.
@@ -92,6 +93,7 @@ _PUBLIC = {
     "ModelError": "errors",
     "NotControllableError": "errors",
     "IllConditionedWarning": "errors",
+    "LimitWarning": "errors",
     "UnusedLegsWarning": "errors",
     "RecordError": "errors",
     "Problem": "errors",
@@ -131,6 +133,7 @@ if TYPE_CHECKING:  # the same names, for type checkers and IDEs
     from .controls import FourierBasis as FourierBasis
     from .errors import IllConditionedWarning as IllConditionedWarning
     from .errors import InputError as InputError
+    from .errors import LimitWarning as LimitWarning
     from .errors import ModelError as ModelError
     from .errors import NotControllableError as NotControllableError
     from .errors import Problem as Problem

@@ -111,6 +111,12 @@ class IllConditionedWarning(UserWarning):
     `stratcli.plan` warns with it (the command line prints it as `warning: ...`)."""
 
 
+class LimitWarning(UserWarning):
+    """A limit or angle that looks mistaken, planned as written: degrees written as numbers,
+    joint limits wider than a URDF's own (`stratcli.plan` warns with it; the command line
+    prints it as `warning: ...`)."""
+
+
 class UnusedLegsWarning(UserWarning):
     """A scenario's [[legs]] that a call does not use: `decompose`, `compare_sequences` and
     `plan_auto` decompose its task.start -> task.goal afresh (the command line prints it as

@@ -616,3 +616,20 @@ def test_a_speed_up_just_past_the_limit_is_shown_with_the_digits_that_tell_it_ap
     said = _retimed("too fast for u1's rate limit", 1 / 1.000001, 1.000001, "less meets it")
     assert said.startswith("re-timed too fast for u1's rate limit: time_scaled by 1.000001, where")
     assert "time_scaled by 2, where at most 1 meets it" in _retimed("x", 0.5, 2.0, "less meets it")
+
+
+def test_stratcli_plan_warns_of_a_limit_that_looks_mistaken_with_its_own_category(tmp_path):
+    """Limits past a full turn (degrees?) came as an IllConditionedWarning, the check's
+    category for a hard leg: a script filtering one filtered both."""
+    import warnings
+
+    import stratcli
+
+    raw = _task_d(joint_limits=[-150, 150])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        stratcli.plan(raw, check=False)
+    kinds = {(w.category.__name__, str(w.message)[:27]) for w in caught}
+    assert ("LimitWarning", "constraints.joint_limits: q") in kinds
+    assert not any(w.category is stratcli.IllConditionedWarning for w in caught)
+    assert all(w.filename == __file__ for w in caught)  # the caller's line, not the package

@@ -16,7 +16,7 @@ from ..arguments import checked, choice, flag, instance, integer, number, option
 from ..compare import CRITERIA
 from ..decomposition import STRATEGIES
 from ..durations import optimise_durations, timed_as
-from ..errors import IllConditionedWarning, InputError
+from ..errors import IllConditionedWarning, InputError, LimitWarning
 from ..limit_timing import enforce
 from ..objectives import plan_sequence, stalled, with_more_harmonics
 from ..records.manifest import Phases, phase, since_start
@@ -96,13 +96,21 @@ def plan(
     -----
     IllConditionedWarning
         For each leg the check expects to be ill-conditioned, with what to try instead.
+    LimitWarning
+        For a limit or angle that looks mistaken (degrees written as numbers, joint limits
+        wider than a URDF's own), planned as written.
     """
     task = as_task(scenario)
     if not task.legs:
         outcome = plan_auto(task, check=check, jobs=jobs, time_scale=time_scale)
         best = outcome.best.result
         return dataclasses.replace(best, notes=(auto_choice(outcome), *best.notes))
-    return plan_run(task, check=check, time_scale=time_scale, warn=_warn).result
+    limits = set(limit_warnings(task))  # (a limit that looks mistaken: a category of its own)
+
+    def warn(sentence: str) -> None:
+        _warn(sentence, LimitWarning if sentence in limits else IllConditionedWarning)
+
+    return plan_run(task, check=check, time_scale=time_scale, warn=warn).result
 
 
 def _warn(sentence: str, category: type[Warning] = IllConditionedWarning) -> None:
