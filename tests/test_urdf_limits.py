@@ -155,7 +155,10 @@ def test_a_urdf_plan_is_searched_within_the_urdfs_limits(tmp_path, objective):
 
 def test_a_table_overriding_the_urdfs_limit_is_recorded_as_the_tables(tmp_path):
     path = _scenario(tmp_path, constraints="[constraints]\njoint_limits = { j2 = [-0.5, 1.5] }\n")
-    plan = stratcli.plan(path, check=False)
+    with pytest.warns(
+        stratcli.LimitWarning, match=r"wider than the URDF's own.*j2 \[-0\.5, 1\.5\]"
+    ):
+        plan = stratcli.plan(path, check=False)
     limits = plan.to_dict()["constraints"]["joint_limits"]
     assert limits["j2"] == {"lower": -0.5, "upper": 1.5, "from": "table"}
     assert limits["j1"]["from"] == "urdf"
