@@ -16,6 +16,7 @@ import numpy as np
 
 from .controls import embed
 from .errors import InputError
+from .lie_notes import far_swings
 from .models.system import System
 from .newton_starts import LEG_TRIES, lowest_legs, seeded_plans
 from .node_margins import searchable
@@ -91,6 +92,8 @@ def plan_sequence(
     plan = ode_checked(
         plan_with_objective(system, start, legs, settings, warm_start, progress), system
     )
+    if any(leg.method == "lie" for leg in legs):  # a local leg that swung far: said
+        plan = replace(plan, notes=(*plan.notes, *far_swings(plan, system))).with_system(system)
     if searchable(constraints) and plan.ok:
         plan = within_limits(system, start, legs, settings, plan, constraints, progress)
     return plan

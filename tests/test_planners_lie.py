@@ -244,3 +244,47 @@ def test_a_plan_whose_leg_has_no_controls_writes_its_record(tmp_path):
     doc = stratcli.load_run(run).to_dict()
     assert doc["status"] == "failed" and all(v is None for v in doc["switches"][0]["jump"].values())
     assert (run / "run.mcap").stat().st_size > 0
+
+
+def test_a_lie_leg_that_swings_a_joint_far_says_so_and_sim3s_does_not():
+    """A Lie leg asked to move q3 by 0.1 rad swung q2 through 9 rad (3237 where Newton legs
+    cost tens), with no word; Sim 3's own Lie leg stays close and is not noted."""
+    from conftest import ROOT
+
+    text = (ROOT / "scenarios" / "sim3_hybrid.toml").read_text()
+    quiet = plan_sequence(*_planned_args(load_scenario(text)))
+    assert not any("swings" in n for n in quiet.notes)
+    far = load_scenario(LIE_MID)
+    plan = plan_sequence(*_planned_args(far))
+    (note,) = [n for n in plan.notes if "(Lie-algebraic) swings" in n]
+    assert note.startswith("leg 2 (Lie-algebraic) swings q2 through")
+    assert 'a Newton leg (method = "newton") may cost far less' in note
+
+
+def _planned_args(task):
+    return task.system, task.start, list(task.legs), task.settings
+
+
+LIE_MID = """
+name = "lie_mid"
+[model]
+kind = "preset"
+name = "one-arm"
+[task]
+start = [0, "pi/4", 0, 0]
+goal = ["-pi/3", "pi/3", "pi/4", "-pi/12"]
+[planner]
+continuity = "lr-C1"
+soft_start = true
+full_stop = true
+lie = { degree = 3 }
+[[legs]]
+stratum = "S3"
+goal = ["-pi/3", "pi/3", 0, "-pi/12"]
+[[legs]]
+stratum = "S1"
+goal = ["-pi/3", "pi/3", 0.1, -0.2]
+method = "lie"
+[[legs]]
+stratum = "S1"
+"""
