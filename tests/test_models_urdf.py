@@ -381,3 +381,17 @@ def test_a_link_of_mass_zero_with_inertia_is_refused(tmp_path):
             )
         else:
             read_urdf(path)
+
+
+def test_a_joint_origin_rpy_past_a_full_turn_is_refused_as_degrees_maybe(tmp_path):
+    """`<origin rpy="0 0 90">` (90 degrees meant) placed the joint at 90 rad, silently."""
+    joint = _joint("j", "revolute").replace("<axis", '<origin xyz="0 0 0" rpy="0 0 90"/><axis')
+    path = _write(tmp_path, joint)
+    with pytest.raises(InputError) as err:
+        read_urdf(path)
+    assert str(err.value).endswith(
+        "joint 'j': <origin rpy='0 0 90'> turns by 90 rad, past a full turn: URDF angles are "
+        "radians (90 degrees is 1.5708)"
+    )
+    fine = joint.replace('rpy="0 0 90"', 'rpy="0 0 1.5708"') + _joint("k", "revolute", "b", "c")
+    read_urdf(_write(tmp_path, fine))

@@ -126,6 +126,7 @@ def read_urdf(path: Path) -> tuple[str, UrdfSummary]:
                 f"{path}: joint {name!r} is {kind} (only revolute and fixed joints are "
                 f"supported yet){hint}"
             )
+        _check_origin(path, f"joint {name!r}", element.find("origin"))
         limit = element.find("limit")
         if kind == "revolute":
             _check_revolute(path, name, element, limit)
@@ -214,6 +215,19 @@ def _check_inertial(path: Path, link: str, inertial: ET.Element | None) -> None:
         raise _fail(
             f"{path}: link {link!r}: its inertia matrix is not positive semi-definite "
             f"(smallest eigenvalue {smallest:.3g}); check ixy, ixz, iyz and their signs"
+        )
+
+
+def _check_origin(path: Path, what: str, origin: ET.Element | None) -> None:
+    """An `<origin rpy>` angle past a full turn: URDF angles are radians, and `rpy="0 0 90"`
+    (90 degrees meant) placed the joint at 90 rad, silently."""
+    rpy = _numbers(origin.get("rpy")) if origin is not None else None
+    past = [a for a in rpy or [] if abs(a) > 2 * math.pi]
+    if past:
+        raise _fail(
+            f"{path}: {what}: <origin rpy={origin.get('rpy')!r}> turns by {past[0]:g} rad, past "
+            f"a full turn: URDF angles are radians ({past[0]:g} degrees is "
+            f"{math.radians(past[0]):.6g})"
         )
 
 
