@@ -103,8 +103,9 @@ class Comparison(ByValue):
 
     @property
     def equal_durations(self) -> bool:
-        """Whether every candidate has the reference duration (energies compare as they are)."""
-        durations = [o.duration for o in self.outcomes if math.isfinite(o.duration)]
+        """Whether every candidate that planned has the reference duration (energies compare
+        as they are; a failed one's duration is of the legs it planned)."""
+        durations = [o.duration for o in self.outcomes if o.ok and math.isfinite(o.duration)]
         return all(math.isclose(d, self.reference_duration) for d in durations)
 
     @property

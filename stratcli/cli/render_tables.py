@@ -28,7 +28,11 @@ def ranking(task, doc: dict) -> None:
 
     s = task.settings
     reference = doc.get("reference_duration_s")
-    durations = {row["duration"] for row in doc["rows"] if row["duration"] is not None}
+    durations = {  # of the rows that planned (a failed row's: the legs it planned)
+        row["duration"]
+        for row in doc["rows"]
+        if row["duration"] is not None and row["status"] == "ok"
+    }
     lengths = {len(row["sequence"]) for row in doc["rows"]}  # a bounded row has no duration
     differ = durations != {reference} or len(lengths) > 1  # (the screened: their bounds too)
     scaled = doc["criterion"] == "energy" and reference is not None and differ
