@@ -31,6 +31,7 @@ from pydantic import BaseModel, BeforeValidator, Field, Strict
 from .body_clearances import check_configuration, clearances, closest_pair
 from .clearance import box_corners
 from .errors import InputError, Problem
+from .limit_units import angle_coordinates
 from .models.numbers import parse_length, parse_number
 from .models.specs import STRICT
 from .per_input import per_input
@@ -345,7 +346,7 @@ def verify(
                 others.append(f"leg {leg.index + 1}'s {WORDS[key]}")
                 continue
             unit = UNITS.get(key, "")  # clearances: in the model's own length unit
-            if key == "joint_limit" and not _angles(plan.system):
+            if key == "joint_limit" and not angle_coordinates(plan.system):
                 unit = ""  # a custom model's coordinates: its own units
             violated = (
                 f"leg {leg.index + 1} ({leg.stratum}) violates {what} by "
@@ -360,13 +361,6 @@ def verify(
         c.spec, tuple(margins), samples, violated, violation=violation,
         joint_limits=_joint_limits(plan.coordinates, c),
     )  # fmt: skip
-
-
-def _angles(system) -> bool:
-    """Whether the model's limited coordinates are angles (manipulators, URDF robots)."""
-    return (
-        getattr(system, "robot", None) is not None or getattr(system, "spatial", None) is not None
-    )
 
 
 def _joint_limits(names, c: Constraints) -> dict[str, dict]:

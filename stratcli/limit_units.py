@@ -15,12 +15,12 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["degree_like_configurations", "degree_like_limits"]
+__all__ = ["angle_coordinates", "degree_like_configurations", "degree_like_limits"]
 
 FULL_TURN = 2.0 * math.pi
 
 
-def _angles(system: Any) -> int:
+def angle_coordinates(system: Any) -> int:
     """How many leading coordinates are angles: every one of a planar robot (joints, θ), a
     URDF robot's joints (its attitude is a rotation vector, noted elsewhere), none of a
     custom model's (they may be lengths)."""
@@ -36,14 +36,12 @@ def degree_like_limits(constraints: Any, system: Any) -> list[str]:
     limits."""
     pairs: dict[tuple[float, float], list[str]] = {}
     urdf: dict[tuple[float, float], list[str]] = {}
-    own = range(0)
-    if constraints is not None and _angles(system):
+    if constraints is not None and angle_coordinates(system):
         for j, (lo, hi) in enumerate(zip(constraints.lower, constraints.upper, strict=True)):
             if j not in constraints.from_urdf and _past_a_turn(lo, hi):
                 pairs.setdefault((float(lo), float(hi)), []).append(system.states[j])
     if (robot := getattr(system, "spatial", None)) is not None:
-        own = range(robot.n_joints)
-        for j in own:
+        for j in range(robot.n_joints):
             lo, hi = robot.lower[j], robot.upper[j]
             overridden = constraints is not None and j not in constraints.from_urdf
             if not overridden and _past_a_turn(lo, hi):
@@ -71,7 +69,7 @@ def _past_a_turn(lo: float, hi: float) -> bool:
 def degree_like_configurations(task: Any) -> list[str]:
     """One sentence per start, via or goal with an angle past a full turn (a joint's, a
     planar base's θ) on a planar or URDF robot: 45 for a joint is 7 turns, most likely 45°."""
-    k = _angles(task.system)
+    k = angle_coordinates(task.system)
     places = [("task.start", task.start)]
     places += [(f"legs[{i}].goal", leg.goal) for i, leg in enumerate(task.legs[:-1])]
     places += [("task.goal", task.goal)]

@@ -148,7 +148,7 @@ def periodic_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
     ):
         return []
     basis, m, size = p.basis, len(system.inputs), p.basis.size
-    stand_in = np.random.default_rng(0).uniform(1.0, 2.0, (2, m))  # an end not fixed: any
+    stand_in = _stand_in(m)  # an end not fixed: any
     previous = None
     for i, leg in enumerate(legs):
         active = system.stratum(leg.stratum).active
@@ -182,7 +182,7 @@ def lie_step_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
     p = scenario.planner
     if p.continuity == "none":
         return []
-    stand_in = np.random.default_rng(0).uniform(1.0, 2.0, (2, len(system.inputs)))
+    stand_in = _stand_in(len(system.inputs))  # the controls the leg before ends with
     problems = []
     for i, leg in enumerate(legs):
         lie = leg.lie or p.lie
@@ -201,11 +201,8 @@ def lie_step_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
             p.continuity, previous=(before[0], before[1]), next_active=None, soft_start=False,
             full_stop=True,
         )  # fmt: skip
-        try:
-            eliminate(cons)
+        if _consistent(cons):
             continue
-        except ValueError:
-            pass
         periods = lie.step_duration / p.basis.period
         own = scenario.legs is not None and i < len(scenario.legs) and scenario.legs[i].lie
         where = f"legs[{i}].lie.step_duration" if own else "planner.lie.step_duration"
@@ -220,6 +217,20 @@ def lie_step_problems(scenario: Scenario, system, legs: list[LegSpec]) -> list[P
             )
         )
     return problems
+
+
+def _stand_in(m: int) -> np.ndarray:
+    """Values and derivatives (2, m) of controls a check does not know: any nonzero ones."""
+    return np.random.default_rng(0).uniform(1.0, 2.0, (2, m))
+
+
+def _consistent(cons) -> bool:
+    """Whether conditions `cons` hold together (`eliminate` finds a solution)."""
+    try:
+        eliminate(cons)
+    except ValueError:
+        return False
+    return True
 
 
 def _periodic_problem(scenario, system, legs, i, cons) -> Problem:
