@@ -607,6 +607,33 @@ def test_a_shared_model_cannot_be_renamed_or_given_another_robot():
     assert load_scenario(ROOT / "scenarios" / "sim4_task_d.toml") == task
 
 
+def test_a_shared_model_cannot_be_changed_in_place():
+    """Its strata, parameters and symbolic fields were a dict and a sympy Matrix:
+    `preset("one-arm").strata["S1"] = None` made every later load of the model in the
+    process die in an AttributeError, and `fields[3, 0] = 0` was taken while plans kept the
+    first physics. They are read-only now, in copies and unpickled models too, which still
+    equal the model (its compiled functions are no part of its value)."""
+    import copy
+    import pickle
+
+    import stratcli
+
+    custom = load_scenario(ROOT / "scenarios" / "unicycle.toml").system
+    for system in (stratcli.preset("one-arm"), custom):
+        for model in (system, pickle.loads(pickle.dumps(system)), copy.copy(system)):
+            assert model == system
+            with pytest.raises(TypeError):
+                model.strata["S1"] = None
+            with pytest.raises(TypeError):
+                model.parameters["k"] = 1.0
+            with pytest.raises(TypeError):
+                model.fields[0, 0] = 0
+            with pytest.raises(AttributeError, match=r"\.fields is read-only"):
+                model.fields = model.fields
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    assert set(task.system.strata) == {"S1", "S2", "S3"}
+
+
 def test_a_field_with_abs_plans_without_a_traceback(tmp_path):
     """`abs(x)` is an allowed function, but its derivative's derivative is a Dirac delta,
     which numpy has no name for: every command ended in a 117-line NameError. The delta is

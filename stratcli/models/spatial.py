@@ -314,6 +314,11 @@ class SpatialStratum:
         return np.stack(cols, axis=-1)
 
 
+class _NoFields(ModelError, AttributeError):
+    """A URDF model's `fields`: a `ModelError` that is an AttributeError as well, so that
+    `hasattr(system, "fields")` answers False instead of raising."""
+
+
 class SpatialSystem(System):
     """A `System` on SO(3)×Rᵏ from a URDF; coordinates `(joints..., rx, ry, rz)`."""
 
@@ -352,7 +357,7 @@ class SpatialSystem(System):
 
     @property
     def fields(self):
-        raise ModelError(
+        raise _NoFields(
             [Problem("model", "a URDF model has no symbolic vector fields (numeric only)")]
         )
 

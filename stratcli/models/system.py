@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -187,6 +188,7 @@ class CompiledStratum:
 _SET_ONCE = frozenset(
     {"name", "states", "inputs", "strata", "parameters", "description", "robot", "identity"}
 )
+_MAPPINGS = ("strata", "parameters")  # held read-only (`types.MappingProxyType`)
 
 
 @dataclass
@@ -197,15 +199,18 @@ class System:
     states: tuple[str, ...]
     inputs: tuple[str, ...]
     fields: sp.Matrix  # n x m, in the state symbols and parameter symbols
-    strata: dict[str, Stratum]
-    parameters: dict[str, float] = field(default_factory=dict)
+    strata: Mapping[str, Stratum]
+    parameters: Mapping[str, float] = field(default_factory=dict)
     description: str = ""
     robot: PlanarManipulator | None = None  # physical robot, when the model is a manipulator
     spec: Any = None  # the scenario's [model] table it was built from (a plan's reference)
     # Determines `fields` exactly (e.g. a preset and the hash of its source): the code cache
     # is keyed by it, so a warm run needs no symbolic fields at all. None: keyed by the fields.
     identity: str | None = None
-    _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False)
+    _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_built", True)  # from now on `fields` is read-only too
 
     def __repr__(self) -> str:  # the dataclass's prints the symbolic fields (kB, padded)
         return (
@@ -214,13 +219,21 @@ class System:
         )
 
     def __setattr__(self, name: str, value: Any) -> None:
-        """A model's fields are set once: `preset(name)` is one object shared by every task
-        of that model, so `task.system.name = ...` would rename it in every plan."""
-        if name in _SET_ONCE and name in self.__dict__:
+        """A model's fields are set once, and its strata, parameters and symbolic fields
+        cannot be changed in place: `preset(name)` is one object shared by every task of
+        that model, so `task.system.name = ...` renamed it in every plan, and
+        `system.strata["S1"] = None` broke every later load of the model in the process."""
+        if (name in _SET_ONCE and name in self.__dict__) or (
+            name == "fields" and self.__dict__.get("_built")
+        ):
             raise AttributeError(
                 f"{type(self).__name__}.{name} is read-only (a model may be shared by many "
                 f"tasks, every preset is): build another model instead"
             )
+        if name in _MAPPINGS:
+            value = MappingProxyType(dict(value))
+        elif name in ("fields", "_fields") and hasattr(value, "as_immutable"):
+            value = value.as_immutable()  # a sympy Matrix, which `fields[i, j] = ...` changed
         object.__setattr__(self, name, value)
 
     def __getstate__(self) -> dict:
@@ -230,7 +243,16 @@ class System:
         state["_compiled"] = {}
         state.pop("_row_cache", None)  # `controllability._rows`: only a speed-up
         state.pop("_lie_cache", None)  # Lie brackets (`liealgebra`): generated code, likewise
+        for name in _MAPPINGS:  # (a mapping proxy does not pickle)
+            if name in state:
+                state[name] = dict(state[name])
         return state
+
+    def __setstate__(self, state: dict) -> None:
+        for name in _MAPPINGS:
+            if name in state:
+                state[name] = MappingProxyType(state[name])
+        self.__dict__.update(state)
 
     @cached_property
     def symbols(self) -> tuple[sp.Symbol, ...]:
@@ -289,7 +311,8 @@ class System:
         values = dict(self.parameters)
         values.update(dict(stratum.parameters))
         subs = {sp.Symbol(k, real=True): sp.Rational(repr(float(v))) for k, v in values.items()}
-        G = self.fields.extract(list(range(self.n)), list(stratum.active))
+        # (a mutable copy: its srepr keys the code cache, as before `fields` was immutable)
+        G = sp.Matrix(self.fields.extract(list(range(self.n)), list(stratum.active)))
         return G.subs(subs) if subs else G
 
     def compiled(self, stratum: Stratum | str) -> CompiledStratum:
