@@ -23,8 +23,10 @@ __all__ = ["file_location", "suggested", "validation_problems"]
 def _path(loc: tuple) -> str:
     parts: list[str] = []
     for i, item in enumerate(loc):
-        if isinstance(item, int):
-            parts[-1] = f"{parts[-1]}[{item}]" if parts else f"[{item}]"
+        if isinstance(item, int) and parts:
+            parts[-1] = f"{parts[-1]}[{item}]"
+        elif isinstance(item, int):  # a top-level key that is a number (a dict, not a file)
+            parts.append(str(item))
         elif i > 0 and loc[i - 1] == "model" and item in KINDS:
             continue  # pydantic's tag of the discriminated union, not a key of the file
         else:  # a sweep's key holds dots: quoted, as the other problems of its axis are

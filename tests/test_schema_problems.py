@@ -125,3 +125,12 @@ def test_a_name_with_a_space_says_which_characters_a_name_takes():
         "must be ASCII letters, digits, '_', '.' and '-' only, no spaces (it names the run records "
         "and files) (got 'my task')",
     )
+
+
+def test_a_number_as_a_top_level_key_is_a_problem_not_an_index_error():
+    """A dict scenario (not a file: TOML keys are text) with a number as its first-level key
+    died in `_path` with IndexError; it is a problem at that key like a deeper one."""
+    import stratcli
+
+    with pytest.raises(stratcli.InputError, match=r"<dict>: 1: Keys should be strings"):
+        stratcli.load_scenario({1: 2})
