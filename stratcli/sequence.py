@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .arguments import flag, integer
+from .errors import InputError
 from .models.specs import system_from_ref
 from .resultdoc import plan_document, plan_from_document
 from .results import (
@@ -274,8 +275,22 @@ class SequencePlan:
         Returns
         -------
         SequencePlan
+
+        Raises
+        ------
+        InputError
+            `doc` is not a result document (a key missing, a value of the wrong type).
         """
-        return plan_from_document(cls, doc, settings, model)
+        if not isinstance(doc, dict):
+            raise InputError(f"a result document is a dict, not {type(doc).__name__}")
+        try:
+            return plan_from_document(cls, doc, settings, model)
+        except InputError:
+            raise
+        except KeyError as exc:  # (the others: their own message says what was wrong)
+            raise InputError(f"not a result document: no {exc.args[0]!r}") from None
+        except (TypeError, ValueError, IndexError, AttributeError) as exc:
+            raise InputError(f"not a result document ({type(exc).__name__}: {exc})") from None
 
 
 def _timeless(doc: Any) -> Any:

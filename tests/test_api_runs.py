@@ -135,3 +135,54 @@ def test_a_record_asked_into_a_file_says_it_is_a_file(tmp_path):
     (tmp_path / "afile").write_text("")
     with pytest.raises(RecordError, match=r"afile: it is a file, not a directory$"):
         api.write_record(tmp_path / "afile", plan, animation=False)
+
+
+def test_a_plan_from_a_document_that_is_not_one_is_one_input_error():
+    """`SequencePlan.from_dict` is public: `{}` raised KeyError: 'coordinates' from inside
+    the package, a leg's pieces given as text a TypeError. Each is an `InputError` saying
+    what was wrong, and a whole document still reads back as its plan."""
+    plan = api.plan_run(load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")).result
+    doc = plan.to_dict()
+    broken = {
+        "no coordinates": ({}, "no 'coordinates'"),
+        "a list": ([], "a dict, not list"),
+        "pieces as text": (
+            {**doc, "legs": [{**doc["legs"][0], "pieces": "x"}]},
+            "not a result document",
+        ),
+        "legs a number": ({**doc, "legs": 5}, "not a result document"),
+    }
+    for bad, words in broken.values():
+        with pytest.raises(stratcli.InputError, match=words):
+            stratcli.SequencePlan.from_dict(bad)
+    assert stratcli.SequencePlan.from_dict(doc).to_dict() == doc
+
+
+def test_an_outcomes_document_is_read_only_and_writing_its_record_keeps_its_value(tmp_path):
+    """Outcomes said they were frozen values, each equal to its pickle, but their documents
+    were plain dicts (`outcome.document["status"] = ...` was taken), and after
+    `write_record` added the record's phases to it an outcome no longer equalled its own
+    pickle from before. Documents refuse changes, are still dicts and lists to json and ==,
+    and a deep copy is a plain one to edit; the phases (timings) are no part of the value."""
+    import copy
+    import pickle
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    outcome = api.plan_run(task)
+    report = stratcli.check_controllability(task)
+    for doc in (outcome.document, report.document):
+        with pytest.raises(TypeError, match="read-only"):
+            doc["status"] = "changed"
+        first_list = next(v for v in doc.values() if isinstance(v, list))
+        with pytest.raises(TypeError, match="read-only"):
+            first_list.append(1)
+        assert json.loads(json.dumps(doc)) == doc
+        mine = copy.deepcopy(doc)
+        mine["status"] = "mine"
+        assert type(mine) is dict and doc.get("status") != "mine"
+    with pytest.raises(TypeError, match="read-only"):
+        outcome.document["legs"][0]["pieces"][0].update(energy=0)
+    before = pickle.dumps(outcome)
+    run = api.write_record(tmp_path, outcome, animation=False)
+    assert "write" in outcome.phases and pickle.loads(before) == outcome
+    assert json.loads((run / "result.json").read_text()) == outcome.document

@@ -255,8 +255,8 @@ def load_run(path: str | Path) -> SequencePlan:
     model = ModelRef(record.result["model"], scenario.model)
     try:
         plan = SequencePlan.from_dict(record.result, scenario.planner, model)
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
-        raise InputError(f"{path}/result.json: damaged ({type(exc).__name__}: {exc})") from None
+    except InputError as exc:
+        raise InputError(f"{path}/result.json: damaged ({exc})") from None
     m = record.manifest
     timings = Timings(
         str(m.get("started", "")),
