@@ -326,11 +326,18 @@ def test_a_bad_dask_scheduler_file_is_bad_input(tmp_path):
 
 
 def test_local_workers_run_blas_single_threaded(monkeypatch):
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    """A spawned worker's BLAS is single-threaded (a forked one's is this process's, which
+    `_fork_is_safe` requires to be); the caller's environment is left as it was: a
+    notebook's sweep set the variables in it for every process it started later."""
+    variables = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+    for var in variables:
         monkeypatch.delenv(var, raising=False)
+    monkeypatch.setattr(stratcli.sweep.executors, "_fork_is_safe", lambda: False)
     with stratcli.sweep.local_executor(1) as pool:
+        assert _start_method(pool) == "spawn"
         seen = pool.submit(os.getenv, "OPENBLAS_NUM_THREADS").result()
-    assert seen == "1"
+        assert pool.submit(stratcli.blas.limited).result()
+    assert seen == "1" and not any(var in os.environ for var in variables)
 
 
 def _start_method(pool) -> str:

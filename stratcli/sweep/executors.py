@@ -52,8 +52,7 @@ def local_executor(jobs: int) -> ProcessPoolExecutor:
     """
     from ..trie import worker_init
 
-    fork = _fork_is_safe()
-    blas.single_threaded()  # for spawned workers (a forked one has this process's BLAS)
+    fork = _fork_is_safe()  # (a spawned worker is given single-threaded BLAS as it starts)
     if fork:
         from .worker import preload
 
