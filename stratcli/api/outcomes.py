@@ -9,6 +9,7 @@ from typing import Any
 
 from ..compare import Comparison
 from ..decomposition import Decomposition
+from ..frozen_json import frozen
 from ..records.manifest import Phases
 from ..scenario import Task
 from ..sequence import SequencePlan
@@ -24,14 +25,18 @@ class PlanOutcome:
 
     task: Task  # in auto mode: the scenario with the chosen sequence's legs
     result: SequencePlan
-    document: dict[str, Any]  # result.json
+    document: dict[str, Any]  # result.json (read-only: `frozen_json`)
     started: datetime  # UTC, when planning started
     compile_time: float  # seconds generating numeric functions (not the check: check_time)
     planning_time: float  # seconds planning
     # wall and CPU seconds per phase: import, check, compile, planning; write_record adds the
-    # record's parts, "write" and "total" (since `import stratcli`); see records.manifest
-    phases: Phases = field(default_factory=dict)
+    # record's parts, "write" and "total" (since `import stratcli`); see records.manifest.
+    # How long it took, not what was planned: no part of the outcome's value (==)
+    phases: Phases = field(default_factory=dict, compare=False)
     check_time: float | None = None  # seconds of the controllability check; None: not run
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "document", frozen(self.document))
 
     @property
     def ok(self) -> bool:
@@ -54,12 +59,15 @@ class ComparisonOutcome:
     settings: AutoSettings  # the [decompose] table with overrides applied
     decomposition: Decomposition
     comparison: Comparison
-    document: dict[str, Any]  # comparison.json
+    document: dict[str, Any]  # comparison.json (read-only: `frozen_json`)
     best: PlanOutcome
     # for the user, about the best plan, which the ranking does not show (also in its notes):
     # where it leaves its URDF's joint limits (`urdf_limits.with_limit_notes`), how much it
     # was slowed to meet its rate limits (`planning.within_rates`)
     notes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "document", frozen(self.document))
 
     @property
     def ok(self) -> bool:
@@ -85,7 +93,10 @@ class DecompositionOutcome:
     task: Task
     settings: AutoSettings
     decomposition: Decomposition
-    document: dict[str, Any]  # what `stratplan decompose --json` prints
+    document: dict[str, Any]  # what `stratplan decompose --json` prints (read-only)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "document", frozen(self.document))
 
     def __hash__(self) -> int:  # (the document is a dict: equal outcomes share their task)
         return hash(self.task)
