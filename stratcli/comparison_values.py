@@ -27,6 +27,16 @@ CRITERION_LABELS = {
 TIE = 1e-9  # relative: values that differ by less are a tie but for rounding (`_tie`)
 
 
+def at_reference(durations, lengths, reference: float) -> bool:
+    """Whether a comparison ranks energies at its equal total duration `reference` rather than
+    as planned: a sequence that reached the goal took another duration (`durations`: theirs),
+    or the ranked sequences (`lengths`: the legs of those that reached the goal and of those
+    the screen bounded, whose bounds are at `reference`) differ in their number of legs. A
+    failed sequence counts for neither: its duration is of the legs it planned. The
+    comparison's sentence and the CLI's table (from comparison.json) both ask this."""
+    return any(not math.isclose(d, reference) for d in durations) or len(set(lengths)) > 1
+
+
 @dataclass(frozen=True, eq=False)
 class Outcome(ByValue):
     """One candidate, planned (or not), with the quantities it is ranked by."""
@@ -103,10 +113,11 @@ class Comparison(ByValue):
 
     @property
     def equal_durations(self) -> bool:
-        """Whether every candidate that planned has the reference duration (energies compare
-        as they are; a failed one's duration is of the legs it planned)."""
+        """Whether the energies compare as planned, not at the reference duration
+        (`at_reference`)."""
         durations = [o.duration for o in self.outcomes if o.ok and math.isfinite(o.duration)]
-        return all(math.isclose(d, self.reference_duration) for d in durations)
+        lengths = [len(o.candidate.sequence) for o in self.outcomes if o.status != "failed"]
+        return not at_reference(durations, lengths, self.reference_duration)
 
     @property
     def best(self) -> Outcome | None:

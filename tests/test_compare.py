@@ -207,12 +207,22 @@ def test_candidates_failed_only_by_a_limit_rank_by_how_far_they_stalled_outside(
 def test_a_failed_candidates_partial_duration_does_not_make_the_durations_unequal():
     """A failed candidate keeps the duration of the legs it planned (1 s of 2): the exhaustive
     table then said "ranked by energy at an equal total duration of 2 s", with an "energy in
-    2 s" column, where the screened one said "total energy" for the same plans."""
+    2 s" column, where the screened one said "total energy" for the same plans. A bounded
+    (unsearched) candidate of three legs does make them unequal: its bound is at 2 s, as the
+    table's header and column said while the sentence under it said "total energy"."""
+    from types import SimpleNamespace
+
     from stratcli.comparison_values import Comparison, Outcome
 
-    ok = Outcome(0, None, None, "ok", "", "", energy=1.0, duration=2.0)
-    failed = Outcome(1, None, None, "failed", "x", "x", energy=0.5, duration=1.0)
+    def legs(n):
+        return SimpleNamespace(sequence=("S1",) * n, label=f"({n} legs)", strategy="conservative")
+
+    ok = Outcome(0, legs(2), None, "ok", "", "", energy=1.0, duration=2.0)
+    failed = Outcome(1, legs(3), None, "failed", "x", "x", energy=0.5, duration=1.0)
     compared = Comparison([ok, failed], [0, 1], "energy", 1, 2, 2, 0.0, False, 2.0)
     assert compared.equal_durations
-    slower = Outcome(2, None, None, "ok", "", "", energy=1.0, duration=3.0)
+    slower = Outcome(2, legs(3), None, "ok", "", "", energy=1.0, duration=3.0)
     assert not Comparison([ok, slower], [0, 1], "energy", 1, 2, 2, 0.0, False, 2.0).equal_durations
+    bounded = Outcome(3, legs(3), None, "bounded", "", "", screened=True)
+    longer = Comparison([ok, bounded], [0, 1], "energy", 1, 2, 2, 0.0, False, 2.0)
+    assert not longer.equal_durations and "at an equal total duration of 2 s" in longer.choice()

@@ -24,18 +24,18 @@ def ranking(task, doc: dict) -> None:
 
     A scenario compared with both strategies shows each row's strategy under its sequence.
     """
-    from ..comparison_values import CRITERION_LABELS  # here, not at the top: start-up speed
+    from ..comparison_values import CRITERION_LABELS, at_reference  # (start-up speed)
 
     s = task.settings
     reference = doc.get("reference_duration_s")
-    durations = {  # of the rows that planned (a failed row's: the legs it planned)
-        row["duration"]
-        for row in doc["rows"]
-        if row["duration"] is not None and row["status"] == "ok"
-    }
-    lengths = {len(row["sequence"]) for row in doc["rows"]}  # a bounded row has no duration
-    differ = durations != {reference} or len(lengths) > 1  # (the screened: their bounds too)
-    scaled = doc["criterion"] == "energy" and reference is not None and differ
+    listed = doc["rows"]
+    durations = [r["duration"] for r in listed if r["duration"] is not None and r["status"] == "ok"]
+    lengths = [len(r["sequence"]) for r in listed if r["status"] != "failed"]
+    scaled = (
+        doc["criterion"] == "energy"
+        and reference is not None
+        and at_reference(durations, lengths, reference)
+    )
     ranked = CRITERION_LABELS[doc["criterion"]]
     if scaled:
         ranked = f"energy at an equal total duration of {reference:g} s"
