@@ -1072,3 +1072,13 @@ stratum = "drive"
     fine = path.read_text().replace('start = [0, 0, 0, "pi/2"]', "start = [0, 0, 0, 0.3]")
     path.write_text(fine)
     assert runner.invoke(cli.app, ["check", str(path)]).exit_code == 0
+
+
+def test_quiet_prints_no_notes_and_the_next_command_prints_its_own(tmp_path):
+    """--quiet says "Print nothing but errors", but `plan --jobs 1 --quiet` of a scenario with
+    legs still printed its note that --jobs is for auto mode. A command after it in the same
+    process (a notebook's or a test's runner) prints its notes as before."""
+    quiet, _ = run(tmp_path, TASK_D, "--jobs", "1", "--quiet")
+    assert quiet.exit_code == 0 and quiet.stdout == "" and quiet.stderr == ""
+    loud, _ = run(tmp_path, TASK_D, "--jobs", "1")
+    assert loud.exit_code == 0 and "note: --jobs is for auto mode" in loud.stderr

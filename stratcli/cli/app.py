@@ -10,7 +10,7 @@ import typer
 from typer.core import TyperCommand, TyperGroup
 
 from .. import __version__
-from . import commands, models, records
+from . import commands, models, records, render
 from . import sweep as sweep_command
 from .usage import one_line
 
@@ -90,7 +90,7 @@ def _main(
         ),
     ] = False,
 ) -> None:
-    pass
+    render.quiet(False)  # (a command with --quiet sets it again)
 
 
 app.command(cls=_Command)(commands.plan)

@@ -113,6 +113,7 @@ def plan(
     """
     from .. import api  # start-up speed
 
+    render.quiet(quiet)  # (its notes too: "Print nothing but errors")
     task = _with_planner(_load(file), objective, search)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
@@ -234,6 +235,7 @@ def compare_sequences(
     """
     from .. import api  # start-up speed
 
+    render.quiet(quiet)
     task = _with_planner(_load(file), objective, search)
     if exhaustive and task.settings.objective == "newton":
         render.notes(["--exhaustive is for the energy objective's screen: under the Newton "
@@ -383,6 +385,7 @@ def regress(
     """
     from .. import api  # start-up speed
 
+    render.quiet(quiet)
     baseline = directory / "baseline.json" if baseline is None else baseline
     with render.reported():
         report = api.regress(

@@ -75,8 +75,21 @@ def error(label: str, message: str) -> None:
     err_console.print(f"[bold red]{label}:[/] {escape(message)}", highlight=False, soft_wrap=True)
 
 
-def notes(texts: Iterable[str]) -> None:
-    """One `note:` line each on stderr (not in the way of --json on stdout)."""
+_QUIET = {"on": False}  # --quiet of the command running (`quiet`)
+
+
+def quiet(on: bool) -> None:
+    """Whether `notes` prints nothing (--quiet: "Print nothing but errors"); every command
+    sets it (the app's callback: False), so a command run after another in one process
+    (tests, a notebook's CliRunner) does not inherit it."""
+    _QUIET["on"] = bool(on)
+
+
+def notes(texts: Iterable[str], always: bool = False) -> None:
+    """One `note:` line each on stderr (not in the way of --json on stdout); none under
+    --quiet unless `always` (how to resume an interrupted sweep)."""
+    if _QUIET["on"] and not always:
+        return
     for text in texts:
         err_console.print(f"note: {escape(text)}", highlight=False, soft_wrap=True)
 

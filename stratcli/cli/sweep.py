@@ -132,6 +132,7 @@ def sweep(
 
     from .. import api  # start-up speed
 
+    render.quiet(quiet)
     gc.enable()  # paused for short commands (stratcli.__main__); a sweep may run for hours
     with render.reported(), warnings.catch_warnings(record=True) as caught:
         from ..sweep import load_sweep
@@ -196,7 +197,8 @@ def _resume_hint(again: str, out: Path, count: int) -> Iterator[None]:
 
         done = len(read_rows(out / ROWS))  # (a torn last row is planned again)
         rest = "plans the rest" if done < count else "writes its table, summary and plots"
-        render.notes([f"sweep: {done} of {counted(count, 'task')} kept in {out}; {again} {rest}"])
+        kept = f"sweep: {done} of {counted(count, 'task')} kept in {out}; {again} {rest}"
+        render.notes([kept], always=True)  # (whatever --quiet: how to go on)
         raise
 
 
