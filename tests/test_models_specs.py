@@ -49,12 +49,19 @@ def test_strata_of_a_robot_of_ten_or_more_joints_have_names_of_their_own():
 @pytest.mark.parametrize(
     ("strata", "expected"),
     [
-        ("[[2, 2]]", r"model\.strata\[0\]: lock set \[2, 2\] must name 1\.\.1 distinct joints"),
+        ("[[2, 2]]", r"model\.strata\[0\]: lock set \[2, 2\] names a joint twice"),
         ("[[1], [2], [1]]", r"model\.strata\[2\]: lock set \[1\] repeats model\.strata\[0\]"),
+        (
+            "[[1], [3]]",
+            r"model\.strata\[1\]: lock set \[3\]: no joint 3 \(this robot's joints are 1\.\.2",
+        ),
+        ("[[1, 2]]", r"model\.strata\[0\]: lock set \[1, 2\] locks every joint"),
+        ("[[]]", r"model\.strata\[0\]: an empty lock set"),
     ],
 )
 def test_a_lock_set_naming_a_joint_twice_or_given_twice_is_refused(strata, expected):
-    """[[2, 2]] was read as S2 and [[1], [1]] as one stratum, without a word."""
+    """[[2, 2]] was read as S2 and [[1], [1]] as one stratum, without a word; a joint the
+    robot does not have was "must name 1..1 distinct joints out of 1..2"."""
     text = PLANAR.replace("base = { mass = 10 }", "base = { mass = 10, a = 1, b = 0.6 }")
     with pytest.raises(InputError, match=expected):
         parse_scenario(text.replace("[task]", f"strata = {strata}\n[task]"))

@@ -181,6 +181,19 @@ KINDS = ("preset", "custom", "planar-manipulator", "urdf")
 _SPEC: TypeAdapter[Any] = TypeAdapter(ModelSpec)
 
 
+def _bad_lock_set(locks: list[int], bad: list[int], k: int) -> str:
+    """Why a planar manipulator's lock set is refused, in the terms of the robot's joints:
+    "must name 1..1 distinct joints out of 1..2" did not say that joint 3 does not exist."""
+    joints = f"this robot's joints are 1..{k}, numbered arm by arm"
+    if bad:
+        return f"lock set {locks}: no joint {', '.join(map(str, bad))} ({joints})"
+    if len(set(locks)) < len(locks):
+        return f"lock set {locks} names a joint twice"
+    if not locks:
+        return "an empty lock set: a stratum locks 1 joint or more"
+    return f"lock set {locks} locks every joint: a stratum leaves one free at least ({joints})"
+
+
 def build_system(spec: PresetModel | CustomModel | PlanarModel | UrdfModel) -> System:
     """The model named or described by the scenario's [model] table (which it keeps as
     `spec`, the reference plans carry)."""
@@ -231,12 +244,7 @@ def _planar_system(spec: PlanarModel) -> System:
         for i, locks in enumerate(spec.strata):
             bad = [j for j in locks if not 1 <= j <= k]  # [2, 2] was S2, without a word
             if bad or not locks or len(set(locks)) >= k or len(set(locks)) < len(locks):
-                problems.append(
-                    Problem(
-                        f"model.strata[{i}]",
-                        f"lock set {locks} must name 1..{k - 1} distinct joints out of 1..{k}",
-                    )
-                )
+                problems.append(Problem(f"model.strata[{i}]", _bad_lock_set(locks, bad, k)))
                 continue
             locked = tuple(sorted({j - 1 for j in locks}))
             if locked in lock_sets:  # else one stratum fewer than given (as URDF robots')
