@@ -119,15 +119,18 @@ class Scenario(_Strict):
     constraints: ConstraintsSpec | None = None
 
 
-def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = None) -> Task:
+def load_scenario(
+    source: str | Path | Mapping[str, Any] | Task, name: str | None = None
+) -> Task:
     """Read, validate and resolve a scenario.
 
     Parameters
     ----------
-    source : str, Path or Mapping
+    source : str, Path, Mapping or Task
         A path to a TOML file; TOML text (a string with a newline, or an "=" that names no
         file); or a plain `dict` with the same structure as the file (so a sweep never
-        templates TOML strings).
+        templates TOML strings); a `Task` is returned as it is (validated already), as
+        `plan` and the other use cases take one.
     name : str, optional
         How messages refer to the source (default: the path, "<text>" or "<dict>").
 
@@ -143,6 +146,8 @@ def load_scenario(source: str | Path | Mapping[str, Any], name: str | None = Non
     TypeError
         `source` is none of these.
     """
+    if isinstance(source, Task):
+        return source
     raw, text, where, folder = read_source(source, name, "scenario")
     return from_raw(raw, text, where, folder)
 

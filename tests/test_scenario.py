@@ -573,6 +573,7 @@ def test_tasks_compare_and_hash_by_their_scenario():
     assert newton != task and moved != task and newton != moved
     assert len({task, newton, moved}) == 3
     assert task != path.read_text() and task != 0  # other types: unequal, no error
+    assert load_scenario(task) is task  # (a TypeError, where plan and the others take one)
 
 
 def test_a_tasks_legs_cannot_be_changed_in_place():
