@@ -27,6 +27,13 @@ class FourierBasis:
     Scenario table ``[planner.basis]``. What bounds the work of a leg is its number of
     periods, `duration / period` (quadrature nodes grow with it); the scenario checks it per
     leg (`MAX_PERIODS_PER_LEG`), since time scaling divides both by the same factor.
+
+    Attributes
+    ----------
+    harmonics : int
+        H, 1 to 40 (2H+1 coefficients per input and piece).
+    period : float
+        The basis period, s.
     """
 
     harmonics: Annotated[int, Strict(), Field(ge=1, le=40)] = 3

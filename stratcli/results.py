@@ -61,7 +61,18 @@ def frozen_array(x: Any) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Piece(ByValue):
-    """Controls of one piece: Fourier coefficients (m_active, 2H+1) on [0, duration]."""
+    """Controls of one piece: Fourier coefficients (m_active, 2H+1) on [0, duration].
+
+    Attributes
+    ----------
+    t0 : float
+        The piece's start, s, from its leg's start.
+    duration : float
+        Its length, s.
+    coefficients : ndarray
+        Shape (m_active, 2H+1): per active input, the constant, then sin and cos of each
+        harmonic (`FourierBasis`).
+    """
 
     _hashed = ("t0", "duration")
 
@@ -208,7 +219,17 @@ class LegPlan(ByValue):
 @dataclass(frozen=True, eq=False)
 class Switch(ByValue):
     """The instant between leg `after_leg` and the next (0-based), with the control jumps
-    `u_next(0) − u_prev(T)` of all inputs and of their derivatives."""
+    `u_next(0) − u_prev(T)` of all inputs and of their derivatives.
+
+    Attributes
+    ----------
+    time : float
+        When it happens, s from the plan's start.
+    after_leg : int
+        The leg it ends (0-based).
+    jump, jump_derivative : ndarray
+        Shape (m,): the jumps of every input and of its time derivative.
+    """
 
     _hashed = ("time", "after_leg")
 
@@ -224,7 +245,28 @@ class Switch(ByValue):
 
 @dataclass(frozen=True)
 class StartOutcome:
-    """One start of the energy objective's multi-start search, as in result.json."""
+    """One start of the energy objective's multi-start search, as in result.json.
+
+    Attributes
+    ----------
+    index : int
+        Its place among the starts, from 0.
+    kind : str
+        Where it came from: "pulled", "newton", "warm start", "loop", "legwise" or
+        "lowest legs" (README: result.json, `optimisation`).
+    energy, goal_error, projected_gradient : float
+        Where its search ended.
+    iterations : int
+        Of its search.
+    converged : bool
+        Its search reached a minimum (`stopped` "converged" or "noise floor").
+    seconds : float
+        Wall time of its search.
+    stopped : str
+        Why its search ended.
+    feasible : bool
+        It ends on the goals (a candidate for the plan).
+    """
 
     index: int
     kind: str  # where the start came from: "pulled" (the Newton plan pulled toward least
@@ -248,7 +290,24 @@ SR1_UPDATES = "feasible SQP, the goals' curvature by symmetric-rank-one updates"
 
 @dataclass(frozen=True)
 class Optimisation:
-    """The energy objective's search: every start, which won, and plain Newton's energy."""
+    """The energy objective's search: every start, which won, and plain Newton's energy.
+
+    Attributes
+    ----------
+    starts : tuple of StartOutcome
+        Every start, in the order searched.
+    best : int or None
+        The winning start's index in `starts` (None: none ended on the goals).
+    newton_energy : float or None
+        The energy of plain Newton's plan.
+    method : str
+        The search, in words (exact Hessians, or SR1 updates where the legs have no second
+        derivatives).
+    search : str
+        `[planner] search` as run: "starts", "loops" or "legwise".
+    no_loop_start : str
+        Why the loop search made no loop start ("" where it made some).
+    """
 
     starts: tuple[StartOutcome, ...]
     best: int | None
@@ -268,7 +327,15 @@ class Optimisation:
 
 @dataclass(frozen=True)
 class Timings:
-    """When planning started (UTC, ISO 8601) and how long it took, s (for manifest.json)."""
+    """When planning started (UTC, ISO 8601) and how long it took, s (for manifest.json).
+
+    Attributes
+    ----------
+    started : str
+        UTC, ISO 8601 ("" where not known).
+    compile_s, planning_s : float
+        Seconds generating the model's numeric functions (not the check), and planning.
+    """
 
     started: str = ""
     compile_s: float = float("nan")  # generating numeric functions (not the check)
@@ -278,7 +345,15 @@ class Timings:
 @dataclass(frozen=True)
 class ModelRef:
     """Which model a plan is for: its name (result.json `model`) and, when it came from a
-    scenario, the `[model]` table it is built from (so the model can be rebuilt)."""
+    scenario, the `[model]` table it is built from (so the model can be rebuilt).
+
+    Attributes
+    ----------
+    name : str
+        As result.json's `model`.
+    spec : model table or None
+        The validated `[model]` table (None: not known).
+    """
 
     name: str
     spec: Any = None

@@ -119,9 +119,7 @@ class Scenario(_Strict):
     constraints: ConstraintsSpec | None = None
 
 
-def load_scenario(
-    source: str | Path | Mapping[str, Any] | Task, name: str | None = None
-) -> Task:
+def load_scenario(source: str | Path | Mapping[str, Any] | Task, name: str | None = None) -> Task:
     """Read, validate and resolve a scenario.
 
     Parameters

@@ -69,6 +69,19 @@ class LegSpec:
 
     `goal` is NaN where the end value is not prescribed ("*" in a scenario); `lie` overrides
     the planner's Lie settings for a leg with ``method = "lie"``.
+
+    Attributes
+    ----------
+    stratum : str
+        The stratum's name (e.g. "S1").
+    goal : ndarray
+        The configuration to reach (NaN: free).
+    method : str
+        The leg planner: "newton", "lie" or a registered one.
+    duration : float
+        The leg's duration, s.
+    lie : LieSettings or None
+        This leg's Lie settings, where they differ from the planner's.
     """
 
     stratum: str

@@ -44,6 +44,25 @@ class Task:
     Two tasks are equal when their scenarios are (what is planned follows from it), whatever
     they were read from (`source`, `text`: a path, its TOML text or a dict); tasks hash
     accordingly, so they can key a dict or fill a set.
+
+    Attributes
+    ----------
+    scenario : Scenario
+        The validated scenario tables, defaults filled in.
+    system : System
+        The model (a preset is one object shared by every task of it).
+    start, goal : ndarray
+        Configurations (read-only); `goal` is NaN where free ("*").
+    legs : tuple of LegSpec
+        The legs to plan (empty in auto mode: a [decompose] table).
+    settings : PlannerSettings
+        The [planner] table.
+    source, text : str
+        Where the scenario came from (a path, "<text>", "<dict>") and its TOML text.
+    constraints : Constraints or None
+        The [constraints] table resolved on the model (None: no table).
+    base_dir : Path or None
+        What a URDF model's relative path is relative to.
     """
 
     scenario: Scenario

@@ -113,3 +113,37 @@ def test_no_submodule_hides_a_public_name():
             continue
     for name in stratcli.__all__:
         assert not isinstance(getattr(stratcli, name), types.ModuleType), name
+
+
+def _value_classes() -> dict[str, type]:
+    import dataclasses
+
+    return {
+        name: obj
+        for name in stratcli.__all__
+        if inspect.isclass(obj := getattr(stratcli, name))
+        and (dataclasses.is_dataclass(obj) or hasattr(obj, "model_fields"))
+    }
+
+
+@pytest.mark.parametrize("name", sorted(_value_classes()))
+def test_every_public_value_class_names_each_of_its_fields(name):
+    """`help(PlanOutcome)` never mentioned `result`, `document` or `phases`: a value class
+    of `stratcli.__all__` says what each of its public fields holds (an Attributes section,
+    or its prose), each field named as written."""
+    import dataclasses
+
+    cls = _value_classes()[name]
+    if dataclasses.is_dataclass(cls):
+        names = [f.name for f in dataclasses.fields(cls) if not f.name.startswith("_")]
+    else:
+        names = list(cls.model_fields)
+    doc = inspect.getdoc(cls) or ""
+    missing = [field for field in names if not re_word(field).search(doc)]
+    assert not missing, f"{name}'s docstring does not name {missing}"
+
+
+def re_word(word: str):
+    import re
+
+    return re.compile(rf"(?<![\w.]){re.escape(word)}(?!\w)")

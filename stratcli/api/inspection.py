@@ -26,7 +26,22 @@ from .check import MAX_SAMPLES, check_document
 
 @dataclass(frozen=True)
 class CheckReport:
-    """A controllability check (paper eqs. 2 and 4) of a preset model or a scenario."""
+    """A controllability check (paper eqs. 2 and 4) of a preset model or a scenario.
+
+    Attributes
+    ----------
+    document : dict
+        What `stratplan check --json` prints (read-only): each stratum's rank and smallest
+        singular value, each leg's verdict, `problems` and `warnings`.
+    title : str
+        "preset <name>", "URDF <file>" or "<scenario> (<model> model)".
+    seconds : float
+        How long the check took.
+    controllable : bool
+        Whether it passed (the command's exit code 0).
+    problems : list of str
+        One sentence per failed check.
+    """
 
     document: dict[str, Any]  # what `stratplan check --json` prints (read-only: `frozen_json`)
     title: str  # "preset <name>", "URDF <file>" or "<scenario> (<model> model)"

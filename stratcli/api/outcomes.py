@@ -21,7 +21,28 @@ __all__ = ["ComparisonOutcome", "DecompositionOutcome", "PlanOutcome"]
 
 @dataclass(frozen=True, repr=False)
 class PlanOutcome:
-    """A planned scenario: the plan (`result`), its result.json document and what it took."""
+    """A planned scenario: the plan (`result`), its result.json document and what it took.
+
+    Attributes
+    ----------
+    task : Task
+        The scenario planned; in auto mode, with the chosen sequence's legs.
+    result : SequencePlan
+        The plan.
+    document : dict
+        Its result.json (read-only: `copy.deepcopy` gives a changeable copy).
+    started : datetime
+        When planning started (UTC).
+    compile_time, planning_time : float
+        Seconds generating the model's numeric functions, and planning.
+    phases : dict
+        Wall and CPU seconds of each phase (import, check, compile, planning; `write_record`
+        adds the record's parts, `write` and `total`); no part of the outcome's value.
+    check_time : float or None
+        Seconds of the controllability check (None: not run).
+    ok : bool
+        Every leg reached its goal.
+    """
 
     task: Task  # in auto mode: the scenario with the chosen sequence's legs
     result: SequencePlan
@@ -53,7 +74,29 @@ class PlanOutcome:
 @dataclass(frozen=True, repr=False)
 class ComparisonOutcome:
     """Every candidate sequence planned and ranked; `best` is the chosen sequence's
-    `PlanOutcome` (its plan: `best.result`)."""
+    `PlanOutcome` (its plan: `best.result`).
+
+    Attributes
+    ----------
+    task : Task
+        The scenario compared (its [decompose] table, no legs).
+    settings : AutoSettings
+        The [decompose] table with the call's overrides applied (`settings.notes`: what it
+        said about them).
+    decomposition : Decomposition
+        The candidate sequences, as `decompose` finds them.
+    comparison : Comparison
+        Every candidate's outcome and the ranking (`comparison.choice()`: why `best`).
+    document : dict
+        comparison.json (read-only).
+    best : PlanOutcome
+        The chosen sequence's plan.
+    notes : tuple of str
+        About the best plan, which the ranking does not show (where it leaves its URDF's
+        joint limits, how much it was slowed to meet rate limits).
+    ok : bool
+        Some sequence reached the goal.
+    """
 
     task: Task
     settings: AutoSettings  # the [decompose] table with overrides applied
@@ -88,7 +131,19 @@ class ComparisonOutcome:
 
 @dataclass(frozen=True)
 class DecompositionOutcome:
-    """The candidate sequences of a scenario's task, not planned."""
+    """The candidate sequences of a scenario's task, not planned.
+
+    Attributes
+    ----------
+    task : Task
+        The scenario decomposed.
+    settings : AutoSettings
+        The [decompose] table with the call's overrides applied.
+    decomposition : Decomposition
+        The essential coordinates and the candidate sequences with their vias.
+    document : dict
+        What `stratplan decompose --json` prints (read-only).
+    """
 
     task: Task
     settings: AutoSettings

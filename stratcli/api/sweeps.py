@@ -22,7 +22,21 @@ from ..sweep.spec import Sweep, load_sweep
 
 @dataclass(frozen=True)
 class SweepReport:
-    """A sweep directory read back: spec.json, the rows, and the summary of them."""
+    """A sweep directory read back: spec.json, the rows, and the summary of them.
+
+    Attributes
+    ----------
+    path : Path
+        The sweep's directory.
+    spec : dict
+        spec.json: the sweep file as it was run.
+    rows : dict of int to dict
+        Each task's row, by task index.
+    summary : dict
+        sweep.json when the sweep finished, else computed from the rows.
+    finished : bool
+        sweep.json was written (the last run got to the end).
+    """
 
     path: Path
     spec: dict[str, Any]

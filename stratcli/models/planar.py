@@ -102,6 +102,17 @@ class Arm:
     The orientation of link h relative to the base is
     `β_h = zero_angle + sense·(q_1 + … + q_h)`, where the q are this arm's joints
     (docs/planar_model.md §3).
+
+    Attributes
+    ----------
+    mount : tuple of float
+        (x, y) of the first joint in the base frame, m.
+    zero_angle : float
+        rad.
+    sense : int
+        +1 or −1.
+    links : tuple of Link
+        From the base out, one per joint.
     """
 
     mount: tuple[float, float]
@@ -129,7 +140,19 @@ class Base:
     """The free-floating base (body 0).
 
     `inertia` is taken about the base CM, which is the origin of the base frame. `a` and `b` are
-    the width and height of a rectangular base. They are optional and used only for drawing.
+    the width and height of a rectangular base, optional: the base drawn and the body that
+    `[constraints]` keeps the links and obstacles clear of (`geometry.base_extent`; without
+    them, a square just reaching the mounts: docs/planar_model.md §6).
+
+    Attributes
+    ----------
+    mass : float
+        kg.
+    inertia : float
+        kg m², about the base CM.
+    a, b : float or None
+        The sides of the base rectangle, m (the one along the base's x axis is the one that
+        puts the mounts on its boundary).
     """
 
     mass: float

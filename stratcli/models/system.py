@@ -34,7 +34,16 @@ if TYPE_CHECKING:
 class Stratum:
     """A named subsystem: locked coordinates (zero velocity) and the inputs active on it.
 
-    `parameters` overrides model parameters on this stratum (e.g. the biped's contact flags).
+    Attributes
+    ----------
+    name : str
+        "S1", "S13", a custom model's own name, ...
+    locked : tuple of int
+        The coordinates it locks (0-based).
+    active : tuple of int
+        The inputs it drives (0-based).
+    parameters : tuple of (str, float)
+        Model parameters overridden on this stratum (e.g. the biped's contact flags).
     """
 
     name: str
@@ -193,7 +202,34 @@ _MAPPINGS = ("strata", "parameters")  # held read-only (`types.MappingProxyType`
 
 @dataclass
 class System:
-    """A driftless control-affine system with named coordinates, inputs and strata."""
+    """A driftless control-affine system with named coordinates, inputs and strata.
+
+    A model is set once (a preset is one object shared by every task of it): its
+    attributes cannot be rebound, nor its strata, parameters or fields changed in place.
+
+    Attributes
+    ----------
+    name : str
+        The model's name ("one-arm", "urdf", a scenario's custom name, ...).
+    states, inputs : tuple of str
+        Coordinate and input names, in order (n and m of them).
+    fields : sympy.ImmutableMatrix
+        G(q), n x m, in the state and parameter symbols (`q' = G(q) u`, paper eq. 1); a URDF
+        model has none (numeric only: `hasattr(system, "fields")` is False).
+    strata : Mapping of str to Stratum
+        Read-only, by name.
+    parameters : Mapping of str to float
+        Values of the parameter symbols in `fields` (read-only).
+    description : str
+        One line for listings.
+    robot : PlanarManipulator or None
+        The physical robot, for a planar manipulator (presets included).
+    spec : model table or None
+        The scenario's [model] table it was built from.
+    identity : str or None
+        What determines `fields` exactly (a preset and its source's hash): keys the code
+        cache without building the symbolic fields.
+    """
 
     name: str
     states: tuple[str, ...]

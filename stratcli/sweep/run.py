@@ -49,7 +49,27 @@ Progress = Callable[[int, int], None]  # (tasks done, tasks in all)
 
 @dataclass(frozen=True)
 class SweepOutcome:
-    """A sweep run: every row so far, the summary and the files written."""
+    """A sweep run: every row so far, the summary and the files written.
+
+    Attributes
+    ----------
+    out : Path
+        The sweep's directory.
+    rows : dict of int to dict
+        Every row so far, by task index (this call's and those resumed).
+    summary : dict
+        sweep.json: counts, success rate, executor, wall time, chosen sequences.
+    planned, resumed : int
+        Tasks planned by this call; rows that were there already (`resume`).
+    missing : list of int
+        Tasks still without a row (their worker died): run again with `resume`.
+    files : list of Path
+        What this call wrote (results.csv, sweep.json, plots).
+    reprinted : bool
+        The sweep was finished before this call: nothing was run or written.
+    complete : bool
+        Every task has its row.
+    """
 
     out: Path
     rows: dict[int, dict[str, Any]]  # task index -> row (all of the sweep's, by index)
