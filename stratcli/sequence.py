@@ -27,7 +27,7 @@ from .results import (
     frozen_array,
 )
 from .settings import PlannerSettings
-from .simulate import Trajectory, sample
+from .simulate import Trajectory, integrate_leg, sample
 from .status import Status
 from .time_axis import checked_times
 
@@ -212,6 +212,40 @@ class SequencePlan:
             if sel.any():
                 local = np.clip(t[sel] - leg.t0, 0.0, leg.duration)  # (rounding: its own)
                 out[sel] = leg.controls(local, derivative)
+        return out[0] if single else out
+
+    def states(self, t: np.ndarray | float) -> np.ndarray:
+        """Configurations at plan times `t`, re-integrated from each leg's start as `sample`
+        does (independently of the planner); at a switch the later leg's start.
+
+        Parameters
+        ----------
+        t : float or array of float
+            Times on the plan's axis, s, from 0 to `duration`, in any order.
+
+        Returns
+        -------
+        ndarray
+            Shape (len(t), n), or (n,) for a single time; NaN where a leg could not be
+            re-integrated (as in `sample`).
+
+        Raises
+        ------
+        InputError
+            A time outside [0, duration] (beyond rounding).
+        """
+        t, single = checked_times(t, self.duration, "the plan")
+        out = np.full((t.size, len(self.coordinates)), np.nan)
+        if not self.legs:
+            return out[0] if single else out
+        starts = np.array([leg.t0 for leg in self.legs])
+        which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.legs) - 1)
+        for k, leg in enumerate(self.legs):
+            rows = np.flatnonzero(which == k)
+            if rows.size:
+                local = np.clip(t[rows] - leg.t0, 0.0, leg.duration)
+                order = np.argsort(local, kind="stable")  # (integrated forward in time)
+                out[rows[order]] = integrate_leg(self, leg, local[order])
         return out[0] if single else out
 
     def sample(self, samples_per_leg: int = 200) -> Trajectory:

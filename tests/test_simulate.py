@@ -51,3 +51,25 @@ def test_a_field_at_one_point_where_python_floats_fail_is_numpys():
             np.testing.assert_array_equal(G.at(q), G(q))
         assert np.isinf(G.at(np.array([0.0, 2.0]))[0, 0])
         assert np.isnan(G.at(np.array([0.5, -8.0]))[0, 1])
+
+
+def test_states_at_any_times_are_the_re_integrated_trajectory():
+    """Controls could be asked at any time, states only on `sample`'s uniform grid. A plan's
+    `states(t)` at unsorted times equals its samples there (a switch: the later leg's start,
+    the same configuration), reaches the goal at the end, and refuses times off the plan."""
+    import pytest
+    from conftest import ROOT
+
+    import stratcli
+
+    plan = stratcli.plan(stratcli.load_scenario(ROOT / "scenarios" / "sim3_hybrid.toml"))
+    trajectory = plan.sample(40)
+    shuffled = np.random.default_rng(0).permutation(trajectory.t.size)
+    q = plan.states(trajectory.t[shuffled])
+    assert q.shape == trajectory.q.shape
+    assert np.abs(q - trajectory.q[shuffled]).max() < 1e-8
+    end = plan.states(plan.duration)
+    assert end.shape == (len(plan.coordinates),)
+    assert np.linalg.norm(end - plan.legs[-1].goal) <= plan.settings.tolerance
+    with pytest.raises(stratcli.InputError):
+        plan.states(plan.duration + 1.0)
