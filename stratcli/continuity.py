@@ -37,16 +37,19 @@ class Constraints:
 
 @dataclass(frozen=True)
 class Elimination:
-    """`λ = particular + null @ z`, with orthonormal `null` (p x free)."""
+    """The coefficients that meet a leg's continuity conditions: `λ = particular + null @ z`,
+    with orthonormal `null` (p x free), for any `z` (paper eq. 26-29)."""
 
     particular: np.ndarray
     null: np.ndarray
 
     @property
     def free(self) -> int:
+        """How many free parameters `z` has (0: the conditions fix the coefficients)."""
         return self.null.shape[1]
 
     def coefficients(self, z: np.ndarray) -> np.ndarray:
+        """The flat coefficients `particular + null @ z` (they meet the conditions)."""
         return self.particular + self.null @ z
 
     def project(self, lam: np.ndarray) -> np.ndarray:

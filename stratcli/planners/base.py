@@ -109,6 +109,13 @@ class LegProblem:
         For a piece of a multi-piece leg: its `duration`, its `previous` controls, `rest`
         (it ends with u = u' = 0 instead of the leg's end conditions) and whether it is the
         `first_piece` (the only one a soft start applies to).
+
+        Returns
+        -------
+        Elimination
+            Every flat coefficient vector that meets the leg's continuity conditions is
+            `particular + null @ z` for free `z` (`coefficients(z)`; `project(lam)` is the
+            `z` nearest a given `lam`): search over `z` and the switches stay continuous.
         """
         return eliminate(
             leg_constraints(
@@ -125,7 +132,24 @@ class LegProblem:
         )
 
     def endpoint(self, q: np.ndarray | None = None, duration: float | None = None):
-        """The end-point map (and its Jacobian) from `q` (default: the leg's start)."""
+        """The end-point map of the leg's stratum from `q` (default: the leg's start).
+
+        Parameters
+        ----------
+        q : ndarray, optional
+            Where the controls start, shape (n,).
+        duration : float, optional
+            How long they run (default: the leg's).
+
+        Returns
+        -------
+        callable
+            `F(lam, jacobian=True)` -> `(q_end, J)`: the configuration the controls of flat
+            coefficients `lam` lead to, shape (n,), and `J = ∂q_end/∂lam`, shape
+            (n, lam.size) (None when `jacobian` is False). `lam` is a piece's coefficients
+            (active inputs, `basis.size`) flattened row by row: an input's constant, then
+            the sine and cosine of each harmonic (`Piece.coefficients`).
+        """
         return make_endpoint(
             self.system.compiled(self.stratum),
             self.start if q is None else q,
@@ -280,4 +304,9 @@ class LegPlanner(abc.ABC):
     @abc.abstractmethod
     def missing_coefficients(self, problem: LegProblem) -> tuple[int, int]:
         """(free coefficients left by the boundary conditions, coefficients needed): the
-        check made before planning (a leg with fewer free than needed cannot be planned)."""
+        check made before planning (a leg with fewer free than needed cannot be planned).
+
+        "Free" is `problem.elimination().free` for a planner that searches one piece; "needed"
+        is how many equations its search solves: `len(problem.targets)` for an end-point
+        search such as Newton's (one per steered coordinate), the Hall coordinates of its
+        degree for a Lie step."""
