@@ -64,6 +64,12 @@ def test_an_attitude_turning_by_more_than_pi_is_noted_with_the_rotation_reached(
         f"[0, 0, {short:.4g}], which the plan reaches (result.json's end shows that one)"
     )
     assert note in outcome.result.notes
+    # decompose listed the goal's rz = 4 without a word: it says so too
+    import stratcli
+
+    auto = load_scenario(tmp_path / "s.toml").with_changes({"legs": None, "decompose": {}})
+    listed = stratcli.decompose(auto)
+    assert note in listed.notes and listed.document["notes"] == [note]
     end = outcome.document["attitude"]["end"]["rotation_vector"]
     assert outcome.result.ok and end[2] == pytest.approx(short, abs=1e-3)
     (tmp_path / "s.toml").write_text(_text(goal='[0, 0, "*", 0, 0, 3.0]'))  # within pi: none

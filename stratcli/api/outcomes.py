@@ -143,12 +143,16 @@ class DecompositionOutcome:
         The essential coordinates and the candidate sequences with their vias.
     document : dict
         What `stratplan decompose --json` prints (read-only).
+    notes : tuple of str
+        For the user: an attitude of a URDF task past a half turn, and the shorter rotation
+        it is (as `plan` notes it).
     """
 
     task: Task
     settings: AutoSettings
     decomposition: Decomposition
     document: dict[str, Any]  # what `stratplan decompose --json` prints (read-only)
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "document", frozen(self.document))

@@ -205,7 +205,12 @@ def decompose(
         "strategies": list(dec.strategies),
         "sequences": rows,
     }
-    return DecompositionOutcome(task, auto, dec, doc)
+    # a URDF attitude past a half turn: the rotation the vias and plans use is the shorter
+    # one (said by `plan` alone, where decompose listed rz = 4 as the goal)
+    from ..models.spatial_scenario import long_attitudes
+
+    notes = tuple(long_attitudes(task))
+    return DecompositionOutcome(task, auto, dec, {**doc, "notes": list(notes)}, notes)
 
 
 def _decomposition(task: Task, max_length, strategy, criterion=None):

@@ -285,7 +285,7 @@ def decompose(
     task = _load(file)
     with render.reported(), _as_notes():
         outcome = api.decompose(task, max_length=max_length, strategy=strategy)
-    render.notes(outcome.settings.notes)
+    render.notes([*outcome.settings.notes, *outcome.notes])
     if json_output:
         render.print_json(outcome.document)
     else:  # the options asked, so that its hint ranks these candidates
