@@ -1082,3 +1082,13 @@ def test_quiet_prints_no_notes_and_the_next_command_prints_its_own(tmp_path):
     assert quiet.exit_code == 0 and quiet.stdout == "" and quiet.stderr == ""
     loud, _ = run(tmp_path, TASK_D, "--jobs", "1")
     assert loud.exit_code == 0 and "note: --jobs is for auto mode" in loud.stderr
+
+
+def test_check_says_a_stratum_that_spans_at_the_samples_does_not_at_q():
+    """arm3_reorient's S1: the table says "no" (rank 3 of 5 at its start) while a note said
+    "third order spans there" of the 100 samples, read as a contradiction; it says not at q."""
+    result = runner.invoke(
+        app, ["check", str(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")]
+    )
+    line = next(x for x in result.stderr.splitlines() if x.startswith("note: S1: degree 2"))
+    assert line.endswith("third order spans there, but not at q (rank 3 of 5 with third order)")

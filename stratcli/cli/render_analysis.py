@@ -99,10 +99,15 @@ def check_report(report) -> None:
                 f"{s['rank_at_requested_degree']}; third-order brackets span"
             )
         if s["third_order_needed"] > int(escalated):
+            at_q = (  # (the table's "no" is for q: the samples spanned said nothing of it)
+                f", but not at q (rank {s['rank_at']} of {s['dimension']} with third order)"
+                if s["rank_at"] < s["dimension"]
+                else ""
+            )
             notes.append(
                 f"{s['stratum']}: degree {doc['degree']} falls short at "
                 f"{s['third_order_needed'] - int(escalated)} sampled configuration(s), "
-                "third order spans there"
+                f"third order spans there{at_q}"
             )
         strata.add_row(
             s["stratum"],
