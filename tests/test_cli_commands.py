@@ -1090,5 +1090,5 @@ def test_check_says_a_stratum_that_spans_at_the_samples_does_not_at_q():
     result = runner.invoke(
         app, ["check", str(ROOT / "scenarios" / "spatial" / "arm3_reorient.toml")]
     )
-    line = next(x for x in result.stderr.splitlines() if x.startswith("note: S1: degree 2"))
+    line = next(x for x in result.stdout.splitlines() if x.startswith("note: S1: degree 2"))
     assert line.endswith("third order spans there, but not at q (rank 3 of 5 with third order)")
