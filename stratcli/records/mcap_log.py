@@ -278,7 +278,8 @@ def mcap_log(
     switches = {sw["after_leg"]: sw for sw in result_doc.get("switches", [])}
     for k, leg in enumerate(plan.legs):
         doc = legs_doc[k]
-        piece = doc["pieces"][0] if doc.get("pieces") else {"coefficients": {}}
+        pieces = doc.get("pieces") or []  # (a Lie leg: one a step)
+        first = pieces[0]["coefficients"] if pieces else {}
         log.write(
             "/legs",
             at(leg.t0),
@@ -290,7 +291,11 @@ def mcap_log(
                     "start": _named_values(states, doc["start"]),
                     "goal": _named_values(states, doc["goal"]),
                     "end": _named_values(states, doc["end"]),
-                    "coefficients": piece["coefficients"],
+                    "coefficients": first,
+                    "pieces": [
+                        {key: piece[key] for key in ("t0", "duration", "basis", "coefficients")}
+                        for piece in pieces
+                    ],
                     "margins": leg_margins[k] if k < len(leg_margins) else None,
                 }
             ),

@@ -99,8 +99,32 @@ def own_schemas(states: tuple[str, ...], inputs: tuple[str, ...]) -> dict[str, d
         "coefficients": _named(
             inputs,
             {"type": "array", "items": _NUMBER},
-            "Fourier coefficients per active input (λ0, sines, cosines)",
+            "the first piece's Fourier coefficients per active input (λ0, sines, cosines)",
         ),
+        "pieces": {
+            "type": "array",
+            "description": "every piece of the leg's controls, as result.json's legs[].pieces "
+            "(a Lie leg: one a step): t0 from the leg's start and duration [s], basis "
+            "(harmonics, period [s]) and coefficients per active input",
+            "items": {
+                "type": "object",
+                "properties": {
+                    "t0": _NUMBER,
+                    "duration": _NUMBER,
+                    "basis": {
+                        "type": "object",
+                        "properties": {
+                            "kind": _STRING,
+                            "harmonics": _INTEGER,
+                            "period": _NUMBER,
+                        },
+                    },
+                    "coefficients": _named(
+                        inputs, {"type": "array", "items": _NUMBER}, "per active input"
+                    ),
+                },
+            },
+        },
         "time": {"type": "number", "description": "kind switch: switch instant [s]"},
         "after_leg": {"type": "integer", "description": "kind switch: the leg it ends"},
         "jump": _named(inputs, _NUMBER, "u_next(0) − u_prev(T)"),
