@@ -1092,3 +1092,13 @@ def test_check_says_a_stratum_that_spans_at_the_samples_does_not_at_q():
     )
     line = next(x for x in result.stdout.splitlines() if x.startswith("note: S1: degree 2"))
     assert line.endswith("third order spans there, but not at q (rank 3 of 5 with third order)")
+
+
+def test_animation_of_a_urdf_robot_says_it_draws_none(tmp_path):
+    """`--animation` on a URDF robot wrote no motion.gif and said nothing (its help: "Also
+    write motion.gif"); it says where that motion is instead."""
+    scenario = ROOT / "scenarios" / "spatial" / "arm3_reorient.toml"
+    result = runner.invoke(app, ["plan", str(scenario), "--out", str(tmp_path), "--animation"])
+    assert result.exit_code == 0
+    assert "note: --animation draws motion.gif of planar robots only" in result.stderr
+    assert not list(tmp_path.glob("*/motion.gif"))

@@ -64,7 +64,8 @@ def write_record(
         A plan (from `plan`, or a run of the CLI's use cases); for a comparison, the best
         sequence's record plus comparison.json, comparison.csv and ranking.png.
     animation : bool
-        Also write motion.gif (off by default: drawing it costs more than planning).
+        Also write motion.gif (off by default: drawing it costs more than planning); planar
+        robots only (a URDF robot's motion plays from run.mcap in Foxglove).
     argv : sequence of str, optional
         The command recorded in manifest.json (default: this process's `sys.argv`).
     fmt : str

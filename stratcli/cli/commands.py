@@ -179,7 +179,14 @@ def _write(out: Path, outcome, animation: bool, progress, fmt: str = "png") -> P
     if progress is not None:
         progress(f"writing the run record in {out}")
     with render.reported():
-        return api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
+        run_dir = api.write_record(out, outcome, animation=animation, argv=_argv(), fmt=fmt)
+    planned = getattr(outcome, "best", outcome)
+    if animation and getattr(planned.task.system, "spatial", None) is not None:  # (said)
+        render.notes([
+            "--animation draws motion.gif of planar robots only: a URDF robot's motion "
+            "plays in 3-D from run.mcap in Foxglove (README: Run records)"
+        ])  # fmt: skip
+    return run_dir
 
 
 def compare_sequences(

@@ -34,8 +34,8 @@ Animation = Annotated[
     typer.Option(
         "--animation/--no-animation",
         metavar="",
-        help="Also write motion.gif (comparing: the best's); off by default, it takes longer "
-        "than the planning.",
+        help="Also write motion.gif (comparing: the best's; planar robots, a URDF robot's "
+        "motion is in run.mcap); off by default, it takes longer than the planning.",
     ),
 ]
 Scenario = Annotated[Path, typer.Argument(help="Scenario file (TOML).")]
