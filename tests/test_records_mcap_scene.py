@@ -98,3 +98,11 @@ def test_the_scene_draws_the_obstacles_of_the_constraints():
     assert (cube["size"]["x"], cube["size"]["y"]) == (0.3, 0.2)
     q = cube["pose"]["orientation"]
     assert math.isclose(2 * math.atan2(q["z"], q["w"]), 0.5)
+    # the links as thick as the capsules measured (link_radius, default 0.05): drawn 0.06
+    # thick, a closest approach of 5e-4 showed a gap of 0.06 in Foxglove
+    spec = {"obstacles": obstacles, "link_radius": 0.08}
+    thick = dataclasses.replace(plan, constraints=ConstraintReport(spec))
+    links = [e for e in scene_update(thick, geo, 0)["entities"] if e["id"].startswith("link")]
+    assert links and all(math.isclose(link["cubes"][0]["size"]["y"], 0.16) for link in links), [
+        link["id"] for link in links
+    ]

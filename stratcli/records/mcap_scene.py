@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from ..constraints import resolved_constraints
 from ..sequence import SequencePlan
 from .trajectory import base_extent
 
@@ -96,6 +97,11 @@ def scene_update(plan: SequencePlan, geo: dict[str, np.ndarray], ns: int) -> dic
     lengths = [link.length for link in robot.links]
     scale = max([*lengths, 2 * hx, 2 * hy])
     width = 0.06 * scale
+    joint = 1.6 * width
+    if plan.constraints is not None and (limits := resolved_constraints(plan)).geometric:
+        # the capsules [constraints] measures (radius link_radius), not thinner: a link
+        # 0.06 thick left a gap of 0.06 in Foxglove at a closest approach of 5e-4
+        width = joint = 2.0 * limits.link_radius
     stamp = _stamp(ns)
     zero = {"sec": 0, "nsec": 0}
 
@@ -139,7 +145,7 @@ def scene_update(plan: SequencePlan, geo: dict[str, np.ndarray], ns: int) -> dic
                 spheres=[
                     {
                         "pose": _IDENTITY,
-                        "size": _vec3(1.6 * width, 1.6 * width, 1.6 * width),
+                        "size": _vec3(joint, joint, joint),
                         "color": _color(0.83, 0.33, 0.0),
                     }
                 ],
