@@ -207,6 +207,26 @@ def test_a_failed_plan_is_stamped_failed(failed_plan):
         assert all(extent.y1 < ax.get_window_extent(renderer).y0 for ax in fig.axes)
 
 
+def test_a_one_panel_stroboscopes_title_and_whole_message_fit_the_figure(failed_plan):
+    """A plan failed on its first leg has one stroboscope panel: its title ran past both
+    edges of the figure with a long scenario name, "— FAILED" with it, and the boxed message
+    was cut at 300 characters, its advice lost. Both are whole and inside the figure."""
+    plan, traj = failed_plan
+    one_leg = dataclasses.replace(plan, legs=plan.legs[:1])
+    traj = simulate.sample(one_leg, 60)
+    fig = stroboscope_figure(one_leg, traj, "a_scenario_with_a_considerably_longer_name_than_usual")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    width = fig.get_window_extent(renderer)
+    title = fig._suptitle.get_window_extent(renderer)
+    assert width.x0 <= title.x0 and title.x1 <= width.x1 and title.y1 <= width.y1
+    assert fig._suptitle.get_text().endswith("— FAILED")
+    assert all(fig._suptitle.get_window_extent(renderer).y0 > ax.title.get_window_extent(
+        renderer).y1 for ax in fig.axes if ax.get_visible())  # fmt: skip
+    (box,) = [t for t in fig.texts if plan.message[:30] in t.get_text().replace("\n", " ")]
+    assert " ".join(box.get_text().split()) == " ".join(plan.message.split())
+
+
 def test_a_plan_with_an_acceleration_limit_gets_its_accelerations_figure(shipped_plans, one_arm):
     """max_acceleration of [constraints] is met (time scaling) and now drawn: the inputs'
     rates of change against time, each curve's closest approach to the limit marked ×

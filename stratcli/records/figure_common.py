@@ -26,6 +26,7 @@ __all__ = [
     "plain_log_labels",
     "save_figure",
     "stamp_failed",
+    "title_lines",
 ]
 
 DPI = 110
@@ -132,12 +133,19 @@ def plain_log_labels(axis, minor: bool = True, pattern: str = "{:,.10g}") -> Non
         axis.set_minor_formatter(plain)
 
 
+def title_lines(title: str, width: float, fontsize: float = 11) -> str:
+    """`title` wrapped to a figure `width` inches wide (bold, `fontsize` pt): a one-panel
+    figure's title ran past both edges, "— FAILED" with it."""
+    return "\n".join(textwrap.wrap(title, max(int(width * 120 / fontsize), 20)))
+
+
 def failed_message(plan: SequencePlan, width: float) -> list[str]:
     """A failed plan's message as the lines `stamp_failed` prints in a figure `width` inches
     wide (none for a plan that is ok)."""
     if plan.ok:
         return []
-    message = textwrap.shorten(plan.message or "the plan did not reach its goal", 300)
+    # (long enough for the message's advice: cut at 300, its "what to try" was lost)
+    message = textwrap.shorten(plan.message or "the plan did not reach its goal", 700)
     return textwrap.wrap(message, int(width * 11))
 
 

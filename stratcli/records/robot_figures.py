@@ -32,6 +32,7 @@ from .figure_common import (
     locked_names,
     message_band,
     stamp_failed,
+    title_lines,
 )
 from .obstacles import draw_obstacles, obstacle_points
 from .poses import draw_poses, segments
@@ -120,6 +121,15 @@ def stroboscope_figure(
     margins["bottom"] += 0.2 * (legend_rows - 1)
     band = message_band(plan, max(width, 7.5))  # a failed plan's message, under the legend
     margins["bottom"] += band  # (boxed over the panels' middle, it hid the poses)
+    head = f"{title}: stroboscope" if title else "stroboscope"
+    if legs < len(plan.legs):
+        head += f", {legs} of {len(plan.legs)} legs"
+    head = title_lines(
+        f"{head} ({snapshots} instants per leg, light to dark; inertial frame)"
+        + ("" if plan.ok else " — FAILED"),
+        max(width, 7.5),
+    )
+    margins["top"] += 0.2 * head.count("\n")  # (a wrapped title's lines)
     height = panel_h * rows + margins["top"] + margins["bottom"] + gaps["hspace"] * (rows - 1)
     fig = Figure(figsize=(max(width, 7.5), height), dpi=DPI)
     axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
@@ -171,12 +181,8 @@ def stroboscope_figure(
         frameon=False,
         handlelength=3.2,
     )
-    head = f"{title}: stroboscope" if title else "stroboscope"
-    if legs < len(plan.legs):
-        head += f", {legs} of {len(plan.legs)} legs"
     fig.suptitle(
-        f"{head} ({snapshots} instants per leg, light to dark; inertial frame)"
-        + ("" if plan.ok else " — FAILED"),
+        head,
         fontsize=11,
         fontweight="bold",
         color="k" if plan.ok else FAILED_COLOR,
