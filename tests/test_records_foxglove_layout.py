@@ -73,6 +73,10 @@ def test_layout_names_only_topics_and_fields_of_the_log(any_run):
                 assert kind == "number", (panel, path)
             elif panel.startswith("StateTransitions!"):
                 assert kind in ("string", "integer"), (panel, path)
+            elif panel.startswith("Indicator!"):  # the status strip: ok or failed
+                assert path == "/summary.status" and kind == "string", (panel, path)
+                rules = layout["configById"][panel]["rules"]
+                assert {r["rawValue"] for r in rules} == set(_field(schemas[topic], fields)["enum"])
             else:
                 assert fields == [], (panel, path)  # the 3-D panel names topics
     if robot:

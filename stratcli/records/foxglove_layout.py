@@ -12,6 +12,7 @@ them (`{"direction", "first", "second", "splitPercentage"}`; a leaf is a panel i
 | Plot | `Plot!configuration` | `/state.q.<coordinate>` for every coordinate |
 | Plot | `Plot!margins` | plans with [constraints]: `/margins.<kind>`, the room to each limit |
 | State Transitions | `StateTransitions!stratum` | `/state.stratum` and `/state.leg` |
+| Indicator | `Indicator!status` | `/summary.status`: ok (green) or FAILED (red), all along |
 
 A URDF robot's 3-D panel draws the robot from `run.mcap`'s `/robot_description` topic (the
 URDF's text, a `std_msgs/String`-shaped `{"data": ...}` message that Foxglove's 3-D panel draws by
@@ -45,14 +46,33 @@ __all__ = [
     "shows_robot",
 ]
 
-THREE_D, CONTROLS, CONFIGURATION, MARGINS, STRATUM = (
+STATUS, THREE_D, CONTROLS, CONFIGURATION, MARGINS, STRATUM = (
+    "Indicator!status",
     "3D!motion",
     "Plot!controls",
     "Plot!configuration",
     "Plot!margins",
     "StateTransitions!stratum",
 )
-LAYOUT_PANELS = (THREE_D, CONTROLS, CONFIGURATION, MARGINS, STRATUM)
+LAYOUT_PANELS = (STATUS, THREE_D, CONTROLS, CONFIGURATION, MARGINS, STRATUM)
+# The status strip: `/summary.status` (logged at the run's start, so it shows all along): a
+# failed plan looked like any other in Foxglove, its status only in the last message
+_STATUS_PANEL = {
+    "foxglovePanelTitle": "Status (/summary: message, energy, violated limit)",
+    "path": "/summary.status",
+    "style": "background",
+    "fallbackColor": "#a0a0a0",
+    "fallbackLabel": "no status",
+    "rules": [
+        {"operator": "=", "rawValue": "ok", "color": "#2e8b57", "label": "plan ok"},
+        {
+            "operator": "=",
+            "rawValue": "failed",
+            "color": "#c0392b",
+            "label": "plan FAILED (/summary.message says why)",
+        },
+    ],
+}
 
 
 def shows_robot(plan: SequencePlan, traj: Trajectory) -> bool:
@@ -180,7 +200,11 @@ def foxglove_layout(
             "foxglovePanelTitle": "Stratum and leg",
             "paths": [
                 {"value": "/state.stratum", "label": "stratum", "timestampMethod": "receiveTime"},
-                {"value": "/state.leg", "label": "leg", "timestampMethod": "receiveTime"},
+                {
+                    "value": "/state.leg",
+                    "label": "leg, from 0 (the figures' leg 1 is 0)",
+                    "timestampMethod": "receiveTime",
+                },
             ],
             "isSynced": True,
         },
@@ -197,6 +221,8 @@ def foxglove_layout(
     if robot:
         config[THREE_D] = _three_d(follow, distance, urdf)
         tree = _split("row", THREE_D, charts, 55)
+    config[STATUS] = dict(_STATUS_PANEL)
+    tree = _split("column", STATUS, tree, 6)
     return {
         "configById": config,
         "globalVariables": {},
@@ -256,5 +282,7 @@ def message_paths(layout: dict[str, Any]) -> dict[str, list[str]]:
     """
     out: dict[str, list[str]] = {}
     for panel, config in layout["configById"].items():
-        out[panel] = [p["value"] for p in config.get("paths", [])] + list(config.get("topics", {}))
+        paths = [p["value"] for p in config.get("paths", [])]
+        paths += [config["path"]] if "path" in config else []  # (an indicator's one)
+        out[panel] = paths + list(config.get("topics", {}))
     return out

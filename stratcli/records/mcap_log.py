@@ -7,7 +7,7 @@ Every channel is JSON-encoded with a JSON Schema:
 | `/state` | `stratplan.State` | one per sample: `t`, `leg`, `stratum`, `q` {coordinate: value} |
 | `/controls` | `stratplan.Controls` | one per sample: `t`, `leg`, `stratum`, `u`, `du` |
 | `/legs` | `stratplan.Leg` | `kind: "leg"` at each leg's start, `kind: "switch"` at each switch |
-| `/summary` | `stratplan.Summary` | one, at the end: status, energies, end point, ... |
+| `/summary` | `stratplan.Summary` | one, at the start: status, energies, end point, ... |
 | `/margins` | `stratplan.Margins` | plans with [constraints]: per sample, the room to each limit |
 | `/tf` | `foxglove.FrameTransforms` | manipulators, URDF robots: per sample, world → base → links |
 | `/scene` | `foxglove.SceneUpdate` | manipulators, URDF robots: once, base, links, tip paths |
@@ -274,6 +274,34 @@ def mcap_log(
         log.write("/scene", at(t_first), spatial_scene(plan, traj.q, at(t_first)))
     legs_doc = result_doc.get("legs", [])
     limits = result_doc.get("constraints") or {}
+    all_jumps = [
+        abs(v)
+        for sw in result_doc.get("switches", [])
+        for v in sw["jump"].values()
+        if v is not None
+    ]
+    # the outcome at the run's start, so that Foxglove's status strip (`Indicator!status`)
+    # shows it all along: at the end, a failed plan looked like any other until its last
+    # instant
+    log.write(
+        "/summary",
+        max(log.last, at(t_first)),
+        _present(
+            {
+                **{key: result_doc.get(key) for key in _SUMMARY_KEYS},
+                "scenario": result_doc.get("scenario", scenario_name),
+                "legs": len(plan.legs),
+                "switches": len(plan.switches),
+                "max_switch_jump": max(all_jumps, default=0.0),
+                "start": _named_values(states, result_doc["start"]),
+                "goal": _named_values(states, result_doc["goal"]),
+                "end": _named_values(states, result_doc["end"] or [None] * len(states)),
+                "duration_set_by": limits.get("duration_set_by") or None,
+                "violated": limits.get("violated") or None,
+            }
+        ),
+    )
+
     leg_margins = limits.get("legs") or []
     switches = {sw["after_leg"]: sw for sw in result_doc.get("switches", [])}
     for k, leg in enumerate(plan.legs):
@@ -337,30 +365,6 @@ def mcap_log(
                     }
                 ),
             )
-    all_jumps = [
-        abs(v)
-        for sw in result_doc.get("switches", [])
-        for v in sw["jump"].values()
-        if v is not None
-    ]
-    log.write(
-        "/summary",
-        max(log.last, at(traj.t[-1] if traj.size else 0.0)),
-        _present(
-            {
-                **{key: result_doc.get(key) for key in _SUMMARY_KEYS},
-                "scenario": result_doc.get("scenario", scenario_name),
-                "legs": len(plan.legs),
-                "switches": len(plan.switches),
-                "max_switch_jump": max(all_jumps, default=0.0),
-                "start": _named_values(states, result_doc["start"]),
-                "goal": _named_values(states, result_doc["goal"]),
-                "end": _named_values(states, result_doc["end"] or [None] * len(states)),
-                "duration_set_by": limits.get("duration_set_by") or None,
-                "violated": limits.get("violated") or None,
-            }
-        ),
-    )
 
     def finish(manifest: dict[str, Any] | None) -> bytes:
         writer.add_metadata(
