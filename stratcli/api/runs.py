@@ -116,14 +116,16 @@ def write_record(
     info["phases"]["record imports"] = imported
     comparing = isinstance(outcome, ComparisonOutcome)
     ranking = outcome.document if comparing else None  # its chart is drawn with the plots
+    phases = info["phases"]
+    extra = {}
+    if comparing:  # (before run.mcap is built: the manifest in it has every phase's time)
+        with phase(phases, "comparison files"):
+            extra["comparison.json"] = outcome.document
+            extra["comparison.csv"] = comparison_csv(outcome.document)
     files = run_files.record_files(
         task, planned.result, planned.document, info, animation, fmt, ranking
     )
-    phases = info["phases"]
-    if comparing:
-        with phase(phases, "comparison files"):
-            files["comparison.json"] = outcome.document
-            files["comparison.csv"] = comparison_csv(outcome.document)
+    files.update(extra)
     with phase(phases, "write"):  # after manifest.json is written: in the outcome only
         run_dir = run_files.write_record(Path(out), task, files, planned.started)
     planned.phases.update(phases, total=since_start())

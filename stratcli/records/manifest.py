@@ -6,11 +6,11 @@ the command line it includes reading the scenario), `check`, `compile`, `plannin
 (comparing: `planning` alone, the whole comparison with its compiling, CPU of this process
 only), then the record's parts: `record imports` (matplotlib and mcap, loaded by a process's
 first record; on the command line matplotlib loads in the drawing process instead,
-`records.drawing`), `sample` (the re-integration the log and plots draw), `plots` (every
-PNG, the GIF and a comparison's ranking chart; drawn by the drawing process: wall from
-asking for them to having them, the record's layout and URDF copy being built meanwhile, and
-the CPU of the drawing process and its fork for them, not their loading of matplotlib),
-`run.mcap` and, comparing, `comparison files` (comparison.json and .csv). The MCAP's copy of
+`records.drawing`), comparing `comparison files` (comparison.json and .csv), `sample` (the
+re-integration the log and plots draw), `plots` (every PNG, the GIF and a comparison's
+ranking chart; drawn by the drawing process: wall from asking for them to having them, the
+record's layout and URDF copy being built meanwhile, and the CPU of the drawing process and
+its fork for them, not their loading of matplotlib), `run.mcap`. The MCAP's copy of
 the manifest is taken before its own entry; writing the directory comes after the manifest
 is frozen, so `write` and `total` are in the outcome (`PlanOutcome.phases`), not in
 manifest.json.
