@@ -486,6 +486,28 @@ def test_a_limit_far_off_the_axis_is_said_in_its_panel():
     assert said == [[], ["rate limit -20 and 20 (off the axis)"], []]
 
 
+def test_a_far_limits_label_does_not_hide_the_near_limits_line(shipped_plans):
+    """The rate-limited task's q2 and q3: +pi drawn near the top, -pi far below; the label
+    "joint limit -3.14159 (off the axis)" sat at the top, over the +pi line. It sits at the
+    edge the far limit lies beyond, clear of every drawn limit line."""
+    _, outcome = shipped_plans["sim4_task_d_rate_limited"]
+    plan = outcome.result
+    fig = plots.configuration_figure(plan, plan.sample(100))
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    labelled = 0
+    for ax in fig.axes:
+        for text in (t for t in ax.texts if "off the axis" in t.get_text()):
+            labelled += 1
+            box = text.get_window_extent(renderer)
+            for line in ax.get_lines():
+                y = line.get_ydata()
+                if line.get_linestyle() == "--" and len(set(np.ravel(y))) == 1:  # a limit
+                    at = ax.transData.transform((0.0, float(np.ravel(y)[0])))[1]
+                    assert not box.y0 <= at <= box.y1, (text.get_text(), float(np.ravel(y)[0]))
+    assert labelled == 2  # q2's and q3's lower limit
+
+
 def test_figures_show_an_obstacle_far_from_the_robot_whole():
     import dataclasses
 

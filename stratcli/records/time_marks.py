@@ -93,9 +93,13 @@ def shade_limits(plan: SequencePlan, traj: Trajectory, axes: list[Any], kind: st
             shown = True
         far = [f"{v:g}" for v in (lo, hi) if np.isfinite(v) and v not in near]
         if far:  # said, not drawn: a limit with no mark read as no limit
+            # at the edge it lies beyond, unless that one is drawn: at the top, it hid the
+            # upper limit's line where only the lower one was far
+            low = np.isfinite(lo) and lo not in near and not (np.isfinite(hi) and hi not in near)
+            y, va = (0.04, "bottom") if low and hi in near else (0.96, "top")
             ax.text(
-                0.995, 0.96, f"{what} {' and '.join(far)} (off the axis)", transform=ax.transAxes,
-                ha="right", va="top", fontsize=7, color=FAILED_COLOR, zorder=6,
+                0.995, y, f"{what} {' and '.join(far)} (off the axis)", transform=ax.transAxes,
+                ha="right", va=va, fontsize=7, color=FAILED_COLOR, zorder=6,
                 bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none", "pad": 1},
             )  # fmt: skip
         room = np.minimum(values[:, i] - lo, hi - values[:, i])
