@@ -146,6 +146,11 @@ def failed_message(plan: SequencePlan, width: float) -> list[str]:
         return []
     # (long enough for the message's advice: cut at 300, its "what to try" was lost)
     message = textwrap.shorten(plan.message or "the plan did not reach its goal", 700)
+    left = plan.planned_legs - len(plan.legs)
+    if left > 0:  # (the figures show the legs planned only: the rest went unsaid)
+        first = len(plan.legs) + 1
+        legs = f"leg {first}" if left == 1 else f"legs {first} to {plan.planned_legs}"
+        message += f" ({legs} of {plan.planned_legs} not planned)"
     return textwrap.wrap(message, int(width * 11))
 
 
