@@ -120,6 +120,9 @@ def main() -> None:
         if signal.getsignal(sig) is not signal.SIG_IGN:  # e.g. `nohup`, or `cmd &` in a script
             signal.signal(sig, _on_signal)
     install()  # an Interrupted raised inside a finaliser is kept, not printed and lost
+    for stream in (sys.stdout, sys.stderr):  # an ASCII terminal (PYTHONIOENCODING=ascii):
+        if stream is not None and hasattr(stream, "reconfigure"):  # "?" for "·", no crash
+            stream.reconfigure(errors="replace")  # after the record was written, exit 1
     if sys.stdout is not None:
         sys.stdout = ClosedPipeSafe(sys.stdout)
     try:
@@ -135,6 +138,11 @@ def main() -> None:
         _finish_interrupted(exc.signum)
     except KeyboardInterrupt:  # raised by hand somewhere (or a handler reset by a library)
         _finish_interrupted(signal.SIGINT)
+    except PermissionError as exc:  # a path the user named that cannot be searched or read
+        _flush(sys.stdout)  # (a record that cannot be written is RecordError: exit 4)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"error: {where}permission denied", file=sys.stderr)
+        raise SystemExit(2) from None
     except Exception as exc:  # an Interrupted that Python wrapped on its way
         signum = _wrapped_interrupt(exc)
         if signum is None:

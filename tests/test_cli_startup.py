@@ -188,3 +188,60 @@ def test_a_command_started_with_stdout_or_stderr_closed_ends_without_a_traceback
     assert proc.returncode == 0
     assert "Traceback" not in proc.stderr and "Error" not in proc.stderr
     assert ("two-arm" in proc.stdout) == (closed == 2)
+
+
+DENIED = """
+import pathlib, sys
+sys.argv = ["stratplan", *sys.argv[1:]]
+real = pathlib.Path.is_file
+def denied(self):  # a directory the user cannot search (as root, chmod 000 is no bar)
+    if "locked" in str(self):
+        raise PermissionError(13, "Permission denied", str(self))
+    return real(self)
+pathlib.Path.is_file = denied
+pathlib.Path.exists = denied
+from stratcli.__main__ import entry
+entry()
+"""
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (["models", "locked/d.toml"], "error: locked/d.toml: permission denied"),
+        (["runs", "locked/runs"], "error: locked/runs: permission denied"),
+    ],
+    ids=["models", "runs"],
+)
+def test_a_path_that_cannot_be_searched_is_one_line_and_exit_2(args, line):
+    """`chmod 000 locked`: `models locked/d.toml`, `runs locked/runs` (and `plan --out`,
+    `show`, `check`) printed a PermissionError traceback and exited 1, "a leg failed"."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.run(
+        [sys.executable, "-c", DENIED, *args], capture_output=True, text=True, env=env, cwd=ROOT
+    )
+    assert proc.returncode == 2 and proc.stderr.strip() == line, proc.stderr
+
+
+def test_an_out_that_cannot_be_searched_is_refused_before_planning(monkeypatch, tmp_path):
+    from stratcli import InputError, api
+
+    def denied(self):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "exists", denied)
+    with pytest.raises(InputError, match=r"out=.*: cannot write there \(Permission denied\)"):
+        api.prepare_out(tmp_path / "locked" / "runs")
+
+
+def test_an_ascii_terminal_gets_question_marks_not_a_traceback():
+    """PYTHONIOENCODING=ascii: `plan` wrote its record, then died printing "·" (exit 1)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONIOENCODING": "ascii"}
+    proc = subprocess.run(
+        [sys.executable, "-c", QUICK, "check", "one-arm"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+    )
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr

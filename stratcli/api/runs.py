@@ -177,9 +177,9 @@ def prepare_out(out: str | Path) -> Path:
         read-only file system), so that nothing is planned for a record that cannot be kept.
     """
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError([Problem("out", "not a directory", given=str(out))])
     try:
+        if out.exists() and not out.is_dir():
+            raise InputError([Problem("out", "not a directory", given=str(out))])
         out.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=out):
             pass
