@@ -553,3 +553,35 @@ def test_a_start_stopped_on_its_way_to_another_starts_minimum_names_that_start(
     doc["optimisation"]["best"] = 1
     text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
     assert "newton 84.04 (heading for start 2's minimum), pulled 84.04;" in text
+
+
+def test_a_table_too_wide_for_the_terminal_loses_no_column_or_digit():
+    """At 40 or 60 columns Rich shrank `check`'s text columns to nothing: "spanning at q" and
+    the verdict vanished with their headers, and a number could read 1.8 for 1.8e-02. A table
+    that cannot fit with its words whole is printed whole, the terminal wrapping its lines."""
+    from rich.markup import escape
+
+    from stratcli.cli import render
+
+    out = io.StringIO()
+    console = render.Stream(file=out, force_terminal=True, width=40, color_system=None)
+    rows = render.table()
+    for header in ("stratum", "rank at q", "σ_min at q", "min rank, σ_min"):
+        render.number_column(rows, header)
+    render.text_column(rows, "spanning at q")
+    render.text_column(rows, "eq. 4")
+    spanning = escape("u2, u3, [u2,[u2,u3]]")  # (as `check` adds it: not markup)
+    rows.add_row("S1", "3 (deg 3)", "1.8e-02", "3, 6.4e-04", spanning, "strong")
+    console.print(rows)
+    text = out.getvalue()
+    for cell in ("1.8e-02", "3, 6.4e-04", "u2, u3, [u2,[u2,u3]]", "strong", "spanning at q"):
+        assert cell in text, text
+    assert console.width == 40  # (the console's own width is left as it was)
+    narrow = io.StringIO()  # a table that fits wraps its text columns as before
+    fits = render.Stream(file=narrow, force_terminal=True, width=40, color_system=None)
+    small = render.table()
+    render.number_column(small, "leg")
+    render.text_column(small, "note")
+    small.add_row("1", "a note of several words that wrap inside the column")
+    fits.print(small)
+    assert max(len(line) for line in narrow.getvalue().splitlines()) <= 40
