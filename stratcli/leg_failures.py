@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from .planner_contract import OWN
 from .planners.lie import DRIFTED
+from .reachability import NOT_TRIED
 from .results import LegPlan
 from .settings import PlannerSettings
 from .status import Status
@@ -48,4 +49,9 @@ def failure_message(leg: LegPlan, settings: PlannerSettings) -> str:
         ]
         if lowered:
             advice = f"allow more {' and '.join(lowered)}, or {advice}"
+        if leg.message.endswith(NOT_TRIED):  # its stratum cannot move that way: no tuning
+            advice = (  # helps ("S1 cannot move rz ...; try more harmonics" contradicted it)
+                "give the leg a via its stratum can reach, or other strata (stratplan "
+                "compare-sequences, or auto mode: a [decompose] table instead of [[legs]])"
+            )
     return f"{where} {head}: error {leg.error:.3g} > tolerance {tolerance:.3g} {work}; {advice}"

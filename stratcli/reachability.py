@@ -38,6 +38,9 @@ from .models.system import System
 
 __all__ = ["WARN_ENERGY", "WARN_LEVERAGE", "Reach", "better_strata", "out_of_reach", "reach"]
 
+# how `out_of_reach` ends: tuning the search cannot help such a leg (`leg_failures` advises)
+NOT_TRIED = "(no continuation tried)"
+
 WARN_ENERGY = 1e4  # predicted energy above which a leg is flagged
 WARN_LEVERAGE = 10.0  # |u·δ| / σ above which a leg needing third-order brackets is flagged
 LOOP_GAIN = 4.0 * np.pi  # a degree-k bracket moves (aT)^k / LOOP_GAIN^(k-1)
@@ -171,5 +174,5 @@ def out_of_reach(
     return (
         f"{s.name} cannot move {name} from the leg's start: its fields and Lie brackets up to "
         f"degree {degree} span {rank} of the {len(targets)} coordinates the leg steers there, "
-        f"and its goal lies {float(np.linalg.norm(off)):.3g} off them (no continuation tried)"
+        f"and its goal lies {float(np.linalg.norm(off)):.3g} off them {NOT_TRIED}"
     )

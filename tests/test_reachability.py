@@ -162,6 +162,10 @@ def test_a_urdf_leg_out_of_reach_fails_without_continuation_naming_stratum_and_d
     assert leg.iterations <= budget  # Newton's own attempts only: no continuation after them
     assert "S1 cannot move rz from the leg's start" in leg.message
     assert "no continuation tried" in leg.message
+    # what it advises: no tuning of the search ("try more harmonics" contradicted the reason)
+    advice = plan.message.rpartition("(no continuation tried)); ")[2]
+    assert advice.startswith("give the leg a via its stratum can reach, or other strata")
+    assert "harmonics" not in advice and "max_iterations" not in advice
 
 
 def test_a_coordinate_free_at_the_via_before_is_no_distance_to_steer():
