@@ -359,6 +359,11 @@ DAMAGE = {
     "null manifest": ("manifest.json", None, "not a JSON object"),
     "string time": ("manifest.json", lambda d: d.update(planning_time_s="1"), "planning_time_s"),
     "not JSON": ("result.json", "{", "damaged record"),
+    # a hand-edited record's fields show read (each was a TypeError or AttributeError)
+    "number message": ("result.json", lambda d: d.update(message=5), "message is 5"),
+    "text legs count": ("result.json", lambda d: d.update(planned_legs="x"), "planned_legs"),
+    "text constraints": ("result.json", lambda d: d.update(constraints="x"), "constraints"),
+    "number constraints": ("result.json", lambda d: d.update(constraints=5), "constraints"),
 }
 
 

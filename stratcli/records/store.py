@@ -59,7 +59,11 @@ RESULT_FIELDS = {
     "reference_energy": "num?-",
     "notes": "list?-",
     "optimisation": "dict?-",
+    "message": "str?-",  # (a hand-edited 5, "x" or list: show died in a TypeError)
+    "planned_legs": "int-",
+    "constraints": "dict?-",
 }
+CONSTRAINT_FIELDS = {"spec": "dict-", "legs": "list-", "violation": "dict?-"}
 LEG_FIELDS = {
     "stratum": "str",
     "method": "str",
@@ -126,6 +130,10 @@ def check_result(doc: Any) -> None:
             raise ValueError(f"switches[{i}].jump is not an object of numbers")
     if not all(isinstance(note, str) for note in doc.get("notes") or []):
         raise ValueError("notes holds something other than text")
+    if isinstance(limits := doc.get("constraints"), dict):
+        _check(limits, CONSTRAINT_FIELDS, "constraints.")
+        if not all(isinstance(leg, dict) for leg in limits.get("legs") or []):
+            raise ValueError("constraints.legs holds something other than objects")
     opt = doc.get("optimisation") or {}
     if opt.get("best") is not None:
         _check(opt, {"best": "int", "starts": "list", "newton_energy": "num?"}, "optimisation.")
