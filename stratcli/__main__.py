@@ -29,6 +29,7 @@ Matplotlib loads without its docstrings (`stratcli.lean_imports`: 0.08 s of a pl
 
 import atexit
 import gc
+import logging
 import os
 import signal
 import sys
@@ -125,6 +126,9 @@ def main() -> None:
             stream.reconfigure(errors="replace")  # after the record was written, exit 1
     if sys.stdout is not None:
         sys.stdout = ClosedPipeSafe(sys.stdout)
+    # matplotlib's warnings of an unwritable config or cache directory (a read-only HOME):
+    # two lines on every run, even with --quiet, about a cache it makes elsewhere itself
+    logging.getLogger("matplotlib").setLevel(logging.ERROR)
     try:
         blas.single_threaded()  # before numpy loads (stratcli.blas)
         from .cli import app

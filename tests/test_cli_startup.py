@@ -245,3 +245,17 @@ def test_an_ascii_terminal_gets_question_marks_not_a_traceback():
         cwd=ROOT,
     )
     assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
+
+
+def test_an_unwritable_matplotlib_config_directory_is_no_noise(tmp_path):
+    """A read-only HOME: every run printed matplotlib's two warnings (mkdir failed, a
+    temporary cache made), --quiet or not; matplotlib copes by itself, so nothing is said."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLCONFIGDIR": "/dev/null/matplotlib"}
+    scenario = str(ROOT / "scenarios" / "sim1_l_c1.toml")
+    proc = subprocess.run(
+        [sys.executable, "-c", QUICK, "plan", scenario, "--out", str(tmp_path), "--quiet"],
+        capture_output=True, text=True, env=env, cwd=ROOT,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.splitlines() == ["exit handler ran, collector False"], proc.stderr
+    assert list(tmp_path.glob("*/configuration.png"))  # (the figures drawn all the same)
