@@ -1102,3 +1102,15 @@ def test_animation_of_a_urdf_robot_says_it_draws_none(tmp_path):
     assert result.exit_code == 0
     assert "note: --animation draws motion.gif of planar robots only" in result.stderr
     assert not list(tmp_path.glob("*/motion.gif"))
+
+
+@pytest.mark.parametrize("command", ["models", "check"])
+def test_models_and_check_of_a_fifo_refuse_it_instead_of_waiting(tmp_path, command):
+    """`mkfifo f.toml; stratplan models f.toml` waited for a writer for good (peeking whether
+    it was a URDF opened it); `plan` said "not a regular file", as both do now."""
+    import os
+
+    fifo = tmp_path / "f.toml"
+    os.mkfifo(fifo)
+    result = runner.invoke(app, [command, str(fifo)])
+    assert result.exit_code == 2 and "not a regular file" in result.stderr

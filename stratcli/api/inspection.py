@@ -283,6 +283,8 @@ def scenario_model(path: str | Path) -> System | None:
 
 def _is_xml_file(path: Path) -> bool:
     try:
+        if not path.is_file():  # (opening a FIFO blocked `models` and `check` for good)
+            return False
         with open(path, "rb") as fh:
             head = fh.read(1024)
     except OSError:
