@@ -125,3 +125,10 @@ def test_a_bad_ranged_value_is_still_one_line_naming_the_option():
     result = runner.invoke(app, ["plan", "x.toml", "--time-scale", "-1"])
     assert result.exit_code == 2
     assert result.output.strip() == "error: --time-scale: must be from 0.001 to 1000 (got -1)"
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=ids)
+def test_h_is_help_too(command):
+    """`stratplan plan -h` was "No such option: -h"."""
+    short = runner.invoke(app, [*command, "-h"], env={"COLUMNS": "100"})
+    assert short.exit_code == 0 and short.output == _help(command, 100)

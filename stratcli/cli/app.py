@@ -69,6 +69,7 @@ app = typer.Typer(
     no_args_is_help=True,
     pretty_exceptions_show_locals=False,
     add_completion=False,
+    context_settings={"help_option_names": ["-h", "--help"]},  # (-h was "No such option")
     # Docstrings are prose: lines join into paragraphs (markdown), and [[legs]] or [u1,u2]
     # in them are text, not rich markup.
     rich_markup_mode="markdown",
