@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..wording import counted
+
 __all__ = [
     "COORDINATE_RUNAWAY",
     "ENERGY_RUNAWAY",
@@ -57,7 +59,9 @@ def runaway(payload: object, first: object) -> tuple[int, str] | None:
 
     Coordinates only: the first start's controls can be almost zero (a leg whose joints end
     where they start), so their growth says nothing; a planner that knows the leg's energy
-    passes its own `diverged` check to `damped_gauss_newton`."""
+    passes its own `diverged` check to `damped_gauss_newton`. (A goal 1000 rad off, which
+    the search heads for, ends here too: allowed that far, such a leg ran 185 s of
+    continuation and failed all the same.)"""
     pairs = (payload, first)
     if not all(isinstance(p, tuple) and len(p) == 2 for p in pairs):
         return None  # not a Newton payload: no built-in check
@@ -155,7 +159,7 @@ def damped_gauss_newton(
             if diverged is None:
                 ran = runaway(payload, first)
                 if ran:
-                    detail = f"{ran[1]} after {iterations} iterations"
+                    detail = f"{ran[1]} after {counted(iterations, 'iteration')}"
                     raise SearchDiverged(ran[0], detail, iterations)
             elif reason := diverged(payload):
                 return GaussNewtonResult(z, err, iterations, payload, reason)
