@@ -69,3 +69,30 @@ def test_remembered_samples_give_the_very_same_document(path, monkeypatch):
     monkeypatch.setattr(controllability, "_rows", lambda system, what, Q, compute: compute(Q))
     for q, doc in zip([*starts, starts[0]], remembered, strict=True):
         assert doc == check_document(system, strata, q, legs=legs)
+
+
+def test_a_badly_scaled_model_is_told_why_it_reads_as_unspanned():
+    """Fields (1, 0) and (0, 1e-9) span the plane, but the rank is relative (1e-9 of the
+    largest singular value): refused as "span only 1 of the 2", with no word of scale. The
+    refusal says the singular value is small, not zero, and how to plan anyway; fields that
+    truly span one direction only get no such word."""
+    import stratcli
+
+    def task(w):
+        return stratcli.load_scenario({
+            "name": "scaled",
+            "model": {
+                "kind": "custom", "states": ["x", "y"], "inputs": ["v", "w"],
+                "fields": {"v": [1, 0], "w": w},
+                "strata": [{"name": "all", "active": ["v", "w"]}],
+            },
+            "task": {"start": [0, 0], "goal": [1, 1e-9]},
+            "legs": [{"stratum": "all"}],
+        })  # fmt: skip
+
+    (scaled,) = stratcli.check_controllability(task([0, 1e-9])).problems
+    assert "span only 1 of the 2" in scaled
+    assert "smallest singular value there is 1.0e-09, not zero" in scaled
+    assert "plan with --no-check" in scaled
+    (parallel,) = stratcli.check_controllability(task([2, 0])).problems
+    assert "span only 1 of the 2" in parallel and "singular value" not in parallel

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..controllability import (
+    RANK_RTOL,
     leg_reports,
     sample_configurations,
     sequence_report,
@@ -167,7 +168,7 @@ def check_document(
                     + _pinned(system, legs, leg.index, leg.targets)
                     + ") or use another stratum"
                     + _inert(system, leg.stratum)
-                    + _huge(system, leg.stratum, leg.failure)
+                    + (_huge(system, leg.stratum, leg.failure) or _scaled(leg))
                 )
     elif not seq.controllable and not model_problems:
         worst = int(np.argmin(seq.cross_rank if seq.cross_rank is not None else seq.sum_rank))
@@ -201,6 +202,22 @@ def _huge(system: System, stratum: str, q) -> str:
     return (
         f"; its fields reach {largest:.2g} there: a singularity of the model (start or pass "
         "away from it)"
+    )
+
+
+SMALL = 1e-12  # a smallest singular value above this is no rounding of O(1) fields
+
+
+def _scaled(leg) -> str:
+    """Where the leg fails at its start with a smallest singular value that is small but no
+    rounding (fields of 1 and 1e-9: a badly scaled model reads as rank-deficient, the rank
+    being relative to the largest, `RANK_RTOL`): say so, and how to plan it anyway."""
+    if leg.failure_sampled or not SMALL < leg.sigma < np.inf:
+        return ""
+    return (
+        f"; its smallest singular value there is {leg.sigma:.1e}, not zero: below "
+        f"{RANK_RTOL:g} of the largest it counts as zero, as in a model whose fields differ "
+        "that much in scale (rescale its coordinates, or plan with --no-check)"
     )
 
 
