@@ -20,7 +20,7 @@ from .schema_problems import file_location
 
 __all__ = ["beside_refused", "hinted"]
 
-_LIST = "must be a valid list"
+_LIST = "must be a list"
 _MODEL_OBJECT = (
     "must be a [model] table (a dict with its kind: preset, custom, planar-manipulator or "
     "urdf), not a {} object; a model of your own is given by its table"

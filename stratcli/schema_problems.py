@@ -156,8 +156,6 @@ def validation_problems(
             msg = f"must be {_BOUNDS[kind]} {limit}"
         if kind == "missing":
             msg = "required field is missing"
-        if kind in ("model_type", "model_attributes_type"):  # "... or instance of Linspace"
-            msg = "must be a valid dictionary"
         if kind == "string_pattern_mismatch":  # pydantic: "String should match pattern '^[...'"
             pattern = str(err.get("ctx", {}).get("pattern", ""))
             msg = _PATTERNS.get(pattern, f"must match the pattern {pattern}")
@@ -191,6 +189,12 @@ def validation_problems(
             continue
         # a validator's own message may show the value already (parse_number's do)
         shown = "" if kind == "missing" or "(got " in msg else f" (got {_short(err['input'])})"
+        if kind in ("float_type", "int_type") and _quoted_number(err.get("input")):
+            shown += ": a number is written without quotes"  # tolerance = "1e-3"
+        if kind in ("model_type", "model_attributes_type", "dict_type"):
+            msg = "must be a table"  # (TOML's words: "a valid dictionary" is Python's)
+        if kind == "list_type":
+            msg = "must be a list"
         problem = Problem(where, suggested(f"{msg}{shown}", err.get("input")))
         if loc != raw:  # one form of several: grouped by the value they are forms of
             at = next(i for i, item in enumerate(raw) if _form(item, models))
@@ -235,9 +239,9 @@ def _fitting(found: list[tuple]) -> list[Problem]:
 
 
 def _one_of(forms: list[tuple]) -> list[Problem]:
-    """A value of none of a field's forms' types in one line: "must be a valid list or a
-    valid dictionary (got 2.5)", where each form said its own ("must be a valid list (got
-    2.5)", then "must be a valid dictionary (got 2.5)"). `forms`: (kind, problem, its message
+    """A value of none of a field's forms' types in one line: "must be a list or a table
+    (got 2.5)", where each form said its own ("must be a list (got 2.5)", then "must be a
+    table (got 2.5)"). `forms`: (kind, problem, its message
     without the value shown, the value shown) of each."""
     forms = [  # a number's parser given another type: "must be a number" as a form
         (k, p, "must be a number", m[m.rfind(" (got ") :] if " (got " in m else s)
@@ -299,6 +303,14 @@ def suggested(message: str, got: Any) -> str:
     if not near or not message.endswith(")"):
         return message
     return f"{message[:-1]}: did you mean {near[0]!r}?)"
+
+
+def _quoted_number(value: Any) -> bool:
+    """Whether `value` is text that reads as a number ("1e-3", " 5 "): a quoted number."""
+    try:
+        return isinstance(value, str) and bool(value.strip()) and float(value) == float(value)
+    except ValueError:
+        return False
 
 
 def _short(value: Any) -> str:

@@ -73,13 +73,13 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
         (
             LAST_LEG,
             "",
-            "legs: must be a valid list: write [[legs]] (an array of tables), one per "
+            "legs: must be a list: write [[legs]] (an array of tables), one per "
             "leg (got {'stratum': 'S3'",
         ),
         (
             GOAL,
             'goal = { q1 = "-pi/3", q2 = "pi/3", q3 = "pi/4", q4 = "-pi/12" }',
-            "task.goal: must be a valid list: a configuration by name (a table) is for "
+            "task.goal: must be a list: a configuration by name (a table) is for "
             "URDF models only; write a list of the model's coordinates in order "
             "(q1, q2, q3, theta) (got {'q1'",
         ),
@@ -98,7 +98,7 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
             LAST_LEG,
             LAST_LEG + '\n[constraints]\nobstacles = { shape = "circle", centre = [2, 2], '
             "radius = 0.1 }\n",
-            "constraints.obstacles: must be a valid list: write a list, even of one: "
+            "constraints.obstacles: must be a list: write a list, even of one: "
             "obstacles = [{ shape = ... }], or one [[constraints.obstacles]] table per obstacle "
             "(got {'shape': 'circle'",
         ),
@@ -132,7 +132,7 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
         (
             'start = [0, "pi/4", 0, 0]',
             'start = "0, pi/4, 0, 0"',  # it said "a configuration by name (a table) is for URDF"
-            "task.start: must be a valid list: write a list of the model's coordinates in order "
+            "task.start: must be a list: write a list of the model's coordinates in order "
             "(q1, q2, q3, theta), not one string (got '0, pi/4, 0, 0')",
         ),
     ],
@@ -213,7 +213,7 @@ def test_a_name_table_on_a_broken_model_lists_its_states_as_written(tmp_path):
     file with the same line: the hint lists the states the model declares instead."""
     line = _problem(tmp_path, BROKEN_UNICYCLE)
     assert line.startswith(
-        "task.start: must be a valid list: a configuration by name (a table) is for "
+        "task.start: must be a list: a configuration by name (a table) is for "
         "URDF models only; write a list of the model's coordinates in order (x, y, theta) "
         "(got {'x'"
     ), line

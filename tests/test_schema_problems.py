@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from conftest import ROOT
 from pydantic import ValidationError
 
 from stratcli.scenario import Scenario
@@ -106,13 +107,13 @@ def test_an_obstacles_keys_are_paths_of_the_file_and_list_the_keys_of_its_shape(
 
 
 def test_a_value_of_none_of_a_fields_forms_is_one_line_naming_them_all():
-    """`joint_limits = 2.5` (a pair, pairs, or a table of pairs) said "must be a valid list"
-    and, on a second line, "must be a valid dictionary"."""
+    """`joint_limits = 2.5` (a pair, pairs, or a table of pairs) said "must be a list"
+    and, on a second line, "must be a table"."""
     raw = {**BASE, "constraints": {"joint_limits": 2.5}}
     (problem,) = validation_problems(_errors(raw), root=Scenario)
     assert (problem.path, problem.message) == (
         "constraints.joint_limits",
-        "must be a valid list or a valid dictionary (got 2.5)",
+        "must be a list or a table (got 2.5)",
     )
 
 
@@ -134,3 +135,21 @@ def test_a_number_as_a_top_level_key_is_a_problem_not_an_index_error():
 
     with pytest.raises(stratcli.InputError, match=r"<dict>: 1: Keys should be strings"):
         stratcli.load_scenario({1: 2})
+
+
+def test_a_quoted_number_and_a_table_are_said_in_toml_words(tmp_path):
+    """`tolerance = "1e-3"` said "must be a valid number (got '1e-3')" (angles take text,
+    so why not this?); a value where a table belongs said "a valid dictionary"."""
+    import stratcli
+
+    with pytest.raises(stratcli.InputError) as info:
+        stratcli.load_scenario(
+            {"name": "q", "model": 5, "task": {"start": [0], "goal": [0]}, "legs": []}
+        )
+    assert "model: must be a table (got 5)" in str(info.value)
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    with pytest.raises(stratcli.InputError) as info:
+        stratcli.load_scenario(text.replace("tolerance = 1e-3", 'tolerance = "1e-3"'))
+    assert "planner.tolerance: must be a valid number (got '1e-3'): a number is written " in str(
+        info.value
+    )

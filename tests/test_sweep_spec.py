@@ -144,7 +144,7 @@ BAD = [
     ),
     (  # it said "... or instance of Linspace"
         "[sweep.grid]\n\"goal.q1\" = -1.0\n",
-        'sweep.grid."goal.q1": must be a valid list or a valid dictionary (got -1.0)',
+        'sweep.grid."goal.q1": must be a list or a table (got -1.0)',
     ),
     (  # names are not drawn: it said "in 'l-C0': unknown name 'l'"
         "[sweep.random]\ncount = 2\nranges = { \"planner.continuity\" = [\"l-C0\", \"lr-C1\"] }\n",
