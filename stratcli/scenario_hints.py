@@ -66,8 +66,11 @@ def hinted(problems: list[Problem], raw: dict[str, Any]) -> list[Problem]:
             continue  # the model loads; its problem is listed
         elif p.message.startswith(_LIST) and _CONFIGURATION.match(p.path):
             order = _coordinates(raw.get("model"))
-            if isinstance(_at(raw, p.path), str):  # "0, pi/4, 0, 0": one string, not a list
+            given = _at(raw, p.path)
+            if isinstance(given, str):  # "0, pi/4, 0, 0": one string, not a list
                 hint = f"write a list of the model's coordinates in order {order}, not one string"
+            elif not isinstance(given, dict):  # `start = 0`: no table to speak of
+                hint = f"write a list of the model's coordinates in order {order}"
             else:
                 hint = (
                     "a configuration by name (a table) is for URDF models only; write a list "

@@ -135,11 +135,18 @@ def test_decompose_of_a_legs_scenario_says_the_legs_are_not_used():
             "task.start: must be a list: write a list of the model's coordinates in order "
             "(q1, q2, q3, theta), not one string (got '0, pi/4, 0, 0')",
         ),
+        (
+            'start = [0, "pi/4", 0, 0]',
+            "start = 0",  # it said "a configuration by name (a table) is for URDF" too
+            "task.start: must be a list: write a list of the model's coordinates in order "
+            "(q1, q2, q3, theta) (got 0)",
+        ),
     ],
     ids=[
         "angle name", "single legs table", "name table on a preset", "lie key", "method",
         "single obstacle table", "a choice in another case", "a choice spelled otherwise",
         "no choice near", "a limit pair too short", "a limit pair too long", "one string",
+        "one number",
     ],
 )  # fmt: skip
 def test_messages_say_what_to_write(tmp_path, old, new, expected):
