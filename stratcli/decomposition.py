@@ -225,15 +225,14 @@ def decompose(
     essential = essential_coordinates(start, goal)
     names = [system.states[i] for i in essential]
     if not essential:
-        raise InputError(
-            [
-                Problem(
-                    "",
-                    "the goal equals the start on every prescribed coordinate (within "
-                    f"{ESSENTIAL_TOLERANCE:g}): nothing to decompose; give the legs instead",
-                )
-            ]
+        why = (  # (every one "*": "equals the start on every prescribed coordinate" of none)
+            'the goal prescribes no coordinate (every one is "*"): nothing to decompose; '
+            "give at least one coordinate's goal, or the legs"
+            if np.isnan(goal).all()
+            else "the goal equals the start on every prescribed coordinate (within "
+            f"{ESSENTIAL_TOLERANCE:g}): nothing to decompose; give the legs instead"
         )
+        raise InputError([Problem("", why)])
     allowed = list(system.strata) if strata is None else list(strata)
     moves_all = {s: moved_coordinates(system, s) for s in allowed}
     cands = candidate_strata(system, essential, allowed)

@@ -159,8 +159,11 @@ def test_biped_unprescribed_coordinates_are_left_to_the_planner():
 
 
 def test_nothing_to_decompose_and_too_short_are_input_errors(sim4):
-    with pytest.raises(InputError, match="nothing to decompose"):
+    with pytest.raises(InputError, match="equals the start on every prescribed coordinate"):
         decompose(sim4.system, sim4.start, sim4.start, max_length=3)
+    free = np.full_like(sim4.start, np.nan)  # every "*": it said "equals the start" too
+    with pytest.raises(InputError, match=r'prescribes no coordinate \(every one is "\*"\)'):
+        decompose(sim4.system, sim4.start, free, max_length=3)
     with pytest.raises(InputError, match="the shortest needs 2") as info:
         decompose(sim4.system, sim4.start, sim4.goal, max_length=1)
     assert info.value.problems[0].path == "max_length"
