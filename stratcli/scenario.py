@@ -302,7 +302,7 @@ def _resolve(
             message = suggested(f"must be {known} {got}", entry.method)
             if plugins:  # (its module may be the one that failed)
                 message += f"; a module of {PLUGINS} or {ENTRY_POINTS} failed to import"
-            elif message.endswith(")"):  # no name close to it: how one's own is found
+            elif "did you mean" not in message:  # no name close to it: how one's own is found
                 message += (
                     f"; a planner of your own: import its module first, or name the module in "
                     f"{PLUGINS} or under the entry points {ENTRY_POINTS}"

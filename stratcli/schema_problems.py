@@ -293,13 +293,14 @@ def _model_names() -> set[str]:
 
 def suggested(message: str, got: Any) -> str:
     """`message` ("must be 'a' or 'b' (got 'x')") with the choice closest to the string
-    given, if one is: the same letters in another case ('Newton', 'lr-c1'), or a close
-    spelling ('optimize' for 'optimise')."""
+    given, if one is: the same letters in another case ('Newton', 'lr-c1'), a close
+    spelling ('optimize' for 'optimise'), or the same letters in another order ('lei')."""
     choices = re.findall(r"'([^']*)'", message.partition(" (got ")[0])
     if not message.startswith("must be '") or not isinstance(got, str) or not choices:
         return message
     near = [c for c in choices if c.lower() == got.lower()]
     near = near or difflib.get_close_matches(got, choices, n=1, cutoff=0.75)
+    near = near or [c for c in choices if sorted(c.lower()) == sorted(got.lower())]  # 'lei'
     if not near or not message.endswith(")"):
         return message
     return f"{message[:-1]}: did you mean {near[0]!r}?)"

@@ -409,3 +409,12 @@ def test_a_kind_in_capitals_is_one_line_with_the_kind_meant(tmp_path):
     with pytest.raises(InputError) as info:
         load_scenario(raw)
     assert info.value.problems[0].render().endswith("did you mean 'planar-manipulator'?")
+
+
+def test_a_method_spelled_with_letters_swapped_is_offered_the_one_meant(tmp_path):
+    """`method = "lei"` was told of STRATPLAN_PLANNERS and entry points, not of 'lie' (too
+    far for difflib); a suggested name also no longer comes with that advice after it."""
+    text = TEXT.replace(LAST_LEG, LAST_LEG + 'method = "lei"\n')
+    assert _problem(tmp_path, text) == (
+        "legs[1].method: must be 'lie' or 'newton' (got 'lei': did you mean 'lie'?)"
+    )
