@@ -1114,3 +1114,17 @@ def test_models_and_check_of_a_fifo_refuse_it_instead_of_waiting(tmp_path, comma
     os.mkfifo(fifo)
     result = runner.invoke(app, [command, str(fifo)])
     assert result.exit_code == 2 and "not a regular file" in result.stderr
+
+
+def test_quiet_says_where_a_failed_plans_record_is(tmp_path):
+    """With --quiet a failed plan's one line did not say where its record went (the footer
+    that does is not printed); it does, and without --quiet the footer alone says it."""
+    failing = TASK_D.replace(
+        "[planner]", '[planner]\nobjective = "newton"\nmax_iterations = 1\nrestarts = 0'
+    )
+    quiet, _ = run(tmp_path, failing, "--quiet")
+    (record,) = (tmp_path / "runs").iterdir()
+    assert quiet.exit_code == 1 and quiet.stdout == ""
+    assert quiet.stderr.strip().endswith(f"(record: {record})")
+    loud, _ = run(tmp_path, failing)
+    assert loud.exit_code == 1 and "(record: " not in loud.stderr

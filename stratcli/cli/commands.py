@@ -136,8 +136,14 @@ def plan(
         render.plan_summary(outcome.document)
         render.plan_footer(outcome, run_dir)
     if not outcome.ok:
-        render.error("planning failed", outcome.result.message)
+        render.error("planning failed", outcome.result.message + _kept(run_dir, quiet))
     raise typer.Exit(0 if outcome.ok else 1)
+
+
+def _kept(run_dir: Path, quiet: bool) -> str:
+    """Where a failed plan's record is, for its error line under --quiet (else the footer
+    says so): with --quiet it went unsaid."""
+    return f" ({render.record(run_dir)})" if quiet else ""
 
 
 def _plan_auto(
@@ -159,7 +165,7 @@ def _plan_auto(
     elif not quiet:
         render_tables.auto_mode(outcome, run_dir)
     if not outcome.ok:
-        render.error("planning failed", outcome.comparison.choice())
+        render.error("planning failed", outcome.comparison.choice() + _kept(run_dir, quiet))
     raise typer.Exit(0 if outcome.ok else 1)
 
 
@@ -270,7 +276,9 @@ def compare_sequences(
         render_tables.comparison_footer(outcome, run_dir)
     render.notes(outcome.notes)  # the best plan's (its URDF's joint limits)
     if not outcome.ok:
-        render.error("planning failed", outcome.comparison.choice())  # says none reached it
+        render.error(  # (its choice says none reached it)
+            "planning failed", outcome.comparison.choice() + _kept(run_dir, quiet)
+        )
     raise typer.Exit(0 if outcome.ok else 1)
 
 
