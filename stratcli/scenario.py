@@ -108,7 +108,7 @@ class ReferenceSpec(_Strict):
 class Scenario(_Strict):
     """A scenario file: what to plan (task, legs or auto mode), on which model, and how."""
 
-    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)]
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_-][A-Za-z0-9_.-]*$", max_length=100)]
     description: str = Field("", max_length=10_000)
     model: ModelSpec
     task: TaskSpec

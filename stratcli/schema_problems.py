@@ -103,8 +103,8 @@ def _tags(cls: Any, field: str | None = None) -> tuple[str, ...]:
 
 
 _PATTERNS = {  # the schema's patterns, in words
-    r"^[A-Za-z0-9_.-]+$": "must be ASCII letters, digits, '_', '.' and '-' only, no spaces (it "
-    "names the run records and files)",
+    r"^[A-Za-z0-9_-][A-Za-z0-9_.-]*$": "must be ASCII letters, digits, '_', '.' and '-' only, "
+    "no spaces, not starting with '.' (it names the run records and files)",
     r"^[A-Za-z_][A-Za-z0-9_]*$": "must be a name of ASCII letters, digits and '_', not starting "
     "with a digit (it is used in expressions and as a column name)",
 }

@@ -296,7 +296,7 @@ def _anonymous(what: str, tables: Mapping, kind: str) -> str:
     it has one (`<dict 'mine'>`; a notebook may build several), else `what`."""
     named = tables.get("sweep") if kind == "sweep" else tables
     name = named.get("name") if isinstance(named, Mapping) else None
-    if isinstance(name, str) and re.fullmatch(r"[A-Za-z0-9_.-]{1,100}", name):  # a valid name
+    if isinstance(name, str) and re.fullmatch(r"[A-Za-z0-9_-][A-Za-z0-9_.-]{0,99}", name):  # valid
         return f"{what[:-1]} {name!r}>"
     return what
 

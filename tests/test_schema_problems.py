@@ -123,8 +123,8 @@ def test_a_name_with_a_space_says_which_characters_a_name_takes():
     (problem,) = validation_problems(_errors(raw), root=Scenario)
     assert (problem.path, problem.message) == (
         "name",
-        "must be ASCII letters, digits, '_', '.' and '-' only, no spaces (it names the run records "
-        "and files) (got 'my task')",
+        "must be ASCII letters, digits, '_', '.' and '-' only, no spaces, not starting with "
+        "'.' (it names the run records and files) (got 'my task')",
     )
 
 

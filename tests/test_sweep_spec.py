@@ -547,3 +547,12 @@ def test_a_misspelt_key_of_a_grid_axis_is_one_line(tmp_path):
         load_sweep(path)
     (line,) = str(exc.value).splitlines()  # not also "linspace: required field is missing"
     assert line.endswith("linspce: unknown key: did you mean 'linspace'? (allowed: linspace)")
+
+
+@pytest.mark.parametrize("name", ["..", ".", ".hidden"])
+def test_a_sweep_name_that_is_no_directory_of_its_own_is_refused(tmp_path, name):
+    """`name = ".."` made the default output sweeps/.. (refused only because that folder
+    held files); a name starting with "." is a hidden folder, as a run's partial one is."""
+    path = write(tmp_path, '[sweep.grid]\n"goal.q1" = [0]\n', name=name)
+    with pytest.raises(InputError, match=r"sweep\.name: .*not starting with '\.'"):
+        load_sweep(path)

@@ -55,7 +55,8 @@ from .keys import MAX_TASKS
 from .tables import grid_axes, random_ranges, task_rows
 
 MODES = ("legs", "auto", "compare")
-Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)]
+# (not starting with ".": ".." was a name, its default output sweeps/..)
+Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_-][A-Za-z0-9_.-]*$", max_length=100)]
 
 
 def _start_stop_count(value: list[Any]) -> list[Any]:
