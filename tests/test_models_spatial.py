@@ -155,6 +155,11 @@ def test_a_lock_set_naming_a_fixed_joint_or_given_twice_is_named(tmp_path):
     assert "model.strata[1]" in lines[0]
     assert "model.strata[2]: lock set ['j3'] repeats model.strata[0]" in lines[1]
     assert list(load_spatial(path, strata=[["j3"], ["j1", "j2"]]).strata) == ["S3", "S12"]
+    with pytest.raises(InputError) as err:  # ["j1", "j1"] was S1, without a word
+        load_spatial(path, strata=[["j9"], ["j1", "j1"]])
+    lines = str(err.value).splitlines()
+    assert len(lines) == 2 and "model.strata[0]" in lines[0]
+    assert lines[1].endswith("model.strata[1]: lock set ['j1', 'j1'] names a joint twice")
 
 
 def test_what_urdfdom_says_of_a_model_it_loads_never_goes_to_stdout(monkeypatch, capsys):

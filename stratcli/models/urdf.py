@@ -269,6 +269,11 @@ def lock_indices(strata, names: tuple[str, ...], summary: UrdfSummary) -> list[t
     problems = []
     for i, locks in enumerate(strata):
         unknown = [x for x in locks if x not in names]
+        if not unknown and len(set(locks)) < len(locks):  # ["j1", "j1"]: S1, without a word
+            problems.append(
+                Problem(f"model.strata[{i}]", f"lock set {list(locks)} names a joint twice")
+            )
+            continue
         if unknown or not locks or len(set(locks)) >= len(names):
             kinds = (
                 ("unknown", [x for x in unknown if x not in fixed]),
