@@ -2,7 +2,7 @@
 
 The printed models (paper eq. 6 and 11) are written out again here in plain numpy; custom
 models are lambdified straight from the scenario's expressions. Controls are rebuilt from the
-documented basis; the system is integrated with scipy's `solve_ivp` (rtol 1e-11). `verify`
+documented basis; the system is integrated with scipy's `solve_ivp` (rtol 1e-13). `verify`
 checks every promise of a plan's result.json against that re-integration: it is the judge of
 every planning test.
 """
@@ -122,8 +122,8 @@ def reintegrate(doc: dict, rhs) -> list[dict]:
                 (0.0, piece["duration"]),
                 q_leg,
                 method="DOP853",
-                rtol=1e-11,
-                atol=1e-12,
+                rtol=1e-13,
+                atol=1e-14,
             )
             assert sol.success, sol.message
             q_leg = sol.y[:, -1]
