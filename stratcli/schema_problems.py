@@ -191,7 +191,7 @@ def validation_problems(
         shown = "" if kind == "missing" or "(got " in msg else f" (got {_short(err['input'])})"
         if kind in ("float_type", "int_type") and _quoted_number(err.get("input")):
             shown += ": a number is written without quotes"  # tolerance = "1e-3"
-        if kind in ("model_type", "model_attributes_type", "dict_type"):
+        if kind in ("model_type", "model_attributes_type", "dict_type", "dataclass_type"):
             msg = "must be a table"  # (TOML's words: "a valid dictionary" is Python's)
         if kind == "list_type":
             msg = "must be a list"

@@ -140,6 +140,8 @@ def test_a_number_as_a_top_level_key_is_a_problem_not_an_index_error():
 def test_a_quoted_number_and_a_table_are_said_in_toml_words(tmp_path):
     """`tolerance = "1e-3"` said "must be a valid number (got '1e-3')" (angles take text,
     so why not this?); a value where a table belongs said "a valid dictionary"."""
+    import tomllib
+
     import stratcli
 
     with pytest.raises(stratcli.InputError) as info:
@@ -148,6 +150,9 @@ def test_a_quoted_number_and_a_table_are_said_in_toml_words(tmp_path):
         )
     assert "model: must be a table (got 5)" in str(info.value)
     text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    for table in ("planner", "decompose"):  # (settings tables: "an instance of PlannerSettings")
+        with pytest.raises(stratcli.InputError, match=rf"{table}: must be a table \(got 3\)"):
+            stratcli.load_scenario({**tomllib.loads(text), table: 3})
     with pytest.raises(stratcli.InputError) as info:
         stratcli.load_scenario(text.replace("tolerance = 1e-3", 'tolerance = "1e-3"'))
     assert "planner.tolerance: must be a valid number (got '1e-3'): a number is written " in str(
