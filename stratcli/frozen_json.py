@@ -1,25 +1,28 @@
-"""Read-only JSON documents: the `document` of an outcome (result.json, comparison.json, the
-check and decompose reports) inside a frozen value (no I/O).
+"""Read-only JSON documents and mappings: the `document` of an outcome (result.json,
+comparison.json, the check and decompose reports) and a model's strata, inside frozen values
+(no I/O).
 
 A frozen dataclass keeps its fields from being rebound, not a dict field from being changed:
-`outcome.document["status"] = "ok"` changed a value that said it equals its pickle. The
-documents are held as `FrozenDict` and `FrozenList`, subclasses of dict and list that refuse
-every change: they still are dicts and lists to `json.dumps`, `==` (a document equals its
-file read back with `json.load`) and `isinstance`. `copy.deepcopy` of one is a plain,
-changeable dict or list, for a caller who wants to edit a copy.
+`outcome.document["status"] = "ok"` changed a value that said it equals its pickle. They are
+held as `FrozenDict` and `FrozenList`, subclasses of dict and list that refuse every change:
+they still are dicts and lists to `json.dumps`, `==` (a document equals its file read back
+with `json.load`), pandas and `isinstance`. A copy is a plain, changeable dict or list
+(`copy.copy`, `copy.deepcopy`, `dict(doc)`, `doc.copy()`), and so is a pickled one read back
+(it needs no stratplan to be read): the values holding them freeze them again
+(`HoldsDocument`). YAML's `safe_dump`, which takes plain dicts only, wants such a copy.
 """
 
 from __future__ import annotations
 
 from typing import Any, NoReturn
 
-__all__ = ["FrozenDict", "FrozenList", "frozen", "thawed"]
+__all__ = ["FrozenDict", "FrozenList", "HoldsDocument", "frozen", "thawed"]
 
 
 def _refuse(self, *args, **kwargs) -> NoReturn:
     raise TypeError(
-        f"a result document is read-only ({type(self).__name__}); copy.deepcopy(document) "
-        "gives a copy to change"
+        f"read-only ({type(self).__name__}: part of a frozen value); a copy (copy.deepcopy) "
+        "can be changed"
     )
 
 
@@ -30,8 +33,11 @@ class FrozenDict(dict):
     __setitem__ = __delitem__ = __ior__ = _refuse
     clear = pop = popitem = setdefault = update = _refuse
 
-    def __reduce__(self):  # (pickled by its items: the default fills it with __setitem__)
-        return type(self), (dict(self),)
+    def __reduce__(self):  # a plain dict (the default would fill it with __setitem__)
+        return dict, (dict(self),)
+
+    def __copy__(self) -> dict:
+        return dict(self)
 
     def __deepcopy__(self, memo) -> dict:
         return thawed(self)
@@ -45,7 +51,10 @@ class FrozenList(list):
     append = extend = insert = pop = remove = reverse = sort = clear = _refuse
 
     def __reduce__(self):
-        return type(self), (list(self),)
+        return list, (list(self),)
+
+    def __copy__(self) -> list:
+        return list(self)
 
     def __deepcopy__(self, memo) -> list:
         return thawed(self)
@@ -80,3 +89,14 @@ def thawed(doc: Any) -> Any:
     if isinstance(doc, list):
         return [thawed(value) for value in doc]
     return doc
+
+
+class HoldsDocument:
+    """A frozen dataclass whose `document` field is held `frozen`: when made, and when
+    unpickled or deep-copied (both bring plain dicts and lists back)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "document", frozen(self.document))
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update({**state, "document": frozen(state["document"])})

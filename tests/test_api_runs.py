@@ -182,6 +182,15 @@ def test_an_outcomes_document_is_read_only_and_writing_its_record_keeps_its_valu
         assert type(mine) is dict and doc.get("status") != "mine"
     with pytest.raises(TypeError, match="read-only"):
         outcome.document["legs"][0]["pieces"][0].update(energy=0)
+    # copies are plain and changeable; a pickled document needs no stratplan to be read;
+    # an outcome pickled or deep-copied holds its document read-only again
+    assert type(copy.copy(outcome.document)) is dict
+    assert type(pickle.loads(pickle.dumps(outcome.document))) is dict
+    for again in (pickle.loads(pickle.dumps(outcome)), copy.deepcopy(outcome)):
+        assert again == outcome
+        with pytest.raises(TypeError, match="read-only"):
+            again.document["status"] = "changed"
+    assert dataclasses.asdict(outcome)["document"] == outcome.document  # (it recursed)
     before = pickle.dumps(outcome)
     run = api.write_record(tmp_path, outcome, animation=False)
     assert "write" in outcome.phases and pickle.loads(before) == outcome

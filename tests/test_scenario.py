@@ -633,6 +633,22 @@ def test_a_shared_model_cannot_be_changed_in_place():
                 model.fields = model.fields
     task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
     assert set(task.system.strata) == {"S1", "S2", "S3"}
+    import dataclasses
+
+    assert dataclasses.asdict(task)["system"]["name"] == "one-arm"  # (a mapping proxy: no)
+
+
+def test_a_urdf_model_equals_itself_its_pickle_and_another_load_of_its_file():
+    """Its `==` read the symbolic fields a URDF model has not, and raised: it equalled
+    nothing, itself included."""
+    import pickle
+
+    path = ROOT / "scenarios" / "spatial" / "arm3_reorient.toml"
+    system = load_scenario(path).system
+    assert system == system and pickle.loads(pickle.dumps(system)) == system
+    assert load_scenario(path).system == system and load_scenario(path) == load_scenario(path)
+    other = load_scenario(ROOT / "scenarios" / "spatial" / "arm7_three_legs.toml").system
+    assert other != system
 
 
 def test_a_field_with_abs_plans_without_a_traceback(tmp_path):

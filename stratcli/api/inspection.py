@@ -13,7 +13,7 @@ import numpy as np
 
 from ..arguments import checked, flag, integer, source
 from ..errors import InputError, NotControllableError, Problem
-from ..frozen_json import frozen
+from ..frozen_json import HoldsDocument
 from ..liealgebra import MAX_DEGREE
 from ..models.numbers import parse_number
 from ..models.presets import PRESETS, meant_preset, preset
@@ -25,7 +25,7 @@ from .check import MAX_SAMPLES, check_document
 
 
 @dataclass(frozen=True)
-class CheckReport:
+class CheckReport(HoldsDocument):
     """A controllability check (paper eqs. 2 and 4) of a preset model or a scenario.
 
     Attributes
@@ -46,9 +46,6 @@ class CheckReport:
     document: dict[str, Any]  # what `stratplan check --json` prints (read-only: `frozen_json`)
     title: str  # "preset <name>", "URDF <file>" or "<scenario> (<model> model)"
     seconds: float
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "document", frozen(self.document))
 
     def __hash__(self) -> int:  # (the document is a dict: equal reports share their title)
         return hash(self.title)

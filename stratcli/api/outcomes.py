@@ -9,7 +9,7 @@ from typing import Any
 
 from ..compare import Comparison
 from ..decomposition import Decomposition
-from ..frozen_json import frozen
+from ..frozen_json import HoldsDocument
 from ..records.manifest import Phases
 from ..scenario import Task
 from ..sequence import SequencePlan
@@ -20,7 +20,7 @@ __all__ = ["ComparisonOutcome", "DecompositionOutcome", "PlanOutcome"]
 
 
 @dataclass(frozen=True, repr=False)
-class PlanOutcome:
+class PlanOutcome(HoldsDocument):
     """A planned scenario: the plan (`result`), its result.json document and what it took.
 
     Attributes
@@ -56,9 +56,6 @@ class PlanOutcome:
     phases: Phases = field(default_factory=dict, compare=False)
     check_time: float | None = None  # seconds of the controllability check; None: not run
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "document", frozen(self.document))
-
     @property
     def ok(self) -> bool:
         """Every leg reached its goal."""
@@ -72,7 +69,7 @@ class PlanOutcome:
 
 
 @dataclass(frozen=True, repr=False)
-class ComparisonOutcome:
+class ComparisonOutcome(HoldsDocument):
     """Every candidate sequence planned and ranked; `best` is the chosen sequence's
     `PlanOutcome` (its plan: `best.result`).
 
@@ -109,9 +106,6 @@ class ComparisonOutcome:
     # was slowed to meet its rate limits (`planning.within_rates`)
     notes: tuple[str, ...] = ()
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "document", frozen(self.document))
-
     @property
     def ok(self) -> bool:
         """Some sequence reached the goal."""
@@ -130,7 +124,7 @@ class ComparisonOutcome:
 
 
 @dataclass(frozen=True)
-class DecompositionOutcome:
+class DecompositionOutcome(HoldsDocument):
     """The candidate sequences of a scenario's task, not planned.
 
     Attributes
@@ -153,9 +147,6 @@ class DecompositionOutcome:
     decomposition: Decomposition
     document: dict[str, Any]  # what `stratplan decompose --json` prints (read-only)
     notes: tuple[str, ...] = ()
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "document", frozen(self.document))
 
     def __hash__(self) -> int:  # (the document is a dict: equal outcomes share their task)
         return hash(self.task)

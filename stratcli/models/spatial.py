@@ -365,6 +365,22 @@ class SpatialSystem(System):
     def fields(self, value) -> None:
         pass
 
+    def _value(self) -> tuple:
+        """What it compares by: `System`'s fields, with the URDF's text in place of the
+        symbolic fields it has not (the dataclass's `==` read `fields`, which raises here:
+        a URDF model was unequal to nothing, itself included: it raised)."""
+        return (
+            self.name, self.states, self.inputs, dict(self.strata), dict(self.parameters),
+            self.description, self.spec, self.spatial.text,
+        )  # fmt: skip
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._value() == other._value()
+
+    __hash__ = None  # (as `System`'s: its strata are a mapping)
+
     def __repr__(self) -> str:  # the dataclass's would read `fields`, which raises here
         return (
             f"SpatialSystem({self.spatial.summary.name!r}: coordinates "

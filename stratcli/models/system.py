@@ -16,12 +16,12 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import ModelError, Problem
+from ..frozen_json import FrozenDict
 from . import codecache
 from .generated import ArrayFunction, FusedRows
 from .planar import PlanarManipulator
@@ -197,7 +197,8 @@ class CompiledStratum:
 _SET_ONCE = frozenset(
     {"name", "states", "inputs", "strata", "parameters", "description", "robot", "identity"}
 )
-_MAPPINGS = ("strata", "parameters")  # held read-only (`types.MappingProxyType`)
+_MAPPINGS = ("strata", "parameters")  # held read-only (`FrozenDict`: `dataclasses.asdict`
+# deep-copies them, which a `types.MappingProxyType` refused)
 
 
 @dataclass
@@ -243,9 +244,11 @@ class System:
     # Determines `fields` exactly (e.g. a preset and the hash of its source): the code cache
     # is keyed by it, so a warm run needs no symbolic fields at all. None: keyed by the fields.
     identity: str | None = None
-    _compiled: dict[str, CompiledStratum] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        # its compiled functions: a cache, no field (`dataclasses.asdict` recursed through
+        # each one's `system` back into this model for good)
+        self._compiled: dict[str, CompiledStratum] = {}
         object.__setattr__(self, "_built", True)  # from now on `fields` is read-only too
 
     def __repr__(self) -> str:  # the dataclass's prints the symbolic fields (kB, padded)
@@ -267,7 +270,7 @@ class System:
                 f"tasks, every preset is): build another model instead"
             )
         if name in _MAPPINGS:
-            value = MappingProxyType(dict(value))
+            value = FrozenDict(value)
         elif name in ("fields", "_fields") and hasattr(value, "as_immutable"):
             value = value.as_immutable()  # a sympy Matrix, which `fields[i, j] = ...` changed
         object.__setattr__(self, name, value)
@@ -279,7 +282,7 @@ class System:
         state["_compiled"] = {}
         state.pop("_row_cache", None)  # `controllability._rows`: only a speed-up
         state.pop("_lie_cache", None)  # Lie brackets (`liealgebra`): generated code, likewise
-        for name in _MAPPINGS:  # (a mapping proxy does not pickle)
+        for name in _MAPPINGS:  # (plain: read by `__setstate__`)
             if name in state:
                 state[name] = dict(state[name])
         return state
@@ -287,7 +290,7 @@ class System:
     def __setstate__(self, state: dict) -> None:
         for name in _MAPPINGS:
             if name in state:
-                state[name] = MappingProxyType(state[name])
+                state[name] = FrozenDict(state[name])
         self.__dict__.update(state)
 
     @cached_property
