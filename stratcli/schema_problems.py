@@ -299,8 +299,9 @@ def suggested(message: str, got: Any) -> str:
     if not message.startswith("must be '") or not isinstance(got, str) or not choices:
         return message
     near = [c for c in choices if c.lower() == got.lower()]
+    # letters swapped ('lei', 'rl-C1') before a close spelling: difflib offered 'l-C1'
+    near = near or [c for c in choices if sorted(c.lower()) == sorted(got.lower())]
     near = near or difflib.get_close_matches(got, choices, n=1, cutoff=0.75)
-    near = near or [c for c in choices if sorted(c.lower()) == sorted(got.lower())]  # 'lei'
     if not near or not message.endswith(")"):
         return message
     return f"{message[:-1]}: did you mean {near[0]!r}?)"

@@ -418,3 +418,9 @@ def test_a_method_spelled_with_letters_swapped_is_offered_the_one_meant(tmp_path
     assert _problem(tmp_path, text) == (
         "legs[1].method: must be 'lie' or 'newton' (got 'lei': did you mean 'lie'?)"
     )
+
+
+def test_a_continuity_with_letters_swapped_is_offered_the_one_meant(tmp_path):
+    """`continuity = "rl-C1"` was offered 'l-C1' (difflib's nearest), not 'lr-C1'."""
+    text = TEXT.replace('continuity = "lr-C1"', 'continuity = "rl-C1"')
+    assert "(got 'rl-C1': did you mean 'lr-C1'?)" in _problem(tmp_path, text)

@@ -215,7 +215,7 @@ def _scaled(leg) -> str:
     if leg.failure_sampled or not SMALL < leg.sigma < np.inf:
         return ""
     return (
-        f"; its smallest singular value there is {leg.sigma:.1e}, not zero: below "
+        f"; its smallest singular value there is {leg.sigma:.1e}, not zero: at or below "
         f"{RANK_RTOL:g} of the largest it counts as zero, as in a model whose fields differ "
         "that much in scale (rescale its coordinates, or plan with --no-check)"
     )
