@@ -618,3 +618,20 @@ def test_ranking_failure_labels_show_what_differs_and_the_legend_what_they_share
     assert texts == [f" failed: … {own.format('q1', 0.23)}", f" failed: … {own.format('q3', 0.41)}"]
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert f"failed: {shared} …" in labels
+
+
+def test_a_long_failed_title_clears_the_corner_keys(failed_plan):
+    """configuration.png of a failed plan with a long scenario name: its title ran under the
+    "○ goal of the leg" key in the corner; it wraps between the keys."""
+    plan, traj = failed_plan
+    fig = plots.configuration_figure(
+        plan, traj, "a_scenario_with_a_considerably_longer_name_than_usual"
+    )
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    title = fig._suptitle.get_window_extent(renderer)
+    keys = [t for t in fig.texts if t is not fig._suptitle and "goal of the leg" in t.get_text()]
+    assert keys and fig._suptitle.get_text().endswith("— FAILED")
+    for key in keys:
+        box = key.get_window_extent(renderer)
+        assert box.x1 < title.x0 or title.x1 < box.x0 or box.y1 < title.y0 or title.y1 < box.y0

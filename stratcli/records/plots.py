@@ -47,6 +47,7 @@ from .figure_common import (
     message_band,
     save_figure,
     stamp_failed,
+    title_lines,
 )
 from .obstacles import resolved_constraints
 from .robot_figures import motion_gif, stroboscope_figure
@@ -69,6 +70,7 @@ SWITCH = {"color": "0.35", "linestyle": "--", "linewidth": 0.9}
 LIE_STEP = {"color": "0.55", "linestyle": "-", "linewidth": 0.5}
 MAX_LABELLED_LEGS = 20  # more legs: no per-leg labels, goals or "off" marks
 WIDTH = 9.0  # in, of the time plots
+CORNER_KEY_WIDTH = 1.3  # in, kept clear of the title each side (`time_marks.corner_key`)
 LABEL_SIZE = 8.5  # pt, of the leg labels
 
 
@@ -206,28 +208,34 @@ def _time_series(
     notes = _decorate_time_axes(axes, plan)
     two_line = labelled and any(plan.legs[k].locked for k in range(len(plan.legs)))
     band = message_band(plan, WIDTH)  # a failed plan's message, under the plots
-    fig.set_figheight(fig.get_figheight() + 0.15 * notes + (0.15 if two_line else 0.0) + band)
-    fixed_margins(
-        fig,
-        left=0.85,
-        right=0.2,  # the last goal marker sits on the right edge
-        top=0.75 + (0.15 if two_line else 0.0),  # title, key line, leg labels
-        bottom=0.5 + 0.15 * notes + band,
-        hspace=0.12,
-    )
     if unit is None:
         title += " (custom model: values in its own units)"
     if not labelled:
         title = f"{title} ({len(plan.legs)} legs; leg labels omitted above {MAX_LABELLED_LEGS})"
-    elif kind == "configuration":
+    if not plan.ok:
+        title += " — FAILED"
+    # between the corner keys ("- - switch", "○ goal of the leg"), which a long scenario's
+    # name and "— FAILED" ran over
+    title = title_lines(title, WIDTH - 2 * CORNER_KEY_WIDTH)
+    extra = 0.2 * title.count("\n")
+    fig.set_figheight(
+        fig.get_figheight() + 0.15 * notes + (0.15 if two_line else 0.0) + band + extra
+    )
+    fixed_margins(
+        fig,
+        left=0.85,
+        right=0.2,  # the last goal marker sits on the right edge
+        top=0.75 + (0.15 if two_line else 0.0) + extra,  # title, key line, leg labels
+        bottom=0.5 + 0.15 * notes + band,
+        hspace=0.12,
+    )
+    if labelled and kind == "configuration":
         mark_goals(plan, axes)
-    else:
+    elif labelled:
         mark_off_inputs(plan, axes)
     if plan.constraints is not None:
         shade_limits(plan, traj, axes, kind)
     _widen_flat(axes, values)
-    if not plan.ok:
-        title += " — FAILED"
     fig.suptitle(title, fontsize=11, fontweight="bold", color="k" if plan.ok else FAILED_COLOR)
     stamp_failed(fig, plan, band_at=0.15 * max(notes, 1) + 0.16 if band else None)
     return fig
