@@ -195,3 +195,26 @@ def test_an_outcomes_document_is_read_only_and_writing_its_record_keeps_its_valu
     run = api.write_record(tmp_path, outcome, animation=False)
     assert "write" in outcome.phases and pickle.loads(before) == outcome
     assert json.loads((run / "result.json").read_text()) == outcome.document
+
+
+def test_one_run_that_cannot_be_read_is_skipped_not_the_whole_listing(tmp_path, monkeypatch):
+    """`chmod 000` on one run directory: `stratplan runs` printed "permission denied" for it
+    and listed none of the others (exit 2); it is skipped with that line, as damaged ones are."""
+    from pathlib import Path
+
+    task = load_scenario(ROOT / "scenarios" / "sim1_l_c1.toml")
+    outcome = api.plan_run(task)
+    kept = api.write_record(tmp_path, outcome, animation=False)
+    locked = api.write_record(tmp_path, outcome, animation=False)
+    real = Path.exists
+
+    def exists(self):  # as root, chmod 000 is no bar: the error it would raise
+        if self.parent == locked:
+            raise PermissionError(13, "Permission denied", str(self))
+        return real(self)
+
+    monkeypatch.setattr(Path, "exists", exists)
+    said = []
+    listed = api.list_runs(tmp_path, on_damaged=said.append)
+    assert [run["path"] for run in listed] == [str(kept)]
+    assert said == [f"{locked / 'result.json'}: permission denied"]

@@ -266,17 +266,31 @@ def list_records(out: Path, on_damaged: Callable[[str], None] | None = None) -> 
         return []
     records = []
     for path in out.iterdir():
-        if path.is_dir() and not is_partial(path):
-            if not (path / "result.json").exists() and (inside := _records_inside(path)):
-                if on_damaged is not None:  # a sweep's records/, say: not a damaged record
-                    many = counted(len(inside), "run record")
-                    on_damaged(f"{path} is a folder of {many}: `stratplan runs {path}` lists them")
-                continue
-            if not any((path / name).exists() for name in ("result.json", "manifest.json")):
-                continue  # no file of a record: some other folder, not a damaged record
-            try:
-                records.append(read_record(path))
-            except InputError as exc:
-                if on_damaged is not None:
-                    on_damaged(str(exc))
+        try:
+            found = _listed(path, on_damaged)
+        except PermissionError as exc:  # one unreadable run: it, not the whole listing
+            found = None
+            if on_damaged is not None:
+                on_damaged(f"{exc.filename or path}: permission denied")
+        if found is not None:
+            records.append(found)
     return sorted(records, key=lambda r: (r.started, r.path.name), reverse=True)
+
+
+def _listed(path: Path, on_damaged: Callable[[str], None] | None) -> Record | None:
+    """The record in `path` for `list_records`, or None (said to `on_damaged` if damaged)."""
+    if not path.is_dir() or is_partial(path):
+        return None
+    if not (path / "result.json").exists() and (inside := _records_inside(path)):
+        if on_damaged is not None:  # a sweep's records/, say: not a damaged record
+            many = counted(len(inside), "run record")
+            on_damaged(f"{path} is a folder of {many}: `stratplan runs {path}` lists them")
+        return None
+    if not any((path / name).exists() for name in ("result.json", "manifest.json")):
+        return None  # no file of a record: some other folder, not a damaged record
+    try:
+        return read_record(path)
+    except InputError as exc:
+        if on_damaged is not None:
+            on_damaged(str(exc))
+        return None
