@@ -192,6 +192,11 @@ def decompose(
         }
         for k, cand in enumerate(dec.candidates)
     ]
+    # a URDF attitude past a half turn: the rotation the vias and plans use is the shorter
+    # one (said by `plan` alone, where decompose listed rz = 4 as the goal)
+    from ..models.spatial_scenario import long_attitudes
+
+    notes = tuple(long_attitudes(task))
     doc = {
         "scenario": task.scenario.name,
         "coordinates": list(system.states),
@@ -204,13 +209,9 @@ def decompose(
         "max_length": dec.max_length,
         "strategies": list(dec.strategies),
         "sequences": rows,
+        "notes": list(notes),
     }
-    # a URDF attitude past a half turn: the rotation the vias and plans use is the shorter
-    # one (said by `plan` alone, where decompose listed rz = 4 as the goal)
-    from ..models.spatial_scenario import long_attitudes
-
-    notes = tuple(long_attitudes(task))
-    return DecompositionOutcome(task, auto, dec, {**doc, "notes": list(notes)}, notes)
+    return DecompositionOutcome(task, auto, dec, doc, notes)
 
 
 def _decomposition(task: Task, max_length, strategy, criterion=None):

@@ -282,10 +282,7 @@ class System:
         state["_compiled"] = {}
         state.pop("_row_cache", None)  # `controllability._rows`: only a speed-up
         state.pop("_lie_cache", None)  # Lie brackets (`liealgebra`): generated code, likewise
-        for name in _MAPPINGS:  # (plain: read by `__setstate__`)
-            if name in state:
-                state[name] = dict(state[name])
-        return state
+        return state  # (its `FrozenDict`s pickle as plain dicts: `__setstate__` freezes them)
 
     def __setstate__(self, state: dict) -> None:
         for name in _MAPPINGS:

@@ -320,10 +320,7 @@ def mcap_log(
                     "goal": _named_values(states, doc["goal"]),
                     "end": _named_values(states, doc["end"]),
                     "coefficients": first,
-                    "pieces": [
-                        {key: piece[key] for key in ("t0", "duration", "basis", "coefficients")}
-                        for piece in pieces
-                    ],
+                    "pieces": pieces,  # (result.json's: t0, duration, basis, coefficients)
                     "margins": leg_margins[k] if k < len(leg_margins) else None,
                 }
             ),
