@@ -298,13 +298,21 @@ def suggested(message: str, got: Any) -> str:
     choices = re.findall(r"'([^']*)'", message.partition(" (got ")[0])
     if not message.startswith("must be '") or not isinstance(got, str) or not choices:
         return message
+    near = closest_choice(got, choices)
+    if near is None or not message.endswith(")"):
+        return message
+    return f"{message[:-1]}: did you mean {near!r}?)"
+
+
+def closest_choice(got: str, choices) -> str | None:
+    """The choice `got` most likely meant: the same letters in another case ('Newton'), the
+    same letters in another order ('lei', 'rl-C1': difflib offered 'l-C1'), else a close
+    spelling ('optimize'); None when none is close."""
+    choices = list(choices)
     near = [c for c in choices if c.lower() == got.lower()]
-    # letters swapped ('lei', 'rl-C1') before a close spelling: difflib offered 'l-C1'
     near = near or [c for c in choices if sorted(c.lower()) == sorted(got.lower())]
     near = near or difflib.get_close_matches(got, choices, n=1, cutoff=0.75)
-    if not near or not message.endswith(")"):
-        return message
-    return f"{message[:-1]}: did you mean {near[0]!r}?)"
+    return near[0] if near else None
 
 
 def _quoted_number(value: Any) -> bool:

@@ -64,7 +64,15 @@ CASES = {
     ),
     "objective misspelt": (
         ["plan", TASK_D, "--objective", "newtn"],
-        "error: --objective: must be energy or newton (got 'newtn')",
+        "error: --objective: must be energy or newton (got 'newtn': did you mean 'newton'?)",
+    ),
+    "choice in another case": (
+        ["plan", TASK_D, "--search", "Loops"],
+        "error: --search: must be starts, loops or legwise (got 'Loops': did you mean 'loops'?)",
+    ),
+    "choice with letters swapped": (
+        ["sweep", TASK_D, "--records", "bets"],
+        "error: --records: must be best, failed, all or none (got 'bets': did you mean 'best'?)",
     ),
     "option without its value": (["plan", TASK_D, "--out"], "error: --out: requires an argument"),
     "empty out": (  # an unset shell variable: not the current directory

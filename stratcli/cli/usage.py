@@ -79,6 +79,11 @@ def _bad_value(exc: _click.BadParameter) -> str:
     choices = _choices(param)
     if choices:
         must = "must be " + _either(choices)
+        if given and isinstance(detail["input"], str):  # `--records bets`: 'best'
+            from ..schema_problems import closest_choice
+
+            near = closest_choice(detail["input"], choices)
+            given = f"{given[:-1]}: did you mean {near!r}?)" if near else given
     elif kind in _RANGE_ERRORS or kind.endswith("_parsing") or kind == "int_from_float":
         words = [] if kind in _RANGE_ERRORS else ["a whole number" if "int" in kind else "a number"]
         must = " ".join(["must be", *words, _range(param)]).rstrip()
