@@ -30,15 +30,17 @@ from pydantic import BaseModel, BeforeValidator, Field, Strict
 
 from .body_clearances import check_configuration, clearances, closest_pair
 from .clearance import box_corners
+from .constraint_report import ConstraintReport, LegMargins
 from .errors import InputError, Problem
+from .frozen_json import frozen
 from .limit_units import angle_coordinates
 from .models.numbers import parse_length, parse_number
 from .models.specs import STRICT
 from .per_input import per_input
-from .results import ConstraintReport, LegMargins
 from .simulate import sample
 from .time_scaling import rate_limited
 from .urdf_limits import URDF_LIMIT
+from .values import ByValue
 from .wording import counted
 
 __all__ = [
@@ -102,9 +104,10 @@ class ConstraintsSpec(_Strict):
     )
 
 
-@dataclass(frozen=True)
-class Constraints:
-    """Resolved against a model: per-coordinate limits, per-input rates, geometry."""
+@dataclass(frozen=True, eq=False)
+class Constraints(ByValue):
+    """Resolved against a model: per-coordinate limits, per-input rates, geometry. A value:
+    equal by its fields' values (arrays element by element), its arrays and table read-only."""
 
     lower: np.ndarray  # (n,) -inf where a coordinate has no limit
     upper: np.ndarray
@@ -118,6 +121,16 @@ class Constraints:
     spec: dict[str, Any]  # the table as given (for result.json)
     from_urdf: tuple[int, ...] = ()  # coordinates whose limits are the URDF's (not the table's)
 
+    def __post_init__(self) -> None:
+        arrays = {k: _read_only(getattr(self, k)) for k in _ARRAYS}
+        circles = tuple((_read_only(c), r) for c, r in self.circles)
+        for name, value in {**arrays, "circles": circles, "spec": frozen(self.spec)}.items():
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "boxes", tuple(_read_only(b) for b in self.boxes))
+
+    def __setstate__(self, state: dict) -> None:  # a pickle brings the table back plain
+        self.__dict__.update({**state, "spec": frozen(state["spec"])})
+
     @property
     def geometric(self) -> bool:
         return self.self_collision or bool(self.circles or self.boxes)
@@ -126,6 +139,17 @@ class Constraints:
     def timed(self) -> bool:
         """Rate or acceleration limits: they slow a plan by a factor of its own."""
         return self.max_rate is not None or self.max_acceleration is not None
+
+
+_ARRAYS = ("lower", "upper", "max_rate", "max_acceleration")  # (a rate array may be None)
+
+
+def _read_only(a: np.ndarray | None) -> np.ndarray | None:
+    if a is None:
+        return None
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
 
 
 def resolve(spec: ConstraintsSpec, system) -> Constraints:

@@ -14,7 +14,7 @@ with `json.load`), pandas and `isinstance`. A copy is a plain, changeable dict o
 
 from __future__ import annotations
 
-from typing import Any, NoReturn
+from typing import Any, ClassVar, NoReturn
 
 __all__ = ["FrozenDict", "FrozenList", "HoldsDocument", "frozen", "thawed"]
 
@@ -92,11 +92,15 @@ def thawed(doc: Any) -> Any:
 
 
 class HoldsDocument:
-    """A frozen dataclass whose `document` field is held `frozen`: when made, and when
-    unpickled or deep-copied (both bring plain dicts and lists back)."""
+    """A frozen dataclass whose JSON fields (`_documents`: `document` unless a class names
+    others) are held `frozen`: when made, and when unpickled or deep-copied (both bring plain
+    dicts and lists back)."""
+
+    _documents: ClassVar[tuple[str, ...]] = ("document",)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "document", frozen(self.document))
+        for name in self._documents:
+            object.__setattr__(self, name, frozen(getattr(self, name)))
 
     def __setstate__(self, state: dict) -> None:
-        self.__dict__.update({**state, "document": frozen(state["document"])})
+        self.__dict__.update({**state, **{k: frozen(state[k]) for k in self._documents}})

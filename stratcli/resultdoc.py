@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .constraint_report import ConstraintReport
 from .controls import FourierBasis
 from .results import (
     SCHEMA,
-    ConstraintReport,
     LegPlan,
     ModelRef,
     Optimisation,

@@ -14,11 +14,11 @@ from typing import Any
 import numpy as np
 
 from .arguments import flag, integer
+from .constraint_report import ConstraintReport
 from .errors import InputError
 from .models.specs import system_from_ref
 from .resultdoc import plan_document, plan_from_document
 from .results import (
-    ConstraintReport,
     LegPlan,
     ModelRef,
     Optimisation,

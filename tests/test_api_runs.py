@@ -197,6 +197,32 @@ def test_an_outcomes_document_is_read_only_and_writing_its_record_keeps_its_valu
     assert json.loads((run / "result.json").read_text()) == outcome.document
 
 
+def test_a_plans_constraints_and_what_it_met_of_them_are_read_only_values():
+    """A task's resolved [constraints] compared by identity (`==` of its pickle raised: an
+    array's truth value) and its limits could be changed in place under a plan that had used
+    them; the plan's report of them (spec, first violation, joint limits) was plain dicts
+    inside a frozen result. Both are values now: equal to their pickles, read-only."""
+    import copy
+    import pickle
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d_constrained.toml")
+    limits = task.constraints
+    again = pickle.loads(pickle.dumps(limits))
+    assert again == limits and again is not limits
+    assert again != dataclasses.replace(limits, clearance=limits.clearance + 0.01)
+    with pytest.raises(ValueError, match="read-only"):
+        limits.lower[0] = 0.0
+    report = api.plan_run(task, check=False).result.constraints
+    assert report.joint_limits and report.spec["self_collision"] is True
+    for value in (limits, again, report, pickle.loads(pickle.dumps(report)), copy.deepcopy(report)):
+        with pytest.raises(TypeError, match="read-only"):
+            value.spec["self_collision"] = False
+    with pytest.raises(TypeError, match="read-only"):
+        report.joint_limits["q1"]["lower"] = 0.0
+    assert pickle.loads(pickle.dumps(report)) == report
+    assert json.loads(json.dumps(report.to_dict())) == report.to_dict()
+
+
 def test_one_run_that_cannot_be_read_is_skipped_not_the_whole_listing(tmp_path, monkeypatch):
     """`chmod 000` on one run directory: `stratplan runs` printed "permission denied" for it
     and listed none of the others (exit 2); it is skipped with that line, as damaged ones are."""

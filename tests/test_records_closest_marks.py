@@ -16,13 +16,13 @@ from matplotlib.colors import to_rgba
 
 import stratcli
 import stratcli.simulate as simulate
+from stratcli.constraint_report import ConstraintReport
 from stratcli.constraints import ConstraintsSpec, resolve, verify
 from stratcli.records.closest_marks import SELF_COLOR
 from stratcli.records.figure_common import FAILED_COLOR, save_figure
 from stratcli.records.result import result_document
 from stratcli.records.robot_figures import stroboscope_figure
 from stratcli.records.trajectory import world_geometry
-from stratcli.results import ConstraintReport
 
 RADIUS, CLEARANCE = 0.05, 0.05  # sim4_task_d_constrained's link radius (default), clearance
 SELF = re.compile(r"closest approach, (.+) – (.+):\nmargin (\S+), near t = (\S+) s")

@@ -78,8 +78,8 @@ def test_the_scene_draws_the_obstacles_of_the_constraints():
     from pathlib import Path
 
     import stratcli
+    from stratcli.constraint_report import ConstraintReport
     from stratcli.records.mcap_scene import scene_update
-    from stratcli.results import ConstraintReport
 
     root = Path(__file__).resolve().parents[1]
     plan = stratcli.plan(root / "scenarios" / "sim4_task_d.toml")

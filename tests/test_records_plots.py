@@ -514,7 +514,7 @@ def test_figures_show_an_obstacle_far_from_the_robot_whole():
     import dataclasses
 
     import stratcli
-    from stratcli.results import ConstraintReport
+    from stratcli.constraint_report import ConstraintReport
 
     plan = stratcli.plan(ROOT / "scenarios" / "sim4_task_d.toml")
     far = [{"shape": "circle", "centre": [5.0, -4.0], "radius": 0.5}]
@@ -539,8 +539,8 @@ def test_a_long_scenario_name_wraps_the_ranking_title_inside_the_figure():
 
 def test_the_stroboscope_marks_each_legs_closest_approach_to_an_obstacle():
     import stratcli
+    from stratcli.constraint_report import ConstraintReport
     from stratcli.records.trajectory import world_geometry
-    from stratcli.results import ConstraintReport
 
     plan = stratcli.plan(ROOT / "scenarios" / "sim4_task_d.toml")
     circle = {"shape": "circle", "centre": [1.6, 1.1], "radius": 0.1}

@@ -192,7 +192,7 @@ def _own_planners(modules: dict[str, str], scenario: dict[str, Any]) -> None:
 
 def _margins(report) -> dict[str, float]:
     """Under [constraints]: the smallest margin to each limit over the legs, as columns
-    `margin_<limit>` (`results.MARGINS` order; negative where a limit is broken)."""
+    `margin_<limit>` (`constraint_report.MARGINS` order; negative where a limit is broken)."""
     out: dict[str, float] = {}
     for margins in report.legs if report is not None else ():
         for key, value in margins.items():
