@@ -99,8 +99,8 @@ class Outcome(ByValue):
 class Comparison(ByValue):
     """All outcomes, their ranking and what sharing and parallelism did."""
 
-    outcomes: list[Outcome]  # enumeration order
-    ranking: list[int]  # outcome indices, best first (failed ones last)
+    outcomes: tuple[Outcome, ...]  # enumeration order (a list given is kept as a tuple)
+    ranking: tuple[int, ...]  # outcome indices, best first (failed ones last)
     criterion: str
     jobs: int
     legs_requested: int  # legs the candidates' plans hold (what planning each alone costs)
@@ -110,6 +110,10 @@ class Comparison(ByValue):
     reference_duration: float = math.nan  # total duration the energies are compared at
     screen: Screen | None = None  # the screen's bounds and what it searched (None: exhaustive)
     on: str = ""  # where it ran, when not on `jobs` local processes: "a Dask cluster"
+
+    def __post_init__(self) -> None:  # a frozen value: tuples, which cannot be changed
+        object.__setattr__(self, "outcomes", tuple(self.outcomes))
+        object.__setattr__(self, "ranking", tuple(self.ranking))
 
     @property
     def equal_durations(self) -> bool:
@@ -127,7 +131,7 @@ class Comparison(ByValue):
     def legs_saved(self) -> int:
         return self.legs_requested - self.legs_planned
 
-    __hash__ = None  # its outcomes are a list
+    __hash__ = None  # its outcomes hold NaN energies (hashed by identity: not by value)
 
     def __repr__(self) -> str:  # the dataclass's prints every outcome and its plan (16 kB)
         return f"Comparison({len(self.outcomes)} sequences by {self.criterion}: {self.choice()})"

@@ -128,9 +128,6 @@ class Constraints(ByValue):
             object.__setattr__(self, name, value)
         object.__setattr__(self, "boxes", tuple(_read_only(b) for b in self.boxes))
 
-    def __setstate__(self, state: dict) -> None:  # a pickle brings the table back plain
-        self.__dict__.update({**state, "spec": frozen(state["spec"])})
-
     @property
     def geometric(self) -> bool:
         return self.self_collision or bool(self.circles or self.boxes)

@@ -75,6 +75,7 @@ from typing import Any
 
 import numpy as np
 
+from .frozen_json import FrozenDict
 from .interrupts import checkpoint
 from .leg_bounds import leg_items, plan_alone
 from .leg_floors import floors_known, leg_floor
@@ -102,6 +103,14 @@ class Screen:
     # candidate -> per leg (its floor, its bound: the larger of the floor and the leg's
     # searched minima, loose and tight), at the leg's own duration
     leg_bounds: dict[int, tuple[tuple[float, float], ...]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:  # a frozen value: its tables read-only (`FrozenDict`)
+        object.__setattr__(self, "bounds", FrozenDict(self.bounds))
+        object.__setattr__(self, "leg_bounds", FrozenDict(self.leg_bounds))
+
+    def __setstate__(self, state: dict) -> None:  # (a FrozenDict pickles as a plain dict)
+        self.__dict__.update(state)
+        self.__post_init__()
 
 
 def _unit(item: tuple[str, list]) -> dict:

@@ -90,6 +90,15 @@ class LegSpec:
     duration: float = PlannerSettings().leg_duration
     lie: LieSettings | None = None
 
+    def __post_init__(self) -> None:  # its hash is of the goal: a goal changed in place
+        goal = np.array(self.goal, dtype=float)  # moved it in every dict and set holding it
+        goal.setflags(write=False)
+        object.__setattr__(self, "goal", goal)
+
+    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
+        self.__dict__.update(state)
+        self.__post_init__()
+
     @property
     def unprescribed(self) -> tuple[int, ...]:
         """Coordinates whose end value is left to the planner ("*" goals)."""

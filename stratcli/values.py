@@ -47,3 +47,12 @@ class ByValue:
 
     def __hash__(self) -> int:
         return hash((type(self).__name__, *(getattr(self, name) for name in self._hashed)))
+
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled (from a worker process, a file) as made: numpy pickles its arrays
+        writable, and a FrozenDict pickles as a dict, so `__post_init__` makes them read-only
+        again (a plan from `--jobs` workers had writable arrays)."""
+        self.__dict__.update(state)
+        post_init = getattr(self, "__post_init__", None)
+        if post_init is not None:
+            post_init()

@@ -223,6 +223,32 @@ def test_a_plans_constraints_and_what_it_met_of_them_are_read_only_values():
     assert json.loads(json.dumps(report.to_dict())) == report.to_dict()
 
 
+def test_values_read_back_from_a_pickle_are_read_only_as_made():
+    """numpy pickles arrays writable and a FrozenDict pickles as a dict: a plan that came
+    back from a `--jobs` worker had writable controls, a comparison's outcomes were a list,
+    and a LegSpec's goal (which it hashes by) could be changed under a set holding it."""
+    import pickle
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    plan = pickle.loads(pickle.dumps(api.plan_run(task, check=False).result))
+    arrays = [plan.legs[0].start, plan.legs[0].pieces[0].coefficients, plan.switches[0].jump]
+    assert arrays and not any(a.flags.writeable for a in arrays)
+    leg = pickle.loads(pickle.dumps(stratcli.LegSpec("S1", [0.0, 1.0, 2.0, 3.0])))
+    mine = [0.0, 1.0, 2.0, 3.0]
+    assert not stratcli.LegSpec("S1", np.array(mine)).goal.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        leg.goal[0] = 5.0
+    auto = api.plan_auto(load_scenario(ROOT / "scenarios" / "sim4_auto.toml"), check=False)
+    for value in (auto, pickle.loads(pickle.dumps(auto))):
+        comparison = value.comparison
+        assert type(comparison.outcomes) is tuple and type(comparison.ranking) is tuple
+        with pytest.raises(TypeError, match="read-only"):
+            value.settings.origin["strata"] = "mine"
+        if comparison.screen is not None:
+            with pytest.raises(TypeError, match="read-only"):
+                comparison.screen.bounds[0] = 0.0
+
+
 def test_one_run_that_cannot_be_read_is_skipped_not_the_whole_listing(tmp_path, monkeypatch):
     """`chmod 000` on one run directory: `stratplan runs` printed "permission denied" for it
     and listed none of the others (exit 2); it is skipped with that line, as damaged ones are."""

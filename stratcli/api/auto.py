@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from ..compare import SCREEN_TOP, Comparison, compare, compile_strata
 from ..decomposition import STRATEGIES, Decomposition, decompose
 from ..errors import InputError, Problem
+from ..frozen_json import FrozenDict
 from ..scenario import Task
 from ..settings import DecomposeSettings
 from ..wording import counted
@@ -30,6 +31,13 @@ class AutoSettings:
     # the command line shows it as its flag: `cli.render.reported`)
     origin: dict[str, str]
     notes: tuple[str, ...] = ()  # for the user: the scenario's [[legs]] are not used here
+
+    def __post_init__(self) -> None:  # a frozen value: `origin` read-only (`FrozenDict`)
+        object.__setattr__(self, "origin", FrozenDict(self.origin))
+
+    def __setstate__(self, state: dict) -> None:  # (a FrozenDict pickles as a plain dict)
+        self.__dict__.update(state)
+        self.__post_init__()
 
 
 def auto_settings(
