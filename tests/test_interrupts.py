@@ -23,7 +23,9 @@ import pytest
 from conftest import ROOT
 from typer.testing import CliRunner
 
+import stratcli
 from stratcli.cli import app
+from stratcli.errors import InputError
 from stratcli.records import rundir
 from stratcli.records.manifest import _git, source_commit
 from stratcli.records.store import read_record
@@ -186,6 +188,9 @@ def test_a_record_finished_before_the_signal_says_so(tmp_path, sig):
     assert record.manifest["signal"] == sig.name
     assert record.manifest["exit_code"] == 128 + sig
     assert sorted(p.name for p in run.iterdir() if p.name.startswith(".")) == []
+    # still a manifest by its schema (which was closed to `interrupted` and `signal`)
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(record.manifest, stratcli.record_schema("manifest"))
 
 
 def test_a_signal_python_drops_in_a_finaliser_still_stops_the_command(tmp_path):
@@ -364,7 +369,26 @@ DAMAGE = {
     "text legs count": ("result.json", lambda d: d.update(planned_legs="x"), "planned_legs"),
     "text constraints": ("result.json", lambda d: d.update(constraints="x"), "constraints"),
     "number constraints": ("result.json", lambda d: d.update(constraints=5), "constraints"),
+    # fields show and load_run read apart (show 'failed', load_run ok; a numpy ValueError)
+    "unknown status": ("result.json", lambda d: d.update(status="weird"), 'status is "weird"'),
+    "unknown leg status": (
+        "result.json",
+        lambda d: d["legs"][0].update(status="weird"),
+        'legs[0].status is "weird"',
+    ),
+    "short coefficients": ("result.json", lambda d: _short_row(d), "coefficients.u1 is not 7"),
+    "total not the legs' sum": (
+        "result.json",
+        lambda d: d.update(total_energy=1.0),
+        "total_energy is 1, not the sum",
+    ),
+    "NaN": ("result.json", '{"schema": "stratplan.result/1", "total_energy": NaN}', "NaN is not"),
 }
+
+
+def _short_row(doc: dict) -> None:
+    rows = doc["legs"][0]["pieces"][0]["coefficients"]
+    rows["u1"] = rows["u1"][:3]
 
 
 def _damage(run: Path, file: str, change) -> None:
@@ -384,6 +408,15 @@ def test_show_of_a_damaged_record_is_one_error_line(record, case):
     file, change, words = DAMAGE[case]
     _damage(record, file, change)
     _one_error_line(runner.invoke(app, ["show", str(record)]), str(record / file), words)
+
+
+@pytest.mark.parametrize("case", DAMAGE)
+def test_load_run_of_a_damaged_record_is_the_same_one_line(record, case):
+    file, change, words = DAMAGE[case]
+    _damage(record, file, change)
+    with pytest.raises(InputError) as caught:
+        stratcli.load_run(record)
+    assert str(record / file) in str(caught.value) and words in str(caught.value)
 
 
 def test_show_of_a_damaged_mcap_log_is_one_error_line(record):

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError
+from ..status import Status
 from ..wording import counted
 
 REQUIRED = ("scenario.toml", "result.json", "manifest.json")
@@ -117,11 +118,16 @@ def check_result(doc: Any) -> None:
     if doc.get("schema") != "stratplan.result/1":
         raise ValueError(f"unknown schema {doc.get('schema')!r}")
     _check(doc, RESULT_FIELDS, "")
+    _one_of(doc["status"], RESULT_STATUSES, "status")
     _check_list(doc["legs"], LEG_FIELDS, "legs")
     for i, leg in enumerate(doc["legs"]):
+        if "status" in leg:
+            _one_of(leg["status"], LEG_STATUSES, f"legs[{i}].status")
         _check_list(leg["pieces"], PIECE_FIELDS, f"legs[{i}].pieces")
         for j, piece in enumerate(leg["pieces"]):
             _check(piece["basis"], BASIS_FIELDS, f"legs[{i}].pieces[{j}].basis.")
+            _check_coefficients(piece, f"legs[{i}].pieces[{j}].coefficients")
+    _check_total(doc)
     for i, switch in enumerate(doc["switches"]):
         jump = switch.get("jump") if isinstance(switch, dict) else None
         number = _KINDS["num"][1]  # null: a numerical failure left no value (nan_to_none)
@@ -140,6 +146,38 @@ def check_result(doc: Any) -> None:
         _check_list(opt["starts"], START_FIELDS, "optimisation.starts")
         if not 0 <= opt["best"] < len(opt["starts"]):
             raise ValueError("optimisation.best is not the index of a start")
+
+
+RESULT_STATUSES = ("ok", "failed")
+LEG_STATUSES = tuple(status.name.lower() for status in Status)
+
+
+def _one_of(value: Any, allowed: tuple[str, ...], where: str) -> None:
+    if value not in allowed:  # (show read 'weird' as failed, load_run as ok)
+        raise ValueError(f"{where} is {json.dumps(value)[:40]}, not one of {', '.join(allowed)}")
+
+
+def _check_coefficients(piece: dict, where: str) -> None:
+    """Each input's coefficients: 2H + 1 numbers, H the piece's harmonics (a list of 3 for
+    H = 3 reached numpy as a ragged array)."""
+    rows, size = piece.get("coefficients", {}), 2 * piece["basis"]["harmonics"] + 1
+    if not isinstance(rows, dict):
+        raise ValueError(f"{where} is not an object")
+    number = _KINDS["num"][1]
+    for name, row in rows.items():
+        if not isinstance(row, list) or len(row) != size or not all(map(number, row)):
+            raise ValueError(f"{where}.{name} is not {size} numbers (2H + 1 of the basis)")
+
+
+def _check_total(doc: dict) -> None:
+    """total_energy is the sum of the legs' energies (load_run recomputes it from them: a
+    hand-edited total read one way in show, another in Python)."""
+    total, energies = doc["total_energy"], [leg["energy"] for leg in doc["legs"]]
+    if total is None or any(e is None for e in energies):
+        return
+    legs = float(sum(energies))
+    if abs(total - legs) > 1e-9 * max(abs(legs), 1.0):
+        raise ValueError(f"total_energy is {total:.6g}, not the sum of the legs' ({legs:.6g})")
 
 
 def check_manifest(doc: Any) -> None:
@@ -195,13 +233,19 @@ def read_record(path: Path) -> Record:
 def _document(file: Path, check: Callable[[Any], None]) -> dict[str, Any]:
     """The JSON document in `file`, `check`ed, or an InputError naming the file."""
     try:
-        doc = json.loads(file.read_text(encoding="utf-8"))
+        doc = json.loads(file.read_text(encoding="utf-8"), parse_constant=_not_json)
         check(doc)
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{file}: unreadable ({exc})") from None
     except ValueError as exc:  # also json.JSONDecodeError
         raise InputError(f"{file}: damaged record: {exc}") from None
     return doc
+
+
+def _not_json(token: str) -> None:
+    """NaN and Infinity: Python's json reads them, JSON has none (stratplan writes null):
+    `runs --json` passed them on as invalid JSON."""
+    raise ValueError(f"{token} is not a JSON number (stratplan writes null for it)")
 
 
 def _check_comparison(doc: Any) -> None:
