@@ -6,6 +6,7 @@ replaying itself is `stratcli.api.regression.regress`.
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 from dataclasses import dataclass
@@ -82,12 +83,27 @@ def _finite(x: Any) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
 
 
+SUMMARY_KEYS = ("status", "total_energy", "errors", "energies")  # `summary_of`'s
+BASELINE_KEYS = ("schema", "tolerances", "scenarios")
+
+
+def _known_keys(doc: dict, known: tuple[str, ...], where: str) -> None:
+    """A key a person misspelt is an error, not passed over: a top-level `tolerance` left
+    the defaults in force without a word."""
+    for key in doc:
+        if key not in known:
+            near = difflib.get_close_matches(str(key), known, n=1, cutoff=0.7)
+            hint = f"did you mean {near[0]!r}?" if near else f"known: {', '.join(known)}"
+            raise ValueError(f"{where}{'.' if where else ''}{key}: unknown key ({hint})")
+
+
 def _check_summary(name: str, entry: Any) -> None:
     """Raise ValueError naming what is wrong with one scenario's entry of a baseline."""
     where = f"scenarios.{name}"
     if not isinstance(entry, dict):
         raise ValueError(f"{where} is not an object")
-    for key in ("status", "total_energy", "errors", "energies"):
+    _known_keys(entry, SUMMARY_KEYS, where)
+    for key in SUMMARY_KEYS:
         if key not in entry:
             raise ValueError(f"{where}.{key} is missing")
     if entry["status"] not in ("ok", "failed"):
@@ -149,6 +165,7 @@ def load_baseline(path: Path) -> tuple[dict[str, dict], dict[str, float]]:
     if doc.get("schema") != SCHEMA:
         raise InputError(f"baseline file {path}: schema must be {SCHEMA!r}")
     try:
+        _known_keys(doc, BASELINE_KEYS, "")
         scenarios = doc.get("scenarios")
         if not isinstance(scenarios, dict):
             raise ValueError("scenarios is missing or not an object")

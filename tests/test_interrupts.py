@@ -446,6 +446,15 @@ BASELINES = {
     "negative tolerance": ({"tolerances": {"energy_rel": -1}}, "tolerances.energy_rel"),
     "unknown tolerance": ({"tolerances": {"energy": 1}}, "tolerances.energy: unknown"),
     "bad status": ({"scenarios": {"s": {**GOOD_ENTRY, "status": "fine"}}}, "status"),
+    # a misspelt key was passed over (the defaults stayed in force without a word)
+    "misspelt tolerances": (
+        {"tolerance": {"energy_rel": 1}, "scenarios": {}},
+        "tolerance: unknown key (did you mean 'tolerances'?)",
+    ),
+    "unknown entry key": (
+        {"scenarios": {"s": {**GOOD_ENTRY, "energy": 1.0}}},
+        "scenarios.s.energy: unknown key (did you mean 'energies'?)",
+    ),
     "not JSON": ("{", "not JSON"),
 }
 
