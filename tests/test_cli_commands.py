@@ -82,14 +82,14 @@ TASK_A = (ROOT / "scenarios" / "sim4_task_a.toml").read_text()
 
 
 @pytest.mark.parametrize(
-    ("text", "key", "value", "misspelt", "choices"),
+    ("text", "key", "value", "misspelt", "choices", "meant"),
     [
-        (TASK_D, "objective", "newton", "newtn", "energy or newton"),
-        (TASK_A, "search", "starts", "loop", "starts, loops or legwise"),
+        (TASK_D, "objective", "newton", "newtn", "energy or newton", "newton"),
+        (TASK_A, "search", "starts", "loop", "starts, loops or legwise", "loops"),
     ],
 )
 def test_a_planner_option_plans_with_it_and_records_the_changed_scenario(
-    tmp_path, text, key, value, misspelt, choices
+    tmp_path, text, key, value, misspelt, choices, meant
 ):
     """--objective newton plans sim4_task_d.toml (energy objective by default) by the paper's
     method, --search starts plans Sim 4 task A without loop starts: the energy of the plan
@@ -108,7 +108,9 @@ def test_a_planner_option_plans_with_it_and_records_the_changed_scenario(
     assert recorded["planner"][key] == value
     bad, _ = run(tmp_path, text, f"--{key}", misspelt)
     assert bad.exit_code == 2
-    assert bad.output.strip() == f"error: --{key}: must be {choices} (got '{misspelt}')"
+    assert bad.output.strip() == (
+        f"error: --{key}: must be {choices} (got '{misspelt}': did you mean '{meant}'?)"
+    )
 
 
 def test_the_objective_option_plans_by_newton_and_the_search_option_without_loop_starts(
@@ -507,7 +509,9 @@ def test_compare_sequences_takes_plans_objective_option(tmp_path):
     assert "note: --exhaustive is for the energy objective's screen" in ignored.stderr
     bad = runner.invoke(app, [*args, "--search", "loop"])
     assert bad.exit_code == 2
-    assert bad.output.strip() == "error: --search: must be starts, loops or legwise (got 'loop')"
+    assert bad.output.strip() == (
+        "error: --search: must be starts, loops or legwise (got 'loop': did you mean 'loops'?)"
+    )
 
 
 def test_decompose_command_lists_the_papers_sequences(tmp_path):

@@ -32,7 +32,7 @@ FILES = {
     "result.json": {  # the least `read_record` accepts: every field `show` and `runs` read
         "schema": "stratplan.result/1",
         **{"scenario": "x", "model": "m", "continuity": "lr", "tolerance": 1e-6},
-        **{"status": "ok", "total_energy": 1.0, "legs": [], "switches": []},
+        **{"status": "ok", "total_energy": 0.0, "legs": [], "switches": []},  # (the legs' sum)
     },
     "manifest.json": {"started": "2026-01-01T00:00:00Z"},
     "run.mcap": b"\x89MCAP",
