@@ -3,6 +3,12 @@ continuity modes, the record-output runs, and small helpers (paths, Newton objec
 
 from __future__ import annotations
 
+from stratcli import blas  # (imports nothing heavy)
+
+# BLAS single-threaded, as the stratplan command runs it, set before numpy loads: with two
+# test workers (`-n auto`) each worker's OpenBLAS would start a thread per core
+blas.single_threaded()
+
 import dataclasses
 import io
 import itertools
@@ -33,6 +39,14 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.toml"))
+
+
+def pytest_collection_modifyitems(config, items):
+    """With parallel workers (`-n`, pytest-xdist) the tests marked slow go first: in file
+    order the longest ones (test_screen, test_urdf_limits: minutes) came last, and one worker
+    ran them alone while the other idled."""
+    if getattr(config.option, "numprocesses", None):
+        items.sort(key=lambda item: item.get_closest_marker("slow") is None)
 
 
 @pytest.fixture
