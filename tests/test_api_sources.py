@@ -4,6 +4,7 @@ values and arrays in it; each problem named once, with one "(got ...)"."""
 from __future__ import annotations
 
 import copy
+import pickle
 import tomllib
 
 import numpy as np
@@ -106,6 +107,14 @@ def test_run_sweep_plans_a_dict(tmp_path):
     sweep = {"sweep": {"name": "d", "grid": {"goal.y": np.array([1.0])}}, "scenario": UNICYCLE}
     outcome = stratcli.run_sweep(sweep, tmp_path / "d", jobs=1, records="none")
     assert outcome.summary["done"] == 1 and outcome.rows[0]["status"] == "ok"
+    # frozen values: their rows and summaries are read-only too (they were plain dicts)
+    report = stratcli.read_sweep(tmp_path / "d")
+    assert report.rows == outcome.rows
+    for rows in (outcome.rows, report.rows, pickle.loads(pickle.dumps(report)).rows):
+        with pytest.raises(TypeError, match="read-only"):
+            rows[0]["status"] = "failed"
+    with pytest.raises(TypeError, match="read-only"):
+        outcome.summary["done"] = 0
 
 
 def test_a_path_with_an_equals_sign_is_a_path(tmp_path):

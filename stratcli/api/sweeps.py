@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..arguments import checked, choice, flag, instance, integer, optional, pathlike, source
+from ..frozen_json import HoldsDocument
 from ..records import sweepdir, sweeplock
 from ..sweep.executors import ExecutorInfo, dask_executor
 from ..sweep.outputs import MAX_LISTED, summarise
@@ -21,7 +22,7 @@ from ..sweep.spec import Sweep, load_sweep
 
 
 @dataclass(frozen=True)
-class SweepReport:
+class SweepReport(HoldsDocument):
     """A sweep directory read back: spec.json, the rows, and the summary of them.
 
     Attributes
@@ -37,6 +38,8 @@ class SweepReport:
     finished : bool
         sweep.json was written (the last run got to the end).
     """
+
+    _documents = ("spec", "rows", "summary")  # read-only (`frozen_json`)
 
     path: Path
     spec: dict[str, Any]

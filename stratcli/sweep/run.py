@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, Problem
+from ..frozen_json import HoldsDocument
 from ..interrupts import checkpoint
 from ..records import sweepdir
 from ..records.model_files import sweep_files
@@ -48,7 +49,7 @@ Progress = Callable[[int, int], None]  # (tasks done, tasks in all)
 
 
 @dataclass(frozen=True)
-class SweepOutcome:
+class SweepOutcome(HoldsDocument):
     """A sweep run: every row so far, the summary and the files written.
 
     Attributes
@@ -70,6 +71,8 @@ class SweepOutcome:
     complete : bool
         Every task has its row.
     """
+
+    _documents = ("rows", "summary", "missing", "files")  # read-only (`frozen_json`)
 
     out: Path
     rows: dict[int, dict[str, Any]]  # task index -> row (all of the sweep's, by index)
