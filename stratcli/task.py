@@ -85,6 +85,7 @@ class Task:
             or not _same(self.goal, given.goal)
             or [leg.stratum for leg in self.legs] != [entry.stratum for entry in entries]
             or (self.constraints is None) != (self.scenario.constraints is None)
+            or not self._constraints_are_the_scenarios()
         ):
             raise ValueError(
                 "a Task's settings, start, goal, legs and constraints are its scenario's: "
@@ -92,6 +93,19 @@ class Task:
                 "'newton'}})"
             )
         self._read_only()
+
+    def _constraints_are_the_scenarios(self) -> bool:
+        """Whether `constraints` is the scenario's [constraints] table resolved on the model:
+        limits changed by `dataclasses.replace` were planned while the record said the
+        table's (and its goals were never checked against them)."""
+        if self.constraints is None:
+            return True
+        from .constraints import resolve  # (the scenario module resolved them the same way)
+
+        try:
+            return resolve(self.scenario.constraints, self.system) == self.constraints
+        except InputError:  # a table the model refuses: a Task is never made of one
+            return False
 
     def __repr__(self) -> str:  # the dataclass's runs to many kB (the model's fields, text)
         legs = ", ".join(leg.stratum for leg in self.legs)

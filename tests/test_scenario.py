@@ -390,6 +390,10 @@ def test_a_task_is_a_value_changed_only_through_its_scenario(tmp_path):
     obstacles = stratcli.load_scenario(ROOT / "scenarios" / "sim4_task_d_obstacles.toml")
     with pytest.raises(ValueError, match="with_changes"):
         dataclasses.replace(obstacles, constraints=None)
+    tighter = dataclasses.replace(obstacles.constraints, clearance=0.2)  # planned, not recorded
+    with pytest.raises(ValueError, match="with_changes"):
+        dataclasses.replace(obstacles, constraints=tighter)
+    assert dataclasses.replace(obstacles, source="renamed").constraints == obstacles.constraints
     goal = [*task.scenario.task.goal[:3], -0.2]  # θ only: the last leg (S1) moves it
     assert task.with_changes({"task": {"goal": goal}}).legs[-1].goal[3] == -0.2
     auto = task.with_changes({"legs": None, "decompose": {"max_length": 2}})
