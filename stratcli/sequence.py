@@ -114,8 +114,9 @@ class SequencePlan:
         # names only a file, which may have changed or gone where the plan is unpickled
         return state
 
-    def __setstate__(self, state: dict) -> None:
+    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
         self.__dict__.update(state)
+        self.__post_init__()
 
     # ---- summary -------------------------------------------------------------------------
     @property

@@ -231,7 +231,8 @@ def test_values_read_back_from_a_pickle_are_read_only_as_made():
 
     task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
     plan = pickle.loads(pickle.dumps(api.plan_run(task, check=False).result))
-    arrays = [plan.legs[0].start, plan.legs[0].pieces[0].coefficients, plan.switches[0].jump]
+    arrays = [plan.start, plan.goal, plan.legs[0].start, plan.legs[0].pieces[0].coefficients]
+    arrays.append(plan.switches[0].jump)
     assert arrays and not any(a.flags.writeable for a in arrays)
     leg = pickle.loads(pickle.dumps(stratcli.LegSpec("S1", [0.0, 1.0, 2.0, 3.0])))
     mine = [0.0, 1.0, 2.0, 3.0]
