@@ -125,9 +125,8 @@ def _check_summary(name: str, entry: Any) -> None:
 def _check_tolerances(tolerances: Any) -> dict[str, float]:
     if not isinstance(tolerances, dict):
         raise ValueError("tolerances is not an object")
+    _known_keys(tolerances, tuple(DEFAULT_TOLERANCES), "tolerances")
     for key, value in tolerances.items():
-        if key not in DEFAULT_TOLERANCES:
-            raise ValueError(f"tolerances.{key}: unknown (known: {', '.join(DEFAULT_TOLERANCES)})")
         if not _finite(value) or value < 0:
             raise ValueError(f"tolerances.{key} is {value!r}, not a number >= 0")
     return DEFAULT_TOLERANCES | tolerances

@@ -382,7 +382,8 @@ DAMAGE = {
         lambda d: d.update(total_energy=1.0),
         "total_energy is 1, not the sum",
     ),
-    "NaN": ("result.json", '{"schema": "stratplan.result/1", "total_energy": NaN}', "NaN is not"),
+    "NaN": ("result.json", lambda d: d["legs"][0].update(energy=math.nan), "legs[0].energy is nan"),
+    "Infinity": ("result.json", lambda d: d.update(total_energy=math.inf), "total_energy is inf"),
 }
 
 
@@ -444,7 +445,11 @@ BASELINES = {
     "string energy": ({"scenarios": {"s": {**GOOD_ENTRY, "total_energy": "1"}}}, "total_energy"),
     "NaN": ({"scenarios": {"s": {**GOOD_ENTRY, "errors": [math.nan]}}}, "errors[0] is nan"),
     "negative tolerance": ({"tolerances": {"energy_rel": -1}}, "tolerances.energy_rel"),
-    "unknown tolerance": ({"tolerances": {"energy": 1}}, "tolerances.energy: unknown"),
+    "unknown tolerance": ({"tolerances": {"energy": 1}}, "tolerances.energy: unknown key"),
+    "misspelt tolerance": (
+        {"tolerances": {"energy_rell": 1}},
+        "tolerances.energy_rell: unknown key (did you mean 'energy_rel'?)",
+    ),
     "bad status": ({"scenarios": {"s": {**GOOD_ENTRY, "status": "fine"}}}, "status"),
     # a misspelt key was passed over (the defaults stayed in force without a word)
     "misspelt tolerances": (

@@ -9,6 +9,7 @@ never a traceback half-way through a table.
 from __future__ import annotations
 
 import json
+import math
 import struct
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -233,7 +234,8 @@ def read_record(path: Path) -> Record:
 def _document(file: Path, check: Callable[[Any], None]) -> dict[str, Any]:
     """The JSON document in `file`, `check`ed, or an InputError naming the file."""
     try:
-        doc = json.loads(file.read_text(encoding="utf-8"), parse_constant=_not_json)
+        doc = json.loads(file.read_text(encoding="utf-8"))
+        _no_nan(doc, "")
         check(doc)
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{file}: unreadable ({exc})") from None
@@ -242,10 +244,21 @@ def _document(file: Path, check: Callable[[Any], None]) -> dict[str, Any]:
     return doc
 
 
-def _not_json(token: str) -> None:
-    """NaN and Infinity: Python's json reads them, JSON has none (stratplan writes null):
-    `runs --json` passed them on as invalid JSON."""
-    raise ValueError(f"{token} is not a JSON number (stratplan writes null for it)")
+def _no_nan(doc: Any, where: str) -> None:
+    """Raise ValueError naming the first NaN or Infinity in `doc`: Python's json reads them,
+    JSON has none (stratplan writes null), and `runs --json` passed them on as invalid JSON."""
+    if isinstance(doc, float) and not math.isfinite(doc):
+        raise ValueError(
+            f"{where or 'the document'} is {doc}, not a JSON number (stratplan writes null)"
+        )
+    items = (
+        doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
+    )
+    for key, value in items:
+        _no_nan(
+            value,
+            f"{where}[{key}]" if isinstance(key, int) else f"{where}{'.' if where else ''}{key}",
+        )
 
 
 def _check_comparison(doc: Any) -> None:
