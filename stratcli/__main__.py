@@ -94,9 +94,9 @@ def _on_signal(signum: int, frame) -> None:
     raise Interrupted(signum)  # (caught by code that goes on: `checkpoint` raises it again)
 
 
-def _leave(signum: int) -> None:
+def _leave(signum: int, kept: str = "") -> None:
     try:
-        os.write(2, f"{HANDLED.get(signum, 'interrupted')}\n".encode())
+        os.write(2, f"{HANDLED.get(signum, 'interrupted')}{kept}\n".encode())
     finally:
         os._exit(128 + signum)
 
@@ -107,10 +107,14 @@ def _finish_interrupted(signum: int) -> None:
         signal.signal(sig, signal.SIG_IGN)
     rundir = sys.modules.get("stratcli.records.rundir")  # not imported: nothing was written
     mark = getattr(rundir, "mark_interrupted", None)
-    if mark is not None:
-        mark(128 + signum, signal.Signals(signum).name)
+    marked = mark(128 + signum, signal.Signals(signum).name) if mark is not None else []
+    kept = ""  # a record completed before the signal: where it is (its table was not shown)
+    if len(marked) == 1:
+        kept = f"; the record written before it is kept: {marked[0].parent}"
+    elif marked:
+        kept = f"; the {len(marked)} records written before it are kept"
     _flush(sys.stdout)
-    _leave(signum)
+    _leave(signum, kept)
 
 
 def main() -> None:
