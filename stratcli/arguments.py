@@ -177,14 +177,13 @@ def choice(*options: str) -> Rule:
         if not isinstance(value, str):
             raise wrong_type(name, f"a string: {what}", value)
         if value not in options:
-            from difflib import get_close_matches
+            from .schema_problems import closest_choice  # (as the command line's options)
 
-            near = get_close_matches(value.replace("_", "-"), options, n=1, cutoff=0.75)
-            error = bad_value(name, what, value)
-            if near:  # peak_control for peak-control
-                (problem,) = error.problems
-                error = InputError([Problem(name, f"{problem.message}: did you mean {near[0]!r}?")])
-            raise error
+            near = closest_choice(value, options)  # peak_control for peak-control
+            if near is None:
+                raise bad_value(name, what, value)
+            meant = f"must be {what} (got {_shown(value)}: did you mean {near!r}?)"
+            raise InputError([Problem(name, meant)])
 
     return rule
 

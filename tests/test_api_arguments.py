@@ -87,7 +87,7 @@ BAD_CALLS = {
     "empty scenario": (InputError, r"^an empty string is no scenario: give a path, TOML text "
                        r"or a dict$", lambda: stratcli.plan("")),
     "criterion typo": (InputError, r"^criterion: must be energy, peak-control, excursion or "
-                       r"duration \(got 'peak_control'\): did you mean 'peak-control'\?$",
+                       r"duration \(got 'peak_control': did you mean 'peak-control'\?\)$",
                        lambda: stratcli.compare_sequences(UNICYCLE, criterion="peak_control")),
     "preset name": (InputError, r"^name: no preset 'onearm' \(did you mean 'one-arm'\? presets: "
                     r"one-arm, two-arm\)$", lambda: stratcli.preset("onearm")),
