@@ -377,6 +377,11 @@ DAMAGE = {
         lambda d: d["legs"][0].update(status="weird"),
         'legs[0].status is "weird"',
     ),
+    "ok with a failed leg": (
+        "result.json",
+        lambda d: d["legs"][0].update(status="diverged"),
+        'status is "ok" but legs[0].status is "diverged"',
+    ),
     "short coefficients": ("result.json", lambda d: _short_row(d), "coefficients.u1 is not 7"),
     "total not the legs' sum": (
         "result.json",

@@ -129,6 +129,10 @@ def check_result(doc: Any) -> None:
             _check(piece["basis"], BASIS_FIELDS, f"legs[{i}].pieces[{j}].basis.")
             _check_coefficients(piece, f"legs[{i}].pieces[{j}].coefficients")
     _check_total(doc)
+    if doc["status"] == "ok":  # (load_run reads the status from the legs)
+        for i, leg in enumerate(doc["legs"]):
+            if leg.get("status", "success") != "success":
+                raise ValueError(f'status is "ok" but legs[{i}].status is "{leg["status"]}"')
     for i, switch in enumerate(doc["switches"]):
         jump = switch.get("jump") if isinstance(switch, dict) else None
         number = _KINDS["num"][1]  # null: a numerical failure left no value (nan_to_none)
