@@ -177,7 +177,7 @@ def choice(*options: str) -> Rule:
         if not isinstance(value, str):
             raise wrong_type(name, f"a string: {what}", value)
         if value not in options:
-            from .schema_problems import closest_choice  # (as the command line's options)
+            from .wording import closest_choice  # (as the command line's options)
 
             near = closest_choice(value, options)  # peak_control for peak-control
             if near is None:

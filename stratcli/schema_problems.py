@@ -16,6 +16,7 @@ from pydantic import BaseModel, ValidationError
 from .errors import Problem
 from .models.specs import KINDS
 from .settings import UNKNOWN_KEY_ERRORS
+from .wording import closest_choice
 
 __all__ = ["file_location", "suggested", "validation_problems"]
 
@@ -302,17 +303,6 @@ def suggested(message: str, got: Any) -> str:
     if near is None or not message.endswith(")"):
         return message
     return f"{message[:-1]}: did you mean {near!r}?)"
-
-
-def closest_choice(got: str, choices) -> str | None:
-    """The choice `got` most likely meant: the same letters in another case ('Newton'), the
-    same letters in another order ('lei', 'rl-C1': difflib offered 'l-C1'), else a close
-    spelling ('optimize'); None when none is close."""
-    choices = list(choices)
-    near = [c for c in choices if c.lower() == got.lower()]
-    near = near or [c for c in choices if sorted(c.lower()) == sorted(got.lower())]
-    near = near or difflib.get_close_matches(got, choices, n=1, cutoff=0.75)
-    return near[0] if near else None
 
 
 def _quoted_number(value: Any) -> bool:

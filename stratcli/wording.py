@@ -1,9 +1,11 @@
 """Words for counts and legs in messages, tables, figures and reprs: one place says "1 leg",
-"3 legs", "newton (continuation)" (no I/O)."""
+"3 legs", "newton (continuation)", the choice a misspelt word meant (no I/O)."""
 
 from __future__ import annotations
 
-__all__ = ["counted", "method_words"]
+import difflib
+
+__all__ = ["closest_choice", "counted", "method_words"]
 
 
 def counted(n: int, noun: str, plural: str | None = None) -> str:
@@ -17,3 +19,14 @@ def method_words(method: str, strategy: str | None) -> str:
     the homotopy reached the leg's goal (`strategy` "continuation"), "newton (constrained)"
     where the constrained search over all legs planned it (`strategy` "constrained")."""
     return method + (f" ({strategy})" if strategy in ("continuation", "constrained") else "")
+
+
+def closest_choice(got: str, choices) -> str | None:
+    """The choice `got` most likely meant: the same letters in another case ('Newton'), the
+    same letters in another order ('lei', 'rl-C1': difflib offered 'l-C1'), else a close
+    spelling ('optimize'); None when none is close."""
+    choices = list(choices)
+    near = [c for c in choices if c.lower() == got.lower()]
+    near = near or [c for c in choices if sorted(c.lower()) == sorted(got.lower())]
+    near = near or difflib.get_close_matches(got, choices, n=1, cutoff=0.75)
+    return near[0] if near else None

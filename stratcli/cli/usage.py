@@ -80,7 +80,7 @@ def _bad_value(exc: _click.BadParameter) -> str:
     if choices:
         must = "must be " + _either(choices)
         if given and isinstance(detail["input"], str):  # `--records bets`: 'best'
-            from ..schema_problems import closest_choice
+            from ..wording import closest_choice
 
             near = closest_choice(detail["input"], choices)
             given = f"{given[:-1]}: did you mean {near!r}?)" if near else given
