@@ -20,6 +20,7 @@ import stat
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
+from shlex import quote  # a path in a command to paste: spaces, quotes
 from typing import Any, NoReturn
 
 from .errors import InputError, Problem
@@ -236,8 +237,8 @@ def read_source(
     if is_xml_text(text):  # else "not valid TOML: Invalid statement (at line 1, column 1)"
         raise InputError(
             f"XML, not a {kind} file (TOML); a URDF robot is named in a scenario's [model] "
-            f'table (kind = "urdf", path = "{path.name}"), and `stratplan models {path}` '
-            "describes it",
+            f'table (kind = "urdf", path = "{path.name}"), and '
+            f"`stratplan models {quote(str(path))}` describes it",
             where,
         )
     tables = parse_toml(text, where)
@@ -273,7 +274,7 @@ def _json_tables(text: str, where: str) -> dict[str, Any]:
 def _of_kind(tables: Mapping, kind: str, path: Path | None, where: str) -> None:
     """Refuse, in one line, a sweep file given as a scenario or a scenario as a sweep (each
     table of the one was a problem of the other: 4 and 8 lines that did not say so)."""
-    file = f" {path}" if path is not None else ""
+    file = f" {quote(str(path))}" if path is not None else ""
     sweep = "sweep" in tables and not ({"model", "task"} & set(tables))
     scenario = "sweep" not in tables and bool({"model", "task"} & set(tables))
     if kind == "scenario" and sweep:

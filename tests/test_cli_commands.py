@@ -514,6 +514,21 @@ def test_compare_sequences_takes_plans_objective_option(tmp_path):
     )
 
 
+def test_a_suggested_command_names_a_path_with_spaces_as_a_shell_reads_it(tmp_path):
+    """decompose ends with the compare-sequences command to run next: a scenario in a folder
+    with spaces was printed bare, and pasting it split the path into extra arguments."""
+    import shlex
+
+    folder = tmp_path / "my tasks ü"
+    folder.mkdir()
+    scenario = folder / "auto task.toml"
+    scenario.write_text(AUTO.read_text())
+    result = runner.invoke(cli.app, ["decompose", str(scenario)])
+    assert result.exit_code == 0, result.output
+    command = " ".join(result.output.split()).rpartition("Plan and rank them: ")[2]
+    assert shlex.split(command) == ["stratplan", "compare-sequences", str(scenario)]
+
+
 def test_decompose_command_lists_the_papers_sequences(tmp_path):
     result = runner.invoke(cli.app, ["decompose", str(AUTO)])
     assert result.exit_code == 0, result.output

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from shlex import quote  # a path in a command to paste: spaces, quotes
 
 from rich.markup import escape
 
@@ -60,7 +61,7 @@ def decomposition(outcome, file: Path, options: tuple[str, ...] = ()) -> None:
     render.out_console.print(listing)
     n, k = len(dec.sequences), len(dec.candidates)
     most = counted(dec.max_length, "stratum", "strata")
-    command = " ".join(["stratplan compare-sequences", str(file), *options])
+    command = " ".join(["stratplan compare-sequences", quote(str(file)), *options])
     render.out_console.print(
         f"{counted(n, 'sequence')} of at most {most} × {' and '.join(dec.strategies)} = "
         f"{counted(k, 'candidate')}; a loop leg's goal is its start. Plan and rank them: "

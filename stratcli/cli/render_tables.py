@@ -6,6 +6,7 @@ Numbers and ids go in `number_column`s (never cut with "…"), words in `text_co
 from __future__ import annotations
 
 from pathlib import Path
+from shlex import quote  # a path in a command to paste: spaces, quotes
 
 from rich.markup import escape
 
@@ -150,7 +151,7 @@ def auto_mode(outcome, run_dir: Path) -> None:
     comparison_footer(outcome, run_dir)
     say(
         f"the full ranking: comparison.csv in the record, or stratplan compare-sequences "
-        f"{outcome.task.source}"
+        f"{quote(str(outcome.task.source))}"
     )
 
 
@@ -167,7 +168,7 @@ def runs_table(rows: list[dict], out: Path) -> None:
 
         hint = ""
         if is_sweep_dir(out):
-            hint = f" (a sweep directory: `stratplan show {out}` summarises it)"
+            hint = f" (a sweep directory: `stratplan show {quote(str(out))}` summarises it)"
         render.out_console.print(f"no run records in {out}{hint}", highlight=False)
         return
     energies = [fmt(row["total_energy"]) for row in rows]

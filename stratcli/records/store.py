@@ -14,6 +14,7 @@ import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from shlex import quote  # a path in a command to paste: spaces, quotes
 from typing import Any
 
 from ..errors import InputError
@@ -345,7 +346,9 @@ def _listed(path: Path, on_damaged: Callable[[str], None] | None) -> Record | No
     if not (path / "result.json").exists() and (inside := _records_inside(path)):
         if on_damaged is not None:  # a sweep's records/, say: not a damaged record
             many = counted(len(inside), "run record")
-            on_damaged(f"{path} is a folder of {many}: `stratplan runs {path}` lists them")
+            on_damaged(
+                f"{path} is a folder of {many}: `stratplan runs {quote(str(path))}` lists them"
+            )
         return None
     if not any((path / name).exists() for name in ("result.json", "manifest.json")):
         return None  # no file of a record: some other folder, not a damaged record
