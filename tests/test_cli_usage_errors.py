@@ -80,6 +80,8 @@ CASES = {
         "error: --out: empty: give a directory (e.g. runs)",
     ),
     "missing argument": (["plan"], "error: FILE: missing (see stratplan plan --help)"),
+    "empty file": (["plan", ""], "error: FILE: empty: give a file"),  # (was '.: not a regular')
+    "empty sweep file": (["sweep", " "], "error: FILE: empty: give a file"),
     "unknown command, not close": (
         ["frobnicate"],
         "error: no such command 'frobnicate' (see stratplan --help)",

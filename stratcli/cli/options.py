@@ -38,8 +38,20 @@ Animation = Annotated[
         "motion is in run.mcap); off by default, it takes longer than the planning.",
     ),
 ]
-Scenario = Annotated[Path, typer.Argument(help="Scenario file (TOML).")]
-TaskScenario = Annotated[Path, typer.Argument(help="Scenario file (TOML); its start and goal.")]
+
+
+def file_value(value: str) -> Path:
+    """A file argument: an empty one (`plan ""`, an unset shell variable) is refused as empty,
+    not taken for the current directory ("." is not a regular file)."""
+    if not str(value).strip():
+        raise typer.BadParameter("empty: give a file")
+    return Path(value)
+
+
+Scenario = Annotated[Path, typer.Argument(help="Scenario file (TOML).", parser=file_value)]
+TaskScenario = Annotated[
+    Path, typer.Argument(help="Scenario file (TOML); its start and goal.", parser=file_value)
+]
 MaxLength = Annotated[
     int | None,
     typer.Option(

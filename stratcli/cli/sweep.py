@@ -27,7 +27,7 @@ from rich.text import Text
 from ..errors import UnusedLegsWarning
 from ..wording import counted
 from . import progress, render
-from .options import Quiet
+from .options import Quiet, file_value
 
 REASON_WIDTH = 240  # characters of a failure's message in a sweep's summary (all: results.csv)
 
@@ -75,7 +75,7 @@ def progress_bar(enabled: bool, waiting: str | None = None) -> Iterator[Any]:
 
 
 def sweep(
-    file: Annotated[Path, typer.Argument(help="Sweep file (TOML).")],
+    file: Annotated[Path, typer.Argument(help="Sweep file (TOML).", parser=file_value)],
     jobs: Annotated[
         int | None, typer.Option(help="Local worker processes (default: all cores).", min=1)
     ] = None,
