@@ -37,6 +37,7 @@ from .limit_units import angle_coordinates
 from .models.numbers import parse_length, parse_number
 from .models.specs import STRICT
 from .per_input import per_input
+from .results import frozen_array
 from .simulate import sample
 from .time_scaling import rate_limited
 from .urdf_limits import URDF_LIMIT
@@ -122,11 +123,13 @@ class Constraints(ByValue):
     from_urdf: tuple[int, ...] = ()  # coordinates whose limits are the URDF's (not the table's)
 
     def __post_init__(self) -> None:
-        arrays = {k: _read_only(getattr(self, k)) for k in _ARRAYS}
-        circles = tuple((_read_only(c), r) for c, r in self.circles)
-        for name, value in {**arrays, "circles": circles, "spec": frozen(self.spec)}.items():
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, "boxes", tuple(_read_only(b) for b in self.boxes))
+        for name in ("lower", "upper", "max_rate", "max_acceleration"):  # (rates may be None)
+            value = getattr(self, name)
+            object.__setattr__(self, name, None if value is None else frozen_array(value))
+        circles = tuple((frozen_array(centre), r) for centre, r in self.circles)
+        object.__setattr__(self, "circles", circles)
+        object.__setattr__(self, "boxes", tuple(frozen_array(b) for b in self.boxes))
+        object.__setattr__(self, "spec", frozen(self.spec))
 
     @property
     def geometric(self) -> bool:
@@ -136,17 +139,6 @@ class Constraints(ByValue):
     def timed(self) -> bool:
         """Rate or acceleration limits: they slow a plan by a factor of its own."""
         return self.max_rate is not None or self.max_acceleration is not None
-
-
-_ARRAYS = ("lower", "upper", "max_rate", "max_acceleration")  # (a rate array may be None)
-
-
-def _read_only(a: np.ndarray | None) -> np.ndarray | None:
-    if a is None:
-        return None
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 def resolve(spec: ConstraintsSpec, system) -> Constraints:

@@ -6,7 +6,6 @@ replaying itself is `stratcli.api.regression.regress`.
 
 from __future__ import annotations
 
-import difflib
 import json
 import math
 from dataclasses import dataclass
@@ -14,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import InputError
+from .wording import closest_choice
 
 SCHEMA = "stratplan.baseline/1"
 DEFAULT_TOLERANCES = {"energy_rel": 1e-6, "error_abs": 1e-6}
@@ -92,8 +92,8 @@ def _known_keys(doc: dict, known: tuple[str, ...], where: str) -> None:
     the defaults in force without a word."""
     for key in doc:
         if key not in known:
-            near = difflib.get_close_matches(str(key), known, n=1, cutoff=0.7)
-            hint = f"did you mean {near[0]!r}?" if near else f"known: {', '.join(known)}"
+            near = closest_choice(str(key), known, cutoff=0.7)  # 'energy': 'energies'
+            hint = f"did you mean {near!r}?" if near else f"known: {', '.join(known)}"
             raise ValueError(f"{where}{'.' if where else ''}{key}: unknown key ({hint})")
 
 

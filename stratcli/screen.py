@@ -80,6 +80,7 @@ from .interrupts import checkpoint
 from .leg_bounds import leg_items, plan_alone
 from .leg_floors import floors_known, leg_floor
 from .trie import STATE, plan_whole, run_units, stop_workers, submit, worker_init
+from .values import MadeAgainOnUnpickling
 
 __all__ = ["Screen", "legs_shared", "screen_candidates"]
 
@@ -90,7 +91,7 @@ ROUND_FILL = 2  # ... or, while it has fewer legs than this, any (two processes 
 
 
 @dataclass(frozen=True)
-class Screen:
+class Screen(MadeAgainOnUnpickling):
     """What the screen did: every candidate's bound, which were searched, the corrections."""
 
     bounds: dict[int, float]  # candidate -> lower bound on its energy (at its own duration)
@@ -107,10 +108,6 @@ class Screen:
     def __post_init__(self) -> None:  # a frozen value: its tables read-only (`FrozenDict`)
         object.__setattr__(self, "bounds", FrozenDict(self.bounds))
         object.__setattr__(self, "leg_bounds", FrozenDict(self.leg_bounds))
-
-    def __setstate__(self, state: dict) -> None:  # (a FrozenDict pickles as a plain dict)
-        self.__dict__.update(state)
-        self.__post_init__()
 
 
 def _unit(item: tuple[str, list]) -> dict:

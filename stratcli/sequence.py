@@ -30,12 +30,13 @@ from .settings import PlannerSettings
 from .simulate import Trajectory, integrate_leg, sample
 from .status import Status
 from .time_axis import checked_times
+from .values import MadeAgainOnUnpickling
 
 __all__ = ["SequencePlan"]
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # == below: by value (the fields hold arrays)
-class SequencePlan:
+class SequencePlan(MadeAgainOnUnpickling):
     """A planned sequence of legs (or how far it got).
 
     Build one with `stratcli.plan`; read one back with `stratcli.load_run`. `ok` is True when
@@ -112,11 +113,7 @@ class SequencePlan:
             state["_system"] = None  # rebuilt from the [model] table it references, exactly
         # a URDF model pickles as its URDF text (`SpatialRobot`, a few kB): its [model] table
         # names only a file, which may have changed or gone where the plan is unpickled
-        return state
-
-    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
-        self.__dict__.update(state)
-        self.__post_init__()
+        return state  # (`MadeAgainOnUnpickling`: its arrays read-only again when unpickled)
 
     # ---- summary -------------------------------------------------------------------------
     @property

@@ -66,10 +66,6 @@ class Trajectory(ByValue):
     def __post_init__(self) -> None:
         self._read_only()
 
-    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
-        self.__dict__.update(state)
-        self._read_only()
-
     def _read_only(self) -> None:
         for array in (self.t, self.q, self.u, self.du, self.leg):
             if isinstance(array, np.ndarray):

@@ -25,6 +25,7 @@ from .results import LegPlan, ModelRef, Switch, make_leg
 from .sequence import SequencePlan
 from .settings import LieSettings, PlannerSettings
 from .status import Status
+from .values import MadeAgainOnUnpickling
 
 __all__ = [
     "LegSpec",
@@ -64,7 +65,7 @@ def seeded(settings: PlannerSettings, k: int, spread: float | None = None) -> di
 
 
 @dataclass(frozen=True, eq=False)
-class LegSpec:
+class LegSpec(MadeAgainOnUnpickling):
     """One leg of a task: the stratum, the method and the configuration to reach.
 
     `goal` is NaN where the end value is not prescribed ("*" in a scenario); `lie` overrides
@@ -94,10 +95,6 @@ class LegSpec:
         goal = np.array(self.goal, dtype=float)  # moved it in every dict and set holding it
         goal.setflags(write=False)
         object.__setattr__(self, "goal", goal)
-
-    def __setstate__(self, state: dict) -> None:  # unpickled arrays are writable again
-        self.__dict__.update(state)
-        self.__post_init__()
 
     @property
     def unprescribed(self) -> tuple[int, ...]:

@@ -13,7 +13,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-__all__ = ["ByValue", "same"]
+__all__ = ["ByValue", "MadeAgainOnUnpickling", "same"]
 
 
 def same(a: Any, b: Any) -> bool:
@@ -32,7 +32,19 @@ def same(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
-class ByValue:
+class MadeAgainOnUnpickling:
+    """A frozen dataclass whose `__post_init__` makes its parts read-only runs it again when
+    unpickled (from a worker process, a file): numpy pickles its arrays writable, and a
+    FrozenDict pickles as a plain dict (a plan from `--jobs` workers had writable arrays)."""
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        post_init = getattr(self, "__post_init__", None)
+        if post_init is not None:
+            post_init()
+
+
+class ByValue(MadeAgainOnUnpickling):
     """Equality of a (frozen) dataclass by the values of all its fields; hash by the fields
     named in `_hashed` (equal values hash alike)."""
 
@@ -47,12 +59,3 @@ class ByValue:
 
     def __hash__(self) -> int:
         return hash((type(self).__name__, *(getattr(self, name) for name in self._hashed)))
-
-    def __setstate__(self, state: dict) -> None:
-        """Unpickled (from a worker process, a file) as made: numpy pickles its arrays
-        writable, and a FrozenDict pickles as a dict, so `__post_init__` makes them read-only
-        again (a plan from `--jobs` workers had writable arrays)."""
-        self.__dict__.update(state)
-        post_init = getattr(self, "__post_init__", None)
-        if post_init is not None:
-            post_init()

@@ -21,12 +21,12 @@ def method_words(method: str, strategy: str | None) -> str:
     return method + (f" ({strategy})" if strategy in ("continuation", "constrained") else "")
 
 
-def closest_choice(got: str, choices) -> str | None:
+def closest_choice(got: str, choices, cutoff: float = 0.75) -> str | None:
     """The choice `got` most likely meant: the same letters in another case ('Newton'), the
     same letters in another order ('lei', 'rl-C1': difflib offered 'l-C1'), else a close
-    spelling ('optimize'); None when none is close."""
+    spelling ('optimize', difflib's ratio at least `cutoff`); None when none is close."""
     choices = list(choices)
     near = [c for c in choices if c.lower() == got.lower()]
     near = near or [c for c in choices if sorted(c.lower()) == sorted(got.lower())]
-    near = near or difflib.get_close_matches(got, choices, n=1, cutoff=0.75)
+    near = near or difflib.get_close_matches(got, choices, n=1, cutoff=cutoff)
     return near[0] if near else None

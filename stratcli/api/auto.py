@@ -11,6 +11,7 @@ from ..errors import InputError, Problem
 from ..frozen_json import FrozenDict
 from ..scenario import Task
 from ..settings import DecomposeSettings
+from ..values import MadeAgainOnUnpickling
 from ..wording import counted
 
 UNUSED_LEGS = (
@@ -20,7 +21,7 @@ UNUSED_LEGS = (
 
 
 @dataclass(frozen=True)
-class AutoSettings:
+class AutoSettings(MadeAgainOnUnpickling):
     """What the decomposer is asked, and where each value came from (for error messages)."""
 
     max_length: int
@@ -34,10 +35,6 @@ class AutoSettings:
 
     def __post_init__(self) -> None:  # a frozen value: `origin` read-only (`FrozenDict`)
         object.__setattr__(self, "origin", FrozenDict(self.origin))
-
-    def __setstate__(self, state: dict) -> None:  # (a FrozenDict pickles as a plain dict)
-        self.__dict__.update(state)
-        self.__post_init__()
 
 
 def auto_settings(

@@ -18,12 +18,20 @@ Json = Annotated[
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", metavar="", help="Print nothing but errors.")]
 
 
-def directory_value(value: str) -> Path:
-    """An --out value: an empty one (`--out ""`, an unset shell variable) is refused, not
-    taken for the current directory."""
-    if not str(value).strip():
-        raise typer.BadParameter("empty: give a directory (e.g. runs)")
-    return Path(value)
+def _non_empty(give: str):
+    """A path parser that refuses an empty value (`--out ""`, `plan ""`, an unset shell
+    variable) as empty: Path("") is the current directory, not what was meant."""
+
+    def parse(value: str) -> Path:
+        if not str(value).strip():
+            raise typer.BadParameter(f"empty: give {give}")
+        return Path(value)
+
+    return parse
+
+
+directory_value = _non_empty("a directory (e.g. runs)")  # --out
+file_value = _non_empty("a file")  # a scenario or sweep file argument
 
 
 Out = Annotated[
@@ -38,14 +46,6 @@ Animation = Annotated[
         "motion is in run.mcap); off by default, it takes longer than the planning.",
     ),
 ]
-
-
-def file_value(value: str) -> Path:
-    """A file argument: an empty one (`plan ""`, an unset shell variable) is refused as empty,
-    not taken for the current directory ("." is not a regular file)."""
-    if not str(value).strip():
-        raise typer.BadParameter("empty: give a file")
-    return Path(value)
 
 
 Scenario = Annotated[Path, typer.Argument(help="Scenario file (TOML).", parser=file_value)]
