@@ -66,10 +66,11 @@ FLAT_STEPS, FLAT = 3, 1e-5  # a barrier round ends when that many steps lowered 
 REACH = 0.3  # the barrier and the QP ignore margins above this (rad or length unit)
 FRACTION_TO_BOUNDARY = 0.9
 SQP_ITERATIONS = 60
-# the SQP has converged when its step promises less than this (relative to the energy): task A
-# spent 12 of its 26 steps at 1e-11, within the ℓ1 merit's noise (active margins at ±1e-11
-# times the penalty), each line search halving 6-27 times (SQP 749 -> 205 ms)
-SQP_CONVERGED = 1e-10
+# the SQP has converged when its step promises less than 1e-12 of the energy, or when NOISY
+# steps in a row promised less than 1e-10: task A spent 12 of its 26 steps at 1e-11, within
+# the ℓ1 merit's noise (active margins at ±1e-11 times the penalty), each line search halving
+# 6-27 times; one such step alone is not the end (an active set that changes promises more)
+SQP_CONVERGED, SQP_NOISE, NOISY = 1e-12, 1e-10, 3
 CRAWL, CRAWL_DROP = 5, 1e-3  # `_Search.lower`: the SQP's stop when crawling outside
 ACTIVE = 1e-3  # a margin below this with a positive multiplier counts as active
 VIOLATION = 1e-6  # an SQP iterate with no node margin below minus this counts as inside
@@ -251,6 +252,7 @@ class _Search(Descent):
         short by the cap, a random obstacle task's 60 steps took 4 of its 10 s that way."""
         self.multipliers = None  # the node margins', from the last QP
         self.penalty = 0.0  # of the ℓ1 merit
+        self.noisy = 0  # SQP steps in a row that promised less than `SQP_NOISE`
         self._lower_barrier(ROUND_ITERATIONS if lead_in else LATER_ITERATIONS)
         energies = []  # after each step from an iterate outside the margins; reset inside
         for _ in range(SQP_ITERATIONS):
@@ -323,8 +325,10 @@ class _Search(Descent):
         merit, violation = self._merit(z, lagrange, g)
         worst = max(-float(g.min(initial=0.0)), 0.0)
         slope = float(grad @ d) - scale * self.penalty * violation
-        if -slope <= SQP_CONVERGED * max(self.energy, 1e-300) and worst <= VIOLATION:
-            return False  # converged
+        promised = -slope / max(self.energy, 1e-300)
+        self.noisy = self.noisy + 1 if promised <= SQP_NOISE and worst <= VIOLATION else 0
+        if self.noisy >= NOISY or (promised <= SQP_CONVERGED and worst <= VIOLATION):
+            return False  # converged (to rounding, or to the merit's noise)
         cap = max(VIOLATION_CAP, worst)
         self.outside = worst > VIOLATION
 
