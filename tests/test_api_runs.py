@@ -137,6 +137,16 @@ def test_a_record_asked_into_a_file_says_it_is_a_file(tmp_path):
         api.write_record(tmp_path / "afile", plan, animation=False)
 
 
+def test_a_record_asked_into_a_dangling_link_names_the_link(tmp_path):
+    """A symbolic link to a folder that is gone said only "File exists"."""
+    from stratcli.errors import RecordError
+
+    plan = api.plan_run(load_scenario(ROOT / "scenarios" / "unicycle.toml")).result
+    (tmp_path / "runs").symlink_to(tmp_path / "gone")
+    with pytest.raises(RecordError, match=r"runs: it is a link to .*gone, which does not exist$"):
+        api.write_record(tmp_path / "runs", plan, animation=False)
+
+
 def test_a_plan_from_a_document_that_is_not_one_is_one_input_error():
     """`SequencePlan.from_dict` is public: `{}` raised KeyError: 'coordinates' from inside
     the package, a leg's pieces given as text a TypeError. Each is an `InputError` saying

@@ -836,6 +836,29 @@ def test_runs_of_a_file_is_bad_input_naming_it(tmp_path):
     assert both.exit_code == 2 and "give the directory once" in both.stderr
 
 
+def test_a_tilde_in_out_is_the_home_directory(tmp_path, monkeypatch):
+    """`--out=~/runs` (the shell leaves `~` as it is after `=` and in quotes) made a folder
+    named `~` in the current directory and printed `record: ~/runs/...` as if it were home."""
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["plan", str(ROOT / "scenarios" / "unicycle.toml"), "--out=~/runs"])
+    assert result.exit_code == 0, result.output
+    assert not (tmp_path / "~").exists()
+    (record,) = (tmp_path / "home" / "runs").iterdir()
+    assert f"record: {record}" in result.stdout.replace("\n", "")
+
+
+def test_an_out_that_links_to_nothing_is_bad_input_naming_the_link(tmp_path):
+    """plan and sweep said "--out runs: cannot write there (File exists)" of a dangling link."""
+    (tmp_path / "runs").symlink_to(tmp_path / "gone")
+    sweep = ROOT / "scenarios" / "sweeps" / "sim4_goal_map.toml"
+    for command in (["plan", str(ROOT / "scenarios" / "unicycle.toml")], ["sweep", str(sweep)]):
+        result = runner.invoke(app, [*command, "--out", str(tmp_path / "runs")])
+        assert result.exit_code == 2, result.output
+        gone = tmp_path / "gone"
+        assert f"--out {tmp_path / 'runs'}: a link to {gone}, which does not exist" in result.stderr
+
+
 def test_runs_takes_the_directory_as_an_argument_too(tmp_path):
     """`stratplan runs DIR` was refused ("unexpected extra argument"): only --out DIR was read."""
     result, _ = run(tmp_path, TASK_D, "--quiet")

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..arguments import checked, choice, flag, instance, pathlike
 from ..errors import InputError, Problem
-from ..records.rundir import clean_partials  # stdlib only: light
+from ..records.rundir import clean_partials, dangling_link  # stdlib only: light
 from ..records.store import Record, list_records, mcap_summary, read_record
 
 # The planner (scipy, sympy, matplotlib) is imported by the functions that write, load or
@@ -180,6 +180,8 @@ def prepare_out(out: str | Path) -> Path:
     try:
         if out.exists() and not out.is_dir():
             raise InputError([Problem("out", "not a directory", given=str(out))])
+        if gone := dangling_link(out):
+            raise InputError([Problem("out", gone, given=str(out))])
         out.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=out):
             pass

@@ -20,12 +20,14 @@ Quiet = Annotated[bool, typer.Option("--quiet", "-q", metavar="", help="Print no
 
 def _non_empty(give: str):
     """A path parser that refuses an empty value (`--out ""`, `plan ""`, an unset shell
-    variable) as empty: Path("") is the current directory, not what was meant."""
+    variable) as empty: Path("") is the current directory, not what was meant. A leading `~`
+    is the home directory, as in a scenario's model path: the shell leaves it as it is in
+    `--out=~/runs` and in quotes, and a folder named `~` was made in the current one."""
 
     def parse(value: str) -> Path:
         if not str(value).strip():
             raise typer.BadParameter(f"empty: give {give}")
-        return Path(value)
+        return Path(value).expanduser()
 
     return parse
 

@@ -198,6 +198,8 @@ def write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
     """
     if Path(out).exists() and not Path(out).is_dir():  # ("File exists" said nothing)
         raise RecordError(f"cannot write the run record in {out}: it is a file, not a directory")
+    if gone := dangling_link(out):  # (also "File exists")
+        raise RecordError(f"cannot write the run record in {out}: it is {gone}")
     try:
         return _write_run(out, name, files)
     except RecordError:
@@ -205,6 +207,15 @@ def write_run(out: Path, name: str, files: dict[str, Any]) -> Path:
     except OSError as exc:
         where = exc.filename or out
         raise RecordError(f"cannot write the run record in {where}: {exc.strerror or exc}") from exc
+
+
+def dangling_link(path: Path) -> str:
+    """ "a link to TARGET, which does not exist" where `path` is a symbolic link to nothing
+    (making it a directory fails with "File exists", which named neither), else ""."""
+    path = Path(path)
+    if path.is_symlink() and not path.exists():
+        return f"a link to {os.readlink(path)}, which does not exist"
+    return ""
 
 
 def _write_run(out: Path, name: str, files: dict[str, Any]) -> Path:

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, Problem
+from .rundir import dangling_link
 from .sweeplock import CLAIM
 
 ROWS = "rows.jsonl"
@@ -133,6 +134,8 @@ def prepare(
                 ]
             )
         return read_rows(out / ROWS)
+    if gone := dangling_link(out):
+        raise InputError([Problem("out", gone, given=str(out))])
     try:
         out.mkdir(parents=True, exist_ok=True)
         for name, text in files.items():  # (before spec.json, which makes it a sweep's)
