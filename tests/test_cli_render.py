@@ -585,3 +585,21 @@ def test_a_table_too_wide_for_the_terminal_loses_no_column_or_digit():
     small.add_row("1", "a note of several words that wrap inside the column")
     fits.print(small)
     assert max(len(line) for line in narrow.getvalue().splitlines()) <= 40
+
+
+def test_a_word_wider_than_the_terminal_is_not_broken_by_a_newline(monkeypatch):
+    """At 40 columns the record's path was broken mid-name by a newline, which a path copied
+    from the screen then held; a word that fits is still wrapped at the spaces."""
+    from stratcli.cli import render
+
+    out = io.StringIO()
+    monkeypatch.setattr(
+        render, "out_console", render.Stream(file=out, force_terminal=True, width=40)
+    )
+    path = "/tmp/runs/20261129T033810Z-unicycle-e0bff845"
+    render.say(f"planned in 228 ms · 4.66 s in all · record: {path}")
+    assert path in out.getvalue()
+    out.seek(0), out.truncate()
+    render.say("a line of several words, each narrower than the terminal, wraps at spaces")
+    assert all(len(line) <= 40 for line in out.getvalue().splitlines())
+    assert len(out.getvalue().splitlines()) == 2

@@ -17,6 +17,7 @@ import typer
 from rich.console import Console, ConsoleDimensions
 from rich.markup import escape
 from rich.table import Table
+from rich.text import Text
 
 from ..errors import InputError, NotControllableError, Problem, RecordError
 from ..wording import counted, method_words
@@ -86,8 +87,11 @@ def text_column(table: Table, header: str, **kw: Any) -> None:
 
 
 def say(text: str) -> None:
-    """One line on stdout; rich markup allowed, no highlighting."""
-    out_console.print(text, highlight=False)
+    """One line on stdout; rich markup allowed, no highlighting. A word wider than the
+    terminal (a record's path in 40 columns) is left to the terminal to wrap: rich broke it
+    with a newline, which a path copied from the screen then held."""
+    widest = max(map(len, Text.from_markup(text).plain.split()), default=0)
+    out_console.print(text, highlight=False, soft_wrap=widest > out_console.width)
 
 
 def error(label: str, message: str) -> None:
