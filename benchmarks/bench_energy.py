@@ -1,7 +1,7 @@
 """Energy and planning time of stratplan against the free-control lower bound (CasADi/IPOPT).
 
 Usage: python benchmarks/bench_energy.py [--repeats N] [--starts K] [--no-bound]
-       [--search starts|loops|legwise] [SCENARIO ...]
+       [--search loops|starts|legwise] [SCENARIO ...]
 
 One table, every row from the same run, for the paper's scenarios: the paper's energy; the
 plain Newton plan's; the energy-optimal plan's with H = 3 harmonics (the default) and with

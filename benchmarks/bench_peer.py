@@ -1,7 +1,7 @@
 """The honest peer: CasADi/IPOPT on exactly stratplan's energy problem, against stratplan.
 
 Usage: python benchmarks/bench_peer.py [--seeded N] [--first-seed S] [--repeats R]
-       [--search starts|loops|legwise] [SCENARIO ...]
+       [--search loops|starts|legwise] [SCENARIO ...]
        (needs the optional extra: pip install -e '.[bench]')
 
 For each paper scenario, the problem the energy objective solves (`stratcli.planners.energy`),

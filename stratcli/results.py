@@ -302,7 +302,7 @@ class Optimisation:
         The search, in words (exact Hessians, or SR1 updates where the legs have no second
         derivatives).
     search : str
-        `[planner] search` as run: "starts", "loops" or "legwise".
+        `[planner] search` as run: "loops", "starts" or "legwise".
     no_loop_start : str
         Why the loop search made no loop start ("" where it made some).
     """
@@ -311,7 +311,7 @@ class Optimisation:
     best: int | None
     newton_energy: float | None
     method: str = EXACT_HESSIAN  # or SR1_UPDATES (legs without second derivatives)
-    search: str = ""  # as run: "starts", "loops" or "legwise" ("": a record made before it)
+    search: str = ""  # as run: "loops", "starts" or "legwise" ("": a record made before it)
     no_loop_start: str = ""  # why the loop search made no loop start ("" where it made some)
 
     def __repr__(self) -> str:  # the dataclass's ran to 700 characters for two starts

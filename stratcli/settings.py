@@ -64,7 +64,7 @@ class LieSettings:
     rest: Bool = True
 
 
-Search = Literal["starts", "loops", "legwise"]  # the energy search (`PlannerSettings.search`)
+Search = Literal["loops", "starts", "legwise"]  # the energy search (`PlannerSettings.search`)
 SEARCHES = get_args(Search)
 
 

@@ -85,7 +85,7 @@ TASK_A = (ROOT / "scenarios" / "sim4_task_a.toml").read_text()
     ("text", "key", "value", "misspelt", "choices", "meant"),
     [
         (TASK_D, "objective", "newton", "newtn", "energy or newton", "newton"),
-        (TASK_A, "search", "starts", "loop", "starts, loops or legwise", "loops"),
+        (TASK_A, "search", "starts", "loop", "loops, starts or legwise", "loops"),
     ],
 )
 def test_a_planner_option_plans_with_it_and_records_the_changed_scenario(
@@ -510,7 +510,7 @@ def test_compare_sequences_takes_plans_objective_option(tmp_path):
     bad = runner.invoke(app, [*args, "--search", "loop"])
     assert bad.exit_code == 2
     assert bad.output.strip() == (
-        "error: --search: must be starts, loops or legwise (got 'loop': did you mean 'loops'?)"
+        "error: --search: must be loops, starts or legwise (got 'loop': did you mean 'loops'?)"
     )
 
 

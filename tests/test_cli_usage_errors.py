@@ -68,7 +68,7 @@ CASES = {
     ),
     "choice in another case": (
         ["plan", TASK_D, "--search", "Loops"],
-        "error: --search: must be starts, loops or legwise (got 'Loops': did you mean 'loops'?)",
+        "error: --search: must be loops, starts or legwise (got 'Loops': did you mean 'loops'?)",
     ),
     "choice with letters swapped": (
         ["sweep", TASK_D, "--records", "bets"],

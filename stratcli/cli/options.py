@@ -73,7 +73,7 @@ Strategy = Annotated[
 
 # `settings.Search`, spelt here for start-up speed (--help imports no settings); a test keeps
 # the two the same
-SearchChoice = Literal["starts", "loops", "legwise"]
+SearchChoice = Literal["loops", "starts", "legwise"]
 Objective = Annotated[
     Literal["energy", "newton"] | None,
     typer.Option(
