@@ -137,6 +137,23 @@ def planner_for(leg: LegSpec, settings: PlannerSettings, **overrides) -> LegPlan
     return PLANNERS[leg.method].from_settings(settings, leg, **overrides)
 
 
+def _checked_planner(system, settings, leg, at, next_leg):
+    """The leg's planner and its free and needed coefficients (`check_legs`); an
+    exception of a planner of one's own (its `from_settings`, `__init__` or
+    `missing_coefficients`, an abstract method left out) carries a note naming it, as one
+    from its `plan` does: the command line's one line, not stratplan's traceback."""
+    cls, call = PLANNERS[leg.method], "from_settings"
+    try:
+        planner = planner_for(leg, settings)
+        call = "missing_coefficients"
+        problem = leg_problem(system, settings, leg, at, next_leg, planner)
+        return planner, *planner.missing_coefficients(problem)
+    except Exception as exc:
+        if not cls.__module__.startswith("stratcli."):
+            noted(exc, cls, leg.method, f"checking leg {at.index + 1} on {leg.stratum}", call)
+        raise
+
+
 def _targets(system: System, leg: LegSpec) -> tuple[int, ...]:
     stratum = system.stratum(leg.stratum)
     return tuple(i for i in stratum.free(system.n) if i not in leg.unprescribed)
@@ -206,7 +223,7 @@ def plan_next_leg(
             out = planner.plan(problem)
     except (SearchDiverged, *NUMERICAL_ERRORS) as exc:
         if own and not isinstance(exc, NUMERICAL):
-            noted(exc, planner, leg.method, where)
+            noted(exc, planner, leg.method, f"planning {where}")
             raise
         diverged = isinstance(exc, SearchDiverged)
         return make_leg(
@@ -229,7 +246,7 @@ def plan_next_leg(
         )
     except Exception as exc:
         if own:
-            noted(exc, planner, leg.method, where)
+            noted(exc, planner, leg.method, f"planning {where}")
         raise
     if own:
         with np.errstate(all="ignore"):
@@ -424,9 +441,7 @@ def check_legs(system: System, start: np.ndarray, legs: list[LegSpec], settings:
                 )
         at = LegStart(previous, None if i == 0 else zero, 0.0, i)
         next_leg = legs[i + 1] if i + 1 < len(legs) else None
-        planner = planner_for(leg, settings)
-        problem = leg_problem(system, settings, leg, at, next_leg, planner)
-        free, needed = planner.missing_coefficients(problem)
+        planner, free, needed = _checked_planner(system, settings, leg, at, next_leg)
         if free < needed:
             where = f"leg {i + 1} on {leg.stratum}"
             problems.append(Problem(f"legs[{i}]", planner.shortfall(where, settings, free, needed)))

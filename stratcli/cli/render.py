@@ -172,8 +172,7 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
     except Exception as exc:  # a planner of one's own (STRATPLAN_PLANNERS) that broke
         from ..planner_contract import fault
 
-        line = fault(exc)
-        if line is None:
+        if fault(exc) is None:
             raise
         import traceback
 
@@ -185,7 +184,7 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
         if tb is not None:
             text = "".join(traceback.format_exception(type(exc), exc, tb))
             err_console.print(escape(text.rstrip()), highlight=False)
-        error("error", line)
+        error("error", fault(exc, traceback_shown=tb is not None))
         raise typer.Exit(2) from None
 
 
