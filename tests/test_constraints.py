@@ -633,3 +633,41 @@ def test_stratcli_plan_warns_of_a_limit_that_looks_mistaken_with_its_own_categor
     assert ("LimitWarning", "constraints.joint_limits: q") in kinds
     assert not any(w.category is stratcli.IllConditionedWarning for w in caught)
     assert all(w.filename == __file__ for w in caught)  # the caller's line, not the package
+
+
+class _Stop(Exception):
+    """Raised by a progress callback: the warnings come before any planning."""
+
+
+def _stop(*_):
+    raise _Stop
+
+
+@pytest.mark.parametrize("use_case", ["plan_auto", "compare_sequences"])
+def test_auto_mode_and_comparisons_warn_of_a_limit_that_looks_mistaken(use_case):
+    """`plan` of a scenario with legs warned of limits past a full turn; auto mode (`plan`
+    without legs runs `plan_auto`) and `compare_sequences` did not (the command line printed
+    them itself): a notebook's auto-mode plan with degrees written as radians went unwarned.
+    A `warn` callback gets them instead of Python's warnings."""
+    import warnings
+
+    import stratcli
+
+    raw = _task_d(joint_limits=[-150, 150])
+    if use_case == "plan_auto":
+        del raw["legs"]
+        raw["decompose"] = {"max_length": 2}
+    call = getattr(stratcli, use_case)
+    kw = {"check": False} if use_case == "plan_auto" else {}
+    with warnings.catch_warnings(record=True) as caught, pytest.raises(_Stop):
+        warnings.simplefilter("always")
+        call(raw, jobs=1, progress=_stop, **kw)
+    limits = [w for w in caught if w.category is stratcli.LimitWarning]
+    assert [str(w.message)[:27] for w in limits] == ["constraints.joint_limits: q"]
+    assert all(w.filename == __file__ for w in limits)  # the caller's line
+    said: list[str] = []
+    with warnings.catch_warnings(record=True) as caught, pytest.raises(_Stop):
+        warnings.simplefilter("always")
+        call(raw, jobs=1, progress=_stop, warn=said.append, **kw)
+    assert len(said) == 1 and said[0].startswith("constraints.joint_limits: q")
+    assert not [w for w in caught if w.category is stratcli.LimitWarning]

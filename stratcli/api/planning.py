@@ -113,6 +113,21 @@ def plan(
     return plan_run(task, check=check, time_scale=time_scale, warn=warn).result
 
 
+def warn_of_limits(task: Task, warn: Callable[[str], None] | None) -> None:
+    """Each limit of `task` that looks mistaken (`limit_warnings`) to `warn`, or (None) as a
+    `LimitWarning` attributed to the caller: auto mode and compare_sequences warned of none
+    from Python, where the command line and `plan` with legs did."""
+    for sentence in limit_warnings(task):
+        if warn is None:
+            _warn(sentence, LimitWarning)
+        else:
+            warn(sentence)
+
+
+def _said(sentence: str) -> None:
+    """A `warn` that says nothing: the caller warned already."""
+
+
 def _warn(sentence: str, category: type[Warning] = IllConditionedWarning) -> None:
     """The check's warnings (or another `category`) as Python warnings, attributed to the
     caller of the use case: the first frame outside this package (however many of its frames
@@ -216,7 +231,10 @@ def plan_run(
     return PlanOutcome(task, result, doc, started, compile_time, planning_time, phases, check_time)
 
 
-@checked(scenario=SCENARIO, check=flag, jobs=JOBS, progress=PROGRESS, time_scale=TIME_SCALE)
+@checked(
+    scenario=SCENARIO, check=flag, jobs=JOBS, progress=PROGRESS, time_scale=TIME_SCALE,
+    warn=PROGRESS,
+)  # fmt: skip
 def plan_auto(
     scenario: ScenarioLike,
     *,
@@ -224,6 +242,7 @@ def plan_auto(
     jobs: int | None = None,
     progress: Progress | None = None,
     time_scale: float | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> ComparisonOutcome:
     """Auto mode: plan every candidate sequence of the [decompose] table, keep the best.
 
@@ -242,6 +261,9 @@ def plan_auto(
         Run the chosen plan this many times faster; default: the scenario's
         `planner.time_scale`. The candidates are ranked as planned (a time scale changes
         every candidate's energy, peak control and duration by the same factor).
+    warn : callable, optional
+        Called as `warn(sentence)`, before any planning, for each limit that looks mistaken
+        (`limit_warnings`); default: a `LimitWarning` each, as `plan` issues.
 
     Returns
     -------
@@ -257,11 +279,12 @@ def plan_auto(
         When no candidate sequence could even be planned.
     """
     task = _at_scale(as_task(scenario), time_scale)
+    warn_of_limits(task, warn)  # (before the check: the limits may be a typo)
     if check:
         controllability_first(task)
     from .sequences import compare_sequences  # (which imports this module)
 
-    outcome = compare_sequences(task, jobs=jobs, progress=progress)
+    outcome = compare_sequences(task, jobs=jobs, progress=progress, warn=_said)
     scale = task.scenario.planner.time_scale
     if scale == 1.0:
         return outcome

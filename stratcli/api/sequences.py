@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import Executor
 from contextlib import contextmanager
 from datetime import UTC, datetime
@@ -37,6 +37,7 @@ from .planning import (
     _warn,
     as_task,
     chosen_as_run,
+    warn_of_limits,
 )
 
 __all__ = ["compare_sequences", "decompose", "with_legs"]
@@ -44,7 +45,7 @@ __all__ = ["compare_sequences", "decompose", "with_legs"]
 
 @checked(
     scenario=SCENARIO, max_length=MAX_LENGTH, strategy=STRATEGY, criterion=CRITERION, jobs=JOBS,
-    progress=PROGRESS, exhaustive=flag, dask=DASK,
+    progress=PROGRESS, exhaustive=flag, dask=DASK, warn=PROGRESS,
 )  # fmt: skip
 def compare_sequences(
     scenario: ScenarioLike,
@@ -57,6 +58,7 @@ def compare_sequences(
     exhaustive: bool = False,
     executor: Executor | None = None,
     dask: str | os.PathLike | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> ComparisonOutcome:
     """Plan every candidate sequence of strata in parallel and rank them.
 
@@ -81,6 +83,9 @@ def compare_sequences(
     executor, dask : concurrent.futures.Executor or str, optional
         Plan on this executor, or on the Dask cluster of this scheduler address or file,
         instead of `jobs` forked processes (the same results; a scenario's model only).
+    warn : callable, optional
+        Called as `warn(sentence)`, before any planning, for each limit that looks mistaken
+        (`limit_warnings`); default: a `LimitWarning` each, as `plan` issues.
 
     Returns
     -------
@@ -98,6 +103,7 @@ def compare_sequences(
     """
     task = as_task(scenario)
     auto, dec = _decomposition(task, max_length, strategy, criterion)
+    warn_of_limits(task, warn)
     started = datetime.now(UTC)
     total, done = len(dec.candidates), 0
 

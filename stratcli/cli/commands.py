@@ -153,10 +153,10 @@ def _plan_auto(
     """`plan` on a scenario without legs: compare the candidates, record and show the best."""
     from .. import api  # start-up speed
 
-    for sentence in api.limit_warnings(task):  # (plan_run warns of them itself)
-        _warning(sentence)
     with render.reported(file), bars.progress_bar(bars.shown(quiet, json_output)) as bar:
-        outcome = api.plan_auto(task, check=check, progress=bar, time_scale=time_scale, jobs=jobs)
+        outcome = api.plan_auto(
+            task, check=check, progress=bar, time_scale=time_scale, jobs=jobs, warn=_warning
+        )
     with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:  # the best plan's result.json, and the choice (as `show --json` has it)
@@ -256,15 +256,14 @@ def compare_sequences(
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     api.draw_ahead()  # matplotlib loads while the sequences are planned
-    for sentence in api.limit_warnings(task):
-        _warning(sentence)
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     shown = bars.shown(quiet, json_output)
     with render.reported(), bars.progress_bar(shown, waiting) as bar, _as_notes():
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(
-            task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask
-        )
+            task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask,
+            warn=_warning,
+        )  # fmt: skip
     render.notes(outcome.settings.notes)
     with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
