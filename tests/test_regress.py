@@ -260,3 +260,21 @@ def test_update_quiet_takes_the_differences_in_without_calling_them_regressions(
     assert taken.exit_code == 0 and "regression" not in taken.output, taken.output
     again = CliRunner().invoke(app, ["regress", str(tmp_path), "--jobs", "1", "--quiet"])
     assert again.exit_code == 0 and again.output == ""
+
+
+def test_a_baseline_updated_with_a_diverged_scenario_is_read_back(tmp_path):
+    """A leg that diverges has no energy (NaN) and an infinite error: `--update` wrote them
+    as NaN and Infinity, which the next `regress` refused ("total_energy is nan, not a
+    number"), CI broken by its own baseline. They are null (what a failed entry may hold)."""
+    scen = tmp_path / "scen"
+    scen.mkdir()
+    text = (ROOT / "scenarios" / "unicycle.toml").read_text()
+    (scen / "far.toml").write_text(text.replace("goal = [0, 1, 0]", "goal = [0, 1000, 0]"))
+    base = tmp_path / "baseline.json"
+    update = ["regress", str(scen), "--baseline", str(base), "--update", "--quiet"]
+    assert runner.invoke(app, update).exit_code == 0
+    entry = json.loads(base.read_text())["scenarios"]["far"]  # (strict JSON: no NaN)
+    assert entry["status"] == "failed" and entry["total_energy"] is None
+    assert entry["errors"] == [None]
+    again = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--quiet"])
+    assert again.exit_code == 0, again.stderr

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -11,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..arguments import checked, integer, optional
 from ..errors import InputError, Problem
+from ..records.sweepdir import write_json
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
 
@@ -120,7 +120,7 @@ def regress(
             messages[path.stem] = message
     diffs = compare_baseline(now, old, tolerances)
     if update:
-        baseline.write_text(json.dumps(baseline_document(now, tolerances), indent=2) + "\n")
+        write_json(baseline, baseline_document(now, tolerances))
     return RegressReport(len(now), baseline, tolerances, diffs, update, now, seconds, messages)
 
 

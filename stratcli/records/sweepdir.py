@@ -24,13 +24,12 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 import os
 from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, Problem
-from .rundir import dangling_link
+from .rundir import dangling_link, finite_or_none
 from .sweeplock import CLAIM
 
 ROWS = "rows.jsonl"
@@ -65,17 +64,6 @@ def is_sweep_dir(path: Path) -> bool:
     return (Path(path) / SPEC).is_file()
 
 
-def _clean(value: Any) -> Any:
-    """`value` with every non-finite float, at any depth, as None (JSON has no NaN)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
-    return value
-
-
 def _fsync_dir(path: Path) -> None:
     try:
         fd = os.open(path, os.O_RDONLY)
@@ -96,6 +84,14 @@ def write_atomic(path: Path, data: bytes) -> None:
         os.fsync(fh.fileno())
     os.replace(tmp, path)
     _fsync_dir(path.parent)
+
+
+def write_json(path: Path, doc: Any) -> None:
+    """`doc` as indented JSON in `path`, whole or not at all, with NaN and infinities as null
+    (`regress --update` wrote a failed scenario's NaN energy, and the next `regress` refused
+    its own baseline; a run killed while writing had left it truncated)."""
+    text = json.dumps(finite_or_none(doc), indent=2, allow_nan=False)
+    write_atomic(Path(path), (text + "\n").encode())
 
 
 def prepare(
@@ -256,7 +252,7 @@ class RowLog:
             self._fh.seek(keep)
 
     def append(self, row: dict[str, Any]) -> None:
-        line = json.dumps({k: _clean(v) for k, v in row.items()}, allow_nan=False) + "\n"
+        line = json.dumps({k: finite_or_none(v) for k, v in row.items()}, allow_nan=False) + "\n"
         self._fh.write(line.encode())
         self._fh.flush()
         os.fsync(self._fh.fileno())
@@ -302,8 +298,7 @@ def table_text(keys: list[str], rows: dict[int, dict[str, Any]]) -> str:
 def write_outputs(out: Path, keys: list[str], rows: dict[int, dict], summary: dict) -> None:
     """results.csv and sweep.json, each written atomically."""
     write_atomic(Path(out) / TABLE, table_text(keys, rows).encode())
-    text = json.dumps(_clean(summary), indent=2, allow_nan=False)  # a NaN at any depth: null
-    write_atomic(Path(out) / SUMMARY, (text + "\n").encode())
+    write_json(Path(out) / SUMMARY, summary)  # (a NaN at any depth: null)
 
 
 def read_sweep_dir(out: Path) -> tuple[dict[str, Any], dict[int, dict], dict[str, Any] | None]:
