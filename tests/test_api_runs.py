@@ -205,6 +205,12 @@ def test_an_outcomes_document_is_read_only_and_writing_its_record_keeps_its_valu
     run = api.write_record(tmp_path, outcome, animation=False)
     assert "write" in outcome.phases and pickle.loads(before) == outcome
     assert json.loads((run / "result.json").read_text()) == outcome.document
+    # a second record of it has the planning's phases and its own, not the first record's
+    # ("write" and "total" had come into the second manifest from the first)
+    again = api.write_record(tmp_path / "again", outcome, animation=False)
+    first, second = (json.loads((r / "manifest.json").read_text())["phases"] for r in (run, again))
+    assert sorted(first) == sorted(second) and "write" not in second and "total" not in second
+    assert second["planning"] == first["planning"]
 
 
 def test_a_plans_constraints_and_what_it_met_of_them_are_read_only_values():

@@ -90,7 +90,7 @@ def write_record(
     from ..records import drawing
     from ..records import run as run_files  # start-up speed (module comment)
     from ..records.comparison import comparison_csv
-    from ..records.manifest import manifest, phase, since_start
+    from ..records.manifest import RECORD_PHASES, manifest, phase, since_start
 
     if not drawing.running():  # no drawing process (`draw_ahead`): matplotlib loads here
         from ..records import plots, ranking  # noqa: F401
@@ -112,7 +112,8 @@ def write_record(
     }
     command = list(sys.argv if argv is None else argv)
     code = 0 if planned.ok else 1
-    info = manifest(task.text, command, task.settings.seed, timings, code, planned.phases)
+    planning = {k: v for k, v in planned.phases.items() if k not in RECORD_PHASES}
+    info = manifest(task.text, command, task.settings.seed, timings, code, planning)
     info["phases"]["record imports"] = imported
     comparing = isinstance(outcome, ComparisonOutcome)
     ranking = outcome.document if comparing else None  # its chart is drawn with the plots

@@ -36,6 +36,17 @@ import numpy as np
 from .. import _STARTED, __version__
 
 Phases = dict[str, dict[str, float]]  # name -> {"wall_s": ..., "cpu_s": ...}
+# the phases `api.write_record` adds to an outcome's (a record's own, not the planning's): a
+# second record of one outcome took the first's into its manifest
+RECORD_PHASES = (
+    "record imports",
+    "comparison files",
+    "sample",
+    "run.mcap",
+    "plots",
+    "write",
+    "total",
+)
 
 
 def _version(package: str) -> str | None:
