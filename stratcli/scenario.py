@@ -288,10 +288,14 @@ def _resolve(
                     f"unknown stratum {name!r} (this model has: {', '.join(system.strata)})",
                 )
             )
-    # planners of one's own named by a leg: their modules imported first, and any module
-    # that could not be (even where another supplied the method) a problem of its own, first
+    # planners of one's own named by a leg: their modules imported first; a module named in
+    # STRATPLAN_PLANNERS that could not be is a problem of its own (first), an installed
+    # package's entry point only where a method is still unknown (one broken package's
+    # entry point had refused every scenario naming another's planner)
     unknown = any(entry.method not in PLANNERS for entry in scenario.legs or [])
     plugins = [Problem(*p) for p in load_plugins()] if unknown else []
+    if not any(entry.method not in PLANNERS for entry in scenario.legs or []):
+        plugins = [p for p in plugins if p.path == PLUGINS]
     problems[:0] = plugins
     spans = False  # a leg of more basis periods than the basis can take
     for i, entry in enumerate(scenario.legs or []):

@@ -103,3 +103,52 @@ def test_a_broken_planner_module_or_a_bug_in_one_is_named_exit_2(tmp_path):
         "error: RuntimeError: my bug (raised by leg planner 'raiser-plugin' (Raiser.plan) "
         "planning leg 2 on S1; the traceback above is its)"
     )
+
+
+def test_an_installed_packages_broken_entry_point_does_not_refuse_anothers_planner(tmp_path):
+    """One installed package's entry point that failed to import refused every scenario
+    naming a planner another entry point supplied; it is named only where a leg's method is
+    still unknown (a module of STRATPLAN_PLANNERS, named by the user, is named always)."""
+    (tmp_path / "myplanners.py").write_text(MODULE)
+    (tmp_path / "broken.py").write_text('raise ImportError("needs casadi")\n')
+    info = tmp_path / "eplan-0.0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: eplan\nVersion: 0.0.1\n")
+    points = "[stratplan.planners]\nlsq = myplanners\nbroken = broken\n"
+    (info / "entry_points.txt").write_text(points)
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    (tmp_path / "mine.toml").write_text(
+        text.replace('stratum = "S1"', 'stratum = "S1"\nmethod = "lsq-plugin"')
+    )
+    (tmp_path / "other.toml").write_text(
+        text.replace('stratum = "S1"', 'stratum = "S1"\nmethod = "nosuch-plugin"')
+    )
+    found = _run(tmp_path, "check", "mine.toml")
+    assert found.returncode == 0, found.stderr
+    unknown = _run(tmp_path, "check", "other.toml")
+    assert unknown.returncode == 2
+    assert "entry point 'broken' of stratplan.planners: cannot load 'broken' (ImportError: " in (
+        unknown.stderr
+    )
+
+
+def test_a_module_in_the_current_folder_gets_the_path_it_needs(tmp_path):
+    """The README's `STRATPLAN_PLANNERS=myplanners stratplan plan mine.toml` with the module
+    beside the scenario: "No module named 'myplanners'" and no hint (`python -m` looks in the
+    current folder, the stratplan command does not)."""
+    (tmp_path / "myplanners.py").write_text(MODULE)
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    (tmp_path / "mine.toml").write_text(
+        text.replace('stratum = "S1"', 'stratum = "S1"\nmethod = "lsq-plugin"')
+    )
+    code = "import sys; sys.path.remove(''); from stratcli.__main__ import main; main()"
+    env = dict(os.environ, PYTHONPATH=str(ROOT), STRATPLAN_PLANNERS="myplanners")
+    done = subprocess.run(
+        [sys.executable, "-c", code, "check", "mine.toml"], env=env, capture_output=True,
+        text=True, cwd=tmp_path, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 2
+    assert done.stderr.splitlines()[0].endswith(
+        "myplanners is in the current folder, which the stratplan command does not search: "
+        "PYTHONPATH=. STRATPLAN_PLANNERS=myplanners stratplan ..."
+    )

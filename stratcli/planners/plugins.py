@@ -22,13 +22,22 @@ def load_plugins() -> list[tuple[str, str]]:
     import importlib
     import os
     from importlib.metadata import entry_points
+    from pathlib import Path
 
     problems: list = [None]  # (a first entry marks the loading done)
     for module in filter(None, (m.strip() for m in os.environ.get(PLUGINS, "").split(","))):
         try:
             importlib.import_module(module)
         except Exception as exc:  # a user's module: whatever it raises, said in one line
-            problems.append((PLUGINS, f"cannot import {module!r} ({type(exc).__name__}: {exc})"))
+            what = f"cannot import {module!r} ({type(exc).__name__}: {exc})"
+            top = module.split(".")[0]
+            here = Path(f"{top}.py").is_file() or Path(top, "__init__.py").is_file()
+            if isinstance(exc, ModuleNotFoundError) and exc.name == top and here:
+                what += (  # (`python -m` looks there, the stratplan command does not)
+                    f"; {top} is in the current folder, which the stratplan command does not "
+                    f"search: PYTHONPATH=. {PLUGINS}={module} stratplan ..."
+                )
+            problems.append((PLUGINS, what))
     for point in entry_points(group=ENTRY_POINTS):
         try:
             point.load()
