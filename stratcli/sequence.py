@@ -42,7 +42,7 @@ class SequencePlan(MadeAgainOnUnpickling):
     Build one with `stratcli.plan`; read one back with `stratcli.load_run`. `ok` is True when
     every leg reached its goal; `message` says which leg failed and what to try. Two plans
     are equal when their result.json documents and scenarios are (a plan and its pickle, or
-    its record read back, are equal; the same scenario planned twice differs in its times).
+    its record read back, are equal, and so are two plans of one scenario: times are left out).
 
     Attributes
     ----------

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import enum
 
-__all__ = ["Status"]
+__all__ = ["Status", "UnknownStatus"]
 
 
 class Status(enum.Enum):
@@ -77,4 +77,12 @@ class Status(enum.Enum):
             return cls[str(key).upper()]
         except KeyError:
             keys = ", ".join(member.key for member in cls)
-            raise KeyError(f"{key!r} is not a status: one of {keys}") from None
+            raise UnknownStatus(f"{key!r} is not a status: one of {keys}") from None
+
+
+class UnknownStatus(KeyError):
+    """`Status.from_key` of a name no status has: a KeyError whose message reads as written
+    (a KeyError's own is quoted again: `"'sucess' is not a status ..."`)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0])

@@ -313,3 +313,6 @@ def test_a_status_by_an_unknown_key_names_the_keys():
     assert all(Status.from_key(s.key) is s for s in Status)
     with pytest.raises(KeyError, match=r"'nope' is not a status: one of success, not_converged"):
         Status.from_key("nope")
+    with pytest.raises(KeyError) as caught:  # its message as written, not quoted again
+        Status.from_key("sucess")
+    assert str(caught.value).startswith("'sucess' is not a status: one of success, ")

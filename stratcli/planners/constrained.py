@@ -359,11 +359,6 @@ class _Search(Descent):
         return False
 
 
-def _violation(g: np.ndarray) -> float:
-    r = np.minimum(g - 2 * PUSH, 0.0)
-    return 0.5 * float(r @ r)
-
-
 REFINEMENTS = 6  # passes that add nodes where a dense check finds a margin below zero
 LAST_PASS = (  # the note of a plan whose last pass kept it inside without lowering it
     "each of the constrained search's first {} passes dipped below a limit between its "
