@@ -18,7 +18,7 @@ from .errors import InputError, Problem
 from .interrupts import checkpoint
 from .leg_failures import failure_message
 from .models.system import System
-from .planner_contract import NUMERICAL, checked_outcome, is_own, noted
+from .planner_contract import NUMERICAL, PlannerContractError, checked_outcome, is_own, noted
 from .planners import PLANNERS, LegPlanner, LegProblem
 from .planners.base import SearchDiverged
 from .results import LegPlan, ModelRef, Switch, make_leg
@@ -250,7 +250,10 @@ def plan_next_leg(
         raise
     if own:
         with np.errstate(all="ignore"):
-            out = checked_outcome(out, problem, planner, leg.method, settings.tolerance)
+            try:
+                out = checked_outcome(out, problem, planner, leg.method, settings.tolerance)
+            except PlannerContractError as exc:  # (which leg: one planner may plan several)
+                raise PlannerContractError(f"{exc} (planning {where})") from None
     status, message = out.status, out.message
     if not (np.all(np.isfinite(out.end)) and np.isfinite(out.error)):
         status = Status.NUMERICAL_FAILURE

@@ -82,6 +82,12 @@ CASES = {
     "missing argument": (["plan"], "error: FILE: missing (see stratplan plan --help)"),
     "empty file": (["plan", ""], "error: FILE: empty: give a file"),  # (was '.: not a regular')
     "empty sweep file": (["sweep", " "], "error: FILE: empty: give a file"),
+    "empty sweep out": (  # (it wrote the sweep into the current folder)
+        ["sweep", "scenarios/sweeps/sim4_goal_map.toml", "--out", ""],
+        "error: --out: empty: give a directory (e.g. runs)",
+    ),
+    "empty baseline": (["regress", "--baseline", ""], "error: --baseline: empty: give a file"),
+    "empty show": (["show", ""], "error: RUN: empty: give a directory (e.g. runs)"),
     "unknown command, not close": (
         ["frobnicate"],
         "error: no such command 'frobnicate' (see stratplan --help)",

@@ -278,3 +278,30 @@ def test_a_baseline_updated_with_a_diverged_scenario_is_read_back(tmp_path):
     assert entry["errors"] == [None]
     again = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--quiet"])
     assert again.exit_code == 0, again.stderr
+
+
+def test_a_baseline_path_is_read_as_the_other_paths_are(tmp_path, monkeypatch):
+    """`--baseline=~/b.json` was not the home directory; a baseline in a folder that does not
+    exist, or a folder, ended `--update` in a traceback after every scenario was planned; a
+    baseline that is a symbolic link was replaced by a plain file (its target left as it
+    was)."""
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    (tmp_path / "home").mkdir()
+    scen = tmp_path / "scen"
+    scen.mkdir()
+    shutil.copy(ROOT / "scenarios" / "unicycle.toml", scen / "u.toml")
+    update = ["regress", str(scen), "--update", "--quiet", "--baseline"]
+    assert runner.invoke(app, [*update[:-1], "--baseline=~/b.json"]).exit_code == 0
+    assert (tmp_path / "home" / "b.json").is_file()
+    for bad, why in [
+        (tmp_path / "nosuch" / "b.json", f"no such directory {tmp_path / 'nosuch'}"),
+        (scen, "a directory, not a file"),
+    ]:
+        refused = runner.invoke(app, [*update, str(bad)])
+        assert refused.exit_code == 2
+        assert refused.stderr.strip() == f"error: baseline file {bad}: {why}"
+    (tmp_path / "link.json").symlink_to(tmp_path / "home" / "b.json")
+    before = (tmp_path / "home" / "b.json").stat().st_mtime_ns
+    assert runner.invoke(app, [*update, str(tmp_path / "link.json")]).exit_code == 0
+    assert (tmp_path / "link.json").is_symlink()
+    assert (tmp_path / "home" / "b.json").stat().st_mtime_ns > before  # its target written

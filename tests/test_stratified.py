@@ -273,7 +273,8 @@ def test_a_planners_wrong_outcome_or_own_bug_is_named_not_a_numerical_failure(ow
     own_planner(lambda self, problem: None)
     with pytest.raises(
         TypeError,
-        match=r"^leg planner 'contract-test' \(Own.plan\) returned NoneType, not a LegOutcome$",
+        match=r"^leg planner 'contract-test' \(Own.plan\) returned NoneType, not a LegOutcome "
+        r"\(planning leg 2 on S1\)$",
     ):
         stratcli.plan(_task_d_with("contract-test"))
     PLANNERS.pop("contract-test")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -9,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..arguments import checked, integer, optional
-from ..errors import InputError, Problem
+from ..errors import InputError, Problem, RecordError
 from ..records.sweepdir import write_json
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
@@ -101,6 +102,8 @@ def regress(
     paths = sorted(Path(directory).glob("*.toml"))
     if not paths:
         raise InputError(f"no scenario files (*.toml) in {directory}")
+    if update and (why := _unwritable(Path(baseline))):  # before minutes of planning
+        raise InputError(f"baseline file {baseline}: {why}")
     old, tolerances = {}, dict(DEFAULT_TOLERANCES)
     if not update or baseline.exists():
         try:
@@ -120,8 +123,23 @@ def regress(
             messages[path.stem] = message
     diffs = compare_baseline(now, old, tolerances)
     if update:
-        write_json(baseline, baseline_document(now, tolerances))
+        try:
+            write_json(baseline, baseline_document(now, tolerances))
+        except OSError as exc:
+            why = exc.strerror or exc
+            raise RecordError(f"cannot write the baseline {baseline}: {why}") from None
     return RegressReport(len(now), baseline, tolerances, diffs, update, now, seconds, messages)
+
+
+def _unwritable(path: Path) -> str:
+    """Why `--update` could not write the baseline `path` ("" when it can try): a folder, or
+    a file in a folder that does not exist (a traceback after every scenario was planned)."""
+    target = Path(os.path.realpath(path))  # (a link: its target is written)
+    if target.is_dir():
+        return "a directory, not a file"
+    if not target.parent.is_dir():
+        return f"no such directory {target.parent}"
+    return ""
 
 
 def _load_all(paths: list[Path]) -> dict[Path, Task]:

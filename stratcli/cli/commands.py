@@ -31,6 +31,8 @@ from .options import (
     Search,
     Strategy,
     TaskScenario,
+    directory_value,
+    file_value,
 )
 from .render_analysis import check_report, decomposition
 
@@ -375,13 +377,15 @@ def _warning(message: str) -> None:
 
 
 def regress(
-    directory: Annotated[Path, typer.Argument(help="Directory of scenario files.")] = Path(
-        "scenarios"
-    ),
+    directory: Annotated[
+        Path, typer.Argument(help="Directory of scenario files.", parser=directory_value)
+    ] = Path("scenarios"),
     baseline: Annotated[
         Path | None,
         typer.Option(
-            help="Baseline JSON file (default: DIRECTORY/baseline.json).", show_default=False
+            help="Baseline JSON file (default: DIRECTORY/baseline.json).",
+            show_default=False,
+            parser=file_value,
         ),
     ] = None,
     update: Annotated[

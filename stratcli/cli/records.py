@@ -20,7 +20,8 @@ def show(
         Path,
         typer.Argument(
             help="Run directory (as printed by plan; or its name, under ./runs), or a sweep "
-            "directory."
+            "directory.",
+            parser=directory_value,
         ),
     ],
     json_output: Json = False,

@@ -27,7 +27,7 @@ from rich.text import Text
 from ..errors import UnusedLegsWarning
 from ..wording import counted
 from . import progress, render
-from .options import Quiet, file_value
+from .options import Quiet, directory_value, file_value
 
 REASON_WIDTH = 240  # characters of a failure's message in a sweep's summary (all: results.csv)
 
@@ -95,7 +95,10 @@ def sweep(
     ] = False,
     out: Annotated[
         Path | None,
-        typer.Option(help="Sweep directory (default: sweeps/NAME, NAME from the sweep file)."),
+        typer.Option(
+            help="Sweep directory (default: sweeps/NAME, NAME from the sweep file).",
+            parser=directory_value,
+        ),
     ] = None,
     records: Annotated[
         Literal["best", "failed", "all", "none"] | None,

@@ -76,7 +76,9 @@ def _fsync_dir(path: Path) -> None:
 
 
 def write_atomic(path: Path, data: bytes) -> None:
-    """Write `path` whole or not at all (temporary file, fsync, rename)."""
+    """Write `path` whole or not at all (temporary file, fsync, rename); a symbolic link's
+    target is written, the link kept (the rename had put a plain file in its place)."""
+    path = Path(os.path.realpath(path))
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     with open(tmp, "wb") as fh:
         fh.write(data)
