@@ -846,6 +846,9 @@ def test_a_tilde_in_out_is_the_home_directory(tmp_path, monkeypatch):
     assert not (tmp_path / "~").exists()
     (record,) = (tmp_path / "home" / "runs").iterdir()
     assert f"record: {record}" in result.stdout.replace("\n", "")
+    shutil.copy(ROOT / "scenarios" / "unicycle.toml", tmp_path / "home" / "u.toml")
+    for command in (["models", "~/u.toml"], ["check", "~/u.toml"]):  # (NAME|FILE arguments)
+        assert runner.invoke(app, command).exit_code == 0, command
 
 
 def test_an_out_that_links_to_nothing_is_bad_input_naming_the_link(tmp_path):

@@ -33,6 +33,7 @@ from .options import (
     TaskScenario,
     directory_value,
     file_value,
+    name_or_file,
 )
 from .render_analysis import check_report, decomposition
 
@@ -313,7 +314,9 @@ def check(
     target: Annotated[
         str,
         typer.Argument(
-            metavar="NAME|FILE", help="A preset model's name, a scenario file or a URDF file."
+            metavar="NAME|FILE",
+            help="A preset model's name, a scenario file or a URDF file.",
+            parser=name_or_file,
         ),
     ],
     at: Annotated[

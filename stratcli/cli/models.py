@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from . import render, render_tables
-from .options import Json
+from .options import Json, name_or_file
 
 
 def models(
@@ -18,6 +18,7 @@ def models(
         typer.Argument(
             metavar="NAME|FILE",
             help="A preset model's name, a scenario file or a URDF file: describe it.",
+            parser=name_or_file,
         ),
     ] = None,
     json_output: Json = False,

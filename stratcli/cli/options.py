@@ -6,6 +6,7 @@ value.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -34,6 +35,12 @@ def _non_empty(give: str):
 
 directory_value = _non_empty("a directory (e.g. runs)")  # --out
 file_value = _non_empty("a file")  # a scenario or sweep file argument
+
+
+def name_or_file(value: str) -> str:
+    """A preset's name or a file (`check`, `models`): a leading `~` is the home directory,
+    as in the other path arguments (no name begins with one)."""
+    return os.path.expanduser(value) if value.startswith("~") else value
 
 
 Out = Annotated[
