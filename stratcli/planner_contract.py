@@ -22,7 +22,15 @@ from .continuity import leg_constraints
 from .planners.base import LegOutcome, LegPlanner, LegProblem
 from .status import Status
 
-__all__ = ["OWN", "PlannerContractError", "checked_outcome", "fault", "is_own", "noted"]
+__all__ = [
+    "OWN",
+    "PlannerContractError",
+    "checked_duration",
+    "checked_outcome",
+    "fault",
+    "is_own",
+    "noted",
+]
 
 NUMERICAL = (ArithmeticError, np.linalg.LinAlgError)  # a model's, whoever's planner ran it
 OWN = "leg planner "  # how its messages begin (`leg_failures` gives no advice of ours then)
@@ -62,6 +70,14 @@ def noted(
     """Note on `exc`, raised by a user's planner (or its class, making one), which planner,
     which of its methods (`call`) and which leg (`where`: "planning leg 2 on S1")."""
     exc.add_note(f"raised by {_name(planner, method, call)} {where}")
+
+
+def checked_duration(duration, planner: LegPlanner, method: str) -> None:
+    """Raise `PlannerContractError` where a planner's `problem_duration` is not a positive,
+    finite time (0 or NaN failed deep in the end-point map, blamed on its `plan`)."""
+    if not (isinstance(duration, int | float) and np.isfinite(duration) and duration > 0):
+        name = _name(planner, method, "problem_duration")
+        raise PlannerContractError(f"{name} returned {duration!r}: a leg lasts a positive time")
 
 
 def checked_outcome(

@@ -18,7 +18,14 @@ from .errors import InputError, Problem
 from .interrupts import checkpoint
 from .leg_failures import failure_message
 from .models.system import System
-from .planner_contract import NUMERICAL, PlannerContractError, checked_outcome, is_own, noted
+from .planner_contract import (
+    NUMERICAL,
+    PlannerContractError,
+    checked_duration,
+    checked_outcome,
+    is_own,
+    noted,
+)
 from .planners import PLANNERS, LegPlanner, LegProblem
 from .planners.base import SearchDiverged
 from .results import LegPlan, ModelRef, Switch, make_leg
@@ -145,8 +152,10 @@ def _checked_planner(system, settings, leg, at, next_leg):
     cls, call = PLANNERS[leg.method], "from_settings"
     try:
         planner = planner_for(leg, settings)
-        call = "missing_coefficients"
+        call = "problem_duration"
         problem = leg_problem(system, settings, leg, at, next_leg, planner)
+        checked_duration(problem.duration, planner, leg.method)
+        call = "missing_coefficients"
         return planner, *planner.missing_coefficients(problem)
     except Exception as exc:
         if not cls.__module__.startswith("stratcli."):

@@ -147,3 +147,16 @@ def test_a_bug_in_making_the_planner_or_in_its_check_is_noted_with_its_name(own)
     assert caught.value.__notes__ == [
         f"raised by leg planner '{NAME}' (Own.missing_coefficients) checking leg 2 on S1"
     ]
+
+
+@pytest.mark.parametrize("duration", [0.0, float("nan"), -1.0])
+def test_a_problem_duration_that_is_no_time_is_refused_naming_it(own, duration):
+    """A Lie-like planner's `problem_duration` of 0 or NaN failed deep in the end-point map
+    ("cannot convert float NaN to integer"), blamed on its `plan`."""
+    own(lambda self, p: _newton(p), problem_duration=lambda self, leg_duration: duration)
+    with pytest.raises(PlannerContractError) as caught:
+        _task_d()
+    assert str(caught.value) == (
+        f"leg planner '{NAME}' (Own.problem_duration) returned {duration!r}: a leg lasts a "
+        "positive time"
+    )
