@@ -291,7 +291,7 @@ def _with_lie_legs(system, start, legs, settings, lie_legs) -> SequencePlan:
     which = ", ".join(map(str, lie_legs))
     objective = settings.objective
     # the method those legs use: "lie", or a planner of the user's own (`planners.PLANNERS`)
-    methods = sorted({legs[i - 1].method for i in lie_legs})
+    methods = list(dict.fromkeys(legs[i - 1].method for i in lie_legs))  # in leg order
     lie = methods == ["lie"]
     named = f"method {', '.join(map(repr, methods))}, not optimised jointly"
     if len(lie_legs) == len(legs):
