@@ -112,10 +112,10 @@ def duration_problems(scenario: Scenario, legs: list[LegSpec]) -> list[Problem]:
         )
     if scenario.legs is None:
         problems.append(Problem("planner.durations", '"optimise" needs [[legs]] (not auto mode)'))
-    if any(leg.method != "newton" for leg in legs):
-        problems.append(
-            Problem("planner.durations", '"optimise" needs Newton legs (a Lie leg sets its own)')
-        )
+    others = list(dict.fromkeys(leg.method for leg in legs if leg.method != "newton"))
+    if others:
+        why = "a Lie leg sets its own" if others == ["lie"] else f"not {', '.join(others)}"
+        problems.append(Problem("planner.durations", f'"optimise" needs Newton legs ({why})'))
     least = len(legs) * MIN_DURATION  # every leg lasts at least MIN_DURATION
     if p.total_duration is not None and legs and p.total_duration < least * (1 - 1e-12):
         problems.append(

@@ -160,3 +160,16 @@ def test_a_problem_duration_that_is_no_time_is_refused_naming_it(own, duration):
         f"leg planner '{NAME}' (Own.problem_duration) returned {duration!r}: a leg lasts a "
         "positive time"
     )
+
+
+def test_optimised_durations_with_a_planner_of_ones_own_name_it(own):
+    """`durations = "optimise"` with a plugin's leg said "needs Newton legs (a Lie leg sets
+    its own)", of a sequence with no Lie leg."""
+    from stratcli.errors import InputError
+
+    own(lambda self, p: _newton(p))
+    with pytest.raises(InputError) as caught:
+        _task_d(objective="energy", durations="optimise", total_duration=2.0)
+    assert [p.message for p in caught.value.problems] == [
+        f'"optimise" needs Newton legs (not {NAME})'
+    ]
