@@ -347,3 +347,24 @@ def test_an_exhaustive_comparisons_failed_row_says_why_its_leg_cannot_reach():
     assert row.status == "failed"
     assert row.reason.startswith("leg 1 on S1: error ")
     assert "(S1 cannot move rz from the leg's start: " in row.reason
+
+
+def test_off_linux_a_comparison_runs_on_spawned_workers_with_the_same_result(monkeypatch):
+    """`compare_sequences` forked its workers wherever "fork" exists, macOS included (whose
+    Accelerate is not fork-safe); off Linux it plans on spawned workers, as a sweep does,
+    and the comparison is the one forked workers give."""
+    import sys
+
+    from stratcli.records.comparison import without_timings
+    from stratcli.sweep import executors
+
+    task = load_scenario(ROOT / "scenarios" / "sim4_auto.toml")
+    task = task.with_changes({"decompose": {"max_length": 2}})
+    forked = api.compare_sequences(task, jobs=2).document
+    made = []
+    real = executors.local_executor
+    monkeypatch.setattr(executors, "local_executor", lambda jobs: made.append(jobs) or real(jobs))
+    monkeypatch.setattr(sys, "platform", "darwin")
+    spawned = api.compare_sequences(task, jobs=2).document
+    assert made == [2] and not executors._fork_is_safe()  # (spawned, not forked)
+    assert without_timings(spawned) == without_timings(forked)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import sys
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor
 from contextlib import contextmanager
@@ -114,12 +115,13 @@ def compare_sequences(
             progress(done, total)
 
     phases: Phases = {"import": dict(IMPORTED)}
-    with _cluster(dask, executor) as chosen:  # connected before any progress is shown
+    jobs = jobs or default_jobs()
+    with _cluster(dask, executor, jobs) as chosen:  # connected before any progress is shown
         if progress is not None:
             progress(0, total)
         with phase(phases, "planning"):  # the whole comparison (CPU: this process's only)
             comparison, compile_time = compare_decomposition(
-                task, auto, dec, jobs=jobs or default_jobs(), progress=advance,
+                task, auto, dec, jobs=jobs, progress=advance,
                 exhaustive=exhaustive, executor=chosen,
             )  # fmt: skip
     doc = comparison_document(
@@ -151,10 +153,23 @@ def compare_sequences(
 
 @contextmanager
 def _cluster(
-    dask: str | os.PathLike | None, executor: Executor | None
+    dask: str | os.PathLike | None, executor: Executor | None, jobs: int
 ) -> Iterator[Executor | None]:
     """`executor`, or the executor of the Dask cluster at `dask` (InputError when it cannot
-    be reached: `sweep.executors.dask_executor`)."""
+    be reached: `sweep.executors.dask_executor`); else None (the comparison forks its own
+    workers), except off Linux with `jobs` > 1: there a pool of spawned workers
+    (`sweep.executors.local_executor`), as a sweep's. The comparison forked wherever "fork"
+    exists, macOS included, whose system libraries (Accelerate) are not fork-safe; spawned
+    workers give the same comparison.json (a test compares the two on Linux)."""
+    if dask is None and executor is None and jobs > 1 and not sys.platform.startswith("linux"):
+        from ..sweep.executors import local_executor
+
+        pool = local_executor(jobs)
+        try:
+            yield pool
+        finally:
+            pool.shutdown(cancel_futures=True)
+        return
     if dask is None or executor is not None:
         yield executor
         return
