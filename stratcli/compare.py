@@ -46,11 +46,11 @@ from .comparison_values import (  # (the values, here where callers look for the
 )
 from .decomposition import Candidate
 from .errors import InputError
+from .leg_checks import check_legs
 from .metrics import as_run, peak_and_excursion
 from .models.system import System
 from .screen import legs_shared, screen_candidates
 from .settings import PlannerSettings
-from .stratified import check_legs
 from .trie import STATE, compare_shared, compare_whole
 
 SCREEN_TOP = 1  # candidates fully searched (lowest bounds) before any is pruned

@@ -16,6 +16,7 @@ import numpy as np
 
 from .controls import embed
 from .errors import InputError
+from .leg_checks import check_legs
 from .lie_notes import far_swings
 from .models.system import System
 from .newton_starts import LEG_TRIES, lowest_legs, seeded_plans
@@ -30,7 +31,6 @@ from .stratified import (
     NUMERICAL_ERRORS,
     LegSpec,
     chain_legs,
-    check_legs,
     nominal_starts,
 )
 from .urdf_limits import stalled_too
@@ -85,7 +85,7 @@ def plan_sequence(
     Raises
     ------
     InputError
-        When a leg cannot be planned as given (`stratified.check_legs`).
+        When a leg cannot be planned as given (`leg_checks.check_legs`).
     """
     start = np.asarray(start, dtype=float)
     check_legs(system, start, legs, settings)  # once: the passes below plan the same legs

@@ -25,6 +25,7 @@ from .constraints import ConstraintsSpec, check_configuration, resolve
 from .controls import MAX_PERIODS_PER_LEG
 from .endpoint import evaluator_problems
 from .errors import InputError, Problem
+from .leg_checks import check_legs, pinned_vias
 from .models.numbers import parse_number
 from .models.presets import PRESETS
 from .models.specs import (
@@ -54,7 +55,7 @@ from .settings import (
     LieSettings,
     PlannerSettings,
 )
-from .stratified import LegSpec, check_legs, pinned_vias
+from .stratified import LegSpec
 from .task import Task
 from .tomlread import parse_toml, raise_non_finite, read_source, reject_non_finite
 

@@ -24,9 +24,9 @@ from stratcli.decomposition import (
     pi_fraction,
 )
 from stratcli.errors import InputError
+from stratcli.leg_checks import check_legs
 from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario
-from stratcli.stratified import check_legs
 
 PI = math.pi
 

@@ -204,8 +204,9 @@ def test_a_free_joint_at_a_via_is_held_so_the_plan_is_the_searchs():
 def test_a_free_via_coordinate_that_later_legs_keep_locked_takes_the_goals_value():
     """Task D with q1 free at its via: leg 2 (S1) locks q1, so the plan ended where leg 1
     left it, 1.24 rad from the goal, with every leg's error tiny and status ok."""
+    from stratcli.leg_checks import pinned_vias
     from stratcli.models.presets import preset
-    from stratcli.stratified import LegSpec, pinned_vias
+    from stratcli.stratified import LegSpec
 
     raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d.toml").read_text())
     raw["legs"][0]["goal"] = ["*", "pi/3", 0, "-pi/12"]
