@@ -30,8 +30,11 @@ def summary_of(plan) -> dict[str, Any]:
     }
 
 
-@dataclass
+@dataclass(frozen=True)
 class Difference:
+    """One quantity of one scenario that differs from the baseline beyond its tolerance;
+    `regression` where it fails CI."""
+
     scenario: str
     quantity: str
     baseline: Any

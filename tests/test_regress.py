@@ -305,3 +305,26 @@ def test_a_baseline_path_is_read_as_the_other_paths_are(tmp_path, monkeypatch):
     assert runner.invoke(app, [*update, str(tmp_path / "link.json")]).exit_code == 0
     assert (tmp_path / "link.json").is_symlink()
     assert (tmp_path / "home" / "b.json").stat().st_mtime_ns > before  # its target written
+
+
+def test_a_regress_report_is_a_frozen_value(tmp_path):
+    """`RegressReport` was frozen but held a list of mutable differences and plain dicts: a
+    script could change a report's results or append a difference to it."""
+    import dataclasses
+    import pickle
+
+    from stratcli.api.regression import regress
+
+    scen = tmp_path / "scen"
+    scen.mkdir()
+    shutil.copy(ROOT / "scenarios" / "unicycle.toml", scen / "u.toml")
+    report = regress(scen, tmp_path / "b.json", update=True)
+    assert isinstance(report.differences, tuple) and report.differences  # (new: a difference)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        report.differences[0].regression = False
+    for table in (report.results, report.seconds, report.tolerances):
+        with pytest.raises(TypeError, match="read-only"):
+            table["x"] = 1
+    with pytest.raises(TypeError, match="read-only"):
+        report.results["u"]["status"] = "failed"
+    assert pickle.loads(pickle.dumps(report)) == report

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..arguments import checked, integer, optional
 from ..errors import InputError, Problem, RecordError
+from ..frozen_json import HoldsDocument
 from ..records.sweepdir import write_json
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
@@ -22,17 +23,24 @@ __all__ = ["RegressReport", "regress", "summarise"]
 
 
 @dataclass(frozen=True)
-class RegressReport:
-    """Scenarios replayed against a baseline file."""
+class RegressReport(HoldsDocument):
+    """Scenarios replayed against a baseline file (a frozen value: its differences a tuple,
+    its tables read-only)."""
+
+    _documents = ("tolerances", "results", "seconds", "messages")
 
     scenarios: int
     baseline: Path
     tolerances: dict[str, float]
-    differences: list[Difference]
+    differences: tuple[Difference, ...]
     updated: bool  # the baseline was rewritten from this run
     results: dict[str, dict[str, Any]] = field(default_factory=dict)  # each scenario's summary
     seconds: dict[str, float] = field(default_factory=dict)  # each scenario's planning (wall)
     messages: dict[str, str] = field(default_factory=dict)  # a failed plan's, by scenario
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "differences", tuple(self.differences))
+        super().__post_init__()
 
     @property
     def regressions(self) -> int:
