@@ -1,7 +1,8 @@
 """Compare replayed scenarios with a committed baseline (for users' CI).
 
-Pure functions over summaries (status, total energy, each leg's error and energy); the
-replaying itself is `stratcli.api.regression.regress`.
+Pure functions over summaries (status, total energy, each leg's error and energy), and the
+baseline file read back (`load_baseline`, one line per problem); the replaying itself is
+`stratcli.api.regression.regress`.
 """
 
 from __future__ import annotations
@@ -79,6 +80,13 @@ def compare(
             lost = _finite(xb) and not _finite(xn)  # a numerical failure now
             if lost or (_finite(xb) and _finite(xn) and xn > xb + abs_err):
                 out.append(Difference(name, f"leg {i + 1} error", xb, xn, held))
+        # each leg's energy, shown where it moved by more than the tolerance of the total
+        # (energy shifted between legs at the same total went unsaid; a leg of no energy moves
+        # by rounding); the total alone is held to the baseline
+        total = abs(b["total_energy"]) if _finite(b["total_energy"]) else 0.0
+        for i, (eb, en) in enumerate(zip(b["energies"], n["energies"], strict=False)):
+            if _finite(eb) and _finite(en) and abs(en - eb) > rel * max(abs(eb), total, 1e-12):
+                out.append(Difference(name, f"leg {i + 1} energy", eb, en, False))
     return out
 
 

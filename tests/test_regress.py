@@ -328,3 +328,18 @@ def test_a_regress_report_is_a_frozen_value(tmp_path):
     with pytest.raises(TypeError, match="read-only"):
         report.results["u"]["status"] = "failed"
     assert pickle.loads(pickle.dumps(report)) == report
+
+
+def test_energy_moved_between_legs_is_shown_not_a_regression():
+    """The baseline keeps each leg's energy, but only the total was compared: energy moved
+    from one leg to another at the same total went unsaid."""
+    tol = {"energy_rel": 1e-6, "error_abs": 1e-6}
+    base = {"x": {"status": "ok", "total_energy": 10.0, "errors": [0, 0], "energies": [4.0, 6.0]}}
+    moved = {"x": {**base["x"], "energies": [5.0, 5.0]}}
+    diffs = compare(moved, base, tol)
+    assert [(d.quantity, d.baseline, d.now, d.regression) for d in diffs] == [
+        ("leg 1 energy", 4.0, 5.0, False),
+        ("leg 2 energy", 6.0, 5.0, False),
+    ]
+    rounding = {"x": {**base["x"], "energies": [4.0 + 1e-9, 6.0 - 1e-9]}}
+    assert compare(rounding, base, tol) == []
