@@ -22,6 +22,7 @@ from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
 from .errors import InputError, Problem
+from .wording import either
 
 __all__ = [
     "checked",
@@ -165,13 +166,9 @@ def integer(low: int | None = None, high: int | None = None) -> Rule:
     return rule
 
 
-def _either(words: tuple[str, ...]) -> str:
-    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} or {words[-1]}"
-
-
 def choice(*options: str) -> Rule:
     """One of the strings `options`."""
-    what = _either(options)
+    what = either(options)
 
     def rule(name: str, value: Any) -> None:
         if not isinstance(value, str):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import difflib
 
-__all__ = ["closest_choice", "counted", "method_words"]
+__all__ = ["closest_choice", "counted", "either", "method_words"]
 
 
 def counted(n: int, noun: str, plural: str | None = None) -> str:
@@ -30,3 +30,9 @@ def closest_choice(got: str, choices, cutoff: float = 0.75) -> str | None:
     near = near or [c for c in choices if sorted(c.lower()) == sorted(got.lower())]
     near = near or difflib.get_close_matches(got, choices, n=1, cutoff=cutoff)
     return near[0] if near else None
+
+
+def either(words) -> str:
+    """ "a", "a or b", "a, b or c": the choices a message offers."""
+    words = tuple(words)
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} or {words[-1]}"

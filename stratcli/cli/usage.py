@@ -16,6 +16,8 @@ from typing import Any
 
 import typer
 
+from ..wording import either
+
 try:  # recent typer runs its own copy of click, and raises its exceptions
     from typer._click import exceptions as _click
 except ImportError:  # older typer: click itself
@@ -78,7 +80,7 @@ def _bad_value(exc: _click.BadParameter) -> str:
     given = f" (got {_shown(detail['input'])})" if "input" in detail else ""
     choices = _choices(param)
     if choices:
-        must = "must be " + _either(choices)
+        must = "must be " + either(choices)
         if given and isinstance(detail["input"], str):  # `--records bets`: 'best'
             from ..wording import closest_choice
 
@@ -126,10 +128,6 @@ def _choices(param) -> tuple[str, ...]:
     if typing.get_origin(annotation) is typing.Literal:
         return tuple(str(a) for a in typing.get_args(annotation))
     return ()
-
-
-def _either(words: tuple[str, ...]) -> str:
-    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} or {words[-1]}"
 
 
 def _name(param) -> str:
