@@ -173,3 +173,17 @@ def test_optimised_durations_with_a_planner_of_ones_own_name_it(own):
     assert [p.message for p in caught.value.problems] == [
         f'"optimise" needs Newton legs (not {NAME})'
     ]
+
+
+def test_regress_names_the_file_of_a_contract_error(own, tmp_path):
+    """`regress` over a folder printed the planner's contract error without the scenario
+    file it came from."""
+    from stratcli.api.regression import regress
+
+    own(_with_pieces(coefficients=lambda p: np.full_like(p.coefficients, np.nan)))
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    (tmp_path / "mine.toml").write_text(
+        text.replace('stratum = "S1"', f'stratum = "S1"\nmethod = "{NAME}"')
+    )
+    with pytest.raises(PlannerContractError, match=rf"^mine.toml: leg planner '{NAME}' "):
+        regress(tmp_path, tmp_path / "b.json", update=True)

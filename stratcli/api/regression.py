@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 from ..arguments import checked, integer, optional
 from ..errors import InputError, Problem, RecordError
 from ..frozen_json import HoldsDocument
+from ..planner_contract import PlannerContractError
 from ..records.sweepdir import write_json
 from ..regress import DEFAULT_TOLERANCES, Difference, baseline_document, load_baseline, summary_of
 from ..regress import compare as compare_baseline
@@ -123,7 +124,10 @@ def regress(
     now, seconds, messages = {}, {}, {}
     for path in paths:
         clock = time.perf_counter()
-        now[path.stem] = summarise(tasks[path], jobs=jobs)
+        try:
+            now[path.stem] = summarise(tasks[path], jobs=jobs)
+        except PlannerContractError as exc:  # (it named the planner and leg, not the file)
+            raise PlannerContractError(f"{path.name}: {exc}") from None
         seconds[path.stem] = time.perf_counter() - clock
         if progress is not None:
             progress(path.stem, now[path.stem], seconds[path.stem])
