@@ -60,6 +60,18 @@ def _name(path: Path) -> str:
 MODULES = {_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
 
 
+def _public() -> dict[str, str]:
+    """stratcli's `_PUBLIC`, read from its source: each name it re-exports, and its module."""
+    tree = ast.parse((PACKAGE / "__init__.py").read_text(encoding="utf-8"))
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", "") == "_PUBLIC":
+            return ast.literal_eval(node.value)
+    raise AssertionError("stratcli/__init__.py has no _PUBLIC")
+
+
+_PUBLIC = _public()
+
+
 def _within(name: str, prefixes: tuple[str, ...]) -> bool:
     return any(name == p or name.startswith(p + ".") for p in prefixes)
 
@@ -81,8 +93,12 @@ def _imports(name: str) -> set[tuple[str, int]]:
     """(imported stratcli module or package, line) of every import in module `name`."""
     path = MODULES[name]
     package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+    return _imports_in(path.read_text(encoding="utf-8"), package)
+
+
+def _imports_in(text: str, package: list[str]) -> set[tuple[str, int]]:
     found = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in ast.walk(ast.parse(text)):
         if isinstance(node, ast.Import):
             found |= {(a.name, node.lineno) for a in node.names if a.name.startswith("stratcli")}
         elif isinstance(node, ast.ImportFrom):
@@ -95,8 +111,19 @@ def _imports(name: str) -> set[tuple[str, int]]:
                 continue
             for alias in node.names:  # `from . import api`: the submodule itself
                 sub = f"{module}.{alias.name}"
-                found.add((sub if sub in MODULES else module, node.lineno))
+                if sub not in MODULES and module == "stratcli" and alias.name in _PUBLIC:
+                    sub = f"stratcli.{_PUBLIC[alias.name]}"  # `from .. import plan`: re-exported
+                found.add((sub if sub in MODULES or module == "stratcli" else module, node.lineno))
+        elif isinstance(node, ast.Call) and _called(node) == "import_module" and node.args:
+            first = node.args[0]  # importlib.import_module("stratcli.records.rundir")
+            if isinstance(first, ast.Constant) and str(first.value).startswith("stratcli"):
+                found.add((first.value, node.lineno))
     return found
+
+
+def _called(node: ast.Call) -> str:
+    func = node.func
+    return func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
 
 
 def _violations() -> dict[tuple[str, str], list[str]]:
@@ -117,6 +144,12 @@ def test_the_reader_finds_the_imports_it_must():
     commands = {t for t, _ in _imports("stratcli.cli.commands")}
     assert "stratcli.api" in commands  # `from .. import api`, inside each command
     assert _layer("stratcli.planners.newton") == "engine"
+    hidden = (  # a re-exported name and importlib: each an import of the module it reaches
+        "from .. import plan\nfrom stratcli import write_record\n"
+        "import importlib\nimportlib.import_module('stratcli.records.rundir')\n"
+    )
+    seen = {t for t, _ in _imports_in(hidden, ["stratcli", "planners"])}
+    assert {"stratcli.api", "stratcli.records.rundir"} <= seen
     assert _layer("stratcli.records.rundir") == "records"
 
 
