@@ -188,4 +188,5 @@ def load_baseline(path: Path) -> tuple[dict[str, dict], dict[str, float]]:
 
 
 def baseline_document(now: dict[str, dict], tolerances: dict[str, float]) -> dict[str, Any]:
+    """The baseline file's document: its schema, `tolerances` and each scenario's summary."""
     return {"schema": SCHEMA, "tolerances": tolerances, "scenarios": now}

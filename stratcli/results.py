@@ -52,6 +52,7 @@ SCHEMA = "stratplan.result/1"
 
 
 def frozen_array(x: Any) -> np.ndarray:
+    """`x` as a new read-only float array (a value's field: no one can change it in place)."""
     a = np.array(x, dtype=float)
     a.setflags(write=False)
     return a

@@ -177,6 +177,14 @@ def nulls_as_free(raw: dict[str, Any]) -> dict[str, Any]:
 def from_raw(
     raw: dict[str, Any], text: str | None, source: str, base_dir: Path | None = None
 ) -> Task:
+    """The `Task` of a scenario's `raw` tables (its `text` as read, or None: written from
+    `raw`; `source` names it in messages; `base_dir` resolves its relative paths).
+
+    Raises
+    ------
+    InputError
+        Every problem found, each naming its field.
+    """
     if not raw:  # (each required table would be a line of its own)
         raise InputError(
             "the scenario is empty: it needs a name, a [model] and a [task] table "

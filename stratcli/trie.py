@@ -298,6 +298,8 @@ def run_units(
 
 
 def compare_shared(system, settings, start, candidates, valid, jobs, advance):
+    """Plan the `valid` candidates with their shared leg prefixes planned once (a trie of
+    legs, one sub-trie a unit of work on `jobs` workers); `advance(k)` as k finish."""
     nodes, paths = build_trie(system, settings, [list(candidates[k].legs) for k in valid])
     roots = [n.id for n in nodes if n.parent is None]
     # The candidates finished with each sub-trie (for the progress bar).
@@ -380,6 +382,8 @@ def _retried(system, start, legs, settings, plan, constraints) -> SequencePlan:
 
 
 def compare_whole(system, settings, candidates, valid, jobs, advance):
+    """Plan the `valid` candidates whole (the energy objective optimises all legs together:
+    no prefix can be shared), each distinct sequence once; `advance(k)` as k finish."""
     distinct: dict[tuple, int] = {}
     owner: dict[int, int] = {}
     for k in valid:

@@ -129,6 +129,8 @@ def manifest(
     exit_code: int,
     phases: Phases | None = None,
 ):
+    """manifest.json's document: versions, the checkout's commit, platform, the command
+    line `argv`, the scenario `text`'s sha256, `seed`, `timings`, `exit_code`, `phases`."""
     commit, dirty = _this_checkout()
     return {
         "schema": "stratplan.manifest/1",

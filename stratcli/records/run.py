@@ -113,4 +113,6 @@ def _draw_here(plan, traj, title, animation, fmt, ranking) -> dict[str, bytes]:
 
 
 def write_record(out: Path, task: Task, files: dict[str, Any], started) -> Path:
+    """Write `files` as the run directory of `task` planned at `started` under `out` (named
+    by `run_name`; whole or not at all: `rundir.write_run`); its path."""
     return write_run(out, run_name(task.scenario.name, task.text, started), files)

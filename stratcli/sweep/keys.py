@@ -32,6 +32,7 @@ def key_problem(base, key: str, states, field: str, problems: list[Problem]) -> 
 
 
 def valid_key(key: str) -> bool:
+    """Whether `key` is a dotted scenario key a sweep may vary (`task.goal[1]`, ...)."""
     try:
         _parts(key)
         return True
@@ -40,6 +41,8 @@ def valid_key(key: str) -> bool:
 
 
 def number(value: Any, field: str, problems: list[Problem]) -> float | None:
+    """`value` as a number (`parse_number`: "pi/3", "45deg"), or None with a problem on
+    `field` appended."""
     try:
         return parse_number(value)
     except (ValueError, InputError) as exc:
@@ -85,6 +88,8 @@ def check_value(base, key, value, states, field, problems) -> None:
 
 
 def check_values(base, values: dict[str, Any], states, field, problems) -> None:
+    """Append to `problems` what `values` (key -> number) set into the scenario `base` does
+    not pass (a task of the sweep that could not be loaded), on `field`."""
     if value_missing := [k for k, v in values.items() if v is None]:
         del value_missing  # already reported (not a number)
         return
@@ -99,6 +104,8 @@ def check_values(base, values: dict[str, Any], states, field, problems) -> None:
 
 
 def check_scenario(scenario: dict[str, Any], field: str, problems: list[Problem]) -> None:
+    """Append each problem `load_scenario` finds in `scenario` to `problems`, on `field`
+    (once each)."""
     try:
         load_scenario(scenario)
     except InputError as exc:
