@@ -50,7 +50,7 @@ from ..endpoint import QuadratureEndpoint
 from ..magnus import MagnusEndpoint
 from ..node_margins import CUSHION, NODES, NodeMargins
 from .active_set import convexified, least_distance
-from .sqp import CURVATURE_FLOOR, STEP_LIMIT, Descent
+from .sqp import CURVATURE_FLOOR, RANK_RTOL, STEP_LIMIT, Descent
 from .stacked import StackedProblem
 
 __all__ = ["NotSearchable", "Searched", "constrained_search"]
@@ -75,6 +75,7 @@ CRAWL, CRAWL_DROP = 5, 1e-3  # `_Search.lower`: the SQP's stop when crawling out
 ACTIVE = 1e-3  # a margin below this with a positive multiplier counts as active
 VIOLATION = 1e-6  # an SQP iterate with no node margin below minus this counts as inside
 VIOLATION_CAP = 1e-4  # no SQP trial may leave a node further outside (unless the iterate is)
+ARMIJO, MIN_STEP = 1e-4, 1e-8  # sufficient decrease of a line search; its shortest step
 
 
 class NotSearchable(Exception):
@@ -96,7 +97,7 @@ class _Search(Descent):
     def _subspace(self, z):
         _, J = self.problem._evaluate(z, True)
         _, S, Vt = np.linalg.svd(J)
-        rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
+        rank = int(np.sum(S > RANK_RTOL * max(S[0], 1e-300))) if S.size else 0
         return J, Vt[rank:].T
 
     # ---- 1. feasibility --------------------------------------------------------------------
@@ -229,13 +230,13 @@ class _Search(Descent):
         if shrinking.any():
             alpha = min(1.0, FRACTION_TO_BOUNDARY * float(np.min(g[shrinking] / -Gd[shrinking])))
         merit = self._barrier(z, mu, g) + float(lagrange @ problem.constraint(z))
-        while alpha > 1e-8:
+        while alpha > MIN_STEP:
             trial = self._restore(z + alpha * d)
             if trial is not None:
                 value = self._barrier(trial, mu)
                 if np.isfinite(value):
                     m = value + float(lagrange @ problem.constraint(trial))
-                    if m <= merit + 1e-4 * alpha * slope:
+                    if m <= merit + ARMIJO * alpha * slope:
                         self.z, self.energy = trial, problem.energy(trial)
                         self.barrier_value = value
                         return True
@@ -337,7 +338,7 @@ class _Search(Descent):
                 return False, None
             g_t = self.margins(trial, jacobian=False)[0]
             m = self._merit(trial, lagrange, g_t)[0]
-            ok = bool(np.isfinite(m) and m <= merit + 1e-4 * alpha * slope)
+            ok = bool(np.isfinite(m) and m <= merit + ARMIJO * alpha * slope)
             if ok and -float(g_t.min(initial=0.0)) <= cap:
                 self.z, self.energy = trial, problem.energy(trial)
                 return True, g_t
@@ -352,7 +353,7 @@ class _Search(Descent):
                 if accept(self._restore(z + Z @ p2), 1.0)[0]:
                     return True
         alpha = 0.5
-        while alpha > 1e-8:
+        while alpha > MIN_STEP:
             if accept(self._restore(z + alpha * d), alpha)[0]:
                 return True
             alpha *= 0.5

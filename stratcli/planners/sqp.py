@@ -18,7 +18,7 @@ import numpy as np
 if TYPE_CHECKING:
     from .stacked import StackedProblem
 
-__all__ = ["CURVATURE_FLOOR", "MINIMUM", "STEP_LIMIT", "Descent"]
+__all__ = ["CURVATURE_FLOOR", "MINIMUM", "RANK_RTOL", "STEP_LIMIT", "Descent"]
 
 SQP_ITERATIONS = 100
 FIRST_ORDER_ITERATIONS = 40  # without exact second derivatives (ODE-path legs, URDF robots)
@@ -34,6 +34,9 @@ LOOSE_ACCURACY = 1e-2 * LOOSE_RESTORATION
 STEP_LIMIT = 0.5  # energy-norm step ≤ this x the current controls' energy norm
 KEPT = ("converged", "noise floor", "line search", "iteration limit")  # stops that give results
 MINIMUM = ("converged", "noise floor")  # stops at a minimum (the others stop on the way down)
+# singular values of the goals' Jacobian below this x its largest are rounding (zero): its
+# rank; the right singular vectors beyond it span the goals' tangent space (Z)
+RANK_RTOL = 1e-12
 SR1_SKIP = 1e-8  # `_curvature`: an update whose denominator is below this (relative) is skipped
 STALL_ITERATIONS = 5  # near the solution: stop when the gradient no longer halves
 
@@ -54,7 +57,7 @@ def _least_norm(J: np.ndarray):
         S = np.linalg.svd(J, compute_uv=False)
     except np.linalg.LinAlgError:
         return None
-    rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
+    rank = int(np.sum(S > RANK_RTOL * max(S[0], 1e-300))) if S.size else 0
     if rank == J.shape[0]:
         HJ = 0.5 * J.T  # H0⁻¹ Jᵀ
         try:
@@ -198,7 +201,7 @@ class Descent:
         _, J = problem._evaluate(z, True)
         g = problem.energy_grad(z)
         U, S, Vt = np.linalg.svd(J)
-        rank = int(np.sum(S > 1e-12 * max(S[0], 1e-300))) if S.size else 0
+        rank = int(np.sum(S > RANK_RTOL * max(S[0], 1e-300))) if S.size else 0
         Z = Vt[rank:].T
         reduced = Z.T @ g
         pg = np.linalg.norm(reduced) / max(np.linalg.norm(g), 1e-300)
