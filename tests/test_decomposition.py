@@ -19,11 +19,10 @@ from stratcli.decomposition import (
     decompose,
     enumerate_sequences,
     essential_coordinates,
-    format_configuration,
     moved_coordinates,
-    pi_fraction,
 )
 from stratcli.errors import InputError
+from stratcli.format import format_configuration, pi_fraction
 from stratcli.leg_checks import check_legs
 from stratcli.objectives import plan_sequence
 from stratcli.scenario import load_scenario

@@ -14,8 +14,9 @@ from datetime import UTC, datetime
 import numpy as np
 
 from ..arguments import checked, flag
-from ..decomposition import moved_coordinates, pi_fraction
+from ..decomposition import moved_coordinates
 from ..errors import UnusedLegsWarning
+from ..format import pi_fraction
 from ..records.comparison import comparison_document
 from ..records.manifest import Phases, phase
 from ..results import Timings

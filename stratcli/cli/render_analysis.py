@@ -14,7 +14,7 @@ from .render import number_column, table, text_column
 
 def _via_cell(goal) -> str:
     """A via as fractions of π where exact, then in radians (dim) if that differs."""
-    from ..decomposition import format_configuration  # here, not at the top: start-up speed
+    from ..format import format_configuration  # here, not at the top: start-up speed
 
     exact, plain = format_configuration(goal, "pi"), format_configuration(goal, "rad")
     return exact if exact == plain else f"{exact}\n[dim]{plain}[/]"
@@ -22,7 +22,7 @@ def _via_cell(goal) -> str:
 
 def decomposition(outcome, file: Path, options: tuple[str, ...] = ()) -> None:
     """`decompose`: task, essential coordinates, candidate strata and one row per candidate."""
-    from ..decomposition import format_configuration  # start-up speed
+    from ..format import format_configuration  # start-up speed
 
     task, dec, rows = outcome.task, outcome.decomposition, outcome.document["sequences"]
     system = task.system
@@ -72,7 +72,7 @@ def decomposition(outcome, file: Path, options: tuple[str, ...] = ()) -> None:
 
 def check_report(report) -> None:
     """`check`: per stratum rank and σ_min, eq. 2, each leg, the verdict."""
-    from ..decomposition import format_configuration  # here, not at the top: start-up speed
+    from ..format import format_configuration  # here, not at the top: start-up speed
 
     doc, title, seconds = report.document, report.title, report.seconds
     render.out_console.print(

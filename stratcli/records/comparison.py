@@ -15,7 +15,8 @@ import math
 from typing import Any
 
 from ..compare import Comparison, Outcome
-from ..decomposition import Decomposition, pi_fraction
+from ..decomposition import Decomposition
+from ..format import pi_fraction
 
 SCHEMA = "stratplan.comparison/1"
 TIMING_KEYS = ("planning_time_s",)  # the only row entries that vary between identical runs
