@@ -278,6 +278,11 @@ def test_a_baseline_updated_with_a_diverged_scenario_is_read_back(tmp_path):
     assert entry["errors"] == [None]
     again = runner.invoke(app, ["regress", str(scen), "--baseline", str(base), "--quiet"])
     assert again.exit_code == 0, again.stderr
+    (scen / "far.toml").write_text(text)  # planned again: its energy was none, now a number
+    fixed = runner.invoke(app, ["regress", str(scen), "--baseline", str(base)], terminal_width=200)
+    row = next(line for line in fixed.stdout.splitlines() if "total energy" in line)
+    assert row.split("│")[2].strip() == "–"  # the baseline's null (it showed "None")
+    assert "None" not in fixed.stdout
 
 
 def test_a_baseline_path_is_read_as_the_other_paths_are(tmp_path, monkeypatch):

@@ -314,6 +314,10 @@ def regress_progress(quiet: bool):
 
 
 def _show(x) -> str:
+    """A regress value: a number to 6 digits; none (a failed plan's, null in the baseline,
+    NaN now) as "–" both ways (the baseline's showed "None" beside "nan")."""
+    if x is None or (isinstance(x, float) and x != x):
+        return "–"
     return f"{x:.6g}" if isinstance(x, float) else str(x)
 
 
