@@ -59,6 +59,7 @@ from .stratified import LegSpec
 from .task import Task
 from .tomlread import parse_toml, raise_non_finite, read_source, reject_non_finite
 
+MANY_PLANNERS = 6  # an unknown method's message lists the planners up to this many
 MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
 
 Number = Annotated[float, BeforeValidator(parse_number)]
@@ -311,6 +312,9 @@ def _resolve(
         where = f"legs[{i}]"
         if entry.method not in PLANNERS:
             known = " or ".join(repr(m) for m in PLANNERS)
+            if len(PLANNERS) > MANY_PLANNERS:  # (a message of 30 names said nothing)
+                own = [m for m in PLANNERS if m not in ("newton", "lie")]
+                known = f"'lie', 'newton' or one of {len(own)} of your own ({own[0]!r}, ...)"
             got = f"(got {entry.method!r})"
             message = suggested(f"must be {known} {got}", entry.method)
             if plugins:  # (its module may be the one that failed)

@@ -5,6 +5,7 @@ plan recorded ok (or crashed inside stratplan)."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -187,3 +188,27 @@ def test_regress_names_the_file_of_a_contract_error(own, tmp_path):
     )
     with pytest.raises(PlannerContractError, match=rf"^mine.toml: leg planner '{NAME}' "):
         regress(tmp_path, tmp_path / "b.json", update=True)
+
+
+def test_an_unknown_method_among_many_planners_is_one_short_line():
+    """With 30 planners of one's own registered the message listed all 30 names."""
+    from stratcli.errors import InputError
+
+    names = [f"many-{k}" for k in range(7)]
+    try:
+        for name in names:
+            type(
+                "Many", (LegPlanner,), {"method": name, "plan": None, "missing_coefficients": None}
+            )
+        with pytest.raises(InputError) as caught:
+            task = load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+            task.with_changes({"legs": [{"stratum": "S3", "method": "many-9"}]})
+    finally:
+        for name in names:
+            PLANNERS.pop(name, None)
+    (problem,) = caught.value.problems  # (other tests' planners may be registered too)
+    assert re.match(
+        r"must be 'lie', 'newton' or one of \d+ of your own \('[^']+', \.\.\.\) \(got "
+        r"'many-9': did you mean 'many-\d'\?\)$",
+        problem.message,
+    ), problem.message
