@@ -212,3 +212,29 @@ def test_an_unknown_method_among_many_planners_is_one_short_line():
         r"'many-9': did you mean 'many-\d'\?\)$",
         problem.message,
     ), problem.message
+
+
+def test_a_sweep_whose_tasks_break_a_planner_is_refused_naming_the_task(own, tmp_path):
+    """A planner of one's own whose `missing_coefficients` raised while a sweep's tasks were
+    checked ended the sweep with a traceback naming no task; it is one problem per task."""
+    from sweep_files import write
+
+    from stratcli.errors import InputError
+    from stratcli.sweep.spec import load_sweep
+
+    def missing(self, problem):
+        raise KeyError("free")
+
+    own(lambda self, p: _newton(p), missing_coefficients=missing)
+    text = (ROOT / "scenarios" / "sim4_task_d.toml").read_text()
+    base = tmp_path / "mine.toml"
+    base.write_text(text.replace('stratum = "S1"', f'stratum = "S1"\nmethod = "{NAME}"'))
+    grid = '[sweep.grid]\n"goal.q1" = [-1.0, -0.9]\n'
+    with pytest.raises(InputError) as caught:
+        load_sweep(write(tmp_path, grid, scenario=base))
+    lines = [f"{p.path}: {p.message}" for p in caught.value.problems]
+    assert lines and all(
+        f"KeyError: 'free' (raised by leg planner '{NAME}' (Own.missing_coefficients) "
+        "checking leg 2 on S1)" in line
+        for line in lines
+    ), lines

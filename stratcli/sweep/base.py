@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError, Problem, UnusedLegsWarning
+from ..planner_contract import fault
 from ..scenario import load_scenario, nulls_as_free
 from ..scenario_keys import assign
 from ..tomlread import file_tables, parse_toml, read_scenario_text
@@ -135,6 +136,12 @@ def checked_base(spec: SweepFile, pruned: set[tuple], folder: Path, problems) ->
         problems.extend(found or [_under(where, p) for p in exc.problems])
         hidden = tuple(p.path for p in exc.problems)
         return Base(base, base_states(base), False, pruned, problems, hidden)
+    except Exception as exc:  # a planner of one's own that broke checking its legs: a problem
+        line = fault(exc, traceback_shown=False)
+        if line is None:
+            raise
+        problems.append(_under(where, Problem("legs", line)))
+        return Base(base, base_states(base), False, pruned, problems, ("legs",))
     if no_legs:  # an auto-mode base ([decompose], no legs): every task would be invalid
         problems.append(_no_legs(where, "mode" in s.model_fields_set))
         return Base(base, states, False, pruned, problems)

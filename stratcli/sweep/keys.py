@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import InputError, Problem
 from ..models.numbers import parse_number
+from ..planner_contract import fault
 from ..scenario import load_scenario
 from ..scenario_keys import assign, is_coordinate
 from ..scenario_keys import key_parts as _parts
@@ -105,7 +106,8 @@ def check_values(base, values: dict[str, Any], states, field, problems) -> None:
 
 def check_scenario(scenario: dict[str, Any], field: str, problems: list[Problem]) -> None:
     """Append each problem `load_scenario` finds in `scenario` to `problems`, on `field`
-    (once each)."""
+    (once each); a planner of one's own that broke while its legs were checked is one such
+    problem (its exception ended the whole sweep with a traceback, naming no task)."""
     try:
         load_scenario(scenario)
     except InputError as exc:
@@ -113,6 +115,11 @@ def check_scenario(scenario: dict[str, Any], field: str, problems: list[Problem]
             problem = Problem(field, f"{p.path}: {p.message}" if p.path else p.message)
             if problem not in problems:
                 problems.append(problem)
+    except Exception as exc:
+        line = fault(exc, traceback_shown=False)
+        if line is None:
+            raise
+        problems.append(Problem(field, line))
 
 
 _ANGLES = ("preset", "planar-manipulator", "urdf")  # model kinds whose coordinates are angles
