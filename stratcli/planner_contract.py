@@ -14,6 +14,7 @@ with a note naming the planner and leg.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import replace
 
 import numpy as np
@@ -75,7 +76,8 @@ def noted(
 def checked_duration(duration, planner: LegPlanner, method: str) -> None:
     """Raise `PlannerContractError` where a planner's `problem_duration` is not a positive,
     finite time (0 or NaN failed deep in the end-point map, blamed on its `plan`)."""
-    if not (isinstance(duration, int | float) and np.isfinite(duration) and duration > 0):
+    real = isinstance(duration, numbers.Real) and not isinstance(duration, bool)  # (numpy's too)
+    if not (real and np.isfinite(duration) and duration > 0):
         name = _name(planner, method, "problem_duration")
         raise PlannerContractError(f"{name} returned {duration!r}: a leg lasts a positive time")
 

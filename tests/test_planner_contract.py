@@ -238,3 +238,9 @@ def test_a_sweep_whose_tasks_break_a_planner_is_refused_naming_the_task(own, tmp
         "checking leg 2 on S1)" in line
         for line in lines
     ), lines
+
+
+def test_a_problem_duration_of_a_numpy_number_is_a_time(own):
+    """(A real number of numpy's is accepted as one of Python's is.)"""
+    own(lambda self, p: _newton(p), problem_duration=lambda self, d: np.float32(d))
+    assert stratcli.plan(_task_d()).ok
