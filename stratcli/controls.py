@@ -166,3 +166,16 @@ def embed(coefficients: np.ndarray, harmonics: int, more: int) -> np.ndarray:
     out[..., : harmonics + 1] = c[..., : harmonics + 1]
     out[..., more + 1 : more + 1 + harmonics] = c[..., harmonics + 1 :]
     return out
+
+
+def end_controls(
+    basis: FourierBasis, coefficients: np.ndarray, duration: float, active, m: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Values and derivatives of all `m` inputs at the end of a piece of `duration` whose
+    coefficients (one row per input of `active`) drive those inputs, the others at rest: the
+    `previous` controls of the piece or leg after it."""
+    L = np.atleast_2d(np.asarray(coefficients, dtype=float))
+    u, du = np.zeros(m), np.zeros(m)
+    u[list(active)] = L @ basis.values(duration)
+    du[list(active)] = L @ basis.derivatives(duration)
+    return u, du

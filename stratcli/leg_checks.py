@@ -11,7 +11,7 @@ import numpy as np
 
 from .errors import InputError, Problem
 from .models.system import System
-from .planner_contract import checked_duration, noted
+from .planner_contract import checked_duration, is_own, noted
 from .planners import PLANNERS
 from .settings import PlannerSettings
 from .stratified import LegSpec, LegStart, leg_problem, planner_for
@@ -33,7 +33,7 @@ def _checked_planner(system, settings, leg, at, next_leg):
         call = "missing_coefficients"
         return planner, *planner.missing_coefficients(problem)
     except Exception as exc:
-        if not cls.__module__.startswith("stratcli."):
+        if is_own(cls):
             noted(exc, cls, leg.method, f"checking leg {at.index + 1} on {leg.stratum}", call)
         raise
 

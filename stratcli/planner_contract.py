@@ -19,7 +19,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .continuity import leg_constraints
+from .controls import end_controls
 from .planners.base import LegOutcome, LegPlanner, LegProblem
 from .status import Status
 
@@ -55,9 +55,10 @@ def fault(exc: BaseException, traceback_shown: bool = True) -> str | None:
     return f"{type(exc).__name__}{': ' + head if head else ''} ({note}{above})"
 
 
-def is_own(planner: LegPlanner) -> bool:
-    """Whether `planner` is a user's (its class defined outside stratcli)."""
-    return not type(planner).__module__.startswith("stratcli.")
+def is_own(planner: LegPlanner | type) -> bool:
+    """Whether `planner` (or a planner class) is a user's (defined outside stratcli)."""
+    cls = planner if isinstance(planner, type) else type(planner)
+    return not cls.__module__.startswith("stratcli.")
 
 
 def _name(planner: LegPlanner | type, method: str, call: str = "plan") -> str:
@@ -149,24 +150,14 @@ def checked_outcome(
 
 
 def _boundary_break(pieces, problem: LegProblem) -> str:
-    """The first boundary condition of the leg (`continuity.leg_constraints`: continuing the
+    """The first boundary condition of the leg (`LegProblem.conditions`: continuing the
     previous leg's controls, soft start, full stop, inputs the next leg does not use ending
     at rest; between pieces, continuing the piece before) that `pieces` break by more than
     rounding, said with its size; "" when none."""
-    basis, active, m = problem.basis, problem.stratum.active, problem.system.m
-    previous = problem.previous
+    previous = "leg"
     for k, piece in enumerate(pieces):
-        last = k == len(pieces) - 1
-        rows = leg_constraints(
-            basis,
-            piece.duration,
-            active,
-            problem.system.inputs,
-            problem.continuity,
-            previous=previous,
-            next_active=problem.next_active if last else None,
-            soft_start=problem.soft_start and k == 0,
-            full_stop=problem.full_stop and last,
+        rows = problem.conditions(
+            piece.duration, previous, first_piece=k == 0, last_piece=k == len(pieces) - 1
         )
         lam = np.ravel(piece.coefficients)
         off = rows.C @ lam - rows.c if len(rows.c) else np.zeros(0)
@@ -175,9 +166,8 @@ def _boundary_break(pieces, problem: LegProblem) -> str:
             worst = int(np.argmax(np.abs(off)))
             where = f" (piece {k})" if len(pieces) > 1 else ""
             return f"{rows.labels[worst]}{where} is off by {off[worst]:.3g}"
-        ends = np.zeros((2, m))  # this piece's final controls, all inputs: the next's previous
-        L = np.asarray(piece.coefficients, dtype=float)
-        ends[0, list(active)] = L @ basis.values(piece.duration)
-        ends[1, list(active)] = L @ basis.derivatives(piece.duration)
-        previous = (ends[0], ends[1])
+        previous = end_controls(
+            problem.basis, piece.coefficients, piece.duration, problem.stratum.active,
+            problem.system.m,
+        )  # fmt: skip
     return ""

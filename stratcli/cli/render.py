@@ -172,19 +172,20 @@ def reported(scenario: Path | None = None) -> Iterator[None]:
     except Exception as exc:  # a planner of one's own (STRATPLAN_PLANNERS) that broke
         from ..planner_contract import fault
 
-        if fault(exc) is None:
-            raise
-        import traceback
-
         tb = exc.__traceback__  # its own frames only (stratplan's are no help to its author)
         while tb is not None and tb.tb_frame.f_globals.get("__name__", "").startswith(
             ("stratcli", "typer", "click", "contextlib")
         ):
             tb = tb.tb_next
+        line = fault(exc, traceback_shown=tb is not None)
+        if line is None:
+            raise
         if tb is not None:
+            import traceback
+
             text = "".join(traceback.format_exception(type(exc), exc, tb))
             err_console.print(escape(text.rstrip()), highlight=False)
-        error("error", fault(exc, traceback_shown=tb is not None))
+        error("error", line)
         raise typer.Exit(2) from None
 
 

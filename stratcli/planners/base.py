@@ -21,7 +21,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..continuity import Elimination, eliminate, leg_constraints
+from ..continuity import Constraints, Elimination, eliminate, leg_constraints
 from ..controls import FourierBasis
 from ..endpoint import make_endpoint
 from ..models.system import Stratum, System
@@ -97,6 +97,33 @@ class LegProblem:
     index: int
     initial: np.ndarray | None = None
 
+    def conditions(
+        self,
+        duration: float | None = None,
+        previous: tuple[np.ndarray, np.ndarray] | str | None = "leg",
+        rest: bool = False,
+        first_piece: bool = True,
+        last_piece: bool = True,
+    ) -> Constraints:
+        """The leg's boundary conditions `C λ = c` with their labels (eq. 26-29), or those
+        of one piece of a multi-piece leg: its `duration`, its `previous` controls, `rest`
+        (it ends with u = u' = 0 instead of the leg's end conditions), whether it is the
+        `first_piece` (the only one a soft start applies to) and the `last_piece` (the only
+        one the leg's end conditions bind, unless every piece is to meet them: `elimination`
+        of a Lie step, any of which may be the last)."""
+        ends = last_piece and not rest
+        return leg_constraints(
+            self.basis,
+            self.duration if duration is None else duration,
+            self.stratum.active,
+            self.system.inputs,
+            self.continuity,
+            previous=self.previous if previous == "leg" else previous,
+            next_active=self.next_active if ends else None,
+            soft_start=self.soft_start and first_piece,
+            full_stop=rest or (self.full_stop and last_piece),
+        )
+
     def elimination(
         self,
         duration: float | None = None,
@@ -104,11 +131,8 @@ class LegProblem:
         rest: bool = False,
         first_piece: bool = True,
     ) -> Elimination:
-        """The boundary conditions, eliminated (`λ = λp + N z`, eq. 26-29).
-
-        For a piece of a multi-piece leg: its `duration`, its `previous` controls, `rest`
-        (it ends with u = u' = 0 instead of the leg's end conditions) and whether it is the
-        `first_piece` (the only one a soft start applies to).
+        """The boundary conditions (`conditions`, of the leg or of one piece), eliminated
+        (`λ = λp + N z`, eq. 26-29).
 
         Returns
         -------
@@ -117,19 +141,7 @@ class LegProblem:
             `particular + null @ z` for free `z` (`coefficients(z)`; `project(lam)` is the
             `z` nearest a given `lam`): search over `z` and the switches stay continuous.
         """
-        return eliminate(
-            leg_constraints(
-                self.basis,
-                self.duration if duration is None else duration,
-                self.stratum.active,
-                self.system.inputs,
-                self.continuity,
-                previous=self.previous if previous == "leg" else previous,
-                next_active=None if rest else self.next_active,
-                soft_start=self.soft_start and first_piece,
-                full_stop=self.full_stop or rest,
-            )
-        )
+        return eliminate(self.conditions(duration, previous, rest, first_piece))
 
     def endpoint(self, q: np.ndarray | None = None, duration: float | None = None):
         """The end-point map of the leg's stratum from `q` (default: the leg's start).

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..controls import end_controls
 from ..iterated import iterated_integrals
 from ..liealgebra import hall_basis, lie_basis
 from ..results import Piece
@@ -235,11 +236,7 @@ class LiePlanner(LegPlanner):
             L = lam.reshape(m, basis.size)
             pieces.append(Piece(len(pieces) * tau, tau, L))
             q, err = end, new_err
-            u_end = np.zeros(system.m)
-            du_end = np.zeros(system.m)
-            u_end[list(active)] = L @ basis.values(tau)
-            du_end[list(active)] = L @ basis.derivatives(tau)
-            prev = (u_end, du_end)
+            prev = end_controls(basis, L, tau, active, system.m)
             if stalls >= STALL_STEPS:
                 message = f"no progress in {STALL_STEPS} consecutive steps"
                 break
