@@ -9,14 +9,22 @@ they still are dicts and lists to `json.dumps`, `==` (a document equals its file
 with `json.load`), pandas and `isinstance`. A copy is a plain, changeable dict or list
 (`copy.copy`, `copy.deepcopy`, `dict(doc)`, `doc.copy()`), and so is a pickled one read back
 (it needs no stratplan to be read): the values holding them freeze them again
-(`HoldsDocument`). YAML's `safe_dump`, which takes plain dicts only, wants such a copy.
+(`HoldsDocument`, by `MadeAgainOnUnpickling`, which the array values use too). YAML's
+`safe_dump`, which takes plain dicts only, wants such a copy.
 """
 
 from __future__ import annotations
 
 from typing import Any, ClassVar, NoReturn
 
-__all__ = ["FrozenDict", "FrozenList", "HoldsDocument", "frozen", "thawed"]
+__all__ = [
+    "FrozenDict",
+    "FrozenList",
+    "HoldsDocument",
+    "MadeAgainOnUnpickling",
+    "frozen",
+    "thawed",
+]
 
 
 def _refuse(self, *args, **kwargs) -> NoReturn:
@@ -91,16 +99,25 @@ def thawed(doc: Any) -> Any:
     return doc
 
 
-class HoldsDocument:
+class MadeAgainOnUnpickling:
+    """A frozen dataclass whose `__post_init__` makes its parts read-only runs it again when
+    unpickled (from a worker process, a file): numpy pickles its arrays writable, and a
+    FrozenDict pickles as a plain dict (a plan from `--jobs` workers had writable arrays)."""
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        post_init = getattr(self, "__post_init__", None)
+        if post_init is not None:
+            post_init()
+
+
+class HoldsDocument(MadeAgainOnUnpickling):
     """A frozen dataclass whose JSON fields (`_documents`: `document` unless a class names
     others) are held `frozen`: when made, and when unpickled or deep-copied (both bring plain
     dicts and lists back)."""
 
     _documents: ClassVar[tuple[str, ...]] = ("document",)
 
-    def __post_init__(self) -> None:
+    def __post_init__(self) -> None:  # (run again when unpickled: `MadeAgainOnUnpickling`)
         for name in self._documents:
             object.__setattr__(self, name, frozen(getattr(self, name)))
-
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update({**state, **{k: frozen(state[k]) for k in self._documents}})

@@ -13,6 +13,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .frozen_json import MadeAgainOnUnpickling  # (stdlib only: HoldsDocument's too)
+
 __all__ = ["ByValue", "MadeAgainOnUnpickling", "same"]
 
 
@@ -30,18 +32,6 @@ def same(a: Any, b: Any) -> bool:
     if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
         return True
     return bool(a == b)
-
-
-class MadeAgainOnUnpickling:
-    """A frozen dataclass whose `__post_init__` makes its parts read-only runs it again when
-    unpickled (from a worker process, a file): numpy pickles its arrays writable, and a
-    FrozenDict pickles as a plain dict (a plan from `--jobs` workers had writable arrays)."""
-
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update(state)
-        post_init = getattr(self, "__post_init__", None)
-        if post_init is not None:
-            post_init()
 
 
 class ByValue(MadeAgainOnUnpickling):
