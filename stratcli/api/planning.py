@@ -43,7 +43,8 @@ TIME_SCALE = optional(number(1.0 / MAX_TIME_SCALE, MAX_TIME_SCALE))
 MAX_LENGTH = optional(integer(1, 8))  # as the [decompose] table allows
 STRATEGY = optional(choice(*STRATEGIES, "both"))
 CRITERION = optional(choice(*CRITERIA))
-PROGRESS = optional(instance("a callable", Callable))  # type: ignore[arg-type]
+CALLBACK = optional(instance("a callable", Callable))  # type: ignore[arg-type]
+PROGRESS = CALLBACK  # `progress(...)`, as `warn(sentence)`
 
 
 def as_task(scenario: ScenarioLike) -> Task:
@@ -233,7 +234,7 @@ def plan_run(
 
 @checked(
     scenario=SCENARIO, check=flag, jobs=JOBS, progress=PROGRESS, time_scale=TIME_SCALE,
-    warn=PROGRESS,
+    warn=CALLBACK,
 )  # fmt: skip
 def plan_auto(
     scenario: ScenarioLike,

@@ -25,6 +25,7 @@ from ..trie import default_jobs
 from .auto import auto_settings, compare_decomposition, decompose_task
 from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
 from .planning import (
+    CALLBACK,
     CRITERION,
     DASK,
     IMPORTED,
@@ -47,7 +48,7 @@ __all__ = ["compare_sequences", "decompose", "with_legs"]
 
 @checked(
     scenario=SCENARIO, max_length=MAX_LENGTH, strategy=STRATEGY, criterion=CRITERION, jobs=JOBS,
-    progress=PROGRESS, exhaustive=flag, dask=DASK, warn=PROGRESS,
+    progress=PROGRESS, exhaustive=flag, dask=DASK, warn=CALLBACK,
 )  # fmt: skip
 def compare_sequences(
     scenario: ScenarioLike,
