@@ -93,9 +93,9 @@ def main() -> None:
 
 
 PHASES = {  # (object, method): column; the search's own phases, its checks, the verification
-    "feasibility": ("_Search", "reach_feasible"),
-    "barrier": ("_Search", "_lower_barrier"),
-    "SQP": ("_Search", "_sqp_step"),
+    "feasibility": ("MarginSearch", "reach_feasible"),
+    "barrier": ("MarginSearch", "_lower_barrier"),
+    "SQP": ("MarginSearch", "_sqp_step"),
     "checks": ("NodeMargins", "refined"),
     "verification": ("limit_timing", "verify"),  # (as `enforce` calls it)
 }
@@ -105,10 +105,10 @@ def owners_of_phases() -> dict:
     """The objects whose methods `PHASES` names."""
     from stratcli import limit_timing
     from stratcli.node_margins import NodeMargins
-    from stratcli.planners import constrained
+    from stratcli.planners import margin_search
 
     return {
-        "_Search": constrained._Search,
+        "MarginSearch": margin_search.MarginSearch,
         "NodeMargins": NodeMargins,
         "limit_timing": limit_timing,
     }
@@ -118,7 +118,7 @@ def phases(names: list[str], repeats: int) -> None:
     """`--phases`: per scenario, the median CPU of each phase of its constrained plan (its
     methods wrapped and timed) and its steps (search iterations; SQP steps; passes). Each
     column is its own median over the plans, so the columns need not add up to the plan's."""
-    from stratcli.planners import constrained
+    from stratcli.planners import margin_search
 
     owners = owners_of_phases()
     spent: dict[str, float] = {}
@@ -130,7 +130,7 @@ def phases(names: list[str], repeats: int) -> None:
         inner = getattr(owner, method)
 
         def wrapper(*args, **kwargs):
-            search = args[0] if args and isinstance(args[0], constrained._Search) else None
+            search = args[0] if args and isinstance(args[0], margin_search.MarginSearch) else None
             before = search.iterations if search is not None else 0
             clock = time.process_time()
             try:

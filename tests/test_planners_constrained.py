@@ -430,11 +430,11 @@ def test_the_search_note_says_lowered_only_when_the_energy_fell():
 
 
 def _barrier_round(values, iterations=50):
-    """`_Search._lower_barrier` on a stub whose barrier steps all succeed with `values`; the
-    steps it took."""
-    from stratcli.planners import constrained
+    """`MarginSearch._lower_barrier` on a stub whose barrier steps all succeed with `values`;
+    the steps it took."""
+    from stratcli.planners import margin_search
 
-    class Stub(constrained._Search):
+    class Stub(margin_search.MarginSearch):
         def __init__(self):  # no problem: only the round's bookkeeping is exercised
             self.iterations, self.energy, self.taken, self.z = 0, 1.0, 0, None
             self.problem = type("P", (), {"energy": staticmethod(lambda z: 1.0)})
@@ -452,7 +452,7 @@ def _barrier_round(values, iterations=50):
 def test_a_barrier_round_ends_on_a_plateau_and_not_while_it_descends():
     """The round only leads the SQP into the basin: it ends once FLAT_STEPS steps together
     lowered the barrier by less than FLAT (relative), not on one small step."""
-    from stratcli.planners.constrained import FLAT, FLAT_STEPS
+    from stratcli.planners.margin_search import FLAT, FLAT_STEPS
 
     descending = [100.0 * (1 - 1e-3) ** k for k in range(50)]
     assert _barrier_round(descending) == 50
