@@ -20,7 +20,8 @@ import numpy as np
 
 from .controls import FourierBasis
 from .errors import Problem
-from .models.system import CompiledStratum, System
+from .models.compiled_stratum import CompiledStratum
+from .models.system import System
 
 PANEL = 32  # Gauss–Legendre nodes per panel of the composite rule
 MIN_NODES = 64
