@@ -16,7 +16,7 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from stratcli import api
-from stratcli.cli import app, progress, render, render_analysis, render_tables
+from stratcli.cli import app, progress, render, render_analysis, render_plan, render_tables
 from stratcli.regress import Difference
 
 TASK_D = ROOT / "scenarios" / "sim4_task_d.toml"
@@ -101,8 +101,8 @@ def _tables(planned) -> dict:
         ],
     )
     return {
-        "plan summary": lambda: render.plan_summary(_big(planned.document)),
-        "plan summary (as planned)": lambda: render.plan_summary(planned.document),
+        "plan summary": lambda: render_plan.plan_summary(_big(planned.document)),
+        "plan summary (as planned)": lambda: render_plan.plan_summary(planned.document),
         "ranking": lambda: render_tables.ranking(task, _ranking_doc()),
         "check report (preset)": lambda: render_analysis.check_report(
             api.check_controllability("two-arm", samples=3)
@@ -269,13 +269,13 @@ def test_the_search_line_names_the_start_that_won(monkeypatch, planned):
     opt = doc["optimisation"]
     for kind in ("pulled", "loop"):
         opt["starts"][opt["best"]]["from"] = kind
-        text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+        text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
         k, n = opt["best"] + 1, len(opt["starts"])
         assert f"energy-optimal over all legs together: start {k} of {n} ({kind}: " in text
     # each start's energy after where it began, and why it stopped when not at a minimum
     first = opt["starts"][0]
     first["stopped"] = "abandoned"
-    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    text = " ".join(_render(monkeypatch, lambda: render_plan.plan_summary(doc), 400).split())
     assert f"the starts ended at {first['from']} {first['energy']:,.2f} (abandoned)" in text
 
 
@@ -290,7 +290,7 @@ def test_seeded_newton_starts_are_numbered_on_the_search_line(monkeypatch, plann
         for k in range(3)
     ]
     opt["best"] = 2
-    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    text = " ".join(_render(monkeypatch, lambda: render_plan.plan_summary(doc), 400).split())
     assert "start 3 of 3 (seed 2: " in text
     assert "the starts ended at newton 90.00, seed 1 91.00, seed 2 92.00" in text
 
@@ -300,12 +300,12 @@ def test_the_search_line_ends_with_why_no_loop_start_was_made(monkeypatch, plann
     which is about the energies before it); an empty one adds nothing."""
     doc = copy.deepcopy(planned.document)
     doc["optimisation"]["no_loop_start"] = ""
-    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    text = " ".join(_render(monkeypatch, lambda: render_plan.plan_summary(doc), 400).split())
     assert "no loop start" not in text
     doc["optimisation"]["no_loop_start"] = "why not"
     doc["time_scale"] = 2.0
     doc["total_energy"] = 2.0 * doc["total_energy"]
-    text = " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+    text = " ".join(_render(monkeypatch, lambda: render_plan.plan_summary(doc), 400).split())
     assert "(energies before time scaling); no loop start: why not" in text
 
 
@@ -314,7 +314,7 @@ def test_a_first_order_search_without_seeded_starts_says_how_to_add_them(monkeyp
     line says that `planner.starts` adds seeded Newton plans (a user's arm3 task: 1401.94
     from the Newton plan, 68.80 with 5), and says it only there: not where seeded plans ran,
     nor where the legs have second derivatives."""
-    from stratcli.cli.render import MORE_STARTS
+    from stratcli.cli.render_plan import MORE_STARTS
     from stratcli.planners.energy import LOWEST_LEGS, NO_HESSIANS
 
     doc = copy.deepcopy(planned.document)
@@ -325,7 +325,7 @@ def test_a_first_order_search_without_seeded_starts_says_how_to_add_them(monkeyp
     def ran(*kinds):
         opt["starts"] = [{**first, "index": k, "from": kind} for k, kind in enumerate(kinds)]
         opt["best"] = 0
-        return " ".join(_render(monkeypatch, lambda: render.plan_summary(doc), 400).split())
+        return " ".join(_render(monkeypatch, lambda: render_plan.plan_summary(doc), 400).split())
 
     for kinds in (("newton",), ("newton", LOWEST_LEGS)):
         assert ran(*kinds).count(f"no loop start: {NO_HESSIANS}; {MORE_STARTS}") == 1
@@ -338,12 +338,12 @@ def test_the_free_search_line_comes_before_a_constrained_search_and_says_so(monk
     """With [constraints] that moved the plan off the free optimum, the energy search's line
     describes the plan without them: it says so, before the note of the constrained search."""
     doc = copy.deepcopy(planned.document)
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 120)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 120)
     assert "\nenergy-optimal over all legs together" in text  # unconstrained: as it was
     doc["constraints"] = {"spec": {"obstacles": [{"shape": "circle"}]}, "legs": []}
     doc["notes"] = ["constrained search from the minimum-energy plan: ..."]
     doc["total_energy"] = 1.25 * doc["total_energy"]
-    lines = _render(monkeypatch, lambda: render.plan_summary(doc), 400).splitlines()
+    lines = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400).splitlines()
     free = next(i for i, x in enumerate(lines) if "energy-optimal over all legs" in x)
     assert lines[free].startswith("without the constraints, energy-optimal over all legs")
     assert lines[free + 1].startswith("note: constrained search")
@@ -356,7 +356,7 @@ def test_a_time_scaled_plan_at_its_free_optimum_is_not_called_constrained(monkey
     doc["constraints"] = {"spec": {"max_rate": 50.0}, "legs": []}
     doc["time_scale"] = 2.0
     doc["total_energy"] = 2.0 * doc["total_energy"]
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
     assert "\nenergy-optimal over all legs together" in text
     assert "without the constraints" not in text
 
@@ -365,10 +365,10 @@ def test_a_plan_the_final_pass_changed_says_what_the_legs_ended_at(monkeypatch, 
     """Without constraints, a plan whose energy differs from the best start's (the final pass
     re-chained and polished a leg) says so on the search's line, beside the starts."""
     doc = copy.deepcopy(planned.document)
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
     assert "re-chained" not in text  # the plan is the best start's
     doc["total_energy"] = 0.999 * doc["total_energy"]
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
     assert f"; re-chained: {render.fmt(doc['total_energy'])}; plain Newton:" in text
 
 
@@ -381,12 +381,12 @@ def test_a_stalled_search_keeping_the_free_plan_says_what_it_re_chained_to(monke
     doc["constraints"] = {"spec": {"joint_limits": [-1, 1]}, "legs": []}
     doc["status"], doc["message"] = "failed", f"the search stalled; {KEPT_FREE}, in which ..."
     doc["total_energy"] = 1.03 * doc["total_energy"]
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
     assert "without the constraints, energy-optimal" in text
     assert f"; re-chained: {render.fmt(doc['total_energy'])}; plain Newton:" in text
     del doc["message"]  # a constrained search moved it: not a re-chaining
     doc["status"] = "ok"
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
     assert "without the constraints, energy-optimal" in text and "re-chained" not in text
 
 
@@ -532,7 +532,7 @@ def test_a_leg_the_continuation_reached_says_so_in_the_plan_table(monkeypatch):
     from stratcli.records.figure_common import leg_method  # the plots' leg labels
 
     assert [leg_method(plan, k) for k in (0, 1)] == ["S1 · newton", "S2 · newton (continuation)"]
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
     rows = [line for line in text.splitlines() if " S1 " in line or " S2 " in line]
     assert "newton (continuation)" in rows[1] and "(continuation)" not in rows[0]
 
@@ -545,13 +545,13 @@ def test_a_start_stopped_on_its_way_to_another_starts_minimum_names_that_start(
     doc = copy.deepcopy(planned.document)
     starts = doc["optimisation"]["starts"]
     assert [s["stopped"] for s in starts] == ["converged", "same minimum"]
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
     assert "pulled 84.04, newton 84.04 (heading for start 1's minimum);" in text
     starts.reverse()  # the other way round: the first listed was stopped
     for k, start in enumerate(starts):
         start["index"] = k
     doc["optimisation"]["best"] = 1
-    text = _render(monkeypatch, lambda: render.plan_summary(doc), 400)
+    text = _render(monkeypatch, lambda: render_plan.plan_summary(doc), 400)
     assert "newton 84.04 (heading for start 2's minimum), pulled 84.04;" in text
 
 

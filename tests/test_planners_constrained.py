@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from stratcli import load_scenario
 from stratcli.api import plan_run
-from stratcli.cli import app, render
+from stratcli.cli import app, render, render_plan
 from stratcli.errors import InputError
 from stratcli.models.geometry import world_geometry
 from stratcli.planners.constrained import search_note
@@ -291,7 +291,7 @@ def test_legs_the_constrained_search_planned_report_its_iterations_not_zero():
     console = Console(width=120, record=True, force_terminal=True, file=io.StringIO())
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(render, "out_console", console)
-        render.plan_summary(outcome.document)
+        render_plan.plan_summary(outcome.document)
     text = console.export_text()
     assert text.count(f" {searched}* ") == 2  # each leg: the search's, not 0
     assert "* the constrained search's iterations and starts, over all legs together" in text

@@ -18,7 +18,7 @@ import typer
 
 from ..errors import Problem, UnusedLegsWarning
 from . import progress as bars
-from . import render, render_tables
+from . import render, render_plan, render_tables
 from .options import (
     Animation,
     AutoJobs,
@@ -136,7 +136,7 @@ def plan(
     if json_output:  # result.json, and where the record is (not a key of result.json)
         render.print_json({**outcome.document, "record": str(run_dir)})
     elif not quiet:
-        render.plan_summary(outcome.document)
+        render_plan.plan_summary(outcome.document)
         render.plan_footer(outcome, run_dir)
     if not outcome.ok:
         render.error("planning failed", outcome.result.message + _kept(run_dir, quiet))

@@ -11,7 +11,7 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
-from . import render, render_tables
+from . import render, render_plan, render_tables
 from .options import Json, Out, directory_value
 
 
@@ -50,7 +50,7 @@ def show(
             doc["comparison"] = record.comparison
         render.print_json(doc)
     else:
-        render.run_record(record, log)
+        render_plan.run_record(record, log)
 
 
 def runs(

@@ -11,7 +11,7 @@ from shlex import quote  # a path in a command to paste: spaces, quotes
 from rich.markup import escape
 
 from ..wording import counted
-from . import render
+from . import render, render_plan
 from .render import fmt, number_column, say, table, text_column
 
 SHOWN_RANKS = 40  # rows of the ranking printed, at most (comparison.csv has every one)
@@ -147,7 +147,7 @@ def auto_mode(outcome, run_dir: Path) -> None:
     from ..api.auto import auto_choice
 
     say(auto_choice(outcome))
-    render.plan_summary(outcome.best.document)
+    render_plan.plan_summary(outcome.best.document)
     comparison_footer(outcome, run_dir)
     say(
         f"the full ranking: comparison.csv in the record, or stratplan compare-sequences "
