@@ -6,7 +6,6 @@ evaluated as code (angles such as "pi/3" or "60deg" go through the safe expressi
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any
@@ -22,7 +21,6 @@ from pydantic import (
 
 from . import tomlwrite
 from .constraints import ConstraintsSpec, check_configuration, resolve
-from .controls import MAX_PERIODS_PER_LEG
 from .endpoint import evaluator_problems
 from .errors import InputError, Problem
 from .leg_checks import check_legs, pinned_vias
@@ -35,7 +33,7 @@ from .models.specs import (
 )
 from .models.system import System
 from .planners import PLANNERS
-from .planners.plugins import ENTRY_POINTS, PLUGINS, load_plugins
+from .planners.plugins import PLUGINS, load_plugins
 from .results import none_to_nan
 from .scenario_checks import (
     acceleration_problems,
@@ -47,19 +45,17 @@ from .scenario_checks import (
     periodic_problems,
 )
 from .scenario_hints import beside_refused, hinted
-from .schema_problems import suggested, validation_problems
+from .scenario_legs import leg_specs, mode_problems
+from .schema_problems import validation_problems
 from .settings import (
     MAX_DURATION,
     MIN_DURATION,
     DecomposeSettings,
-    LieSettings,
     PlannerSettings,
 )
-from .stratified import LegSpec
 from .task import Task
 from .tomlread import parse_toml, raise_non_finite, read_source, reject_non_finite
 
-MANY_PLANNERS = 6  # an unknown method's message lists the planners up to this many
 MAX_COORDINATE = 1e4  # |q_i| of a start, goal or via (rad, or the model's length unit)
 
 Number = Annotated[float, BeforeValidator(parse_number)]
@@ -229,23 +225,6 @@ def from_raw(
         raise exc.with_source(source) from None
 
 
-def _leg_lie(entry: LegEntry, i: int, planner: PlannerSettings, problems: list[Problem]):
-    """A Lie leg's settings: [planner.lie] with the leg's own `lie` keys on top."""
-    if entry.method != "lie" or entry.lie is None:
-        return None
-    where = f"legs[{i}].lie"
-    try:
-        return dataclasses.replace(planner.lie, **entry.lie)
-    except ValidationError as exc:  # an unknown key lists those of [planner.lie]
-        found = validation_problems(exc, root=LieSettings)
-        problems.extend(InputError(found).prefixed(where).problems)
-    except TypeError:  # an unknown key (dataclasses.replace refuses it before pydantic)
-        names = [f.name for f in dataclasses.fields(LieSettings)]
-        known, unknown = ", ".join(names), ", ".join(sorted(set(entry.lie) - set(names)))
-        problems.append(Problem(where, f"unknown key {unknown} (allowed: {known})"))
-    return None
-
-
 def _resolve(
     scenario: Scenario, source: str, text: str, system: System | None = None, base_dir=None
 ) -> Task:
@@ -273,31 +252,7 @@ def _resolve(
         except InputError as exc:
             problems.extend(exc.problems)
     p = scenario.planner
-    legs: list[LegSpec] = []
-    if scenario.legs is None and scenario.decompose is None:
-        problems.append(
-            Problem(
-                "legs",
-                "give either [[legs]] (the strata in order) or a [decompose] table (auto "
-                "mode: stratplan finds the sequence); the scenario has neither",
-            )
-        )
-    elif scenario.legs is not None and scenario.decompose is not None:
-        problems.append(
-            Problem(
-                "decompose",
-                "give either [[legs]] (the strata in order) or a [decompose] table (auto "
-                "mode), not both",
-            )
-        )
-    for i, name in enumerate((scenario.decompose.strata or []) if scenario.decompose else []):
-        if name not in system.strata:
-            problems.append(
-                Problem(
-                    f"decompose.strata[{i}]",
-                    f"unknown stratum {name!r} (this model has: {', '.join(system.strata)})",
-                )
-            )
+    problems.extend(mode_problems(scenario, system))
     # planners of one's own named by a leg: their modules imported first; a module named in
     # STRATPLAN_PLANNERS that could not be is a problem of its own (first), an installed
     # package's entry point only where a method is still unknown (one broken package's
@@ -307,88 +262,7 @@ def _resolve(
     if not any(entry.method not in PLANNERS for entry in scenario.legs or []):
         plugins = [p for p in plugins if p.path == PLUGINS]
     problems[:0] = plugins
-    spans = False  # a leg of more basis periods than the basis can take
-    for i, entry in enumerate(scenario.legs or []):
-        where = f"legs[{i}]"
-        if entry.method not in PLANNERS:
-            known = " or ".join(repr(m) for m in PLANNERS)
-            if len(PLANNERS) > MANY_PLANNERS:  # (a message of 30 names said nothing)
-                own = [m for m in PLANNERS if m not in ("newton", "lie")]
-                known = f"'lie', 'newton' or one of {len(own)} of your own ({own[0]!r}, ...)"
-            got = f"(got {entry.method!r})"
-            message = suggested(f"must be {known} {got}", entry.method)
-            if plugins:  # (its module may be the one that failed)
-                message += f"; a module of {PLUGINS} or {ENTRY_POINTS} failed to import"
-            elif "did you mean" not in message:  # no name close to it: how one's own is found
-                message += (
-                    f"; a planner of your own: import its module first, or name the module in "
-                    f"{PLUGINS} or under the entry points {ENTRY_POINTS}"
-                )
-            problems.append(Problem(f"{where}.method", message))
-            continue
-        if entry.stratum not in system.strata:
-            problems.append(
-                Problem(
-                    f"{where}.stratum",
-                    f"unknown stratum {entry.stratum!r} (this model has: "
-                    f"{', '.join(system.strata)})",
-                )
-            )
-        last = i == len(scenario.legs) - 1
-        leg_goal = vector(entry.goal, f"{where}.goal")
-        if leg_goal is None and entry.goal is None:
-            if not last:
-                problems.append(
-                    Problem(
-                        f"{where}.goal",
-                        "a via configuration is required (only the last "
-                        "leg may omit its goal, which is then task.goal)",
-                    )
-                )
-            leg_goal = goal
-        elif last and goal is not None and leg_goal is not None:
-            if not np.allclose(leg_goal, goal, rtol=0.0, atol=1e-12, equal_nan=True):
-                problems.append(
-                    Problem(
-                        f"{where}.goal",
-                        "the last leg's goal differs from task.goal; omit it or make them equal",
-                    )
-                )
-        if leg_goal is not None:
-            legs.append(
-                LegSpec(
-                    stratum=entry.stratum,
-                    goal=leg_goal,
-                    method=entry.method,
-                    duration=entry.duration or p.leg_duration,
-                    lie=_leg_lie(entry, i, p, problems),
-                )
-            )
-            duration = (
-                (legs[-1].lie or p.lie).step_duration
-                if entry.method == "lie"
-                else (legs[-1].duration)
-            )
-            if duration / p.basis.period > MAX_PERIODS_PER_LEG:
-                spans = True  # (one line for every such leg of the same duration)
-                problems.append(
-                    Problem(
-                        f"{where}.duration" if entry.duration else "planner.basis.period",
-                        f"a leg of {duration:g} s spans {duration / p.basis.period:.3g} basis "
-                        f"periods (at most {MAX_PERIODS_PER_LEG}); use a longer period or "
-                        "a shorter leg",
-                    )
-                )
-        if entry.method == "lie" and entry.duration is not None:
-            problems.append(
-                Problem(
-                    f"{where}.duration",
-                    "a Lie leg lasts (number of steps) x lie.step_duration; set "
-                    "lie = { step_duration = ... } instead",
-                )
-            )
-        if entry.method != "lie" and entry.lie is not None:
-            problems.append(Problem(f"{where}.lie", 'only legs with method = "lie" take it'))
+    legs, spans = leg_specs(scenario, system, goal, vector, plugins, problems)
     problems.extend(duration_problems(scenario, legs))
     if not spans:  # (a basis of such periods is degenerate: its conditions say nothing)
         problems.extend(periodic_problems(scenario, system, legs))

@@ -21,6 +21,7 @@ SCENARIO = (
     "stratcli.scenario_checks",
     "stratcli.scenario_hints",
     "stratcli.scenario_keys",
+    "stratcli.scenario_legs",
     "stratcli.schema_problems",
     "stratcli.task",
     "stratcli.tomlread",
