@@ -10,7 +10,7 @@ import typer
 from typer.core import TyperCommand, TyperGroup
 
 from .. import __version__
-from . import commands, models, records, render
+from . import analysis, commands, models, records, render
 from . import sweep as sweep_command
 from .usage import one_line
 
@@ -99,7 +99,7 @@ app.command(cls=_Command)(records.show)
 app.command(cls=_Command)(records.runs)
 app.command(cls=_Command)(models.models)
 app.command(cls=_Command)(commands.regress)
-app.command("decompose", cls=_Command)(commands.decompose)
+app.command("decompose", cls=_Command)(analysis.decompose)
 app.command("compare-sequences", cls=_Command)(commands.compare_sequences)
-app.command(cls=_Command)(commands.check)
+app.command(cls=_Command)(analysis.check)
 app.command("sweep", cls=_Command)(sweep_command.sweep)

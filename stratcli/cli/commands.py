@@ -16,7 +16,7 @@ from typing import Annotated, Literal
 
 import typer
 
-from ..errors import Problem, UnusedLegsWarning
+from ..errors import UnusedLegsWarning
 from . import progress as bars
 from . import render, render_plan, render_tables
 from .options import (
@@ -33,9 +33,7 @@ from .options import (
     TaskScenario,
     directory_value,
     file_value,
-    name_or_file,
 )
-from .render_analysis import check_report, decomposition
 
 Format = Annotated[
     Literal["png", "svg", "pdf"],
@@ -43,7 +41,7 @@ Format = Annotated[
 ]
 
 
-def _load(path: Path):
+def load_task(path: Path):
     """The scenario file, or exit 2 naming every problem."""
     from ..scenario import load_scenario  # start-up speed: --help needs no model code
 
@@ -117,7 +115,7 @@ def plan(
     from .. import api  # start-up speed
 
     render.quiet(quiet)  # (its notes too: "Print nothing but errors")
-    task = _with_planner(_load(file), objective, search)
+    task = _with_planner(load_task(file), objective, search)
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     # matplotlib loads while the plan is made; niced only beside a comparison's workers
@@ -130,7 +128,7 @@ def plan(
     with bars.phases(bars.shown(quiet, json_output), log=True) as progress:
         with render.reported(file):
             outcome = api.plan_run(
-                task, check=check, time_scale=time_scale, progress=progress, warn=_warning
+                task, check=check, time_scale=time_scale, progress=progress, warn=render.warning
             )
         run_dir = _write(out, outcome, animation, progress, fmt)
     if json_output:  # result.json, and where the record is (not a key of result.json)
@@ -158,7 +156,7 @@ def _plan_auto(
 
     with render.reported(file), bars.progress_bar(bars.shown(quiet, json_output)) as bar:
         outcome = api.plan_auto(
-            task, check=check, progress=bar, time_scale=time_scale, jobs=jobs, warn=_warning
+            task, check=check, progress=bar, time_scale=time_scale, jobs=jobs, warn=render.warning
         )
     with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
@@ -173,7 +171,7 @@ def _plan_auto(
 
 
 @contextmanager
-def _as_notes() -> Iterator[None]:
+def legs_as_notes() -> Iterator[None]:
     """The library's `UnusedLegsWarning` is printed as a `note:` line (the outcome's
     `settings.notes`), not as a Python warning."""
     with warnings.catch_warnings():
@@ -252,7 +250,7 @@ def compare_sequences(
     from .. import api  # start-up speed
 
     render.quiet(quiet)
-    task = _with_planner(_load(file), objective, search)
+    task = _with_planner(load_task(file), objective, search)
     if exhaustive and task.settings.objective == "newton":
         render.notes(["--exhaustive is for the energy objective's screen: under the Newton "
                       "objective every sequence is planned anyway"])  # fmt: skip
@@ -261,11 +259,11 @@ def compare_sequences(
     api.draw_ahead()  # matplotlib loads while the sequences are planned
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     shown = bars.shown(quiet, json_output)
-    with render.reported(), bars.progress_bar(shown, waiting) as bar, _as_notes():
+    with render.reported(), bars.progress_bar(shown, waiting) as bar, legs_as_notes():
         options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
         outcome = api.compare_sequences(
             task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask,
-            warn=_warning,
+            warn=render.warning,
         )  # fmt: skip
     render.notes(outcome.settings.notes)
     with bars.phases(bars.shown(quiet, json_output)) as progress:
@@ -282,101 +280,6 @@ def compare_sequences(
             "planning failed", outcome.comparison.choice() + _kept(run_dir, quiet)
         )
     raise typer.Exit(0 if outcome.ok else 1)
-
-
-def decompose(
-    file: TaskScenario,
-    max_length: MaxLength = None,
-    strategy: Strategy = None,
-    json_output: Json = False,
-) -> None:
-    """List the candidate sequences of strata and their via configurations, without planning.
-
-    Essential coordinates are those whose goal differs from the start; a sequence qualifies
-    when its strata together move all of them (no stratum twice in a row). `conservative`
-    sets every essential coordinate a leg can move to its goal value; `postponed` leaves it to
-    the last leg that can move it. Coordinates a leg's stratum locks keep their value.
-    """
-    from .. import api  # start-up speed
-
-    task = _load(file)
-    with render.reported(), _as_notes():
-        outcome = api.decompose(task, max_length=max_length, strategy=strategy)
-    render.notes([*outcome.settings.notes, *outcome.notes])
-    if json_output:
-        render.print_json(outcome.document)
-    else:  # the options asked, so that its hint ranks these candidates
-        given = (("--max-length", max_length), ("--strategy", strategy))
-        decomposition(outcome, file, tuple(f"{o} {v}" for o, v in given if v is not None))
-
-
-def check(
-    target: Annotated[
-        str,
-        typer.Argument(
-            metavar="NAME|FILE",
-            help="A preset model's name, a scenario file or a URDF file.",
-            parser=name_or_file,
-        ),
-    ],
-    at: Annotated[
-        str | None,
-        typer.Option(
-            help='Configuration, e.g. "0, pi/3, 0, 0" (default: the scenario start, or zeros '
-            "for a preset or a URDF)."
-        ),
-    ] = None,
-    samples: Annotated[
-        int,
-        typer.Option(min=0, max=100_000, help="Random configurations checked besides --at."),
-    ] = 100,
-    degree: Annotated[int, typer.Option(min=1, max=3, help="Lie bracket degree (1-3).")] = 2,
-    seed: Annotated[int, typer.Option(min=0, help="Seed of the sampled configurations.")] = 0,
-    all_strata: Annotated[
-        bool,
-        typer.Option(
-            "--all-strata",
-            help="For a scenario, every stratum of its model, not only those its legs use.",
-        ),
-    ] = False,
-    json_output: Json = False,
-) -> None:
-    """Controllability of every stratum (paper eq. 4) and of the strata together (eq. 2).
-
-    Per stratum: the rank of its generators and Lie brackets (up to DEGREE, on its free
-    coordinates) and their smallest singular value, at the configuration and at SAMPLES
-    sampled ones; where DEGREE falls short, third-order brackets are tried. For a scenario,
-    the strata its legs use (every one with --all-strata), and whether each leg's stratum
-    spans the coordinates the leg steers. Exits 0, 2 on bad
-    input, 3 when the scenario's strata cannot do their legs (or the strata of a model or an
-    auto-mode scenario do not reach every direction together), naming stratum and
-    configuration.
-    """
-    from .. import api  # start-up speed
-
-    with render.reported():
-        report = api.check_controllability(
-            target, at, samples=samples, degree=degree, seed=seed, all_strata=all_strata
-        )
-    if json_output:
-        render.print_json(report.document)
-    else:
-        check_report(report)
-    for problem in report.document.get("model_problems", ()):  # as `plan` says it
-        render.error("error", Problem("model.fields", problem).render(target))
-    for problem in report.problems:
-        render.error("not controllable", problem)
-    for warning in report.document.get("warnings", ()):
-        _warning(warning)
-    if report.document.get("model_problems"):
-        raise typer.Exit(2)
-    raise typer.Exit(0 if report.controllable else 3)
-
-
-def _warning(message: str) -> None:
-    """One `warning:` line on stderr (a leg that may be ill-conditioned, a joint limit
-    past a full turn)."""
-    render.error("warning", message)
 
 
 def regress(

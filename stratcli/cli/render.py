@@ -108,6 +108,12 @@ def quiet(on: bool) -> None:
     _QUIET["on"] = bool(on)
 
 
+def warning(message: str) -> None:
+    """One `warning:` line on stderr (a leg that may be ill-conditioned, a joint limit
+    past a full turn): the `warn` callback the commands give the library."""
+    error("warning", message)
+
+
 def notes(texts: Iterable[str], always: bool = False) -> None:
     """One `note:` line each on stderr (not in the way of --json on stdout); none under
     --quiet unless `always` (how to resume an interrupted sweep)."""
