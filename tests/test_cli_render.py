@@ -429,7 +429,7 @@ def test_messages_print_user_text_verbatim_not_as_emoji(tmp_path):
 
 
 def test_margins_met_exactly_print_as_zero_and_violations_as_they_are():
-    from stratcli.cli.render_tables import limit_margins
+    from stratcli.cli.render_limits import limit_margins
 
     report = {
         "samples_per_leg": 2000,

@@ -408,7 +408,7 @@ def test_a_pickled_urdf_plan_keeps_its_robot_when_the_file_changes(tmp_path):
 def test_a_urdf_plans_limits_say_which_are_the_tables_and_which_the_urdfs():
     """`joint_limits = { j2 = [...] }` printed "limits: joints within their own limits", and
     a start past the URDF's limit did not say the limit was the URDF's."""
-    from stratcli.cli.render_tables import limits_asked
+    from stratcli.cli.render_limits import limits_asked
 
     legs = [{"joint_limit": 0.1}]
     table = {"spec": {"joint_limits": {"j2": [-0.02, 0.02]}}, "legs": legs}

@@ -9,6 +9,7 @@ from rich.markup import escape
 from ..wording import counted, method_words
 from . import render
 from .render import fmt, fmt_error, number_column, say, table, text_column
+from .render_limits import broken, limit_margins, limits_asked
 
 __all__ = ["MORE_STARTS", "plan_summary", "run_record", "start_kind"]
 
@@ -40,7 +41,6 @@ def plan_summary(doc: dict) -> None:
     number_column(legs, "final error")
     number_column(legs, "energy")
     number_column(legs, "status", justify="left")
-    from .render_tables import broken, limit_margins, limits_asked  # (which imports this)
 
     margins = (doc.get("constraints") or {}).get("legs") or []
     for i, leg in enumerate(doc["legs"]):
