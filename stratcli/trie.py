@@ -48,7 +48,15 @@ from .settings import PlannerSettings
 from .stratified import LegSpec, LegStart, assemble, plan_next_leg, planner_for
 from .within_limits import candidate_within_limits, within_limits
 
-__all__ = ["STATE", "build_trie", "compare_shared", "compare_whole", "default_jobs"]
+__all__ = [
+    "STATE",
+    "build_trie",
+    "compare_shared",
+    "compare_whole",
+    "default_jobs",
+    "most_workers",
+    "workers_for",
+]
 
 
 def default_jobs() -> int:
@@ -57,6 +65,21 @@ def default_jobs() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not on Linux
         return max(1, os.cpu_count() or 1)
+
+
+PER_CORE = 4  # worker processes a core at most, whatever `jobs` asks
+
+
+def most_workers() -> int:
+    """The most worker processes a pool here starts (`PER_CORE` a core): planning is CPU
+    work, and `--jobs 1000` on 2 cores had forked 816 processes for a sweep of 4 tasks."""
+    return PER_CORE * default_jobs()
+
+
+def workers_for(jobs: int, units: int) -> int:
+    """Worker processes of a local pool for `units` pieces of work at `jobs`: no more than
+    there is work for, nor than `most_workers` (a pool that forks starts all of them)."""
+    return max(1, min(jobs, units, most_workers()))
 
 
 # ------------------------------------------------------------------------------------------
@@ -275,7 +298,7 @@ def run_units(
     context = multiprocessing.get_context("fork")
     order = sorted(range(len(units)), key=lambda k: -units[k][1])  # big sub-tries first
     pool = ProcessPoolExecutor(
-        max_workers=min(jobs, len(units)),
+        max_workers=workers_for(jobs, len(units)),
         mp_context=context,
         initializer=worker_init,
         initargs=(os.getpid(),),

@@ -319,3 +319,44 @@ def test_strict_sweeps_exit_1_when_a_task_did_not_plan(tmp_path):
     ok = write(tmp_path, '[[sweep.task]]\n"planner.max_iterations" = 100\n', name="fine")
     args = ["sweep", str(ok), "--out", str(tmp_path / "c"), "--jobs", "1", "-q", "--strict"]
     assert runner.invoke(app, args).exit_code == 0
+
+
+def test_jobs_the_command_will_not_honour_as_given_is_said(tmp_path):
+    """--jobs with --dask was ignored without a word; --jobs 1000 forked 816 processes."""
+    from stratcli.trie import most_workers
+
+    sweep = write(tmp_path, GRID)
+    result = runner.invoke(
+        app, ["sweep", str(sweep), "--jobs", "2", "--dask", "tcp://127.0.0.1:1", "--out",
+              str(tmp_path / "d")],
+    )  # fmt: skip
+    assert result.exit_code == 2
+    assert result.stderr.splitlines()[0] == (
+        "note: --jobs 2 is for local worker processes: with --dask the cluster's workers plan"
+    )
+    many = most_workers() + 1
+    result = runner.invoke(app, ["sweep", str(sweep), "--jobs", str(many), "--out",
+                                 str(tmp_path / "o")])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert result.stderr.startswith(f"note: --jobs {many}: at most {most_workers()} worker ")
+    workers = json.loads((tmp_path / "o" / "sweep.json").read_text())["executor"]["workers"]
+    assert workers <= most_workers()
+
+
+def test_a_sweep_stopped_before_it_began_says_nothing_was_written(tmp_path, capsys):
+    """(Ctrl-C while connecting to a cluster: its note had said "0 of 4 tasks kept in OUT"
+    and how to resume, of a folder never made.)"""
+    from stratcli.cli import render
+    from stratcli.cli.sweep import _resume_hint
+    from stratcli.interrupts import Interrupted
+
+    notes = []
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(render, "notes", lambda texts, always=False: notes.extend(texts))
+        with pytest.raises(Interrupted), _resume_hint("stratplan sweep ...", tmp_path / "o", 4):
+            raise Interrupted(2)
+        assert notes == ["sweep: stopped before its first task; nothing written"]
+        (tmp_path / "o").mkdir()
+        with pytest.raises(Interrupted), _resume_hint("again", tmp_path / "o", 4):
+            raise Interrupted(2)
+    assert notes[1] == f"sweep: 0 of 4 tasks kept in {tmp_path / 'o'}; again plans the rest"

@@ -107,3 +107,88 @@ def test_python_callers_read_dask_not_the_flag(tmp_path, closed_port):
     with pytest.raises(InputError) as info:
         stratcli.run_sweep(write(tmp_path, GRID), tmp_path / "o", dask=address)
     assert str(info.value).startswith(expected) and "--dask" not in str(info.value)
+
+
+@pytest.fixture
+def listener():
+    """A local port that accepts connections and then either says something that is not
+    Dask's (an HTTP reply, as a dashboard or web server would) or nothing at all."""
+    import threading
+
+    servers = []
+
+    def serve(reply: bytes | None) -> int:
+        server = socket.socket()
+        server.bind(("127.0.0.1", 0))
+        server.listen(8)
+        server.settimeout(0.2)
+        held, stop = [], threading.Event()
+
+        def accept():
+            while not stop.is_set():
+                try:
+                    conn, _ = server.accept()
+                except OSError:  # (the timeout, or the socket closed)
+                    continue
+                held.append(conn)
+                if reply is not None:
+                    conn.sendall(reply)
+
+        thread = threading.Thread(target=accept, daemon=True)
+        thread.start()
+        servers.append((server, held, stop, thread))
+        return server.getsockname()[1]
+
+    yield serve
+    for server, held, stop, thread in servers:
+        stop.set()
+        thread.join()
+        for conn in held:
+            conn.close()
+        server.close()
+
+
+def test_a_port_that_answers_but_not_as_dask_is_called_so(tmp_path, listener):
+    """(It had come back as numpy's "Unable to allocate 3.07 EiB": Dask's frame header read
+    from an HTTP reply.)"""
+    port = listener(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+    address = f"tcp://127.0.0.1:{port}"
+    out = tmp_path / "o"
+    result = runner.invoke(
+        app, ["sweep", str(write(tmp_path, GRID)), "--dask", address, "--out", str(out)]
+    )
+    assert result.exit_code == 2, result.output
+    assert result.stderr.splitlines() == [
+        f"error: --dask {address}: it answered, but not as a Dask scheduler (a Dask scheduler "
+        "listens on port 8786 by default; 8787 is its dashboard's)"
+    ]
+    assert not out.exists()
+
+
+def test_a_port_that_never_answers_is_given_up(tmp_path, listener, monkeypatch):
+    """A port that accepts and stays silent had kept Client waiting for as long as the other
+    end held the connection (79 s, and more): now the connection's time is bounded."""
+    from stratcli.sweep import executors
+
+    monkeypatch.setattr(executors, "CONNECT_SECONDS", 1.0)
+    monkeypatch.setattr(executors, "GRACE", 0.5)
+    address = f"tcp://127.0.0.1:{listener(None)}"
+    raised = []
+
+    def sweep():  # on a thread: a wait that does not end fails the test instead of hanging it
+        try:
+            stratcli.run_sweep(write(tmp_path, GRID), tmp_path / "o", dask=address)
+        except InputError as exc:
+            raised.append(exc)
+
+    import threading
+
+    thread = threading.Thread(target=sweep, daemon=True)
+    thread.start()
+    thread.join(60)
+    assert not thread.is_alive(), "still waiting for the scheduler after 60 s"
+    assert raised, "no InputError"
+    said = str(raised[0])
+    assert said.startswith(f"dask={address!r}: "), said
+    assert "no Dask scheduler answered there within 1 s" in said or "cannot reach" in said
+    assert not (tmp_path / "o").exists()

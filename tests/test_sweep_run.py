@@ -553,3 +553,36 @@ def test_a_sweep_directory_has_one_writer_at_a_time(tmp_path):
         done = stratcli.run_sweep(path, out, executor=pool)
     assert done.complete and len(read_rows(out / ROWS)) == 2
     assert not (out / CLAIM).exists() and not list(out.glob(".writer*"))
+
+
+def test_rows_read_back_are_in_task_order_with_the_tables_columns(reference, tmp_path):
+    """rows.jsonl holds the rows as their tasks finished: read back (and from a finished
+    sweep resumed) they are by task index, each with results.csv's columns in its order, so
+    that a DataFrame of them is the table (two sweeps' frames compared unequal unsorted)."""
+    import csv
+    import shutil
+
+    out = tmp_path / "out"
+    shutil.copytree(reference.out, out)
+    lines = (out / ROWS).read_text().splitlines()
+    (out / ROWS).write_text("\n".join(reversed(lines)) + "\n")  # as if they finished so
+    with open(out / TABLE) as fh:
+        header = next(csv.reader(fh))
+    resumed = run_sweep(load_sweep(write(tmp_path, GRID)), out, resume=True)
+    for rows in (stratcli.read_sweep(out).rows, resumed.rows):
+        assert list(rows) == sorted(rows) == list(range(len(lines)))
+        for row in rows.values():
+            assert list(row) == [c for c in header if c in row]
+
+
+def test_a_local_pool_starts_no_more_workers_than_tasks_or_four_a_core(monkeypatch, tmp_path):
+    """`--jobs 1000` had forked 816 processes for a sweep of 4 tasks on 2 cores."""
+    from stratcli import trie
+
+    monkeypatch.setattr(trie, "default_jobs", lambda: 2)
+    assert trie.workers_for(1000, 4) == 4
+    assert trie.workers_for(1000, 100) == trie.most_workers() == 8
+    assert trie.workers_for(3, 100) == 3
+    sweep = load_sweep(write(tmp_path, GRID))
+    outcome = run_sweep(sweep, tmp_path / "o", jobs=1000)
+    assert outcome.summary["executor"]["workers"] == min(sweep.count, 8)

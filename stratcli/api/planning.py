@@ -78,7 +78,7 @@ def plan(
     time_scale : float, optional
         Run the planned path this many times faster; default: `planner.time_scale`.
     jobs : int, optional
-        Worker processes in auto mode (default: all cores).
+        Worker processes in auto mode (default: all cores; at most 4 a core).
 
     Returns
     -------
@@ -255,7 +255,7 @@ def plan_auto(
     check : bool
         First check that the candidate strata together reach every direction.
     jobs : int, optional
-        Worker processes (default: all cores).
+        Worker processes (default: all cores; at most 4 a core, `trie.most_workers`).
     progress : callable, optional
         Called as `progress(done, total)` while sequences are planned.
     time_scale : float, optional

@@ -21,7 +21,7 @@ from ..records.comparison import comparison_document
 from ..records.manifest import Phases, phase
 from ..results import Timings
 from ..scenario import LegEntry, Task
-from ..trie import default_jobs
+from ..trie import default_jobs, workers_for
 from .auto import auto_settings, compare_decomposition, decompose_task
 from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
 from .planning import (
@@ -76,7 +76,8 @@ def compare_sequences(
     criterion : str, optional
         energy | peak-control | excursion | duration (default: decompose table, else energy).
     jobs : int, optional
-        Worker processes (default: all cores).
+        Worker processes (default: all cores; at most 4 a core, `trie.most_workers`);
+        ignored with `dask` or `executor`.
     progress : callable, optional
         Called as `progress(done, total)` while sequences are planned.
     exhaustive : bool
@@ -166,7 +167,7 @@ def _cluster(
     if dask is None and executor is None and jobs > 1 and not sys.platform.startswith("linux"):
         from ..sweep.executors import local_executor
 
-        pool = local_executor(jobs)
+        pool = local_executor(workers_for(jobs, jobs))  # (the units are not known here)
         try:
             yield pool
         finally:

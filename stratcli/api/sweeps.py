@@ -83,7 +83,8 @@ def run_sweep(
     out : str or Path, optional
         The sweep directory (default: ``sweeps/<name>``).
     jobs : int, optional
-        Local worker processes (default: all cores); ignored with `dask` or `executor`.
+        Local worker processes (default: all cores; no more than the tasks to plan, nor than
+        4 a core: `trie.most_workers`); ignored with `dask` or `executor`.
     dask : str, optional
         A Dask scheduler's address or scheduler JSON file: run the tasks on that cluster.
     executor : concurrent.futures.Executor, optional
@@ -174,6 +175,7 @@ def read_sweep(path: str | Path) -> SweepReport:
         absent = (k for k in range(spec["count"]) if k not in rows)
         missing = list(islice(absent, MAX_LISTED))
         summary = {**UNSUMMARISED, **(summary or {}), **summarise(spec, rows, missing)}
+    rows = sweepdir.in_table_order(list(spec.get("keys", [])), rows)  # (as they finished)
     return SweepReport(path, spec, rows, summary, finished)
 
 

@@ -33,6 +33,7 @@ from .options import (
     TaskScenario,
     directory_value,
     file_value,
+    jobs_notes,
 )
 
 Format = Annotated[
@@ -257,6 +258,7 @@ def compare_sequences(
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     api.draw_ahead()  # matplotlib loads while the sequences are planned
+    render.notes(jobs_notes(jobs, dask))
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     shown = bars.shown(quiet, json_output)
     with render.reported(), bars.progress_bar(shown, waiting) as bar, legs_as_notes():

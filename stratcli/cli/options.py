@@ -104,3 +104,21 @@ AutoJobs = Annotated[
         help="Auto mode: worker processes comparing the sequences (default: all cores).", min=1
     ),
 ]
+
+
+def jobs_notes(jobs: int | None, dask: str | None) -> list[str]:
+    """What the command says of a `--jobs` it will not honour as given: with --dask (the
+    cluster's workers plan; it was ignored without a word), or beyond the most worker
+    processes a local pool here starts (`trie.most_workers`)."""
+    if jobs is None:
+        return []
+    if dask:
+        return [f"--jobs {jobs} is for local worker processes: with --dask the cluster's "
+                "workers plan"]  # fmt: skip
+    from ..trie import PER_CORE, default_jobs, most_workers  # start-up speed
+
+    if jobs <= most_workers():
+        return []
+    return [f"--jobs {jobs}: at most {most_workers()} worker processes here ({PER_CORE} a core "
+            f"on {default_jobs()} cores; planning is CPU work), and no more than there are "
+            "tasks"]  # fmt: skip

@@ -27,7 +27,7 @@ from rich.text import Text
 from ..errors import UnusedLegsWarning
 from ..wording import counted
 from . import progress, render
-from .options import Quiet, directory_value, file_value
+from .options import Quiet, directory_value, file_value, jobs_notes
 
 REASON_WIDTH = 240  # characters of a failure's message in a sweep's summary (all: results.csv)
 
@@ -147,6 +147,7 @@ def sweep(
             render.notes([str(w.message)])
         else:
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    render.notes(jobs_notes(jobs, dask))
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     target = loaded.out_dir(out)
     again = _again_command(file, target, jobs, dask, records)  # how to go on after a stop
@@ -198,6 +199,9 @@ def _resume_hint(again: str, out: Path, count: int) -> Iterator[None]:
     except Interrupted:
         from ..records.sweepdir import ROWS, read_rows
 
+        if not out.is_dir():  # stopped before it began (connecting to a cluster, say)
+            render.notes(["sweep: stopped before its first task; nothing written"], always=True)
+            raise
         done = len(read_rows(out / ROWS))  # (a torn last row is planned again)
         rest = "plans the rest" if done < count else "writes its table, summary and plots"
         kept = f"sweep: {done} of {counted(count, 'task')} kept in {out}; {again} {rest}"

@@ -23,7 +23,11 @@ from .spawning import BareSpawnContext
 
 __all__ = ["ExecutorInfo", "dask_executor", "local_executor"]
 
-CONNECT_TIMEOUT = "20s"  # to reach a Dask scheduler
+CONNECT_SECONDS = 20.0  # to reach a Dask scheduler and hear from it
+GRACE = 5.0  # s beyond it before a connection that has not answered is given up
+NOT_A_SCHEDULER = (  # the hint of an address that answers, but not as a scheduler
+    "a Dask scheduler listens on port 8786 by default; 8787 is its dashboard's"
+)
 PROBE_TIMEOUT = 5.0  # s: a host:port that refuses or does not exist fails before Client waits
 
 
@@ -99,16 +103,44 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
         raise _bad_dask(address, problem)
     if (refused := _unreachable(target)) is not None:
         raise _bad_dask(address, f"cannot reach the scheduler ({refused})")
-    try:
-        client = Client(target, timeout=CONNECT_TIMEOUT)
-    except Exception as exc:  # whatever distributed raises for an address it cannot use
-        raise _bad_dask(address, f"cannot reach the scheduler ({exc})") from None
+    client = _connected(Client, target, address)
     try:
         workers = len(client.scheduler_info().get("workers", {}))
         info = ExecutorInfo("dask", workers, str(client.scheduler.address))
         yield client.get_executor(pure=False), info
     finally:
         client.close()
+
+
+def _connected(Client, target: str, address: str):
+    """`Client(target)`, or the InputError of `address` that says why not. Made on a thread
+    of its own and given `CONNECT_SECONDS` (and `GRACE`): a port that accepts connections but
+    is not a scheduler's (its dashboard's, a web server's) had kept Client waiting past its
+    own timeout for as long as the other end kept the connection open, and a reply that was
+    not Dask's came back as numpy's "Unable to allocate 3.07 EiB"."""
+    made: dict = {}
+
+    def connect() -> None:
+        try:
+            made["client"] = Client(target, timeout=f"{CONNECT_SECONDS:g}s")
+        except Exception as exc:  # whatever distributed raises for an address it cannot use
+            made["error"] = exc
+
+    thread = threading.Thread(target=connect, name="stratplan-dask-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_SECONDS + GRACE)
+    if thread.is_alive():  # (left to end with the process: Client cannot be interrupted)
+        raise _bad_dask(
+            address,
+            f"no Dask scheduler answered there within {CONNECT_SECONDS:g} s, though the port "
+            f"accepts connections ({NOT_A_SCHEDULER})",
+        )
+    exc = made.get("error")
+    if isinstance(exc, MemoryError | ValueError | TypeError | KeyError):  # a reply not Dask's
+        raise _bad_dask(address, f"it answered, but not as a Dask scheduler ({NOT_A_SCHEDULER})")
+    if exc is not None:
+        raise _bad_dask(address, f"cannot reach the scheduler ({exc})")
+    return made["client"]
 
 
 def _bad_dask(address: str | None, message: str) -> InputError:
@@ -148,7 +180,7 @@ def _unreachable(address: str) -> str | None:
     """Why a TCP connection to a scheduler's host:port fails at once (refused, unknown host,
     no route), or None: it connects, it did not answer within `PROBE_TIMEOUT`, or `address`
     is not a TCP one (inproc://, ucx://). `Client` itself retries such failures for
-    `CONNECT_TIMEOUT` before giving up; a scheduler that is up sees one connection closed
+    `CONNECT_SECONDS` before giving up; a scheduler that is up sees one connection closed
     before the handshake (logged at INFO level)."""
     import socket
 

@@ -177,7 +177,8 @@ def run_sweep(
     info : ExecutorInfo, optional
         What `executor` is, for sweep.json (default: its class name and worker count).
     jobs : int, optional
-        Worker processes of the default executor (default: all cores).
+        Worker processes of the default executor (default: all cores; no more than the
+        tasks to plan, nor than 4 a core: `trie.workers_for`).
     resume : bool
         Reopen `out` and plan only the tasks it has no row of.
     records : str
@@ -190,7 +191,7 @@ def run_sweep(
     SweepOutcome
         The rows, sweep.json and the tasks still missing (a worker died: resume).
     """
-    from ..trie import default_jobs
+    from ..trie import default_jobs, workers_for
 
     if records not in RECORDS:
         raise InputError([Problem("records", f"one of {', '.join(RECORDS)} (got {records!r})")])
@@ -199,15 +200,15 @@ def run_sweep(
     files = sweep_files(sweep, set(sweepdir.NAMES))
     rows = sweepdir.prepare(out, spec_document(sweep), files, resume)
     rows = {k: v for k, v in rows.items() if 0 <= k < sweep.count}
-    finished = _finished(out, rows, sweep.count) if resume else None
+    finished = _finished(out, rows, sweep) if resume else None
     if finished is not None:  # nothing to plan: the summary as written, files untouched
         return finished
     resumed = len(rows)
     own = executor is None
     if own:
-        jobs = jobs or default_jobs()
-        executor = local_executor(jobs)
-        info = ExecutorInfo("process-pool", jobs)
+        workers = workers_for(jobs or default_jobs(), sweep.count - len(rows))
+        executor = local_executor(workers)
+        info = ExecutorInfo("process-pool", workers)
     elif info is None:
         workers = getattr(executor, "_max_workers", None) or 0
         info = ExecutorInfo(type(executor).__name__, int(workers))
@@ -273,7 +274,7 @@ def run_sweep(
     summary, files = finish(
         sweep, out, rows, info, wall, planned, resumed, missing, started.isoformat(), lost
     )
-    rows = dict(sorted(rows.items()))  # in task order, as results.csv (they came as finished)
+    rows = sweepdir.in_table_order(list(sweep.keys), rows)  # (they came as finished)
     return SweepOutcome(out, rows, summary, planned, resumed, missing, files + written)
 
 
@@ -302,12 +303,13 @@ def _lost_before(out: Path, rows: dict[int, dict[str, Any]]) -> dict[int, str]:
     }
 
 
-def _finished(out: Path, rows: dict[int, dict[str, Any]], count: int) -> SweepOutcome | None:
+def _finished(out: Path, rows: dict[int, dict[str, Any]], sweep: Sweep) -> SweepOutcome | None:
     """The outcome of a finished sweep (`sweepdir.finished_summary`), or None: killed before
     its summary, it has its tables, plots and summary written again."""
-    summary = sweepdir.finished_summary(out, rows, count)
+    summary = sweepdir.finished_summary(out, rows, sweep.count)
     if summary is None:
         return None
+    rows = sweepdir.in_table_order(list(sweep.keys), rows)
     names = (sweepdir.TABLE, *summary.get("plots", ()))
     files = [out / name for name in names if (out / name).is_file()]
     return SweepOutcome(out, rows, summary, 0, len(rows), [], files, reprinted=True)
