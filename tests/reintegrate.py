@@ -177,6 +177,8 @@ def verify(task, doc):
         assert leg["energy"] == pytest.approx(again["energy"], rel=1e-6, abs=1e-9)
         previous_end = np.array(leg["end"])
     assert doc["total_energy"] == pytest.approx(sum(r["energy"] for r in replay), rel=1e-6)
+    # the plan ends where its last leg does (result.json's top-level end, not its goal)
+    np.testing.assert_allclose(doc["end"], replay[-1]["end"], atol=1e-8)
     check_switches(doc)
 
 

@@ -77,3 +77,18 @@ def test_distances_broadcast_over_samples():
     many = segment_polygon_distance(a, b, box)
     one = [float(segment_polygon_distance(a[k], b[k], box[k])) for k in range(50)]
     np.testing.assert_array_equal(many, one)
+
+
+def test_a_polygon_wholly_inside_another_is_at_distance_zero_and_penetrates():
+    """No edge of either crosses the other's, so their edges are apart: only the containment
+    test says they overlap (either way round), and the signed clearance is then the depth."""
+    from stratcli.body_clearances import _signed
+    from stratcli.clearance import penetration
+
+    big = box_corners([0.1, -0.2], [2.0, 1.0], 0.3)
+    small = box_corners([0.15, -0.1], [0.3, 0.2], -0.7)
+    assert float(segment_segment_distance(big[0], big[1], small[0], small[1])) > 0.1
+    for p, q in ((big, small), (small, big)):
+        assert float(polygon_polygon_distance(p, q)) == 0.0
+        signed = float(_signed(polygon_polygon_distance(p, q)[None], p[None], q[None])[0])
+        assert signed == -float(penetration(p, q)) < -0.1

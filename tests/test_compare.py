@@ -204,6 +204,26 @@ def test_candidates_failed_only_by_a_limit_rank_by_how_far_they_stalled_outside(
     )
 
 
+def test_candidates_that_did_not_reach_the_goal_rank_by_how_many_legs_they_planned():
+    """Among failed candidates that did not reach every goal: more legs planned first, then
+    the smaller error of the leg that failed, then enumeration order; rejected ones last."""
+    from types import SimpleNamespace
+
+    from stratcli.compare import Outcome, rank
+
+    def failed(k, reached, error, n=3):
+        legs = [SimpleNamespace(converged=i < reached, error=0.0) for i in range(reached)]
+        if reached < n:  # the leg it stopped on
+            legs.append(SimpleNamespace(converged=False, error=error))
+        plan = SimpleNamespace(legs=legs, constraints=None)
+        cand = SimpleNamespace(legs=[None] * n, label=f"(S{k})", strategy="conservative")
+        return Outcome(k, cand, plan, "failed", "did not reach", "did not reach")
+
+    rejected = Outcome(4, SimpleNamespace(legs=[None]), None, "failed", "refused", "refused")
+    outcomes = [failed(0, 1, 0.1), failed(1, 2, 0.5), rejected, failed(3, 2, 0.2)]
+    assert rank(outcomes, "energy") == [3, 1, 0, 4]
+
+
 def test_a_failed_candidates_partial_duration_does_not_make_the_durations_unequal():
     """A failed candidate keeps the duration of the legs it planned (1 s of 2): the exhaustive
     table then said "ranked by energy at an equal total duration of 2 s", with an "energy in

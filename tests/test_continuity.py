@@ -40,6 +40,41 @@ def test_boundary_conditions_hold_after_elimination():
     assert elim.free == 14 - 6
 
 
+def test_stacked_conditions_continue_each_leg_from_the_end_of_the_one_before():
+    """All legs' conditions at once (the energy objective's), legs of unequal durations:
+    each leg's controls start where the one before ends (its own duration, not the next
+    leg's), value and derivative, and an input the next leg leaves ends at zero (lr)."""
+    from stratcli.continuity import sequence_constraints
+
+    system = preset("one-arm")
+    actives = [system.stratum(s).active for s in ("S2", "S3", "S1")]
+    durations = [0.7, 1.9, 1.3]
+    cons = sequence_constraints(
+        BASIS, durations, actives, system.inputs, "lr-C1", soft_start=False, full_stop=False
+    )
+    elim = eliminate(cons)
+    lam = elim.coefficients(np.random.default_rng(2).normal(size=elim.free))
+    sizes = [len(a) * BASIS.size for a in actives]
+    parts = np.split(lam, np.cumsum(sizes)[:-1])
+    per_leg = [p.reshape(len(a), BASIS.size) for p, a in zip(parts, actives, strict=True)]
+    for i in range(1, len(actives)):
+        before, after, T = per_leg[i - 1], per_leg[i], durations[i - 1]
+        for a, k in enumerate(actives[i]):
+            if k in actives[i - 1]:
+                b = actives[i - 1].index(k)
+                assert after[a] @ BASIS.values(0.0) == pytest.approx(
+                    before[b] @ BASIS.values(T), abs=1e-10
+                )
+                assert after[a] @ BASIS.derivatives(0.0) == pytest.approx(
+                    before[b] @ BASIS.derivatives(T), abs=1e-10
+                )
+            else:  # (lr: it ended at zero on the leg before, if that leg drove it)
+                assert after[a] @ BASIS.values(0.0) == pytest.approx(0.0, abs=1e-10)
+        for b, k in enumerate(actives[i - 1]):
+            if k not in actives[i]:
+                assert before[b] @ BASIS.values(T) == pytest.approx(0.0, abs=1e-10)
+
+
 def test_lr_mode_ends_unused_inputs_at_zero_and_l_mode_lets_them_jump(scenarios_dir):
     """Sim 1: under l-C1, u1 (unused on the last leg) may jump to 0; under lr-C1 it may not."""
     _, lr = plan_document(scenarios_dir / "sim1_lr_c1.toml", objective="newton")

@@ -205,6 +205,10 @@ def test_a_budget_the_rate_limits_cannot_meet_fails_and_its_advice_meets_it(tmp_
     again = time_scaled(slower, 2.0)
     assert again.ok and again.message == "" and again.duration == pytest.approx(budget)
     assert time_scaled(outcome.result, 1.0).ok  # the plan given: a speed-up of 1 fits
+    # the budget is kept to rounding, not to a slack: a millionth past it breaks it
+    past = time_scaled(outcome.result, 1.0 / (1.0 + 1e-6))
+    assert not past.ok and past.constraints.violation["limit"] == "total_duration"
+    assert time_scaled(outcome.result, 1.0 / (1.0 + 1e-12)).ok
 
 
 def test_a_failed_plan_of_optimised_durations_advises_the_budget_not_a_longer_leg():

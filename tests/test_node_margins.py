@@ -198,3 +198,31 @@ def test_the_curvature_of_limits_on_theta_is_its_exact_curvature_at_the_nodes():
     direction, numeric = _jacobian_differences(margins, z, weights, rng)
     assert np.abs(numeric).max() > 1e-2  # a curvature to compare
     np.testing.assert_allclose(H @ direction, numeric, atol=1e-6 * np.abs(numeric).max())
+
+
+def test_a_joint_limits_rows_are_its_distance_to_the_bound_less_the_cushion():
+    """At every node, the lower and the upper bound's rows of one joint give the same joint
+    value (bound ± margin, the cushion added back), and at each leg's last node (its end) it
+    is the free plan's own end; the cushion lowers each row by itself."""
+    from stratcli.node_margins import CUSHION
+
+    raw = tomllib.loads((ROOT / "scenarios" / "sim4_task_d_constrained.toml").read_text())
+    raw["planner"]["objective"] = "newton"
+    del raw["constraints"]["self_collision"], raw["constraints"]["clearance"]
+    task, problem, z = _problem(raw)
+    result = plan({k: v for k, v in raw.items() if k != "constraints"})
+    margins = NodeMargins(problem, task.system, task.constraints, nodes=40)
+    g = margins(z, False)[0]
+    bare = NodeMargins(problem, task.system, task.constraints, nodes=40, cushion=0.0)
+    np.testing.assert_allclose(g, bare(z, False)[0] - CUSHION, rtol=0, atol=1e-15)
+    lower, upper = task.constraints.lower, task.constraints.upper
+    rows: dict[tuple[int, int], dict[float, np.ndarray]] = {}
+    for leg, i, sign, first, count in margins._limit_rows:
+        value = g[first : first + count] + CUSHION
+        q = lower[i] + value if sign > 0 else upper[i] - value
+        rows.setdefault((leg, i), {})[sign] = q
+    assert rows
+    for (leg, i), both in rows.items():
+        np.testing.assert_allclose(both[1.0], both[-1.0], rtol=0, atol=1e-12)
+        # (z is the plan's coefficients projected onto the continuity conditions: to 1e-6)
+        assert both[1.0][-1] == pytest.approx(result.legs[leg].end[i], abs=1e-6)

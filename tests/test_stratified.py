@@ -53,6 +53,25 @@ def test_time_scaling_keeps_the_path(task_d):
         assert again["energy"] == pytest.approx(leg.energy * s, rel=1e-8)
 
 
+def test_time_scaling_scales_the_jumps_at_the_switches_as_the_controls():
+    """Run s times faster, u is s u(s t) and u' is s² u'(s t): a switch's jumps are those of
+    the scaled legs' own controls (checked where they are not zero, continuity "none": a
+    plan whose jumps are all zero says nothing of their factor)."""
+    task = stratcli.load_scenario(ROOT / "scenarios" / "sim4_task_d.toml")
+    task = task.with_changes({"planner": {"continuity": "none", "objective": "newton"}})
+    plan = stratcli.plan(task, check=False)
+    assert plan.ok and plan.switches
+    s = 2.5
+    fast = time_scaled(plan, s)
+    zero = np.array([0.0])
+    for switch, before, after in zip(fast.switches, fast.legs, fast.legs[1:], strict=False):
+        u, du = before.end_controls()
+        jump, slope = after.controls(zero)[0] - u, after.controls(zero, True)[0] - du
+        assert np.abs(slope).max() > 1.0  # not zero: its factor shows
+        np.testing.assert_allclose(switch.jump, jump, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(switch.jump_derivative, slope, rtol=1e-12, atol=1e-9)
+
+
 def test_a_time_scaled_plans_record_re_plans_to_it(tmp_path):
     """A record written from `time_scaled(plan, 2)` said time_scale 2 in result.json but 1
     in its scenario.toml and resolved.json: re-planning it gave the plan before (84.04 over
