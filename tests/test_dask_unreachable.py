@@ -38,18 +38,23 @@ def test_compare_sequences_on_a_refused_address_is_one_line(tmp_path, closed_por
     ]
 
 
-def test_sweep_on_a_refused_address_is_one_line_and_writes_nothing(tmp_path, closed_port):
-    address = f"127.0.0.1:{closed_port}"  # no scheme: Dask's default, tcp
+def _refused_sweep(tmp_path, address: str) -> list[str]:
+    """`stratplan sweep --dask address`: exit 2, nothing written; its stderr lines."""
     out = tmp_path / "o"
     result = runner.invoke(
         app, ["sweep", str(write(tmp_path, GRID)), "--dask", address, "--out", str(out)]
     )
     assert result.exit_code == 2, result.output
-    assert result.stderr.splitlines() == [
+    assert not out.exists()
+    return result.stderr.splitlines()
+
+
+def test_sweep_on_a_refused_address_is_one_line_and_writes_nothing(tmp_path, closed_port):
+    address = f"127.0.0.1:{closed_port}"  # no scheme: Dask's default, tcp
+    assert _refused_sweep(tmp_path, address) == [
         f"error: --dask {address}: cannot reach the scheduler "
         f"(connection refused at 127.0.0.1:{closed_port})"
     ]
-    assert not out.exists()
 
 
 def test_an_unknown_host_is_named(tmp_path):
@@ -72,15 +77,9 @@ def test_no_progress_is_reported_before_the_cluster_answers(closed_port):
     [("localhost:-1", "-1"), ("tcp://localhost:70000", "70000"), ("localhost:abc", "abc")],
 )
 def test_an_invalid_port_is_called_so_not_an_unknown_host(tmp_path, address, port):
-    out = tmp_path / "o"
-    result = runner.invoke(
-        app, ["sweep", str(write(tmp_path, GRID)), "--dask", address, "--out", str(out)]
-    )
-    assert result.exit_code == 2, result.output
-    assert result.stderr.splitlines() == [
+    assert _refused_sweep(tmp_path, address) == [
         f"error: --dask {address}: invalid port '{port}' (a number from 0 to 65535)"
     ]  # verbatim: `:-1` is no emoji
-    assert not out.exists()
 
 
 def test_an_inproc_address_is_refused_in_words(tmp_path):
@@ -153,16 +152,10 @@ def test_a_port_that_answers_but_not_as_dask_is_called_so(tmp_path, listener):
     from an HTTP reply.)"""
     port = listener(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
     address = f"tcp://127.0.0.1:{port}"
-    out = tmp_path / "o"
-    result = runner.invoke(
-        app, ["sweep", str(write(tmp_path, GRID)), "--dask", address, "--out", str(out)]
-    )
-    assert result.exit_code == 2, result.output
-    assert result.stderr.splitlines() == [
+    assert _refused_sweep(tmp_path, address) == [
         f"error: --dask {address}: it answered, but not as a Dask scheduler (a Dask scheduler "
         "listens on port 8786 by default; 8787 is its dashboard's)"
     ]
-    assert not out.exists()
 
 
 def test_a_port_that_never_answers_is_given_up(tmp_path, listener, monkeypatch):
