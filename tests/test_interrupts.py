@@ -390,6 +390,11 @@ DAMAGE = {
     ),
     "NaN": ("result.json", lambda d: d["legs"][0].update(energy=math.nan), "legs[0].energy is nan"),
     "Infinity": ("result.json", lambda d: d.update(total_energy=math.inf), "total_energy is inf"),
+    "best past the starts": (  # (show indexed the starts with it: an IndexError traceback)
+        "result.json",
+        lambda d: d["optimisation"].update(best=len(d["optimisation"]["starts"])),
+        "optimisation.best is not the index of a start",
+    ),
 }
 
 

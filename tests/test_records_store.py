@@ -24,3 +24,23 @@ def test_replanning_a_record_reproduces_it(tmp_path):
         for a, k in enumerate(leg.active):
             coeffs = old["pieces"][0]["coefficients"][task.system.inputs[k]]
             assert leg.coefficients[a].tolist() == pytest.approx(coeffs, abs=1e-9)
+
+
+def test_a_record_from_before_targets_reads_its_free_goals_as_free(tmp_path):
+    """Records written before each leg's `targets`: the unlocked coordinates with a goal
+    (a free "*" goal is none), as the planner chose them."""
+    import json
+    from pathlib import Path
+
+    import stratcli
+
+    root = Path(__file__).resolve().parents[1]
+    plan = stratcli.plan(root / "scenarios" / "biped.toml", check=False)
+    assert any(len(leg.targets) < len(plan.coordinates) - len(leg.locked) for leg in plan.legs)
+    run = stratcli.write_record(tmp_path / "runs", plan)
+    doc = json.loads((run / "result.json").read_text())
+    for leg in doc["legs"]:
+        del leg["targets"]
+    (run / "result.json").write_text(json.dumps(doc))
+    again = stratcli.load_run(run)
+    assert [leg.targets for leg in again.legs] == [leg.targets for leg in plan.legs]

@@ -28,6 +28,33 @@ def test_a_torn_last_line_is_ignored_and_cut_before_appending(tmp_path):
     assert sorted(sweepdir.read_rows(path)) == [0, 1, 2]
 
 
+def test_the_first_row_of_a_task_wins(tmp_path):
+    """A task's row written twice (a resumed sweep planning a torn one again): the first."""
+    path = tmp_path / sweepdir.ROWS
+    with sweepdir.RowLog(path) as log:
+        log.append({"index": 0, "status": "ok", "energy": 1.0})
+        log.append({"index": 0, "status": "failed", "energy": 2.0})
+    assert sweepdir.read_rows(path) == {0: {"index": 0, "status": "ok", "energy": 1.0}}
+
+
+def test_the_summary_counts_and_energies_are_those_of_the_rows():
+    """Min, median (of an even count: the mean of the middle two) and max of the ok rows'
+    energies; the success rate of the rows there are (missing tasks apart); the best task."""
+    from stratcli.sweep.outputs import summarise
+
+    spec = {"name": "s", "mode": "legs", "kind": "grid", "count": 6, "keys": ["goal.q1"]}
+    energies = {0: 4.0, 1: 1.0, 2: None, 3: 3.0, 4: 2.0}
+    rows = {
+        k: {"index": k, "goal.q1": 0.1 * k, "status": "ok" if e else "failed", "energy": e}
+        for k, e in energies.items()
+    }
+    summary = summarise(spec, rows, missing=[5])
+    assert summary["energy"] == {"min": 1.0, "median": 2.5, "max": 4.0}
+    assert summary["counts"]["ok"] == 4 and summary["counts"]["failed"] == 1
+    assert summary["success_rate"] == 4 / 5 and summary["missing"] == 1
+    assert summary["best"]["index"] == 1 and summary["best"]["inputs"] == {"goal.q1": 0.1}
+
+
 def test_the_table_is_in_task_order_and_reads_back_exactly(tmp_path):
     rows = {
         2: {"index": 2, "goal.q1": 1 / 3, "status": "ok", "energy": 2 / 7, "sequence": "S1,S2"},

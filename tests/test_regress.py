@@ -348,3 +348,24 @@ def test_energy_moved_between_legs_is_shown_not_a_regression():
     ]
     rounding = {"x": {**base["x"], "energies": [4.0 + 1e-9, 6.0 - 1e-9]}}
     assert compare(rounding, base, tol) == []
+
+
+def test_a_baselines_own_tolerances_decide_not_the_defaults(tmp_path):
+    """A baseline loosened for another machine's maths libraries (energy_rel 1e-2) passes a
+    0.5 % move; one tightened below the defaults fails a move the defaults would pass."""
+    from stratcli.regress import DEFAULT_TOLERANCES, compare, load_baseline
+
+    summary = {"status": "ok", "total_energy": 100.0, "errors": [1e-9], "energies": [100.0]}
+    path = tmp_path / "baseline.json"
+    for tolerances, moved, fails in (({"energy_rel": 1e-2}, 1.005, False),
+                                     ({"energy_rel": 1e-9}, 1 + 1e-7, True)):  # fmt: skip
+        path.write_text(json.dumps({
+            "schema": "stratplan.baseline/1", "tolerances": tolerances,
+            "scenarios": {"d": summary},
+        }))  # fmt: skip
+        scenarios, read = load_baseline(path)
+        assert read == DEFAULT_TOLERANCES | tolerances
+        now = {"d": {**summary, "total_energy": 100.0 * moved}}
+        assert any(d.regression for d in compare(now, scenarios, read)) is fails
+        defaults = compare(now, scenarios, DEFAULT_TOLERANCES)  # the other way round
+        assert any(d.regression for d in defaults) is not fails
