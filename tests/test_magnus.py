@@ -230,3 +230,28 @@ def test_newton_with_jacobians_added_later_takes_the_same_steps(arm3):
     assert eager.error <= 1e-9
     assert eager.iterations == deferred.iterations
     np.testing.assert_array_equal(deferred.z, eager.z)
+
+
+def test_the_attitude_error_and_its_jacobian_on_the_group():
+    """The residual of a fully targeted attitude is log(R_goalᵀ R(φ)) (the goal's frame: the
+    rotation left to do, not R R_goalᵀ), with its Jacobian J_r⁻¹(e) J_r(φ) ∂φ/∂λ equal to
+    finite differences, far from the goal as near it."""
+    from stratcli.magnus import residual_on_group
+
+    rng = np.random.default_rng(5)
+    k, n, p = 2, 5, 7  # two joints, then the attitude (rx, ry, rz); seven coefficients
+    end0, J = rng.normal(size=n), rng.normal(size=(n, p))
+    targets = np.arange(n)
+    for goal_attitude in (rng.normal(size=3) * 1.2, end0[k:] + 1e-3):
+        aim = np.concatenate([rng.normal(size=k), goal_attitude])
+        r, Jr = residual_on_group(end0, J, aim, targets, k)
+        e = so3.log(so3.exp(goal_attitude).T @ so3.exp(end0[k:]))
+        np.testing.assert_allclose(r[k:], e, atol=1e-12)
+        np.testing.assert_allclose(r[:k], end0[:k] - aim[:k], atol=1e-15)
+        h = 1e-6
+        numeric = np.column_stack([
+            (residual_on_group(end0 + h * J[:, j], None, aim, targets, k)[0]
+             - residual_on_group(end0 - h * J[:, j], None, aim, targets, k)[0]) / (2 * h)
+            for j in range(p)
+        ])  # fmt: skip
+        np.testing.assert_allclose(Jr, numeric, atol=1e-7)

@@ -66,3 +66,28 @@ def test_a_dask_cluster_gives_the_forked_comparison(forked, tmp_path):
         newton = compare_sequences(_task("newton"), dask=cluster.scheduler_address)
     assert _doc(newton) == _doc(forked)
     assert _doc(energy) == _doc(compare_sequences(_task("energy"), jobs=2))
+
+
+def test_legs_share_a_node_only_when_everything_that_plans_them_is_the_same():
+    """Stratum, method, duration and via (and what the next leg's inputs ask of its end):
+    two sequences whose first legs differ in duration alone plan that leg twice."""
+    import numpy as np
+
+    from stratcli.models.presets import preset
+    from stratcli.settings import PlannerSettings
+    from stratcli.stratified import LegSpec
+    from stratcli.trie import build_trie
+
+    system, settings = preset("one-arm"), PlannerSettings()
+    via, goal = np.array([0.1, 0.2, 0.0, 0.0]), np.array([0.1, 0.2, 0.3, 0.1])
+
+    def leg(stratum, to, duration=1.0):
+        return LegSpec(stratum=stratum, goal=to, method="newton", duration=duration)
+
+    other = goal + np.array([0.0, 0.0, 0.1, 0.0])
+    same = [[leg("S3", via), leg("S1", goal)], [leg("S3", via), leg("S1", other)]]
+    nodes, paths = build_trie(system, settings, same)
+    assert paths[0][0] == paths[1][0] and len(nodes) == 3  # the first leg planned once
+    longer = [[leg("S3", via), leg("S1", goal)], [leg("S3", via, 2.0), leg("S1", goal)]]
+    nodes, paths = build_trie(system, settings, longer)
+    assert paths[0][0] != paths[1][0] and len(nodes) == 4
