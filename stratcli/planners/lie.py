@@ -50,6 +50,8 @@ RETRIES = 6  # halvings of γ per step when the true step does not lower the err
 STARTS = 3  # seeded starts of the eq.-24 Newton method per step, until one finds a solution
 RCOND = 1e-10  # directions of eq. 22 weaker than this (relative) are not asked for
 STALL_STEPS = 3  # consecutive steps without progress before the leg gives up
+# `_StepSolver.cheapest` stops where a relative step below this no longer halves the last
+ROUNDING_STEP = 1e-6
 
 
 class _StepSolver:
@@ -99,6 +101,7 @@ class _StepSolver:
         r, Jz = self.residual(z)
         grad = 2.0 * (self.H @ z + self.g)
         nu = np.linalg.lstsq(Jz.T, grad, rcond=None)[0]
+        last = np.inf  # the last relative step
         for _ in range(max_iter):
             self.iterations += 1
             lam = self.elim.coefficients(z)
@@ -116,11 +119,12 @@ class _StepSolver:
             grad = 2.0 * (self.H @ z + self.g)
             if not np.all(np.isfinite(z)):
                 break
-            if (
-                np.linalg.norm(d[: len(z)]) <= 1e-10 * (1.0 + np.linalg.norm(z))
-                and float(np.linalg.norm(r)) <= self.tol
-            ):
+            step = float(np.linalg.norm(d[: len(z)])) / (1.0 + float(np.linalg.norm(z)))
+            if step <= 1e-10 and float(np.linalg.norm(r)) <= self.tol:
                 break
+            if step <= ROUNDING_STEP and step > 0.5 * last:  # no longer contracting: rounding
+                break  # (the steps stall at 1e-8 relative after 8-10 quadratic ones: Sim 3's
+            last = step  # steps ran all 30 iterations, a third of its plan's time)
         if not np.all(np.isfinite(z)):
             return start
         z, err = self.feasible(z, max_iter=20, mu=1e-8)
