@@ -120,5 +120,5 @@ def jobs_notes(jobs: int | None, dask: str | None) -> list[str]:
     if jobs <= most_workers():
         return []
     return [f"--jobs {jobs}: at most {most_workers()} worker processes here ({PER_CORE} a core "
-            f"on {default_jobs()} cores; planning is CPU work), and no more than there are "
-            "tasks"]  # fmt: skip
+            f"on {default_jobs()} cores; planning is CPU work), and no more than there is "
+            "work for"]  # fmt: skip

@@ -281,12 +281,8 @@ def in_table_order(keys: list[str], rows: dict[int, dict[str, Any]]) -> dict[int
     """The rows by task index, each row's keys in results.csv's column order (`columns`):
     ``pandas.DataFrame.from_dict(rows, orient="index")`` is the table (the rows came in the
     order their tasks finished, and two sweeps' frames compared unequal until sorted)."""
-    ordered = [rows[k] for k in sorted(rows)]
-    cols = columns(keys, ordered)
-    return {
-        row_index: {c: row[c] for c in cols if c in row}
-        for row_index, row in zip(sorted(rows), ordered, strict=True)
-    }
+    cols = columns(keys, [rows[k] for k in sorted(rows)])
+    return {k: {c: rows[k][c] for c in cols if c in rows[k]} for k in sorted(rows)}
 
 
 def _cell(value: Any) -> str:
