@@ -51,7 +51,7 @@ from .metrics import as_run, peak_and_excursion
 from .models.system import System
 from .screen import legs_shared, screen_candidates
 from .settings import PlannerSettings
-from .trie import STATE, compare_shared, compare_whole
+from .trie import STATE, compare_shared, compare_whole, most_workers
 
 SCREEN_TOP = 1  # candidates fully searched (lowest bounds) before any is pruned
 
@@ -97,6 +97,7 @@ def compare(
     """
     if criterion not in CRITERIA:
         raise ValueError(f"unknown criterion {criterion!r} (known: {', '.join(CRITERIA)})")
+    jobs = max(1, min(jobs, most_workers()))  # (a pool that forks starts every worker at once)
     start = np.asarray(start, dtype=float)
     advance = progress or (lambda k: None)
     clock = time.perf_counter()

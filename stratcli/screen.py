@@ -79,15 +79,7 @@ from .frozen_json import FrozenDict
 from .interrupts import checkpoint
 from .leg_bounds import leg_items, plan_alone
 from .leg_floors import floors_known, leg_floor
-from .trie import (
-    STATE,
-    most_workers,
-    plan_whole,
-    run_units,
-    stop_workers,
-    submit,
-    worker_init,
-)
+from .trie import STATE, plan_whole, run_units, stop_workers, submit, worker_init
 from .values import MadeAgainOnUnpickling
 
 __all__ = ["Screen", "legs_shared", "screen_candidates"]
@@ -231,7 +223,6 @@ def screen_candidates(system, settings, start, candidates, valid, jobs, advance,
 
     Returns (planned, requested, plans, times, screen): the legs planned and requested, the
     plans and planning times of the searched candidates only, and the `Screen`."""
-    jobs = min(jobs, most_workers())  # (a pool that forks starts every worker at once)
     pool = _pool(jobs)
     try:
         return _branch_and_bound(

@@ -246,3 +246,14 @@ def test_a_failed_candidates_partial_duration_does_not_make_the_durations_unequa
     bounded = Outcome(3, legs(3), None, "bounded", "", "", screened=True)
     longer = Comparison([ok, bounded], [0, 1], "energy", 1, 2, 2, 0.0, False, 2.0)
     assert not longer.equal_durations and "at an equal total duration of 2 s" in longer.choice()
+
+
+def test_a_comparison_starts_no_more_than_four_workers_a_core(monkeypatch):
+    """(`--jobs 100` forked 100 processes for 18 sequences on 2 cores; its footer said so.)"""
+    from conftest import ROOT as root
+
+    from stratcli import api, trie
+
+    monkeypatch.setattr(trie, "default_jobs", lambda: 1)
+    outcome = api.compare_sequences(root / "scenarios" / "sim4_auto.toml", jobs=1000)
+    assert outcome.comparison.jobs == trie.most_workers() == 4

@@ -164,7 +164,6 @@ def test_a_port_that_never_answers_is_given_up(tmp_path, listener, monkeypatch):
     from stratcli.sweep import executors
 
     monkeypatch.setattr(executors, "CONNECT_SECONDS", 1.0)
-    monkeypatch.setattr(executors, "GRACE", 0.5)
     address = f"tcp://127.0.0.1:{listener(None)}"
     raised = []
 
@@ -185,3 +184,36 @@ def test_a_port_that_never_answers_is_given_up(tmp_path, listener, monkeypatch):
     assert said.startswith(f"dask={address!r}: "), said
     assert "no Dask scheduler answered there within 1 s" in said or "cannot reach" in said
     assert not (tmp_path / "o").exists()
+
+
+def test_an_empty_address_or_a_folder_is_refused_not_run_here(tmp_path):
+    """`--dask "$SCHEDULER"` with the variable unset had planned on local workers without a
+    word; a folder had been called a scheduler that "answered, but not as" one."""
+    assert _refused_sweep(tmp_path, "") == [
+        "error: --dask: empty: give a scheduler's address (tcp://host:8786) or its file"
+    ]
+    folder = tmp_path / "cluster"
+    folder.mkdir()
+    assert _refused_sweep(tmp_path, str(folder)) == [
+        f"error: --dask {folder}: a folder, not a scheduler's address (tcp://host:8786) or its "
+        "JSON file"
+    ]
+    with pytest.raises(InputError, match=r"^dask: empty"):
+        stratcli.run_sweep(write(tmp_path, GRID), tmp_path / "o", dask="")
+
+
+def test_a_comparison_refused_its_cluster_leaves_no_out_folder(tmp_path, closed_port):
+    """(compare-sequences had made --out before connecting, and left it empty.)"""
+    out = tmp_path / "runs"
+    address = f"tcp://127.0.0.1:{closed_port}"
+    result = runner.invoke(
+        app, ["compare-sequences", str(AUTO), "--dask", address, "--out", str(out)]
+    )
+    assert result.exit_code == 2, result.output
+    assert not out.exists()
+    kept = tmp_path / "kept"  # a folder that was there before stays
+    kept.mkdir()
+    result = runner.invoke(
+        app, ["compare-sequences", str(AUTO), "--dask", address, "--out", str(kept)]
+    )
+    assert result.exit_code == 2 and kept.is_dir()

@@ -114,7 +114,7 @@ def run_sweep(
     target = loaded.out_dir(out)
     context = (
         dask_executor(os.fspath(dask))
-        if dask and executor is None
+        if dask is not None and executor is None
         else nullcontext((executor, None))
     )
     with sweeplock.claimed(target), context as (chosen, info):  # one writer per directory

@@ -122,6 +122,7 @@ def plan(
     # matplotlib loads while the plan is made; niced only beside a comparison's workers
     api.draw_ahead(yielding=not task.legs)
     if not task.legs:  # auto mode: a [decompose] table and no [[legs]]
+        render.notes(jobs_notes(jobs, None))
         _plan_auto(task, file, out, json_output, quiet, animation, check, fmt, time_scale, jobs)
     if jobs is not None:  # (a flag that does nothing says so)
         render.notes(["--jobs is for auto mode (a scenario without [[legs]]): its legs are "
@@ -178,6 +179,18 @@ def legs_as_notes() -> Iterator[None]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UnusedLegsWarning)
         yield
+
+
+@contextmanager
+def _removed_if_unused(out: Path, made: bool) -> Iterator[None]:
+    """`--out`, made by this command (`made`) and still empty when it stops before any record
+    (a --dask that cannot be reached, Ctrl-C while connecting): removed, nothing written."""
+    try:
+        yield
+    except BaseException:
+        if made and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()
+        raise
 
 
 def _write(out: Path, outcome, animation: bool, progress, fmt: str = "png") -> Path:
@@ -255,18 +268,20 @@ def compare_sequences(
     if exhaustive and task.settings.objective == "newton":
         render.notes(["--exhaustive is for the energy objective's screen: under the Newton "
                       "objective every sequence is planned anyway"])  # fmt: skip
+    made = not out.exists()
     with render.reported():
         api.prepare_out(out)  # before any planning: a bad --out is bad input
     api.draw_ahead()  # matplotlib loads while the sequences are planned
     render.notes(jobs_notes(jobs, dask))
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     shown = bars.shown(quiet, json_output)
-    with render.reported(), bars.progress_bar(shown, waiting) as bar, legs_as_notes():
-        options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
-        outcome = api.compare_sequences(
-            task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask,
-            warn=render.warning,
-        )  # fmt: skip
+    with _removed_if_unused(out, made), render.reported():
+        with bars.progress_bar(shown, waiting) as bar, legs_as_notes():
+            options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
+            outcome = api.compare_sequences(
+                task, **options, jobs=jobs, progress=bar, exhaustive=exhaustive, dask=dask,
+                warn=render.warning,
+            )  # fmt: skip
     render.notes(outcome.settings.notes)
     with bars.phases(bars.shown(quiet, json_output)) as progress:
         run_dir = _write(out, outcome, animation, progress, fmt)
@@ -312,6 +327,7 @@ def regress(
     from .. import api  # start-up speed
 
     render.quiet(quiet)
+    render.notes(jobs_notes(jobs, None))
     baseline = directory / "baseline.json" if baseline is None else baseline
     with render.reported():
         report = api.regress(

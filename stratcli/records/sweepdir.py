@@ -279,8 +279,8 @@ def columns(keys: list[str], rows: list[dict[str, Any]]) -> list[str]:
 
 def in_table_order(keys: list[str], rows: dict[int, dict[str, Any]]) -> dict[int, dict]:
     """The rows by task index, each row's keys in results.csv's column order (`columns`):
-    ``pandas.DataFrame.from_dict(rows, orient="index")`` is the table (the rows came in the
-    order their tasks finished, and two sweeps' frames compared unequal until sorted)."""
+    ``pandas.DataFrame(list(rows.values())).set_index("index")`` is the table (the rows came
+    in the order their tasks finished, and two sweeps' frames compared unequal until sorted)."""
     cols = columns(keys, [rows[k] for k in sorted(rows)])
     return {k: {c: rows[k][c] for c in cols if c in rows[k]} for k in sorted(rows)}
 

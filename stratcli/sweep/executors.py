@@ -24,7 +24,6 @@ from .spawning import BareSpawnContext
 __all__ = ["ExecutorInfo", "dask_executor", "local_executor"]
 
 CONNECT_SECONDS = 20.0  # to reach a Dask scheduler and hear from it
-GRACE = 5.0  # s beyond it before a connection that has not answered is given up
 NOT_A_SCHEDULER = (  # the hint of an address that answers, but not as a scheduler
     "a Dask scheduler listens on port 8786 by default; 8787 is its dashboard's"
 )
@@ -90,6 +89,12 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
             "dask.distributed is not installed (pip install 'stratplan[dask]'; in a source "
             "checkout: pip install -e '.[dask]')",
         ) from None
+    if not address.strip():  # (`--dask "$SCHEDULER"` unset had planned here, without a word)
+        raise _bad_dask(None, "empty: give a scheduler's address (tcp://host:8786) or its file")
+    if Path(address).is_dir():
+        raise _bad_dask(
+            address, "a folder, not a scheduler's address (tcp://host:8786) or its JSON file"
+        )
     target = address
     if address.endswith(".json") or Path(address).is_file():  # a scheduler file: its address
         try:
@@ -103,7 +108,7 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
         raise _bad_dask(address, problem)
     if (refused := _unreachable(target)) is not None:
         raise _bad_dask(address, f"cannot reach the scheduler ({refused})")
-    client = _connected(Client, target, address)
+    client = _connected(Client, target, address, _tcp(target) is not None)
     try:
         workers = len(client.scheduler_info().get("workers", {}))
         info = ExecutorInfo("dask", workers, str(client.scheduler.address))
@@ -112,12 +117,13 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
         client.close()
 
 
-def _connected(Client, target: str, address: str):
+def _connected(Client, target: str, address: str, tcp: bool):
     """`Client(target)`, or the InputError of `address` that says why not. Made on a thread
-    of its own and given `CONNECT_SECONDS` (and `GRACE`): a port that accepts connections but
-    is not a scheduler's (its dashboard's, a web server's) had kept Client waiting past its
-    own timeout for as long as the other end kept the connection open, and a reply that was
-    not Dask's came back as numpy's "Unable to allocate 3.07 EiB"."""
+    of its own and given `CONNECT_SECONDS`: a port that accepts connections but is not a
+    scheduler's (its dashboard's, a web server's) had kept Client waiting past its own
+    timeout for as long as the other end kept the connection open, and a reply that was not
+    Dask's came back as numpy's "Unable to allocate 3.07 EiB" (`tcp`: the address is a
+    host:port that accepted the probe's connection, so a garbled reply came from there)."""
     made: dict = {}
 
     def connect() -> None:
@@ -128,7 +134,7 @@ def _connected(Client, target: str, address: str):
 
     thread = threading.Thread(target=connect, name="stratplan-dask-connect", daemon=True)
     thread.start()
-    thread.join(CONNECT_SECONDS + GRACE)
+    thread.join(CONNECT_SECONDS)
     if thread.is_alive():  # (left to end with the process: Client cannot be interrupted)
         raise _bad_dask(
             address,
@@ -136,7 +142,7 @@ def _connected(Client, target: str, address: str):
             f"accepts connections ({NOT_A_SCHEDULER})",
         )
     exc = made.get("error")
-    if isinstance(exc, MemoryError | ValueError | TypeError | KeyError):  # a reply not Dask's
+    if tcp and isinstance(exc, MemoryError | ValueError | TypeError | KeyError):  # garbled
         raise _bad_dask(address, f"it answered, but not as a Dask scheduler ({NOT_A_SCHEDULER})")
     if exc is not None:
         raise _bad_dask(address, f"cannot reach the scheduler ({exc})")
@@ -184,12 +190,11 @@ def _unreachable(address: str) -> str | None:
     before the handshake (logged at INFO level)."""
     import socket
 
-    from distributed.comm.addressing import get_address_host_port, unparse_host_port
+    from distributed.comm.addressing import unparse_host_port
 
-    try:
-        host, port = get_address_host_port(address)
-    except (ValueError, TypeError):  # not host:port (inproc://, no port): Client's message
+    if (host_port := _tcp(address)) is None:  # not host:port (inproc://, no port): Client's
         return None
+    host, port = host_port
     try:
         with socket.create_connection((host, port), timeout=PROBE_TIMEOUT):
             return None
@@ -200,3 +205,13 @@ def _unreachable(address: str) -> str | None:
     except OSError as exc:  # refused, no route to the host
         reason = exc.strerror or str(exc)
         return f"{reason[:1].lower()}{reason[1:]} at {unparse_host_port(host, port)}"
+
+
+def _tcp(address: str) -> tuple[str, int] | None:
+    """(host, port) of a host:port address, or None (inproc://, a scheme without a port)."""
+    from distributed.comm.addressing import get_address_host_port
+
+    try:
+        return get_address_host_port(address)
+    except (ValueError, TypeError):
+        return None
