@@ -368,3 +368,25 @@ def test_off_linux_a_comparison_runs_on_spawned_workers_with_the_same_result(mon
     spawned = api.compare_sequences(task, jobs=2).document
     assert made == [2] and not executors._fork_is_safe()  # (spawned, not forked)
     assert without_timings(spawned) == without_timings(forked)
+
+
+def test_a_leg_bound_above_a_searched_plans_own_leg_is_corrected(sim4, monkeypatch):
+    """A leg's search alone can miss its minimum; a searched sequence whose own leg costs less
+    lowers that bound (`Screen.corrections`), so that no bound stays above a minimum found
+    (the screen prunes on them). Here every leg search is made to report 5 % too much."""
+    from stratcli import screen as screen_module
+
+    alone = screen_module.plan_alone
+
+    def high(work):
+        return {k: (v * 1.05, *rest) for k, (v, *rest) in alone(work).items()}
+
+    monkeypatch.setattr(screen_module, "plan_alone", high)
+    dec = decompose(sim4.system, sim4.start, sim4.goal, max_length=3, strategies=("conservative",))
+    result = compare(sim4.system, sim4.start, dec.candidates, sim4.settings, jobs=1, screen=1)
+    assert result.screen.corrections > 0
+    for o in result.outcomes:
+        if o.ok and not o.screened:  # searched: its bound is at most its own energy
+            assert o.energy_bound <= o.energy * (1 + 1e-9), o.candidate.label
+            for (_, bound), leg in zip(o.leg_bounds, o.plan.legs, strict=True):
+                assert bound <= leg.energy * (1 + 1e-9)
