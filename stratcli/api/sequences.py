@@ -21,7 +21,7 @@ from ..records.comparison import comparison_document
 from ..records.manifest import Phases, phase
 from ..results import Timings
 from ..scenario import LegEntry, Task
-from ..trie import default_jobs, workers_for
+from ..trie import default_jobs, most_workers
 from .auto import auto_settings, compare_decomposition, decompose_task
 from .outcomes import ComparisonOutcome, DecompositionOutcome, PlanOutcome
 from .planning import (
@@ -167,7 +167,7 @@ def _cluster(
     if dask is None and executor is None and jobs > 1 and not sys.platform.startswith("linux"):
         from ..sweep.executors import local_executor
 
-        pool = local_executor(workers_for(jobs, jobs))  # (the units are not known here)
+        pool = local_executor(min(jobs, most_workers()))  # (as `compare` caps its jobs)
         try:
             yield pool
         finally:

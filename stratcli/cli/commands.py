@@ -182,9 +182,15 @@ def legs_as_notes() -> Iterator[None]:
 
 
 @contextmanager
-def _removed_if_unused(out: Path, made: bool) -> Iterator[None]:
-    """`--out`, made by this command (`made`) and still empty when it stops before any record
-    (a --dask that cannot be reached, Ctrl-C while connecting): removed, nothing written."""
+def _prepared_out(out: Path) -> Iterator[None]:
+    """`--out` checked before any planning (`api.prepare_out`: a bad one is bad input, exit
+    2), and removed again if this command made it and stops before any record is in it (a
+    --dask that cannot be reached, Ctrl-C while connecting): nothing written."""
+    from .. import api  # start-up speed
+
+    made = not out.exists()
+    with render.reported():
+        api.prepare_out(out)
     try:
         yield
     except BaseException:
@@ -268,14 +274,11 @@ def compare_sequences(
     if exhaustive and task.settings.objective == "newton":
         render.notes(["--exhaustive is for the energy objective's screen: under the Newton "
                       "objective every sequence is planned anyway"])  # fmt: skip
-    made = not out.exists()
-    with render.reported():
-        api.prepare_out(out)  # before any planning: a bad --out is bad input
-    api.draw_ahead()  # matplotlib loads while the sequences are planned
-    render.notes(jobs_notes(jobs, dask))
     waiting = f"connecting to the Dask scheduler at {dask}" if dask else None
     shown = bars.shown(quiet, json_output)
-    with _removed_if_unused(out, made), render.reported():
+    with _prepared_out(out), render.reported():  # (--out before any planning)
+        api.draw_ahead()  # matplotlib loads while the sequences are planned
+        render.notes(jobs_notes(jobs, dask))
         with bars.progress_bar(shown, waiting) as bar, legs_as_notes():
             options = {"max_length": max_length, "strategy": strategy, "criterion": criterion}
             outcome = api.compare_sequences(

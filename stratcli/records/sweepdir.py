@@ -281,8 +281,9 @@ def in_table_order(keys: list[str], rows: dict[int, dict[str, Any]]) -> dict[int
     """The rows by task index, each row's keys in results.csv's column order (`columns`):
     ``pandas.DataFrame(list(rows.values())).set_index("index")`` is the table (the rows came
     in the order their tasks finished, and two sweeps' frames compared unequal until sorted)."""
-    cols = columns(keys, [rows[k] for k in sorted(rows)])
-    return {k: {c: rows[k][c] for c in cols if c in rows[k]} for k in sorted(rows)}
+    order = sorted(rows)
+    cols = columns(keys, [rows[k] for k in order])
+    return {k: {c: rows[k][c] for c in cols if c in rows[k]} for k in order}
 
 
 def _cell(value: Any) -> str:

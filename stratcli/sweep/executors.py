@@ -106,9 +106,10 @@ def dask_executor(address: str) -> Iterator[tuple[Executor, ExecutorInfo]]:
             ) from None
     if (problem := _address_problem(target)) is not None:
         raise _bad_dask(address, problem)
-    if (refused := _unreachable(target)) is not None:
+    host_port = _tcp(target)  # None: not a host:port address (inproc://, no port)
+    if host_port is not None and (refused := _unreachable(*host_port)) is not None:
         raise _bad_dask(address, f"cannot reach the scheduler ({refused})")
-    client = _connected(Client, target, address, _tcp(target) is not None)
+    client = _connected(Client, target, address, host_port is not None)
     try:
         workers = len(client.scheduler_info().get("workers", {}))
         info = ExecutorInfo("dask", workers, str(client.scheduler.address))
@@ -182,19 +183,16 @@ def _address_problem(address: str) -> str | None:
     return None
 
 
-def _unreachable(address: str) -> str | None:
+def _unreachable(host: str, port: int) -> str | None:
     """Why a TCP connection to a scheduler's host:port fails at once (refused, unknown host,
-    no route), or None: it connects, it did not answer within `PROBE_TIMEOUT`, or `address`
-    is not a TCP one (inproc://, ucx://). `Client` itself retries such failures for
-    `CONNECT_SECONDS` before giving up; a scheduler that is up sees one connection closed
-    before the handshake (logged at INFO level)."""
+    no route), or None: it connects, or it did not answer within `PROBE_TIMEOUT` (an address
+    that is not host:port is left to `Client`'s words). `Client` itself retries such
+    failures for `CONNECT_SECONDS` before giving up; a scheduler that is up sees one
+    connection closed before the handshake (logged at INFO level)."""
     import socket
 
     from distributed.comm.addressing import unparse_host_port
 
-    if (host_port := _tcp(address)) is None:  # not host:port (inproc://, no port): Client's
-        return None
-    host, port = host_port
     try:
         with socket.create_connection((host, port), timeout=PROBE_TIMEOUT):
             return None
